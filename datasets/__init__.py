@@ -1,0 +1,29 @@
+"""slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
+
+Depends on numpy and the standard library only.
+"""
+from .dataroot import data_roots, set_data_root
+from .estimate import Estimate
+from .errors import DataFormatError, DatasetNotFoundError
+from .posegraph import PoseGraph
+from .registry import available, load
+from .sequence import (
+    Event,
+    Gps,
+    Heading,
+    Increments,
+    LandmarkMap,
+    Noise,
+    RangeBearing,
+    Scans,
+    Sequence,
+    Trajectory,
+    Twist,
+)
+
+__all__ = [
+    "load", "available", "set_data_root", "data_roots",
+    "DataFormatError", "DatasetNotFoundError",
+    "Sequence", "PoseGraph", "Event", "Estimate",
+    "Twist", "Increments", "RangeBearing", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
+]

@@ -1,0 +1,32 @@
+"""The one error type of the data layer."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class DataFormatError(ValueError):
+    """A malformed input file: names the file, the line number (1-based) and what was expected."""
+
+    def __init__(self, path: str | Path, line: int | None, expected: str, got: str | None = None):
+        self.path = str(path)
+        self.line = line
+        self.expected = expected
+        self.got = got
+        where = f"{self.path}:{line}" if line is not None else self.path
+        message = f"{where}: expected {expected}"
+        if got is not None:
+            message += f", got {got!r}"
+        super().__init__(message)
+
+
+class DatasetNotFoundError(FileNotFoundError):
+    """A dataset whose files are not under any data root."""
+
+    def __init__(self, name: str, looked_in: list[Path], relative: str):
+        self.name = name
+        self.looked_in = looked_in
+        places = "\n".join(f"  - {p / relative}" for p in looked_in) or "  (no data root exists)"
+        super().__init__(
+            f"dataset {name!r} not found. Looked in:\n{places}\n"
+            f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {name}"
+        )

@@ -1,0 +1,69 @@
+"""The dataset registry: a name → loader table, explicit (no import magic beyond the table).
+
+Names (exact forms)::
+
+    utias:<dataset>/robot<k>      e.g. utias:6/robot1        UTIAS MRCLAM
+    victoria_park                                            Victoria Park trees
+    g2o:<name>   isam:<name>                                 pose graphs
+    carmen:<name>   carmen-corrected:<name>                  laser logs
+    sim:landmarks   sim:localization   sim:laser             simulators (seeded)
+
+``load(name, **params)`` returns a :class:`~datasets.sequence.Sequence` or a
+:class:`~datasets.posegraph.PoseGraph`. Loaders are imported on first use so that the CLI
+starts fast. The catalogue of staged real datasets (names, files, kinds) lives in
+:mod:`datasets.catalogue`.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Callable
+
+from .catalogue import CATALOGUE, CatalogueEntry
+
+__all__ = ["load", "available", "SIMULATORS", "DatasetInfo", "resolve"]
+
+#: simulator name → "module:function"; each function takes keyword parameters (``seed`` among them)
+SIMULATORS: dict[str, str] = {
+    "sim:landmarks": "datasets.sim.landmarks:simulate",
+    "sim:localization": "datasets.sim.localization:simulate",
+    "sim:laser": "datasets.sim.laser:simulate",
+}
+
+
+@dataclass(frozen=True)
+class DatasetInfo:
+    name: str
+    kind: str
+    ground_truth: str
+    present: bool
+    files: tuple[str, ...]
+    citation: str
+
+
+def _import(target: str) -> Callable:
+    module, _, attr = target.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def resolve(name: str) -> CatalogueEntry:
+    """The catalogue entry of a real dataset name (``KeyError`` listing the valid names)."""
+    if name in CATALOGUE:
+        return CATALOGUE[name]
+    raise KeyError(f"unknown dataset {name!r}; known: {', '.join(sorted(CATALOGUE) + sorted(SIMULATORS))}")
+
+
+def load(name: str, **params):
+    """Load a registered dataset by name; simulators take their parameters as keywords."""
+    if name in SIMULATORS:
+        return _import(SIMULATORS[name])(**params)
+    entry = resolve(name)
+    return entry.load(**params)
+
+
+def available() -> list[DatasetInfo]:
+    """Every registered dataset with its kind, ground truth and whether its files are present."""
+    out = [DatasetInfo(n, "simulation", "yes (simulated)", True, (), "") for n in SIMULATORS]
+    for name, entry in CATALOGUE.items():
+        out.append(DatasetInfo(name, entry.kind, entry.ground_truth, entry.present(), entry.files, entry.citation))
+    return out

@@ -1,0 +1,31 @@
+"""Landmark and pose estimators behind one protocol: ``run(sequence) -> Estimate``.
+
+``REGISTRY`` maps the name an experiment config uses to ``"module:Class"``; the class is
+imported on first use (so heavy libraries such as GTSAM load only when a method needs them)
+and constructed with the config's parameters.
+"""
+from __future__ import annotations
+
+import importlib
+
+from .base import Estimate, Estimator
+
+__all__ = ["REGISTRY", "create", "Estimate", "Estimator"]
+
+REGISTRY: dict[str, str] = {
+    "dead_reckoning": "estimators.dead_reckoning:DeadReckoning",
+    "ekf_slam": "estimators.ekf_slam:EKFSLAM",
+    "ekf_localizer": "estimators.ekf_localizer:EKFLocalizer",
+    "gtsam_batch": "estimators.gtsam_smoother:BatchSmoother",
+    "gtsam_isam2": "estimators.gtsam_smoother:ISAM2Smoother",
+    "gtsam_fixed_lag": "estimators.gtsam_smoother:FixedLagLocalizer",
+    "gtsam_pose_graph": "estimators.gtsam_smoother:PoseGraphOptimizer",
+}
+
+
+def create(name: str, **params) -> Estimator:
+    """Construct the registered method ``name`` with ``params``."""
+    if name not in REGISTRY:
+        raise KeyError(f"unknown estimator {name!r}; known: {', '.join(sorted(REGISTRY))}")
+    module, _, attr = REGISTRY[name].partition(":")
+    return getattr(importlib.import_module(module), attr)(**params)

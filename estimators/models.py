@@ -1,0 +1,177 @@
+"""Motion and observation models with analytic Jacobians, shared by every estimator and simulator.
+
+Robot state ``x = (x, y, θ)``; control ``u = (v, ω)`` held for ``dt``.
+
+Euler model (the EKF-SLAM matrix-dimensions reference, the technical notes, the localizer notes)::
+
+    x' = x + v cosθ dt      G = ∂x'/∂x = [[1, 0, −v sinθ dt],     V = ∂x'/∂u = [[cosθ dt, 0],
+    y' = y + v sinθ dt                    [0, 1,  v cosθ dt],                   [sinθ dt, 0],
+    θ' = θ + ω dt                         [0, 0,  1        ]]                   [0,      dt]]
+
+Exact arc model (the lecture notes' "with rotation", sign of the y row corrected — see
+``research/ekf_slam.md``). With φ = ω dt, a = φ/2 and s(a) = sin(a)/a (s(0) = 1)::
+
+    x' = x + v dt s(a) cos(θ + a)       ( = x − (v/ω) sinθ + (v/ω) sin(θ + φ) for ω ≠ 0 )
+    y' = y + v dt s(a) sin(θ + a)       ( = y + (v/ω) cosθ − (v/ω) cos(θ + φ) for ω ≠ 0 )
+    θ' = θ + φ
+
+This form is smooth through ω = 0, where it becomes the Euler step, so no special case is
+needed. Both models are "compose the pose with a body-frame increment":
+``x' = x ⊕ δ(u, dt)``, with δ = (v dt, 0, ω dt) for Euler and
+δ = (v dt s(a) cos a, v dt s(a) sin a, φ) for the arc.
+
+Range-bearing observation of landmark m = (mx, my), with δx = mx − x, δy = my − y, q = δx² + δy²::
+
+    h = [√q, atan2(δy, δx) − θ]
+    H_x = [[−δx/√q, −δy/√q,  0],      H_m = [[ δx/√q, δy/√q],
+           [ δy/q,  −δx/q,  −1]]             [−δy/q,  δx/q ]]
+
+Inverse observation (landmark initialisation) from z = (r, b)::
+
+    m = [x + r cos(θ + b), y + r sin(θ + b)]
+    ∂m/∂x = [[1, 0, −r sin(θ + b)], [0, 1, r cos(θ + b)]]      ∂m/∂z = [[cos(θ+b), −r sin(θ+b)], [sin(θ+b), r cos(θ+b)]]
+
+All functions broadcast over leading axes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from datasets.geometry import accumulate, compose, wrap_angle
+
+__all__ = [
+    "MotionModel",
+    "EULER",
+    "ARC",
+    "MOTION_MODELS",
+    "observe",
+    "observation_jacobians",
+    "inverse_observe",
+    "inverse_observation_jacobians",
+]
+
+
+def _sinc(a: np.ndarray) -> np.ndarray:
+    """sin(a)/a with the limit 1 at a = 0."""
+    return np.sinc(a / np.pi)
+
+
+def _dsinc(a: np.ndarray) -> np.ndarray:
+    """d/da [sin(a)/a], with its series near 0."""
+    small = np.abs(a) < 1e-4
+    a_safe = np.where(small, 1.0, a)
+    return np.where(small, -a / 3.0 + a**3 / 30.0, (a_safe * np.cos(a_safe) - np.sin(a_safe)) / a_safe**2)
+
+
+@dataclass(frozen=True)
+class MotionModel:
+    """A velocity motion model: ``predict``, body-frame ``increment`` and Jacobians ``G``, ``V``."""
+
+    name: str
+
+    def increment(self, v, omega, dt) -> np.ndarray:
+        """Body-frame pose increment δ(u, dt), shape ``(..., 3)``."""
+        v, omega, dt = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v, omega, dt)))
+        phi = omega * dt
+        if self.name == "euler":
+            return np.stack([v * dt, np.zeros_like(v), phi], axis=-1)
+        half = 0.5 * phi
+        d = v * dt * _sinc(half)
+        return np.stack([d * np.cos(half), d * np.sin(half), phi], axis=-1)
+
+    def predict(self, x, v, omega, dt) -> np.ndarray:
+        """x' = x ⊕ δ(u, dt) (heading wrapped)."""
+        return compose(np.asarray(x, dtype=float), self.increment(v, omega, dt))
+
+    def integrate(self, start, v, omega, dt) -> np.ndarray:
+        """Dead reckoning of a whole control sequence: (K + 1, 3) poses, vectorised."""
+        return accumulate(start, self.increment(v, omega, dt))
+
+    def jacobians(self, x, v, omega, dt) -> tuple[np.ndarray, np.ndarray]:
+        """G = ∂x'/∂x (..., 3, 3) and V = ∂x'/∂(v, ω) (..., 3, 2) at (x, u)."""
+        x = np.asarray(x, dtype=float)
+        th = x[..., 2]
+        v, omega, dt, th = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v, omega, dt, th)))
+        shape = th.shape
+        G = np.zeros(shape + (3, 3))
+        V = np.zeros(shape + (3, 2))
+        G[..., 0, 0] = G[..., 1, 1] = G[..., 2, 2] = 1.0
+        V[..., 2, 1] = dt
+        if self.name == "euler":
+            c, s = np.cos(th), np.sin(th)
+            G[..., 0, 2] = -v * s * dt
+            G[..., 1, 2] = v * c * dt
+            V[..., 0, 0] = c * dt
+            V[..., 1, 0] = s * dt
+            return G, V
+        a = 0.5 * omega * dt
+        sa, dsa = _sinc(a), _dsinc(a)
+        c, s = np.cos(th + a), np.sin(th + a)
+        G[..., 0, 2] = -v * dt * sa * s
+        G[..., 1, 2] = v * dt * sa * c
+        V[..., 0, 0] = dt * sa * c
+        V[..., 1, 0] = dt * sa * s
+        V[..., 0, 1] = v * dt * (dsa * c - sa * s) * 0.5 * dt
+        V[..., 1, 1] = v * dt * (dsa * s + sa * c) * 0.5 * dt
+        return G, V
+
+
+EULER = MotionModel("euler")
+ARC = MotionModel("arc")
+MOTION_MODELS: dict[str, MotionModel] = {"euler": EULER, "arc": ARC}
+
+
+def observe(x, landmarks) -> np.ndarray:
+    """h(x, m) = [range, bearing] of landmarks (..., 2) from robot pose x (..., 3); bearing wrapped."""
+    x = np.asarray(x, dtype=float)
+    m = np.asarray(landmarks, dtype=float)
+    dx = m[..., 0] - x[..., 0]
+    dy = m[..., 1] - x[..., 1]
+    return np.stack([np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - x[..., 2])], axis=-1)
+
+
+def observation_jacobians(x, landmarks) -> tuple[np.ndarray, np.ndarray]:
+    """H_x = ∂h/∂x (..., 2, 3) and H_m = ∂h/∂m (..., 2, 2)."""
+    x = np.asarray(x, dtype=float)
+    m = np.asarray(landmarks, dtype=float)
+    dx = m[..., 0] - x[..., 0]
+    dy = m[..., 1] - x[..., 1]
+    q = dx * dx + dy * dy
+    r = np.sqrt(q)
+    Hm = np.empty(dx.shape + (2, 2))
+    Hm[..., 0, 0] = dx / r
+    Hm[..., 0, 1] = dy / r
+    Hm[..., 1, 0] = -dy / q
+    Hm[..., 1, 1] = dx / q
+    Hx = np.zeros(dx.shape + (2, 3))
+    Hx[..., :, :2] = -Hm
+    Hx[..., 1, 2] = -1.0
+    return Hx, Hm
+
+
+def inverse_observe(x, z) -> np.ndarray:
+    """Landmark position (..., 2) from robot pose x (..., 3) and observation z = (range, bearing) (..., 2)."""
+    x = np.asarray(x, dtype=float)
+    z = np.asarray(z, dtype=float)
+    ang = x[..., 2] + z[..., 1]
+    return np.stack([x[..., 0] + z[..., 0] * np.cos(ang), x[..., 1] + z[..., 0] * np.sin(ang)], axis=-1)
+
+
+def inverse_observation_jacobians(x, z) -> tuple[np.ndarray, np.ndarray]:
+    """∂m/∂x (..., 2, 3) and ∂m/∂z (..., 2, 2) of :func:`inverse_observe`."""
+    x = np.asarray(x, dtype=float)
+    z = np.asarray(z, dtype=float)
+    ang = x[..., 2] + z[..., 1]
+    c, s, r = np.cos(ang), np.sin(ang), z[..., 0]
+    Gx = np.zeros(ang.shape + (2, 3))
+    Gx[..., 0, 0] = Gx[..., 1, 1] = 1.0
+    Gx[..., 0, 2] = -r * s
+    Gx[..., 1, 2] = r * c
+    Gz = np.empty(ang.shape + (2, 2))
+    Gz[..., 0, 0] = c
+    Gz[..., 0, 1] = -r * s
+    Gz[..., 1, 0] = s
+    Gz[..., 1, 1] = r * c
+    return Gx, Gz

@@ -1,0 +1,91 @@
+"""The ``slamarena`` command line (typer, rich output).
+
+Commands delegate to the modules that own the work, imported inside each command so that
+``slamarena --help`` starts without loading numpy-heavy or GTSAM/Open3D code:
+
+    slamarena run [CONFIG]            experiments.runner
+    slamarena figures RESULTS_DIR     paper_figures.make
+    slamarena data list|info|fetch    experiments.cli_data
+    slamarena bench NAME              experiments.benchmarks (the BENCHMARKS table)
+    slamarena map LOG                 experiments.cli_map
+
+(``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .cli_data import data_app
+
+app = typer.Typer(
+    name="slamarena",
+    help="Comparative SLAM research: EKF-SLAM, an EKF localizer, GTSAM smoothers and grid mapping on shared datasets.",
+    no_args_is_help=True,
+    pretty_exceptions_show_locals=False,
+)
+app.add_typer(data_app, name="data")
+
+
+@app.callback()
+def _main(
+    data_root: Optional[Path] = typer.Option(None, "--data-root", help="Directory holding the datasets (before SLAMARENA_DATA and the defaults)."),
+):
+    if data_root is not None:
+        from datasets.dataroot import set_data_root
+
+        set_data_root(data_root)
+
+
+@app.command()
+def run(
+    config: Optional[Path] = typer.Argument(None, help="Experiment YAML (default: the shipped default.yaml)."),
+    jobs: int = typer.Option(1, "--jobs", "-j", help="Cells run in parallel (local processes)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask distributed scheduler address: run the cells on that cluster."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Results directory (default: the config's output directory)."),
+    force: bool = typer.Option(False, "--force", help="Recompute cells that are already cached."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
+):
+    """Run an experiment: every method on every dataset and seed; write tables and figures."""
+    from .runner import run_from_cli
+
+    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run))
+
+
+@app.command()
+def figures(results_dir: Path = typer.Argument(..., exists=True, file_okay=False, help="A results/<experiment> directory.")):
+    """Regenerate every figure of a results directory (PNG and PDF)."""
+    from paper_figures.make import make_all
+
+    make_all(results_dir)
+
+
+@app.command()
+def bench(
+    name: str = typer.Argument(..., help="Benchmark name (see `slamarena bench list`)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Directory for the benchmark's CSV and plot."),
+    quick: bool = typer.Option(False, "--quick", help="A smaller problem, for a fast look."),
+):
+    """Timing benchmarks that print ratios and scaling exponents measured in one run."""
+    from .benchmarks import run_benchmark
+
+    raise typer.Exit(run_benchmark(name, out=out, quick=quick))
+
+
+@app.command("map")
+def map_log(
+    log: str = typer.Argument(..., help="A CARMEN log path, or a registry name such as carmen:intel or sim:laser."),
+    matcher: str = typer.Option("gauss_newton", "--matcher", help="Scan matcher: gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp."),
+    out: Path = typer.Option(Path("results/maps"), "--out", help="Output directory."),
+    relations: Optional[Path] = typer.Option(None, "--relations", help="A Kümmerle et al. relations file to score the trajectory against."),
+):
+    """Scan-matching grid SLAM over a laser log: trajectory, map PNG/PGM, timing."""
+    from .cli_map import map_command
+
+    raise typer.Exit(map_command(log, matcher=matcher, out=out, relations=relations))
+
+
+def main() -> None:
+    app()
