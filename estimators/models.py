@@ -31,6 +31,9 @@ Inverse observation (landmark initialisation) from z = (r, b)::
     m = [x + r cos(θ + b), y + r sin(θ + b)]
     ∂m/∂x = [[1, 0, −r sin(θ + b)], [0, 1, r cos(θ + b)]]      ∂m/∂z = [[cos(θ+b), −r sin(θ+b)], [sin(θ+b), r cos(θ+b)]]
 
+Odometry-increment motion x' = x ⊕ δ has ∂x'/∂x = [[1, 0, −s δx − c δy], [0, 1, c δx − s δy], [0, 0, 1]]
+and ∂x'/∂δ = blockdiag(R(θ), 1) (:func:`compose_jacobians`).
+
 All functions broadcast over leading axes.
 """
 from __future__ import annotations
@@ -50,6 +53,7 @@ __all__ = [
     "observation_jacobians",
     "inverse_observe",
     "inverse_observation_jacobians",
+    "compose_jacobians",
 ]
 
 
@@ -175,3 +179,22 @@ def inverse_observation_jacobians(x, z) -> tuple[np.ndarray, np.ndarray]:
     Gz[..., 1, 0] = s
     Gz[..., 1, 1] = r * c
     return Gx, Gz
+
+
+def compose_jacobians(x, delta) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of x' = x ⊕ δ (odometry-increment motion): ∂x'/∂x and ∂x'/∂δ, each (..., 3, 3)."""
+    x = np.asarray(x, dtype=float)
+    d = np.asarray(delta, dtype=float)
+    c, s = np.cos(x[..., 2]), np.sin(x[..., 2])
+    shape = c.shape
+    Jx = np.zeros(shape + (3, 3))
+    Jx[..., 0, 0] = Jx[..., 1, 1] = Jx[..., 2, 2] = 1.0
+    Jx[..., 0, 2] = -s * d[..., 0] - c * d[..., 1]
+    Jx[..., 1, 2] = c * d[..., 0] - s * d[..., 1]
+    Jd = np.zeros(shape + (3, 3))
+    Jd[..., 0, 0] = c
+    Jd[..., 0, 1] = -s
+    Jd[..., 1, 0] = s
+    Jd[..., 1, 1] = c
+    Jd[..., 2, 2] = 1.0
+    return Jx, Jd

@@ -1,0 +1,40 @@
+"""Replaying motion input between the events of a ``Sequence``.
+
+Filters walk ``sequence.events()`` in time order. Before applying an event at time ``t`` they
+propagate from their current time to ``t`` with the motion input in force:
+
+* :class:`Twist` input is piecewise constant: row k applies ``(v_k, ω_k)`` on
+  ``[t_k, t_k + dt_k)``; outside every interval the robot is taken to stand still.
+  :func:`twist_pieces` cuts ``(t_from, t_to]`` into ``(v, ω, dt)`` pieces, vectorised.
+* :class:`Increments` input is applied as a whole at its stamp (it is the motion since the
+  previous stamp), so a filter treats an ``Increments`` row as a motion event.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from datasets.sequence import Twist
+
+__all__ = ["twist_pieces"]
+
+
+def twist_pieces(twist: Twist, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``(v, ω, dt)`` pieces (arrays) that carry the state from ``t_from`` to ``t_to``.
+
+    Pieces with zero length are dropped; time where no command is in force yields no piece
+    (standing still needs no prediction). ``t_to < t_from`` is an error.
+    """
+    if t_to < t_from:
+        raise ValueError(f"cannot propagate backwards in time: {t_from!r} → {t_to!r}")
+    if t_to == t_from or not len(twist):
+        empty = np.zeros(0)
+        return empty, empty, empty
+    starts, ends = twist.t, twist.t + twist.dt
+    first = max(int(np.searchsorted(starts, t_from, side="right")) - 1, 0)
+    last = int(np.searchsorted(starts, t_to, side="left"))
+    k = np.arange(first, last)
+    lo = np.maximum(starts[k], t_from)
+    hi = np.minimum(ends[k], t_to)
+    keep = hi > lo
+    k, lo, hi = k[keep], lo[keep], hi[keep]
+    return twist.v[k], twist.omega[k], hi - lo
