@@ -1,0 +1,272 @@
+"""``sim:landmarks`` — a landmark world for EKF-SLAM: (v, ω) commands, range-bearing observations.
+
+World
+-----
+The robot drives laps of a closed **route**: a rounded rectangle, i.e. the points at distance
+``r`` (the turning radius) from a core rectangle ``[−a, a] × [−b, b]`` centred on the origin.
+Landmarks lie in the **band** of points whose distance to the route is in
+``[clearance, band]`` (both sides of the route), so every landmark can be seen and the
+robot never drives over one. The world scales with the landmark count: the band has area
+``≈ 2 (band − clearance) · P`` for a route of length ``P``, and ``P`` is chosen so that
+``n_landmarks / area = density`` (landmarks per m²). With the defaults (50 landmarks,
+0.05 /m²) the route is ≈ 71 m long; 2000 landmarks at ``density=1`` give a ≈ 143 m route
+with ≈ 150 landmarks in sensor range (cap them with ``max_observations``).
+
+Layouts: ``"random"`` — uniform in the band (rejection sampling); ``"grid"`` — the nodes
+of a square lattice (spacing ≈ 1/√density) inside the band, the ``n`` nearest the route;
+``"ring"`` — posts along both sides of the route at lateral offsets ±(clearance + band)/2,
+evenly spaced in route arclength, alternating sides.
+
+Motion
+------
+True controls per lap: long straight, quarter turn, short straight, quarter turn, repeated
+twice. Straights run at ``speed``; a turn holds ``ω = (π/2) / (n_turn dt)`` with
+``v = ω r`` for an integer number of steps, so every turn is exactly π/2 and the loop closes
+exactly for either motion model (a rigid motion of rotation π composed with itself is the
+identity). The truth is ``x_{k+1} = x_k ⊕ δ(u_k, dt)`` with
+``estimators.models.MOTION_MODELS[motion_model]`` (default ``"arc"``, the exact
+constant-twist step). The estimator sees the noisy controls
+``ũ_k = u_k + ε_k, ε_k ~ N(0, diag(σ_v², σ_ω²))``, one draw per row, held constant for the
+row's ``dt`` (``Noise.twist_cov`` is the covariance of a row's velocity error, not a
+spectral density: the pose error of one row is ``V Σ Vᵀ`` with ``V = ∂x'/∂u`` at that ``dt``).
+
+Sensor and stamping
+-------------------
+Rows: ``Twist`` row ``k`` has stamp ``t_k = t0 + k·dt`` and holds ``ũ_k`` on ``[t_k, t_{k+1})``.
+Ground truth holds the true pose at every ``t_k``, ``k = 0 … K`` (``K + 1`` poses, ``t0`` and
+the end of the last row included). The observation set of step ``k`` is taken from the
+true pose at ``t_{k+1}`` — AFTER row ``k``'s motion — and stamped ``t_{k+1}``; there is none
+at ``t0``. A filter walking ``Sequence.events()`` therefore predicts to the stamp
+(motion events come first at equal stamps) and then updates with the whole set. Steps
+with no landmark in view have no rows.
+
+Visibility uses the true range and bearing: ``range ≤ max_range`` and
+``|bearing| ≤ fov/2`` (``fov`` is the full field of view; ``2π`` sees all round). With
+``max_observations = m`` only the ``m`` nearest visible landmarks are reported. Within a set
+rows are ordered nearest first. Observations are ``z = h(x, m) + η``,
+``η ~ N(0, diag(σ_r², σ_b²))``, bearing wrapped to (−π, π]; ``landmark_id`` is the true id
+(``0 … n−1``; a consumer may withhold it). Ranges are not clipped (the clearance keeps them
+well above zero).
+
+Randomness: ``numpy.random.SeedSequence(seed)`` is split into independent streams for the
+landmarks, the control noise and the observation noise, so e.g. changing the sensor noise
+leaves the landmarks and the odometry of a seed unchanged.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..geometry import wrap_angle
+from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+
+__all__ = ["simulate", "LAYOUTS", "route_distance"]
+
+#: steps × landmarks evaluated per block when generating observations (memory bound)
+_BLOCK_ELEMENTS = 2_000_000
+
+
+def route_distance(points: np.ndarray, half_a: float, half_b: float, radius: float) -> np.ndarray:
+    """Distance of points (..., 2) to the route: the curve at distance ``radius`` from the core box."""
+    p = np.abs(np.asarray(points, dtype=float))
+    qx, qy = p[..., 0] - half_a, p[..., 1] - half_b
+    outside = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0))
+    inside = np.minimum(np.maximum(qx, qy), 0.0)
+    return np.abs(outside + inside - radius)
+
+
+def _random_layout(rng, n, geo) -> np.ndarray:
+    half_w, half_h = geo["half_a"] + geo["radius"] + geo["band"], geo["half_b"] + geo["radius"] + geo["band"]
+    out = np.zeros((0, 2))
+    while out.shape[0] < n:
+        batch = rng.uniform([-half_w, -half_h], [half_w, half_h], size=(max(2 * n, 256), 2))
+        d = route_distance(batch, geo["half_a"], geo["half_b"], geo["radius"])
+        out = np.vstack([out, batch[(d >= geo["clearance"]) & (d <= geo["band"])]])
+    return out[:n]
+
+
+def _grid_layout(rng, n, geo) -> np.ndarray:
+    half_w, half_h = geo["half_a"] + geo["radius"] + geo["band"], geo["half_b"] + geo["radius"] + geo["band"]
+    spacing = 1.0 / math.sqrt(geo["density"])
+    while True:
+        xs = np.arange(-half_w, half_w + 1e-9, spacing)
+        ys = np.arange(-half_h, half_h + 1e-9, spacing)
+        nodes = np.stack(np.meshgrid(xs - xs.mean(), ys - ys.mean()), axis=-1).reshape(-1, 2)
+        d = route_distance(nodes, geo["half_a"], geo["half_b"], geo["radius"])
+        inside = (d >= geo["clearance"]) & (d <= geo["band"])
+        if inside.sum() >= n:
+            keep = np.flatnonzero(inside)
+            order = np.argsort(d[keep], kind="stable")
+            return nodes[keep[order[:n]]]
+        spacing *= 0.95 * math.sqrt(inside.sum() / n) if inside.sum() else 0.5
+
+
+def _ring_layout(rng, n, geo) -> np.ndarray:
+    poses = geo["lap_poses"]
+    length = np.r_[0.0, np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))]
+    s = (np.arange(n) + 0.5) * length[-1] / n
+    x = np.interp(s, length, poses[:, 0])
+    y = np.interp(s, length, poses[:, 1])
+    idx = np.clip(np.searchsorted(length, s) - 1, 0, len(poses) - 1)
+    th = poses[idx, 2]
+    offset = 0.5 * (geo["clearance"] + geo["band"]) * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    return np.column_stack([x - offset * np.sin(th), y + offset * np.cos(th)])
+
+
+#: layout name → generator (rng, n, geometry dict) → (n, 2) positions
+LAYOUTS = {"random": _random_layout, "grid": _grid_layout, "ring": _ring_layout}
+
+
+def _lap_controls(half_a: float, half_b: float, radius: float, speed: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """True (v, ω) of one lap: (straight 2a, turn, straight 2b, turn) × 2."""
+    n_a = max(int(round(2 * half_a / (speed * dt))), 0)
+    n_b = max(int(round(2 * half_b / (speed * dt))), 0)
+    n_turn = max(int(round(0.5 * math.pi * radius / (speed * dt))), 1)
+    omega_turn = 0.5 * math.pi / (n_turn * dt)
+    v, w = [], []
+    for n_straight in (n_a, n_b, n_a, n_b):
+        v += [speed] * n_straight + [omega_turn * radius] * n_turn
+        w += [0.0] * n_straight + [omega_turn] * n_turn
+    return np.asarray(v), np.asarray(w)
+
+
+def simulate(
+    n_landmarks: int = 50,
+    layout: str = "random",
+    density: float = 0.05,
+    band: float = 8.0,
+    clearance: float = 1.0,
+    turn_radius: float = 4.0,
+    aspect: float = 1.5,
+    speed: float = 1.0,
+    laps: int = 1,
+    dt: float = 0.1,
+    motion_model: str = "arc",
+    sigma_v: float = 0.1,
+    sigma_omega: float = 0.05,
+    max_range: float = 10.0,
+    fov: float = math.pi,
+    sigma_range: float = 0.1,
+    sigma_bearing: float = math.radians(1.0),
+    max_observations: int | None = None,
+    t0: float = 0.0,
+    seed: int = 0,
+) -> Sequence:
+    """Simulate one run of the landmark world (see the module docstring for the model).
+
+    Parameters (units SI, angles in radians):
+        n_landmarks, layout ("random" | "grid" | "ring"), density [landmarks/m² of band],
+        band / clearance [m]: landmark distance to the route lies in [clearance, band],
+        turn_radius [m], aspect (long / short straight), speed [m/s], laps, dt [s],
+        motion_model ("arc" | "euler") that drives the truth,
+        sigma_v [m/s], sigma_omega [rad/s]: control noise per row,
+        max_range [m], fov [rad] full width, sigma_range [m], sigma_bearing [rad],
+        max_observations: keep the nearest m visible landmarks per step (None: all),
+        t0 [s] first stamp, seed.
+    """
+    from estimators.models import MOTION_MODELS
+
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}; choose from {sorted(LAYOUTS)}")
+    if motion_model not in MOTION_MODELS:
+        raise ValueError(f"unknown motion_model {motion_model!r}; choose from {sorted(MOTION_MODELS)}")
+    positive = dict(density=density, band=band, turn_radius=turn_radius, aspect=aspect, speed=speed, dt=dt, max_range=max_range, fov=fov)
+    for name, value in positive.items():
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    for name, value in dict(sigma_v=sigma_v, sigma_omega=sigma_omega, sigma_range=sigma_range, sigma_bearing=sigma_bearing, clearance=clearance).items():
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if int(n_landmarks) < 1 or int(laps) < 1:
+        raise ValueError("n_landmarks and laps must be >= 1")
+    if clearance >= band:
+        raise ValueError(f"clearance ({clearance}) must be < band ({band})")
+    if max_observations is not None and int(max_observations) < 1:
+        raise ValueError("max_observations must be >= 1 or None")
+    n = int(n_landmarks)
+
+    # ---------------------------------------------------------------- route from n and density
+    perimeter = n / (density * 2.0 * (band - clearance))
+    radius = min(turn_radius, perimeter / (4.0 * math.pi))
+    straights = (perimeter - 2.0 * math.pi * radius) / 2.0  # = 2a + 2b
+    half_b = straights / (2.0 * (1.0 + aspect))
+    half_a = aspect * half_b
+    v_lap, w_lap = _lap_controls(half_a, half_b, radius, speed, dt)
+    # the realised core box (straights are whole numbers of steps)
+    n_a = int(round(2 * half_a / (speed * dt)))
+    n_b = int(round(2 * half_b / (speed * dt)))
+    half_a, half_b = 0.5 * n_a * speed * dt, 0.5 * n_b * speed * dt
+    start = np.array([-half_a, -half_b - radius, 0.0])
+    model = MOTION_MODELS[motion_model]
+    dts_lap = np.full(v_lap.size, float(dt))
+
+    ss_landmarks, ss_controls, ss_obs = np.random.SeedSequence(int(seed)).spawn(3)
+    geo = dict(half_a=half_a, half_b=half_b, radius=radius, band=band, clearance=clearance, density=density,
+               lap_poses=model.integrate(start, v_lap, w_lap, dts_lap))
+    xy = LAYOUTS[layout](np.random.default_rng(ss_landmarks), n, geo)
+
+    # ---------------------------------------------------------------- controls and truth
+    v = np.tile(v_lap, int(laps))
+    w = np.tile(w_lap, int(laps))
+    K = v.size
+    t = t0 + dt * np.arange(K + 1)
+    truth = model.integrate(start, v, w, np.full(K, float(dt)))
+    eps = np.random.default_rng(ss_controls).standard_normal((K, 2)) * [sigma_v, sigma_omega]
+    motion = Twist(t=t[:K], v=v + eps[:, 0], omega=w + eps[:, 1], dt=np.full(K, float(dt)))
+
+    # ---------------------------------------------------------------- observations (poses 1..K)
+    rows_step, rows_id, rows_r, rows_b = [], [], [], []
+    block = max(1, _BLOCK_ELEMENTS // n)
+    for lo in range(1, K + 1, block):
+        x = truth[lo:lo + block]
+        r = np.hypot(xy[None, :, 0] - x[:, None, 0], xy[None, :, 1] - x[:, None, 1])
+        step, lm = np.nonzero(r <= max_range)
+        rr = r[step, lm]
+        bb = wrap_angle(np.arctan2(xy[lm, 1] - x[step, 1], xy[lm, 0] - x[step, 0]) - x[step, 2])
+        in_fov = np.abs(bb) <= 0.5 * fov
+        step, lm, rr, bb = step[in_fov], lm[in_fov], rr[in_fov], bb[in_fov]
+        order = np.lexsort((lm, rr, step))  # by step, then nearest first
+        step, lm, rr, bb = step[order], lm[order], rr[order], bb[order]
+        if max_observations is not None:
+            first = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])
+            rank = np.arange(step.size) - np.repeat(first, np.diff(np.r_[first, step.size]))
+            keep = rank < int(max_observations)
+            step, lm, rr, bb = step[keep], lm[keep], rr[keep], bb[keep]
+        rows_step.append(lo + step)
+        rows_id.append(lm)
+        rows_r.append(rr)
+        rows_b.append(bb)
+    step = np.concatenate(rows_step)
+    ids = np.concatenate(rows_id)
+    eta = np.random.default_rng(ss_obs).standard_normal((step.size, 2)) * [sigma_range, sigma_bearing]
+    range_bearing = RangeBearing(
+        t=t[step],
+        range=np.concatenate(rows_r) + eta[:, 0],
+        bearing=wrap_angle(np.concatenate(rows_b) + eta[:, 1]),
+        landmark_id=ids,
+    )
+
+    params = dict(n_landmarks=n, layout=layout, density=density, band=band, clearance=clearance, turn_radius=turn_radius,
+                  aspect=aspect, speed=speed, laps=int(laps), dt=dt, motion_model=motion_model, sigma_v=sigma_v,
+                  sigma_omega=sigma_omega, max_range=max_range, fov=fov, sigma_range=sigma_range,
+                  sigma_bearing=sigma_bearing, max_observations=max_observations, t0=t0, seed=int(seed))
+    extent = [half_a + radius + band, half_b + radius + band]
+    meta = dict(
+        dataset="sim:landmarks",
+        **params,
+        route=dict(half_a=half_a, half_b=half_b, turn_radius=radius, length=float(v_lap.sum() * dt), steps_per_lap=int(v_lap.size)),
+        world_extent=[-extent[0], -extent[1], extent[0], extent[1]],
+        steps=int(K),
+        observation_stamping="set k is the true pose at t_{k+1}, after Twist row k; no set at t0",
+    )
+    return Sequence(
+        name=f"sim:landmarks(n={n},layout={layout},seed={int(seed)})",
+        motion=motion,
+        range_bearing=range_bearing,
+        ground_truth=Trajectory(t=t, poses=truth),
+        landmarks=LandmarkMap(ids=np.arange(n), xy=xy),
+        initial_pose=start,
+        noise=Noise(twist_cov=np.diag([sigma_v**2, sigma_omega**2]), range_bearing_cov=np.diag([sigma_range**2, sigma_bearing**2])),
+        meta=meta,
+    )
