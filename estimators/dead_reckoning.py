@@ -1,0 +1,172 @@
+"""Dead reckoning: integrate the motion input alone; the baseline row of every table.
+
+Model
+-----
+State ``x = (x, y, θ)`` (3,), covariance ``P`` (3, 3), world frame. Start: ``x_0 =
+sequence.start_pose`` and ``P_0 = initial_cov`` (default 0: the start pose is the frame).
+
+Twist input ``u_k = (v_k, ω_k)`` held for ``dt_k`` (``Noise.twist_cov = Q`` (2, 2), the
+covariance of one row's velocity error)::
+
+    x_{k+1} = x_k ⊕ δ(u_k, dt_k)                       (motion model, EULER or ARC)
+    P_{k+1} = G_k P_k G_kᵀ + V_k Q V_kᵀ                 G_k = ∂x'/∂x (3, 3), V_k = ∂x'/∂u (3, 2)
+
+Increments input ``δ_k`` (body frame, covariance ``C_k`` = ``Increments.cov[k]`` or
+``Noise.increment_cov``)::
+
+    x_{k+1} = x_k ⊕ δ_k
+    P_{k+1} = J_x P_k J_xᵀ + J_δ C_k J_δᵀ               (models.compose_jacobians)
+
+Both Jacobians with respect to the state have the form ``G_k = [[I₂, g_k], [0, 1]]``, so the
+recursion has a closed form computed with prefix sums instead of a loop
+(:func:`propagate_covariance`, checked against the literal recursion in the tests).
+
+Output poses
+------------
+Twist input (the usual case: each row ends where the next starts, or earlier — gaps are
+standing still): one pose at every row stamp ``t_k`` and one at the end of the last row,
+``K + 1`` poses, the whole trajectory in one vectorised ``MotionModel.integrate`` call. If
+rows overlap (a row's ``dt`` reaches past the next stamp), the replay follows
+``estimators.stepping.twist_pieces`` between stamps, as a filter would. Increments input:
+one pose after each row at its stamp (``K`` poses), ``datasets.geometry.accumulate``.
+
+``step_time`` is the wall time of the whole integration divided evenly over the poses (the
+work is one vectorised pass, so there is no per-pose time to measure).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from datasets.estimate import Estimate
+from datasets.geometry import accumulate
+from datasets.sequence import Increments, Sequence, Twist
+
+from .models import MOTION_MODELS, compose_jacobians
+from .stepping import twist_pieces
+
+__all__ = ["DeadReckoning", "propagate_covariance"]
+
+
+def propagate_covariance(P0: np.ndarray, G: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """All covariances of ``P_{k+1} = G_k P_k G_kᵀ + M_k`` for ``G_k = [[I₂, g_k], [0, 1]]``.
+
+    P0 (3, 3), G (K, 3, 3) (only ``g_k = G_k[:2, 2]`` is used), M (K, 3, 3) → (K + 1, 3, 3).
+
+    With ``S_n = Σ_{i<n} g_i`` the product ``G_{n−1}⋯G_k = [[I, S_n − S_k], [0, 1]]``, so
+    ``P_n = Σ_j Φ_j X_j Φ_jᵀ`` over the terms ``X_j`` ∈ {P_0, M_0, …, M_{n−1}} each carried by
+    ``Φ_j = [[I, a_j], [0, 1]]``, ``a_j = S_n − T_j`` (``T = S_0`` for P_0, ``T = S_{k+1}``
+    for M_k). For ``X = [[A, c], [cᵀ, m]]``, ``Φ X Φᵀ = [[A + a cᵀ + c aᵀ + m a aᵀ, c + m a], ·]``.
+    Summing, with prefix sums over the terms present at n::
+
+        C1 = Σ (A − T cᵀ − c Tᵀ + m T Tᵀ),   C2 = Σ (c − m T),   C3 = Σ m
+        P_n[:2, :2] = C1 + S_n C2ᵀ + C2 S_nᵀ + C3 S_n S_nᵀ,   P_n[:2, 2] = C2 + C3 S_n,   P_n[2, 2] = C3
+    """
+    g = G[:, :2, 2]
+    S = np.vstack([np.zeros((1, 2)), np.cumsum(g, axis=0)])  # S_0 … S_K
+    X = np.concatenate([P0[None], M], axis=0)  # term j = 0 is P0, j = k + 1 is M_k
+    T = np.vstack([np.zeros((1, 2)), S[1:]])  # T_0 = S_0, T_{k+1} = S_{k+1}
+    A, c, m = X[:, :2, :2], X[:, :2, 2], X[:, 2, 2]
+    Tc = T[:, :, None] * c[:, None, :]
+    C1 = np.cumsum(A - Tc - np.swapaxes(Tc, 1, 2) + m[:, None, None] * T[:, :, None] * T[:, None, :], axis=0)
+    C2 = np.cumsum(c - m[:, None] * T, axis=0)
+    C3 = np.cumsum(m)
+    SC2 = S[:, :, None] * C2[:, None, :]
+    P = np.empty((len(S), 3, 3))
+    P[:, :2, :2] = C1 + SC2 + np.swapaxes(SC2, 1, 2) + C3[:, None, None] * S[:, :, None] * S[:, None, :]
+    P[:, :2, 2] = C2 + C3[:, None] * S
+    P[:, 2, :2] = P[:, :2, 2]
+    P[:, 2, 2] = C3
+    return P
+
+
+class DeadReckoning:
+    """Integrate the motion input with the motion model; covariance when the noise is known.
+
+    Parameters
+        motion_model: ``"arc"`` (exact constant-twist step, default) or ``"euler"``; Twist input.
+        propagate_covariance: compute ``pose_cov`` when the motion noise is known (default True).
+        initial_cov: standard deviations ``(σx, σy, σθ)`` of the start pose (default zeros).
+    """
+
+    def __init__(self, motion_model: str = "arc", propagate_covariance: bool = True, initial_cov: list[float] | None = None):
+        if motion_model not in MOTION_MODELS:
+            raise ValueError(f"motion_model must be one of {sorted(MOTION_MODELS)}, got {motion_model!r}")
+        self.model = MOTION_MODELS[motion_model]
+        self.propagate_covariance = bool(propagate_covariance)
+        sigma = np.zeros(3) if initial_cov is None else np.asarray(initial_cov, dtype=float)
+        if sigma.shape != (3,) or np.any(sigma < 0) or not np.all(np.isfinite(sigma)):
+            raise ValueError(f"initial_cov must be three non-negative standard deviations, got {initial_cov!r}")
+        self.P0 = np.diag(sigma**2)
+
+    def run(self, sequence: Sequence) -> Estimate:
+        motion = sequence.motion
+        if motion is None or not len(motion):
+            raise ValueError(f"dead reckoning needs a motion input; sequence {sequence.name!r} has none")
+        start = time.perf_counter()
+        if isinstance(motion, Twist):
+            t, poses, pose_cov, rejected = self._run_twist(motion, sequence)
+        else:
+            t, poses, pose_cov, rejected = self._run_increments(motion, sequence)
+        elapsed = time.perf_counter() - start
+        return Estimate(
+            method="dead_reckoning",
+            t=t,
+            poses=poses,
+            pose_cov=pose_cov,
+            step_time=np.full(t.shape, elapsed / max(len(t), 1)),
+            diagnostics={"rejected_motion_rows": np.array(rejected)},
+            meta={"motion_model": self.model.name, "input": type(motion).__name__, "rejected_motion_rows": rejected},
+        )
+
+    # ---------------------------------------------------------------- Twist
+    def _run_twist(self, twist: Twist, sequence: Sequence):
+        clean, rejected = _finite_twist(twist)
+        if np.any(twist.t[:-1] + twist.dt[:-1] > twist.t[1:]):  # overlapping rows
+            v, omega, dt, owner = _replay_pieces(clean)
+        else:
+            v, omega, dt, owner = clean.v, clean.omega, clean.dt, np.arange(len(twist))
+        t = np.append(twist.t, twist.t[-1] + twist.dt[-1])
+        piece_poses = self.model.integrate(sequence.start_pose, v, omega, dt)
+        # the pose at stamp k + 1 is the pose after the last piece owned by rows ≤ k
+        last_piece = np.searchsorted(owner, np.arange(len(twist)), side="right")
+        poses = np.vstack([piece_poses[:1], piece_poses[last_piece]])
+        pose_cov = None
+        Q = sequence.noise.twist_cov
+        if self.propagate_covariance and Q is not None:
+            G, V = self.model.jacobians(piece_poses[:-1], v, omega, dt)
+            P = propagate_covariance(self.P0, G, V @ Q @ np.swapaxes(V, 1, 2))
+            pose_cov = np.concatenate([P[:1], P[last_piece]])
+        return t, poses, pose_cov, rejected
+
+    # ---------------------------------------------------------------- Increments
+    def _run_increments(self, inc: Increments, sequence: Sequence):
+        delta = inc.delta.copy()
+        bad = ~np.isfinite(delta).all(axis=1)
+        delta[bad] = 0.0
+        all_poses = accumulate(sequence.start_pose, delta)
+        pose_cov = None
+        C = inc.cov if inc.cov is not None else sequence.noise.increment_cov
+        if self.propagate_covariance and C is not None:
+            C = np.broadcast_to(C, (len(inc), 3, 3)).copy()
+            C[bad] = 0.0
+            Jx, Jd = compose_jacobians(all_poses[:-1], delta)
+            pose_cov = propagate_covariance(self.P0, Jx, Jd @ C @ np.swapaxes(Jd, 1, 2))[1:]
+        return inc.t.copy(), all_poses[1:], pose_cov, int(bad.sum())
+
+
+def _finite_twist(twist: Twist) -> tuple[Twist, int]:
+    """The input with non-finite rows (rejected, counted) replaced by standing still."""
+    bad = ~(np.isfinite(twist.v) & np.isfinite(twist.omega))
+    clean = Twist(t=twist.t, v=np.where(bad, 0.0, twist.v), omega=np.where(bad, 0.0, twist.omega), dt=twist.dt)
+    return clean, int(bad.sum())
+
+
+def _replay_pieces(twist: Twist) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pieces carrying the state between consecutive stamps (``twist_pieces``) and each piece's row."""
+    ends = np.append(twist.t[1:], twist.t[-1] + twist.dt[-1])
+    pieces = [twist_pieces(twist, a, b) for a, b in zip(twist.t, ends)]
+    owner = np.concatenate([np.full(len(p[0]), k) for k, p in enumerate(pieces)])
+    v, omega, dt = (np.concatenate([p[i] for p in pieces]) for i in range(3))
+    return v, omega, dt, owner
