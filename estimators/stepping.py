@@ -18,17 +18,19 @@ from datasets.sequence import Twist
 __all__ = ["twist_pieces"]
 
 
-def twist_pieces(twist: Twist, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def twist_pieces(twist: Twist, t_from: float, t_to: float, with_rows: bool = False) -> tuple[np.ndarray, ...]:
     """The ``(v, ω, dt)`` pieces (arrays) that carry the state from ``t_from`` to ``t_to``.
 
     Pieces with zero length are dropped; time where no command is in force yields no piece
-    (standing still needs no prediction). ``t_to < t_from`` is an error.
+    (standing still needs no prediction). ``t_to < t_from`` is an error. With
+    ``with_rows=True`` a fourth array gives the Twist row of each piece (e.g. to scale
+    per-row noise to the part of the row a piece covers).
     """
     if t_to < t_from:
         raise ValueError(f"cannot propagate backwards in time: {t_from!r} → {t_to!r}")
     if t_to == t_from or not len(twist):
         empty = np.zeros(0)
-        return empty, empty, empty
+        return (empty, empty, empty, empty.astype(np.int64)) if with_rows else (empty, empty, empty)
     starts, ends = twist.t, twist.t + twist.dt
     first = max(int(np.searchsorted(starts, t_from, side="right")) - 1, 0)
     last = int(np.searchsorted(starts, t_to, side="left"))
@@ -37,4 +39,6 @@ def twist_pieces(twist: Twist, t_from: float, t_to: float) -> tuple[np.ndarray, 
     hi = np.minimum(ends[k], t_to)
     keep = hi > lo
     k, lo, hi = k[keep], lo[keep], hi[keep]
+    if with_rows:
+        return twist.v[k], twist.omega[k], hi - lo, k
     return twist.v[k], twist.omega[k], hi - lo
