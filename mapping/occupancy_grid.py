@@ -1,0 +1,290 @@
+"""Log-odds occupancy grid (binary Bayes filter per cell), with ROS map_server export.
+
+Model
+-----
+Each cell m holds the log-odds ``l = log(p / (1 − p))`` of being occupied. With the inverse
+sensor model ``p(m | z)`` and the prior ``p0`` (``l0 = logit p0``), one scan updates
+
+    l_t = l_{t−1} + logit p(m | z_t) − l0                                   (Thrun et al. 9.2)
+
+with ``p(m | z) = p_hit = 0.7`` for the cell holding a beam end point and ``p_miss = 0.4``
+for the cells the beam passes through (the notes' defaults; ``l0 = 0`` for ``p0 = 0.5``).
+Per scan a cell is updated at most once: the free cells and the hit cells of all beams are
+deduplicated, and a cell that one beam passes and another ends in counts as a hit.
+Readings at or beyond ``max_range`` are "no return": they clear the cells up to
+``min(range, clear_range)`` but mark no hit. NaN, inf, zero and negative readings are
+rejected (and counted by the caller). ``l`` is clamped to ``[l_min, l_max]`` (configurable,
+``None`` disables) so a cell can change its mind after the world changes.
+
+Thresholds: ``p < 0.25`` free, ``p > 0.65`` occupied, otherwise unknown. ROS int8 grid:
+0 free, 100 occupied, −1 unknown.
+
+Frames and indices
+------------------
+``log_odds[iy, ix]`` (rows are y). ``origin`` is the world position of the lower-left
+corner of cell ``(0, 0)`` (as in a map_server YAML), so the centre of cell ``(ix, iy)`` is
+``origin + (i + ½)·resolution``. World → cell is rounding relative to the centre of cell 0,
+
+    i = round((w − origin − ½·res) / res) = ⌊(w − origin) / res⌋,
+
+the half-cell origin shift the notes mention (their formula ``(w − origin) / res`` leaves out
+both the rounding and the shift; see research/mapping.md). The grid grows in whole blocks of
+cells when a scan reaches beyond it, keeping every existing cell at its world position.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from datasets.geometry import compose, transform_points
+
+from .raytrace import bresenham
+
+__all__ = ["OccupancyGrid", "logit", "probability", "load_map_server", "ROS_FREE", "ROS_OCCUPIED", "ROS_UNKNOWN"]
+
+ROS_FREE, ROS_OCCUPIED, ROS_UNKNOWN = 0, 100, -1
+#: map_server trinary PGM pixel values (map_saver): occupied black, free white, unknown grey
+PGM_OCCUPIED, PGM_FREE, PGM_UNKNOWN = 0, 254, 205
+_GROW_BLOCK = 64
+
+
+def logit(p):
+    p = np.asarray(p, dtype=float)
+    return np.log(p / (1.0 - p))
+
+
+def probability(l):
+    """Occupancy probability of log-odds ``l`` (``1 − 1/(1 + e^l)``, overflow-free)."""
+    return 0.5 * (1.0 + np.tanh(0.5 * np.asarray(l, dtype=float)))
+
+
+@dataclass
+class ScanCells:
+    """The deduplicated cells one scan updates (flat indices into the grid)."""
+
+    free: np.ndarray
+    hit: np.ndarray
+
+
+class OccupancyGrid:
+    """Log-odds occupancy grid; see the module docstring for the model and conventions."""
+
+    def __init__(
+        self,
+        resolution: float = 0.05,
+        width: int = 200,
+        height: int = 200,
+        origin: tuple[float, float] | None = None,
+        p_hit: float = 0.7,
+        p_miss: float = 0.4,
+        p_prior: float = 0.5,
+        free_threshold: float = 0.25,
+        occupied_threshold: float = 0.65,
+        clamp: tuple[float, float] | None = (0.12, 0.97),
+        grow: bool = True,
+        dtype=np.float32,
+    ):
+        for name, p in (("p_hit", p_hit), ("p_miss", p_miss), ("p_prior", p_prior)):
+            if not 0.0 < p < 1.0:
+                raise ValueError(f"{name} must be in (0, 1), got {p}")
+        if not p_miss < p_prior < p_hit:
+            raise ValueError(f"need p_miss < p_prior < p_hit, got {p_miss}, {p_prior}, {p_hit}")
+        if not 0.0 < free_threshold < occupied_threshold < 1.0:
+            raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
+        if resolution <= 0 or width < 1 or height < 1:
+            raise ValueError("resolution must be > 0 and the grid at least 1 × 1")
+        if clamp is not None and not 0.0 < clamp[0] < p_prior < clamp[1] < 1.0:
+            raise ValueError(f"clamp must be probabilities (p_min, p_max) around p_prior, got {clamp}")
+        self.resolution = float(resolution)
+        self.origin = np.array(origin if origin is not None else (-0.5 * width * resolution, -0.5 * height * resolution), dtype=float)
+        self.p_hit, self.p_miss, self.p_prior = float(p_hit), float(p_miss), float(p_prior)
+        self.l_hit, self.l_miss, self.l0 = float(logit(p_hit)), float(logit(p_miss)), float(logit(p_prior))
+        self.free_threshold, self.occupied_threshold = float(free_threshold), float(occupied_threshold)
+        self.l_min, self.l_max = (float(logit(clamp[0])), float(logit(clamp[1]))) if clamp is not None else (-np.inf, np.inf)
+        self.grow = grow
+        self.log_odds = np.full((int(height), int(width)), self.l0, dtype=dtype)
+        self.version = 0
+        self.cell_updates = 0
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.log_odds.shape
+
+    def world_to_grid(self, xy) -> np.ndarray:
+        """Integer cell indices ``(…, 2)`` as ``(ix, iy)``: rounding with the half-cell shift."""
+        xy = np.asarray(xy, dtype=float)
+        return np.floor((xy - self.origin - 0.5 * self.resolution) / self.resolution + 0.5).astype(np.int64)
+
+    def grid_to_world(self, ij) -> np.ndarray:
+        """World position ``(…, 2)`` of the centres of cells ``(ix, iy)``."""
+        return self.origin + (np.asarray(ij, dtype=float) + 0.5) * self.resolution
+
+    def contains(self, ij) -> np.ndarray:
+        ij = np.asarray(ij)
+        h, w = self.shape
+        return (ij[..., 0] >= 0) & (ij[..., 0] < w) & (ij[..., 1] >= 0) & (ij[..., 1] < h)
+
+    def ensure_contains(self, xy_min, xy_max) -> None:
+        """Grow (in blocks of cells) so the world box ``[xy_min, xy_max]`` lies inside."""
+        lo = self.world_to_grid(np.asarray(xy_min, dtype=float))
+        hi = self.world_to_grid(np.asarray(xy_max, dtype=float))
+        h, w = self.shape
+        pad_lo = np.maximum(-lo, 0)
+        pad_hi = np.maximum(hi - np.array([w - 1, h - 1]), 0)
+        if not (pad_lo.any() or pad_hi.any()):
+            return
+        pad_lo = -(-pad_lo // _GROW_BLOCK) * _GROW_BLOCK
+        pad_hi = -(-pad_hi // _GROW_BLOCK) * _GROW_BLOCK
+        self.log_odds = np.pad(self.log_odds, ((pad_lo[1], pad_hi[1]), (pad_lo[0], pad_hi[0])), constant_values=self.l0)
+        self.origin = self.origin - pad_lo * self.resolution
+        self.version += 1
+
+    # ------------------------------------------------------------------ update
+    def scan_cells(self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None) -> ScanCells:
+        """The free and hit cells of one scan (deduplicated; a hit wins over free).
+
+        ``pose`` is the robot pose, ``mount`` the sensor pose in the robot frame. Invalid
+        readings (non-finite, ≤ 0) are ignored; readings ``≥ max_range`` clear space up
+        to ``min(range, clear_range)`` (``clear_range`` default: ``max_range``) without a hit.
+        Grows the grid (if enabled) so every traced cell lies inside; otherwise cells
+        outside the grid are dropped.
+        """
+        r = np.asarray(ranges, dtype=float)
+        a = np.asarray(angles, dtype=float)
+        valid = np.isfinite(r) & (r > 0)
+        hit = valid & (r < max_range)
+        reach = np.where(hit, r, np.minimum(r, max_range if clear_range is None else clear_range))
+        reach = reach[valid]
+        hit = hit[valid]
+        sensor = compose(np.asarray(pose, dtype=float), np.asarray(mount, dtype=float))
+        if reach.size == 0:
+            return ScanCells(np.zeros(0, np.int64), np.zeros(0, np.int64))
+        ends = transform_points(sensor, np.column_stack([reach * np.cos(a[valid]), reach * np.sin(a[valid])]))
+        if self.grow:
+            self.ensure_contains(np.minimum(ends.min(axis=0), sensor[:2]), np.maximum(ends.max(axis=0), sensor[:2]))
+        c0 = self.world_to_grid(sensor[:2])
+        c1 = self.world_to_grid(ends)
+        x, y, line, step = bresenham(c0[0], c0[1], c1[:, 0], c1[:, 1])
+        is_end = step == np.maximum(np.abs(c1[:, 0] - c0[0]), np.abs(c1[:, 1] - c0[1]))[line]
+        is_hit = is_end & hit[line]
+        inside = self.contains(np.column_stack([x, y]))
+        flat = y * self.shape[1] + x
+        hits = np.unique(flat[is_hit & inside])
+        free = np.unique(flat[~is_hit & inside])
+        free = free[~np.isin(free, hits, assume_unique=True)]
+        return ScanCells(free, hits)
+
+    def apply(self, cells: ScanCells) -> int:
+        """Apply one scan's update ``l += logit p(m|z) − l0`` with clamping; returns cells updated."""
+        flat = self.log_odds.reshape(-1)
+        for idx, l_meas in ((cells.free, self.l_miss), (cells.hit, self.l_hit)):
+            flat[idx] = np.clip(flat[idx] + (l_meas - self.l0), self.l_min, self.l_max)
+        n = int(cells.free.size + cells.hit.size)
+        self.cell_updates += n
+        self.version += 1
+        return n
+
+    def integrate(self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None) -> int:
+        """Trace and apply one scan (see :meth:`scan_cells`); returns the number of cells updated."""
+        return self.apply(self.scan_cells(ranges, angles, pose, mount, max_range, clear_range))
+
+    # ------------------------------------------------------------------ views
+    def probability(self) -> np.ndarray:
+        return probability(self.log_odds)
+
+    def to_ros(self) -> np.ndarray:
+        """int8 grid (rows = y): 0 free (p < free), 100 occupied (p > occupied), −1 unknown."""
+        p = self.probability()
+        out = np.full(p.shape, ROS_UNKNOWN, dtype=np.int8)
+        out[p < self.free_threshold] = ROS_FREE
+        out[p > self.occupied_threshold] = ROS_OCCUPIED
+        return out
+
+    def nbytes(self) -> int:
+        return int(self.log_odds.nbytes)
+
+    # ------------------------------------------------------------------ export
+    def save_png(self, path: str | Path, crop: bool = True) -> Path:
+        """Greyscale image of ``1 − p`` (white free, black occupied), north up."""
+        import matplotlib.image
+
+        img = (255.0 * (1.0 - self.probability())).astype(np.uint8)
+        if crop:
+            img = img[self._known_box()]
+        path = Path(path)
+        matplotlib.image.imsave(path, img[::-1], cmap="gray", vmin=0, vmax=255)
+        return path
+
+    def save_map_server(self, stem: str | Path) -> tuple[Path, Path]:
+        """Write ``stem.pgm`` (trinary P5) and ``stem.yaml`` in the ROS map_server format.
+
+        Pixels: occupied 0, free 254, unknown 205 (as map_saver writes them). In the YAML,
+        ``free_thresh`` is 0.196 and not the grid's 0.25: map_server reads a pixel v as
+        ``p = (255 − v) / 255`` and calls it free when ``p < free_thresh``; the unknown grey
+        205 gives p = 0.196, which a threshold of 0.25 would turn into free space.
+        """
+        import yaml
+
+        stem = Path(stem)
+        ros = self.to_ros()
+        pgm = np.full(ros.shape, PGM_UNKNOWN, dtype=np.uint8)
+        pgm[ros == ROS_FREE] = PGM_FREE
+        pgm[ros == ROS_OCCUPIED] = PGM_OCCUPIED
+        h, w = pgm.shape
+        pgm_path = stem.with_suffix(".pgm")
+        with open(pgm_path, "wb") as fh:
+            fh.write(f"P5\n# slamarena occupancy grid, {self.resolution} m/cell\n{w} {h}\n255\n".encode("ascii"))
+            fh.write(pgm[::-1].tobytes())
+        yaml_path = stem.with_suffix(".yaml")
+        meta = {
+            "image": pgm_path.name,
+            "mode": "trinary",
+            "resolution": self.resolution,
+            "origin": [float(self.origin[0]), float(self.origin[1]), 0.0],
+            "negate": 0,
+            "occupied_thresh": self.occupied_threshold,
+            "free_thresh": 0.196,
+        }
+        yaml_path.write_text(yaml.safe_dump(meta, sort_keys=False))
+        return pgm_path, yaml_path
+
+    def _known_box(self) -> tuple[slice, slice]:
+        known = np.abs(self.log_odds - self.l0) > 1e-6
+        if not known.any():
+            return slice(None), slice(None)
+        rows = np.flatnonzero(known.any(axis=1))
+        cols = np.flatnonzero(known.any(axis=0))
+        return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
+
+
+def load_map_server(yaml_path: str | Path) -> tuple[np.ndarray, float, np.ndarray]:
+    """Read a map_server YAML + PGM as map_server does: ``(ros int8 grid rows=y, resolution, origin)``."""
+    import yaml
+
+    yaml_path = Path(yaml_path)
+    meta = yaml.safe_load(yaml_path.read_text())
+    data = (yaml_path.parent / meta["image"]).read_bytes()
+    tokens, pos = [], 0
+    while len(tokens) < 4:
+        while data[pos : pos + 1].isspace():
+            pos += 1
+        if data[pos : pos + 1] == b"#":
+            pos = data.index(b"\n", pos) + 1
+            continue
+        end = pos
+        while not data[end : end + 1].isspace():
+            end += 1
+        tokens.append(data[pos:end])
+        pos = end
+    magic, w, h, maxval = tokens[0], int(tokens[1]), int(tokens[2]), int(tokens[3])
+    if magic != b"P5" or maxval != 255:
+        raise ValueError(f"{meta['image']}: expected an 8-bit P5 PGM")
+    pixels = np.frombuffer(data[pos + 1 : pos + 1 + w * h], dtype=np.uint8).reshape(h, w)[::-1]
+    p = (255.0 - pixels) / 255.0 if not meta.get("negate", 0) else pixels / 255.0
+    ros = np.full((h, w), ROS_UNKNOWN, dtype=np.int8)
+    ros[p > meta["occupied_thresh"]] = ROS_OCCUPIED
+    ros[p < meta["free_thresh"]] = ROS_FREE
+    return ros, float(meta["resolution"]), np.asarray(meta["origin"][:2], dtype=float)
