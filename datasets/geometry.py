@@ -26,6 +26,8 @@ __all__ = [
     "rotation",
     "interpolate_poses",
     "accumulate",
+    "se2_log",
+    "se2_exp",
 ]
 
 
@@ -158,3 +160,8 @@ def _exp(xi: np.ndarray) -> np.ndarray:
     x = s * xi[..., 0] - c * xi[..., 1]
     y = c * xi[..., 0] + s * xi[..., 1]
     return np.stack([x, y, wrap_angle(th)], axis=-1)
+
+
+#: public names of the SE(2) logarithm / exponential (relative pose ↔ twist over unit time)
+se2_log = _log
+se2_exp = _exp
