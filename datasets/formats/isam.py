@@ -1,0 +1,167 @@
+"""iSAM 2D text format (Kaess et al.): pose graphs and pose+landmark graphs, in time order.
+
+Every record is ``NAME id1 id2 measurement… noise…`` (whitespace separated, metres, radians)::
+
+    ODOMETRY i j dx dy dθ  r11 r12 r13 r22 r23 r33     pose j in the frame of pose i
+    EDGE2    i j dx dy dθ  r11 r12 r13 r22 r23 r33     the same (city10000, w20000)
+    LANDMARK p l dx dy     r11 r12 r22                 landmark l as a Cartesian point in pose p's frame
+
+The noise columns are the row-major upper triangle of the **square-root information** matrix R,
+so the information is ``Λ = RᵀR`` (iSAM; GTSAM's copy of Victoria Park instead stores the
+covariance upper triangle: ``noise="covariance"``). There are no VERTEX lines: the initial guess is
+the odometry chain (:meth:`PoseGraph.chain_initialisation`).
+
+Ground-truth files (``groundtruth/*_groundtruth.txt``) hold the same constraints without noise:
+the true poses are the composition of the consecutive constraints ``i → i+1`` from (0, 0, 0), the
+true landmarks ``pose ⊕ (dx, dy)`` of their first noise-free observation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..geometry import accumulate, transform_points
+from ..posegraph import PoseGraph
+from ..sequence import LandmarkMap
+from ._text import fixed, read_lines, tags, upper_triangle, upper_triangular
+
+__all__ = ["IsamRecords", "read_records", "information", "read", "true_poses_and_landmarks", "load"]
+
+POSE_TAGS = ("ODOMETRY", "EDGE2")
+NOISE_CONVENTIONS = ("sqrt_information", "covariance", "information")
+
+
+@dataclass(frozen=True)
+class IsamRecords:
+    """The records of an iSAM-style file, in file order per kind.
+
+    pose: i, j (E,), z (E, 3), noise (E, 6), line (E,)    landmark: p, l (L,), z (L, 2), noise (L, 3), line (L,)
+    """
+
+    path: str
+    pose_i: np.ndarray
+    pose_j: np.ndarray
+    pose_z: np.ndarray
+    pose_noise: np.ndarray
+    pose_line: np.ndarray
+    lm_pose: np.ndarray
+    lm_id: np.ndarray
+    lm_z: np.ndarray
+    lm_noise: np.ndarray
+    lm_line: np.ndarray
+
+
+def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE2", "LANDMARK")) -> IsamRecords:
+    """Parse the ODOMETRY/EDGE2 and LANDMARK records (any other record type is an error)."""
+    lines = read_lines(path)
+    tag = tags(lines)
+    unknown = np.flatnonzero((tag != "") & ~np.isin(tag, allowed))
+    if unknown.size:
+        k = int(unknown[0])
+        raise DataFormatError(lines.path, k + 1, f"a record of type {' / '.join(allowed)}", lines[k][:80])
+    pose_rows = np.flatnonzero(np.isin(tag, POSE_TAGS))
+    lm_rows = np.flatnonzero(tag == "LANDMARK")
+    p = fixed(lines.path, [lines[r].split(None, 1)[1] if " " in lines[r].strip() else "" for r in pose_rows], pose_rows + 1, 11,
+              "a pose constraint (i j dx dy dtheta + 6 noise values)")
+    q = fixed(lines.path, [lines[r].split(None, 1)[1] if " " in lines[r].strip() else "" for r in lm_rows], lm_rows + 1, 7,
+              "a LANDMARK record (p l dx dy + 3 noise values)")
+    for arr, rows, cols in ((p, pose_rows, (0, 1)), (q, lm_rows, (0, 1))):
+        ids = arr[:, cols]
+        bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
+        if bad.size:
+            raise DataFormatError(lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80])
+    return IsamRecords(
+        path=lines.path,
+        pose_i=p[:, 0].astype(np.int64), pose_j=p[:, 1].astype(np.int64), pose_z=p[:, 2:5], pose_noise=p[:, 5:11],
+        pose_line=pose_rows + 1,
+        lm_pose=q[:, 0].astype(np.int64), lm_id=q[:, 1].astype(np.int64), lm_z=q[:, 2:4], lm_noise=q[:, 4:7],
+        lm_line=lm_rows + 1,
+    )
+
+
+def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
+    """Information matrices ``(K, n, n)`` from row-major upper triangles in the given convention.
+
+    ``sqrt_information``: Λ = RᵀR (iSAM); ``covariance``: Λ = Σ⁻¹ (GTSAM's Victoria Park);
+    ``information``: Λ itself (g2o).
+    """
+    if convention == "sqrt_information":
+        R = upper_triangular(noise, n)
+        return np.einsum("kji,kjl->kil", R, R)
+    if convention == "covariance":
+        return np.linalg.inv(upper_triangle(noise, n))
+    if convention == "information":
+        return upper_triangle(noise, n)
+    raise ValueError(f"noise convention must be one of {NOISE_CONVENTIONS}, got {convention!r}")
+
+
+def _check_positive_definite(path: str, info: np.ndarray, lines: np.ndarray, what: str) -> None:
+    if info.shape[0] == 0:
+        return
+    eig = np.linalg.eigvalsh(info)
+    bad = np.flatnonzero(~(eig[:, 0] > 0))
+    if bad.size:
+        raise DataFormatError(path, int(lines[bad[0]]), f"a positive-definite {what} noise matrix", str(eig[bad[0]].tolist()))
+
+
+def read(path: str | Path, noise: str = "sqrt_information", ground_truth: str | Path | None = None,
+         name: str | None = None, shared_ids: bool = False) -> PoseGraph:
+    """An iSAM-format file as a :class:`PoseGraph` (landmark edges of kind ``"xy"``).
+
+    ``shared_ids``: poses and landmarks share one id space (Victoria Park); otherwise landmark ids
+    are their own space (cityTrees10000). ``ground_truth``: the noise-free file of the same graph.
+    """
+    rec = read_records(path)
+    info = information(rec.pose_noise, 3, noise)
+    _check_positive_definite(rec.path, info, rec.pose_line, "pose-constraint")
+    lm_info = information(rec.lm_noise, 2, noise)
+    _check_positive_definite(rec.path, lm_info, rec.lm_line, "landmark")
+    node_ids = np.unique(np.concatenate([rec.pose_i, rec.pose_j, rec.lm_pose]))
+    if shared_ids and np.isin(rec.lm_id, node_ids).any():
+        k = int(np.flatnonzero(np.isin(rec.lm_id, node_ids))[0])
+        raise DataFormatError(rec.path, int(rec.lm_line[k]), "a landmark id distinct from every pose id", str(rec.lm_id[k]))
+    meta = {"format": "iSAM text", "file": rec.path, "noise_convention": noise,
+            "landmark_id_space": "shared with poses" if shared_ids else "separate from poses"}
+    true_poses = true_landmarks = None
+    if ground_truth is not None:
+        true_poses, true_landmarks = true_poses_and_landmarks(ground_truth, node_ids)
+        meta["ground_truth"] = str(ground_truth)
+    has_lm = rec.lm_pose.size > 0
+    return PoseGraph(
+        name=name or Path(path).name, node_ids=node_ids, edge_i=rec.pose_i, edge_j=rec.pose_j, edge_z=rec.pose_z,
+        edge_information=info, poses=None, dim=2,
+        landmark_pose=rec.lm_pose if has_lm else None, landmark_id=rec.lm_id if has_lm else None,
+        landmark_z=rec.lm_z if has_lm else None, landmark_information=lm_info if has_lm else None, landmark_kind="xy",
+        true_poses=true_poses, true_landmarks=true_landmarks, meta=meta,
+    )
+
+
+def true_poses_and_landmarks(path: str | Path, node_ids: np.ndarray) -> tuple[np.ndarray, LandmarkMap | None]:
+    """True poses (aligned with ``node_ids``) and landmarks from a noise-free iSAM file."""
+    rec = read_records(path)
+    chain = np.flatnonzero(rec.pose_j == rec.pose_i + 1)
+    j, first = np.unique(rec.pose_j[chain], return_index=True)
+    start = int(min(rec.pose_i.min(initial=0), 0))
+    expected = np.arange(start + 1, start + 1 + j.size)
+    if not np.array_equal(j, expected):
+        missing = np.setdiff1d(np.arange(start + 1, j.max(initial=start) + 1), j)
+        raise DataFormatError(rec.path, None, "a consecutive constraint i → i+1 for every pose", f"none into pose {missing[:1].tolist()}")
+    poses = accumulate(np.zeros(3), rec.pose_z[chain[first]])
+    ids = np.arange(start, start + poses.shape[0])
+    row = np.searchsorted(ids, node_ids)
+    if (row >= ids.size).any() or not np.array_equal(ids[np.clip(row, 0, ids.size - 1)], node_ids):
+        raise DataFormatError(rec.path, None, "ground truth for every pose of the graph", f"poses {ids[0]}..{ids[-1]}")
+    landmarks = None
+    if rec.lm_id.size:
+        lm, first_obs = np.unique(rec.lm_id, return_index=True)
+        seen_from = poses[np.searchsorted(ids, rec.lm_pose[first_obs])]
+        landmarks = LandmarkMap(ids=lm, xy=transform_points(seen_from, rec.lm_z[first_obs]))
+    return poses[row], landmarks
+
+
+def load(paths: dict, name: str, noise: str = "sqrt_information", **_) -> PoseGraph:
+    """Catalogue reader: roles ``graph`` and optional ``ground_truth``."""
+    return read(paths["graph"], noise=noise, ground_truth=paths.get("ground_truth"), name=name)

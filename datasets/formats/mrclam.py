@@ -1,0 +1,130 @@
+"""UTIAS MRCLAM (Leung et al., IJRR 2011): one :class:`Sequence` per robot.
+
+A dataset directory holds ``Barcodes.dat``, ``Landmark_Groundtruth.dat`` and per robot ``k``
+``Robot<k>_Odometry.dat``, ``Robot<k>_Measurement.dat`` and (where recorded)
+``Robot<k>_Groundtruth.dat``; each may be gzip-compressed (``.dat.gz``). All files have ``#``
+header lines and whitespace-separated numeric columns; times are UNIX seconds on one clock.
+
+- Odometry ``t v ω`` → :class:`Twist` (each command holds until the next stamp;
+  :meth:`Twist.from_stamps`, which drops zero-length commands at repeated stamps: counted).
+- Measurements ``t barcode range bearing``: the second column is a BARCODE, mapped to a subject
+  through ``Barcodes.dat``. Subjects 6–20 are landmarks (kept, ``landmark_id = subject``);
+  subjects 1–5 are the other robots (dropped, counted in ``meta["dropped_robot_observations"]``);
+  barcodes absent from ``Barcodes.dat`` are misreads (dropped, counted in
+  ``meta["dropped_misread_barcodes"]``, values listed in ``meta["misread_barcodes"]``).
+- Ground truth (Vicon) ``t x y θ`` → :class:`Trajectory`; landmarks with their survey std-devs.
+
+The dataset states no sensor noise, so :class:`Noise` is left empty (``meta["noise"]`` says so).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..geometry import interpolate_poses
+from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from ._text import check_monotonic, fixed, read_lines, tags
+
+__all__ = ["read_table", "read_robot", "read_directory", "read", "ROBOT_SUBJECTS"]
+
+#: subjects 1..5 are the robots; 6..20 the landmarks
+ROBOT_SUBJECTS = range(1, 6)
+
+
+def read_table(path: str | Path, ncols: int, what: str) -> np.ndarray:
+    """All data rows of one MRCLAM file as an ``(N, ncols)`` array (``#`` lines skipped)."""
+    lines = read_lines(path)
+    rows = np.flatnonzero(tags(lines) != "")
+    return fixed(lines.path, [lines[r] for r in rows], rows + 1, ncols, what), rows + 1
+
+
+def _file(directory: Path, stem: str) -> Path | None:
+    for name in (f"{stem}.dat", f"{stem}.dat.gz"):
+        if (directory / name).exists():
+            return directory / name
+    return None
+
+
+def read_robot(
+    odometry: str | Path,
+    measurement: str | Path,
+    barcodes: str | Path,
+    landmarks: str | Path,
+    groundtruth: str | Path | None = None,
+    name: str = "mrclam",
+) -> Sequence:
+    """One robot's run from its files (see the module docstring)."""
+    odo, odo_lines = read_table(odometry, 3, "an odometry row (t v omega)")
+    check_monotonic(str(odometry), odo[:, 0], odo_lines, "odometry")
+    meas, meas_lines = read_table(measurement, 4, "a measurement row (t barcode range bearing)")
+    check_monotonic(str(measurement), meas[:, 0], meas_lines, "measurements")
+    codes, code_lines = read_table(barcodes, 2, "a barcode row (subject barcode)")
+    lm, _ = read_table(landmarks, 5, "a landmark row (subject x y x_std y_std)")
+
+    subject_of = dict(zip(codes[:, 1].astype(np.int64).tolist(), codes[:, 0].astype(np.int64).tolist()))
+    if len(subject_of) != len(codes):
+        raise DataFormatError(barcodes, int(code_lines[0]), "one subject per barcode", "a barcode listed twice")
+    barcode = meas[:, 1].astype(np.int64)
+    known = np.array(sorted(subject_of), dtype=np.int64)
+    subjects = np.array([subject_of[b] for b in known], dtype=np.int64)
+    pos = np.clip(np.searchsorted(known, barcode), 0, known.size - 1)
+    is_known = known[pos] == barcode
+    subject = np.where(is_known, subjects[pos], -1)
+    is_robot = np.isin(subject, np.asarray(ROBOT_SUBJECTS))
+    keep = is_known & ~is_robot
+
+    motion = Twist.from_stamps(odo[:, 0], odo[:, 1], odo[:, 2])
+    rb = RangeBearing(t=meas[keep, 0], range=meas[keep, 2], bearing=meas[keep, 3], landmark_id=subject[keep])
+    lmap = LandmarkMap(ids=lm[:, 0].astype(np.int64), xy=lm[:, 1:3], std=lm[:, 3:5])
+
+    truth = None
+    initial = None
+    if groundtruth is not None:
+        gt, gt_lines = read_table(groundtruth, 4, "a ground-truth row (t x y theta)")
+        check_monotonic(str(groundtruth), gt[:, 0], gt_lines, "ground truth")
+        truth = Trajectory(t=gt[:, 0], poses=gt[:, 1:4])
+        t_start = motion.t[0]
+        if truth.t[0] <= t_start <= truth.t[-1]:
+            initial = interpolate_poses(truth.t, truth.poses, np.array([t_start]))[0]
+
+    misreads = np.unique(barcode[~is_known])
+    meta = {
+        "dataset": "UTIAS MRCLAM",
+        "files": [str(p) for p in (odometry, measurement, barcodes, landmarks, groundtruth) if p is not None],
+        "odometry_rows": int(len(odo)),
+        "odometry_zero_length_commands": int(len(odo) - len(motion)),
+        "measurement_rows": int(len(meas)),
+        "landmark_observations": int(keep.sum()),
+        "dropped_robot_observations": int((is_known & is_robot).sum()),
+        "dropped_misread_barcodes": int((~is_known).sum()),
+        "misread_barcodes": misreads.tolist(),
+        "ground_truth_kind": "Vicon motion capture" if truth is not None else "none (robot poses not recorded)",
+        "initial_pose": "ground truth interpolated at the first odometry stamp" if initial is not None else "not known",
+        "noise": "not stated by the dataset",
+        "time": "UNIX seconds",
+    }
+    return Sequence(name=name, motion=motion, range_bearing=rb, ground_truth=truth, landmarks=lmap,
+                    initial_pose=initial, noise=Noise(), meta=meta)
+
+
+def read_directory(directory: str | Path, robot: int, name: str | None = None) -> Sequence:
+    """Robot ``robot`` of any directory in the MRCLAM layout (plain or ``.gz`` files)."""
+    directory = Path(directory)
+    files = {
+        "odometry": _file(directory, f"Robot{robot}_Odometry"),
+        "measurement": _file(directory, f"Robot{robot}_Measurement"),
+        "barcodes": _file(directory, "Barcodes"),
+        "landmarks": _file(directory, "Landmark_Groundtruth"),
+    }
+    missing = [k for k, v in files.items() if v is None]
+    if missing:
+        raise FileNotFoundError(f"{directory}: no MRCLAM file(s) for {', '.join(missing)} of robot {robot}")
+    return read_robot(**files, groundtruth=_file(directory, f"Robot{robot}_Groundtruth"),
+                      name=name or f"{directory.name}/robot{robot}")
+
+
+def read(paths: dict, name: str, **_) -> Sequence:
+    """Catalogue reader: ``paths`` has roles odometry, measurement, barcodes, landmarks[, groundtruth]."""
+    return read_robot(name=name, **paths)
