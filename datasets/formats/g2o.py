@@ -1,0 +1,151 @@
+"""g2o text graphs (Kümmerle et al., ICRA 2011): read 2D and 3D, write 2D.
+
+2D records (metres, radians)::
+
+    VERTEX_SE2  id x y θ
+    VERTEX_XY   id x y                                   a landmark's initial position
+    EDGE_SE2    i j dx dy dθ  I11 I12 I13 I22 I23 I33    pose j in the frame of i; information
+    EDGE_SE2_XY i l dx dy     I11 I12 I22                landmark l as a point in pose i's frame
+    FIX id                                               (kept in meta["fixed"])
+
+3D records: ``VERTEX_SE3:QUAT id x y z qx qy qz qw``; ``EDGE_SE3:QUAT i j dx dy dz qx qy qz qw``
+followed by the 21-value upper triangle of the information (order x y z rx ry rz).
+
+The noise columns are the row-major upper triangle of the **information** matrix Λ = Σ⁻¹.
+Vertices and landmarks share one id space. A file without VERTEX lines (CSAIL, manhattan) gets
+``poses = None``: the initial guess is the odometry chain. Landmark initial positions
+(VERTEX_XY) are kept in ``meta["landmark_ids"]`` / ``meta["landmark_xy"]``. Any other record
+type is an error (the reader does not silently ignore data).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..posegraph import PoseGraph
+from ._text import fixed, read_lines, tags, upper_triangle
+from . import isam
+
+__all__ = ["read", "write", "load", "RECORDS_2D", "RECORDS_3D"]
+
+RECORDS_2D = {"VERTEX_SE2": 4, "VERTEX_XY": 3, "EDGE_SE2": 11, "EDGE_SE2_XY": 7}
+RECORDS_3D = {"VERTEX_SE3:QUAT": 8, "EDGE_SE3:QUAT": 30}
+OTHER = {"FIX": 1}
+
+
+def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
+    ids = values[:, cols]
+    bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=-1) if ids.ndim > 1 else ((ids != np.round(ids)) | (ids < 0)))
+    if bad.size:
+        raise DataFormatError(path, int(rows[bad[0]]) + 1, "non-negative integer ids", str(ids[bad[0]]))
+    return ids.astype(np.int64)
+
+
+def read(path: str | Path, name: str | None = None, ground_truth: str | Path | None = None) -> PoseGraph:
+    """A g2o file as a :class:`PoseGraph` (2D, or 3D when it has SE3 records).
+
+    ``ground_truth``: a noise-free iSAM file of the same poses (manhattan, city10000), whose
+    odometry chain gives ``true_poses``.
+    """
+    lines = read_lines(path)
+    tag = tags(lines)
+    known = {**RECORDS_2D, **RECORDS_3D, **OTHER}
+    unknown = np.flatnonzero((tag != "") & ~np.isin(tag, list(known)))
+    if unknown.size:
+        k = int(unknown[0])
+        raise DataFormatError(lines.path, k + 1, f"a g2o record ({', '.join(known)})", lines[k][:80])
+    is3d = np.isin(tag, list(RECORDS_3D))
+    is2d = np.isin(tag, list(RECORDS_2D))
+    if is3d.any() and is2d.any():
+        k = int(np.flatnonzero(is2d if np.flatnonzero(is3d)[0] < np.flatnonzero(is2d)[0] else is3d)[0])
+        raise DataFormatError(lines.path, k + 1, "2D and 3D records not mixed in one file", lines[k][:80])
+    table = {}
+    for record, ncols in known.items():
+        rows = np.flatnonzero(tag == record)
+        bodies = [parts[1] if len(parts := lines[r].split(None, 1)) > 1 else "" for r in rows]
+        table[record] = (fixed(lines.path, bodies, rows + 1, ncols, f"a {record} record"), rows)
+    meta = {"format": "g2o", "file": lines.path, "noise_convention": "information"}
+    fixed_ids = _ids(lines.path, *table["FIX"], 0)
+    if fixed_ids.size:
+        meta["fixed"] = fixed_ids.tolist()
+    name = name or Path(path).name
+    if is3d.any():
+        v, vrows = table["VERTEX_SE3:QUAT"]
+        e, erows = table["EDGE_SE3:QUAT"]
+        return _graph(lines.path, name, 3, _ids(lines.path, v, vrows, 0), v[:, 1:8],
+                      _ids(lines.path, e, erows, [0, 1]), e[:, 2:9], upper_triangle(e[:, 9:30], 6), erows, meta)
+    v, vrows = table["VERTEX_SE2"]
+    e, erows = table["EDGE_SE2"]
+    lv, lvrows = table["VERTEX_XY"]
+    le, lerows = table["EDGE_SE2_XY"]
+    extra = {}
+    if le.shape[0]:
+        lm = _ids(lines.path, le, lerows, [0, 1])
+        extra = dict(landmark_pose=lm[:, 0], landmark_id=lm[:, 1], landmark_z=le[:, 2:4],
+                     landmark_information=upper_triangle(le[:, 4:7], 2), landmark_kind="xy")
+    if lv.shape[0]:
+        meta["landmark_ids"] = _ids(lines.path, lv, lvrows, 0)
+        meta["landmark_xy"] = lv[:, 1:3]
+    graph = _graph(lines.path, name, 2, _ids(lines.path, v, vrows, 0), v[:, 1:4],
+                   _ids(lines.path, e, erows, [0, 1]), e[:, 2:5], upper_triangle(e[:, 5:11], 3), erows, meta, **extra)
+    if ground_truth is not None:
+        true_poses, _ = isam.true_poses_and_landmarks(ground_truth, graph.node_ids)
+        graph = PoseGraph(**{**graph.__dict__, "true_poses": true_poses,
+                             "meta": {**graph.meta, "ground_truth": str(ground_truth)}})
+    return graph
+
+
+def _graph(path, name, dim, vertex_ids, vertex_poses, edge_ids, z, info, erows, meta, **landmarks) -> PoseGraph:
+    if vertex_ids.size:
+        node_ids, poses = vertex_ids, vertex_poses
+        missing = ~np.isin(edge_ids, node_ids).all(axis=1)
+        if missing.any():
+            k = int(np.flatnonzero(missing)[0])
+            raise DataFormatError(path, int(erows[k]) + 1, "an edge between declared vertices", str(edge_ids[k].tolist()))
+        if np.unique(node_ids).size != node_ids.size:
+            raise DataFormatError(path, None, "unique vertex ids", "a vertex declared twice")
+    else:
+        pose_ends = [edge_ids.ravel()]
+        if "landmark_pose" in landmarks:
+            pose_ends.append(landmarks["landmark_pose"])
+        node_ids, poses = np.unique(np.concatenate(pose_ends)), None
+    return PoseGraph(name=name, node_ids=node_ids, edge_i=edge_ids[:, 0], edge_j=edge_ids[:, 1], edge_z=z,
+                     edge_information=info, poses=poses, dim=dim, meta=meta, **landmarks)
+
+
+def _fmt(a: np.ndarray) -> list[str]:
+    return [" ".join(f"{x:.17g}" for x in row) for row in np.atleast_2d(a)]
+
+
+def write(path: str | Path, graph: PoseGraph) -> None:
+    """Write a 2D graph in g2o (VERTEX_SE2 for the initial poses, VERTEX_XY, EDGE_SE2, EDGE_SE2_XY).
+
+    Numbers are written with 17 significant digits, so :func:`read` returns the same values.
+    """
+    if graph.dim != 2:
+        raise ValueError("g2o.write writes 2D graphs only")
+    rows, cols = np.triu_indices(3)
+    out: list[str] = []
+    poses = graph.initial_poses()
+    out += [f"VERTEX_SE2 {i} {p}" for i, p in zip(graph.node_ids, _fmt(poses))]
+    if "landmark_ids" in graph.meta:
+        out += [f"VERTEX_XY {i} {p}" for i, p in zip(graph.meta["landmark_ids"], _fmt(graph.meta["landmark_xy"]))]
+    info = graph.edge_information[:, rows, cols]
+    out += [f"EDGE_SE2 {i} {j} {z} {n}" for i, j, z, n in zip(graph.edge_i, graph.edge_j, _fmt(graph.edge_z), _fmt(info))]
+    if graph.landmark_pose is not None:
+        if np.isin(graph.landmark_id, graph.node_ids).any():
+            raise ValueError("g2o shares one id space between poses and landmarks; landmark ids collide with pose ids")
+        if graph.landmark_kind != "xy":
+            raise ValueError("g2o.write writes landmark edges of kind 'xy' only")
+        r2, c2 = np.triu_indices(2)
+        linfo = graph.landmark_information[:, r2, c2]
+        out += [f"EDGE_SE2_XY {i} {j} {z} {n}" for i, j, z, n in
+                zip(graph.landmark_pose, graph.landmark_id, _fmt(graph.landmark_z), _fmt(linfo))]
+    Path(path).write_text("\n".join(out) + "\n")
+
+
+def load(paths: dict, name: str, **_) -> PoseGraph:
+    """Catalogue reader: role ``graph`` and optional ``ground_truth`` (a noise-free iSAM file)."""
+    return read(paths["graph"], name=name, ground_truth=paths.get("ground_truth"))
