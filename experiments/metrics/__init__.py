@@ -1,0 +1,76 @@
+"""Metrics of one cell (an estimate of one method on one dataset and seed).
+
+``METRICS`` maps the name an experiment config uses to a :class:`Metric`: its parameter model
+(pydantic, extra keys forbidden), its outputs (name → ("lower" | "higher" | None, what it is);
+"better" drives the best-value marks of the tables) and the function that evaluates it.
+Each evaluation returns ``(scalars, series)``: scalars go to ``metrics.json`` and the summary,
+series (per-step arrays) to ``series.npz`` for the figures and Monte Carlo averages. A metric
+that does not apply (no ground truth, no covariance) raises :class:`MetricUnavailable`; the
+reason is recorded instead of a number.
+
+Modules: :mod:`.alignment` (Umeyama in 2D), :mod:`.reference` (ground truth at estimate
+times), :mod:`.trajectory` (ATE, RPE), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
+:mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.), :mod:`.cost`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from pydantic import BaseModel
+
+from datasets.estimate import Estimate
+
+from .consistency import NEES_OUTPUTS, NIS_OUTPUTS, NEESParams, NISParams, nees, nis
+from .cost import COST_OUTPUTS, CostParams, cost
+from .landmarks import MAP_OUTPUTS, MapParams, landmark_error
+from .reference import MetricUnavailable, Reference, reference_of
+from .relations import RELATION_OUTPUTS, RelationsParams, relation_error_from_file
+from .trajectory import ATE_OUTPUTS, RPE_OUTPUTS, ATEParams, RPEParams, ate, rpe
+
+__all__ = ["METRICS", "Metric", "CellData", "MetricUnavailable", "evaluate", "output_columns", "reference_of"]
+
+
+@dataclass(frozen=True)
+class CellData:
+    """Everything a metric may read: the estimate, the loaded dataset and its ground truth, costs."""
+
+    estimate: Estimate
+    data: Any
+    reference: Reference
+    wall: float | None = None
+    peak_rss: float | None = None
+
+
+@dataclass(frozen=True)
+class Metric:
+    params: type[BaseModel]
+    outputs: dict[str, tuple[str | None, str]]
+    evaluate: Callable[[CellData, BaseModel], tuple[dict, dict]]
+
+
+METRICS: dict[str, Metric] = {
+    "ate": Metric(ATEParams, ATE_OUTPUTS, lambda c, p: ate(c.estimate, c.reference, p)),
+    "rpe": Metric(RPEParams, RPE_OUTPUTS, lambda c, p: rpe(c.estimate, c.reference, p)),
+    "nees": Metric(NEESParams, NEES_OUTPUTS, lambda c, p: nees(c.estimate, c.reference, p)),
+    "nis": Metric(NISParams, NIS_OUTPUTS, lambda c, p: nis(c.estimate, p)),
+    "map": Metric(MapParams, MAP_OUTPUTS, lambda c, p: landmark_error(c.estimate, c.reference, p)),
+    "relations": Metric(RelationsParams, RELATION_OUTPUTS, lambda c, p: relation_error_from_file(c.estimate, c.data, p)),
+    "cost": Metric(CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p)),
+}
+
+
+def output_columns() -> dict[str, tuple[str | None, str]]:
+    """Every summary column a metric can produce, ``"<metric>.<output>"`` → (better, description)."""
+    return {f"{m}.{k}": v for m, metric in METRICS.items() for k, v in metric.outputs.items()}
+
+
+def evaluate(cell: CellData, selected: dict[str, BaseModel]) -> tuple[dict, dict, dict]:
+    """Evaluate the selected metrics: (scalars by metric, series by metric, skipped reasons)."""
+    scalars, series, skipped = {}, {}, {}
+    for name, params in selected.items():
+        try:
+            scalars[name], series[name] = METRICS[name].evaluate(cell, params)
+        except MetricUnavailable as exc:
+            skipped[name] = str(exc)
+    return scalars, series, skipped

@@ -1,0 +1,54 @@
+"""Cost of a cell: per-step wall time and the peak memory of the cell's process.
+
+* ``step_median``, ``step_p95``: median and 95th percentile of ``Estimate.step_time`` [s];
+  ``step_total``: their sum (the estimator's own accounting).
+* ``wall``: wall time of ``run(sequence)`` measured by the runner around the call [s].
+* ``peak_rss_mb``: ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of the cell's process, read
+  when the cell finishes [MiB]. Every cell runs in a fresh process, so this is the peak
+  resident set of that cell: interpreter, imported libraries, the dataset and the estimator
+  (native allocations of GTSAM/Open3D included, which tracemalloc would miss).
+"""
+from __future__ import annotations
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+
+from datasets.estimate import Estimate
+
+__all__ = ["CostParams", "cost", "COST_OUTPUTS", "peak_rss_mb"]
+
+
+class CostParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+COST_OUTPUTS = {
+    "step_median": ("lower", "median wall time per step [s]"),
+    "step_p95": ("lower", "95th percentile wall time per step [s]"),
+    "step_total": ("lower", "sum of the per-step wall times [s]"),
+    "wall": ("lower", "wall time of the estimator run [s]"),
+    "peak_rss_mb": ("lower", "peak resident memory of the cell's process [MiB]"),
+    "steps": (None, "number of estimated poses"),
+}
+
+
+def peak_rss_mb() -> float:
+    """Peak resident set size of this process so far [MiB] (Linux reports KiB, macOS bytes)."""
+    import resource
+    import sys
+
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 2**10
+
+
+def cost(estimate: Estimate, wall: float | None = None, peak_rss: float | None = None, params: CostParams = CostParams()) -> tuple[dict, dict]:
+    out: dict = {"steps": int(len(estimate.t))}
+    if estimate.step_time is not None and len(estimate.step_time):
+        st = np.asarray(estimate.step_time, dtype=float)
+        out.update(step_median=float(np.median(st)), step_p95=float(np.percentile(st, 95)), step_total=float(st.sum()))
+    if wall is not None:
+        out["wall"] = float(wall)
+    if peak_rss is not None:
+        out["peak_rss_mb"] = float(peak_rss)
+    series = {} if estimate.step_time is None else {"t": estimate.t, "step_time": np.asarray(estimate.step_time, dtype=float)}
+    return out, series

@@ -1,0 +1,92 @@
+"""Relation-based error (Kümmerle et al., "On measuring the accuracy of SLAM algorithms", 2009).
+
+A relations file lists N reference relative poses ``δ*_ij`` between timestamps ``(t_i, t_j)``.
+The estimate's relation is ``δ_ij = p_i⁻¹ p_j`` with ``p_i`` the estimated pose at ``t_i``
+(``match: nearest`` — the estimate pose nearest in time, within ``tolerance`` seconds;
+``match: interpolate`` — SE(2) interpolation between the estimate poses around ``t_i``).
+The error of one relation is ``ε_ij = δ*_ij⁻¹ δ_ij`` (``between(δ*, δ)``) and::
+
+    trans_ij = ||ε_ij.xy||,  rot_ij = |ε_ij.θ|
+    reported: mean ± std of trans and rot, and the mean squared errors (the paper's ε(δ))
+
+Relations whose stamps cannot be matched are dropped and counted. The relations come from
+the READERS' relations-file reader, or are given as arrays ``(t_i, t_j, δ*)``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from datasets.estimate import Estimate
+from datasets.geometry import between, interpolate_poses
+
+from .reference import MetricUnavailable
+
+__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "RELATION_OUTPUTS"]
+
+
+class RelationsParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    file: Path | None = Field(None, description="relations file (Kümmerle et al. format); default: the dataset's")
+    match: Literal["nearest", "interpolate"] = "nearest"
+    tolerance: float = Field(0.05, ge=0, description="seconds, for match: nearest")
+
+
+RELATION_OUTPUTS = {
+    "trans_mean": ("lower", "mean translational relation error [m]"),
+    "trans_std": (None, "std of the translational relation error [m]"),
+    "rot_mean": ("lower", "mean rotational relation error [rad]"),
+    "rot_std": (None, "std of the rotational relation error [rad]"),
+    "trans_sq_mean": ("lower", "mean squared translational error [m²]"),
+    "rot_sq_mean": ("lower", "mean squared rotational error [rad²]"),
+    "used": ("higher", "relations matched to the estimate"),
+    "dropped": ("lower", "relations whose stamps had no estimate pose"),
+}
+
+
+def _poses_at(estimate: Estimate, t: np.ndarray, match: str, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    et = estimate.t
+    if match == "interpolate":
+        ok = (t >= et[0]) & (t <= et[-1])
+        poses = np.zeros((t.size, 3))
+        poses[ok] = interpolate_poses(et, estimate.poses, t[ok])
+        return poses, ok
+    right = np.clip(np.searchsorted(et, t), 0, et.size - 1)
+    left = np.clip(right - 1, 0, et.size - 1)
+    nearest = np.where(np.abs(et[left] - t) <= np.abs(et[right] - t), left, right)
+    return estimate.poses[nearest], np.abs(et[nearest] - t) <= tolerance
+
+
+def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_ref: np.ndarray, params: RelationsParams = RelationsParams()) -> tuple[dict, dict]:
+    t_i, t_j = np.asarray(t_i, dtype=float), np.asarray(t_j, dtype=float)
+    delta_ref = np.asarray(delta_ref, dtype=float).reshape(-1, 3)
+    p_i, ok_i = _poses_at(estimate, t_i, params.match, params.tolerance)
+    p_j, ok_j = _poses_at(estimate, t_j, params.match, params.tolerance)
+    ok = ok_i & ok_j
+    if not ok.any():
+        raise MetricUnavailable("no relation's stamps match the estimate")
+    eps = between(delta_ref[ok], between(p_i[ok], p_j[ok]))
+    trans, rot = np.linalg.norm(eps[:, :2], axis=1), np.abs(eps[:, 2])
+    out = {
+        "trans_mean": float(trans.mean()), "trans_std": float(trans.std()),
+        "rot_mean": float(rot.mean()), "rot_std": float(rot.std()),
+        "trans_sq_mean": float(np.mean(trans**2)), "rot_sq_mean": float(np.mean(rot**2)),
+        "used": int(ok.sum()), "dropped": int((~ok).sum()),
+    }
+    return out, {"t": t_i[ok], "trans_error": trans, "rot_error": rot}
+
+
+def relation_error_from_file(estimate: Estimate, data, params: RelationsParams) -> tuple[dict, dict]:
+    """Read the relations (``params.file`` or the dataset's ``meta['relations']``) and score."""
+    path = params.file or (getattr(data, "meta", {}) or {}).get("relations")
+    if path is None:
+        raise MetricUnavailable("no relations file for this dataset")
+    try:
+        from datasets.formats.relations import read_relations
+    except ImportError as exc:  # the reader belongs to the data layer
+        raise MetricUnavailable(f"no relations reader available: {exc}") from exc
+    rel = read_relations(path)
+    return relation_error(estimate, rel.t1, rel.t2, rel.delta, params)
