@@ -1,0 +1,377 @@
+"""EKF localizer: models, filterpy extension points, gating, bad input, multi-rate and delayed input.
+
+Hand-built sequences (``_scenario``) give exact control over stamps and noise; the Monte Carlo
+consistency test and the claims of the design notes use ``sim:localization``
+(tests/estimators/test_ekf_localizer_sim.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from datasets.geometry import wrap_angle
+from datasets.sequence import Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from estimators import create
+from estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
+from estimators.models import ARC, EULER, MOTION_MODELS, observation_jacobians, observe
+
+CMD_DT = 0.02
+TRUE_NOISE = dict(sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3)
+
+
+def _scenario(seed=0, duration=20.0, gps_every=5, imu_every=2, sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3,
+              landmarks=None, rb_every=10, rb_sigma=(0.05, 0.02)) -> Sequence:
+    """A 50 Hz cmd_vel run (EULER truth) with GPS every ``gps_every`` and IMU every ``imu_every`` commands.
+
+    Each command's (v, ω) error is drawn once and held for its 20 ms (the per-row convention of
+    ``Noise.twist_cov``). Measurements are stamped on command stamps and taken from the truth there.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(round(duration / CMD_DT))
+    t = np.arange(n) * CMD_DT
+    v = 1.0 + 0.3 * np.sin(0.3 * t)
+    w = 0.4 * np.sin(0.25 * t + 0.5)
+    truth = EULER.integrate(np.array([0.0, 0.0, 0.3]), v, w, CMD_DT)  # (n + 1, 3) at t_k, k = 0..n
+    t_truth = np.arange(n + 1) * CMD_DT
+    cmd = Twist(t=t, v=v + sigma_v * rng.standard_normal(n), omega=w + sigma_omega * rng.standard_normal(n), dt=np.full(n, CMD_DT))
+    gi = np.arange(gps_every, n + 1, gps_every)
+    gps = Gps(t=t_truth[gi], xy=truth[gi, :2] + gps_sigma * rng.standard_normal((gi.size, 2)))
+    hi = np.arange(imu_every, n + 1, imu_every)
+    heading = Heading(t=t_truth[hi], yaw=wrap_angle(truth[hi, 2] + np.sqrt(imu_var) * rng.standard_normal(hi.size)))
+    rb, lm, rb_cov = None, None, None
+    if landmarks is not None:
+        lm = LandmarkMap(ids=np.arange(len(landmarks)), xy=landmarks)
+        ri = np.arange(rb_every, n + 1, rb_every)
+        z = observe(truth[ri][:, None, :], lm.xy[None, :, :])  # (R, L, 2)
+        z = z + np.asarray(rb_sigma) * rng.standard_normal(z.shape)
+        rb = RangeBearing(t=np.repeat(t_truth[ri], len(lm)), range=z[..., 0].ravel(), bearing=wrap_angle(z[..., 1].ravel()),
+                          landmark_id=np.tile(lm.ids, ri.size))
+        rb_cov = np.diag(np.square(rb_sigma))
+    return Sequence(
+        name=f"handbuilt/{seed}", motion=cmd, gps=gps, heading=heading, range_bearing=rb, landmarks=lm,
+        ground_truth=Trajectory(t=t_truth, poses=truth), initial_pose=truth[0],
+        noise=Noise(twist_cov=np.diag([sigma_v**2, sigma_omega**2]), gps_cov=np.eye(2) * gps_sigma**2, yaw_var=imu_var,
+                    range_bearing_cov=rb_cov),
+    )
+
+
+def _true_noise_filter(**kw) -> EKFLocalizer:
+    return EKFLocalizer(Q=0.0, use_sequence_noise=True, initial_cov=1e-8, **kw)
+
+
+def _truth_at(seq: Sequence, t: np.ndarray) -> np.ndarray:
+    k = np.rint((t - seq.ground_truth.t[0]) / CMD_DT).astype(int)
+    return seq.ground_truth.poses[k]
+
+
+def _fd_jacobian(f, x, eps=1e-6):
+    cols = []
+    for i in range(x.size):
+        d = np.zeros_like(x)
+        d[i] = eps
+        diff = f(x + d) - f(x - d)
+        if diff.size == 3:
+            diff[2] = wrap_angle(diff[2])
+        cols.append(diff / (2 * eps))
+    return np.column_stack(cols)
+
+
+# ---------------------------------------------------------------- models and filterpy wiring
+@pytest.mark.parametrize("model", ["euler", "arc"])
+@pytest.mark.parametrize("x0, v, omega, dt", [((1.0, -2.0, 0.3), 1.2, 0.4, 0.02), ((0.0, 0.0, 3.1), 0.5, -2.0, 0.37), ((2.0, 1.0, -1.7), 2.0, 0.0, 0.1)])
+def test_covariance_prediction_uses_the_finite_difference_jacobian(model, x0, v, omega, dt):
+    f = EKFLocalizer(motion_model=model, Q=0.0)
+    P0 = np.array([[0.3, 0.05, 0.02], [0.05, 0.2, -0.03], [0.02, -0.03, 0.1]])
+    f.reset(x0, P0)
+    f.predict(v, omega, dt)
+    F = _fd_jacobian(lambda x: MOTION_MODELS[model].predict(x, v, omega, dt), np.asarray(x0, dtype=float))
+    np.testing.assert_allclose(f.P, F @ P0 @ F.T, atol=1e-8)
+    np.testing.assert_allclose(f.x, MOTION_MODELS[model].predict(np.asarray(x0), v, omega, dt), atol=1e-12)
+
+
+def test_euler_prediction_is_the_notes_model_and_jacobian():
+    x, y, th, v, w, dt = 1.0, 2.0, 0.7, 0.8, -0.3, 0.02
+    f = EKFLocalizer(Q=0.0)
+    f.reset((x, y, th), np.eye(3))
+    f.predict(v, w, dt)
+    np.testing.assert_allclose(f.x, [x + v * np.cos(th) * dt, y + v * np.sin(th) * dt, th + w * dt], atol=1e-15)
+    F_notes = np.array([[1, 0, -v * np.sin(th) * dt], [0, 1, v * np.cos(th) * dt], [0, 0, 1]])
+    np.testing.assert_allclose(f.P, F_notes @ F_notes.T, atol=1e-15)
+
+
+def test_landmark_jacobian_matches_finite_differences():
+    x = np.array([1.0, -0.5, 2.8])
+    m = np.array([4.0, 3.0])
+    H = observation_jacobians(x, m)[0]
+    np.testing.assert_allclose(H, _fd_jacobian(lambda s: observe(s, m), x), atol=1e-7)
+
+
+def test_landmark_update_is_the_ekf_update():
+    """One range-bearing update equals the textbook EKF update written out here."""
+    x0, P0 = np.array([1.0, 2.0, 0.4]), np.diag([0.04, 0.09, 0.01])
+    m, z = np.array([5.0, 4.0]), np.array([4.4, 0.05])
+    R = np.diag([0.01, 0.0025])
+    f = EKFLocalizer(R_landmark=R.tolist(), gate_confidence=1.0)
+    f.reset(x0, P0)
+    assert f.update_landmark(z[0], z[1], m)
+    H = observation_jacobians(x0, m)[0]
+    S = H @ P0 @ H.T + R
+    K = P0 @ H.T @ np.linalg.inv(S)
+    y = z - observe(x0, m)
+    y[1] = wrap_angle(y[1])
+    np.testing.assert_allclose(f.x, x0 + K @ y, atol=1e-12)
+    np.testing.assert_allclose(f.P, (np.eye(3) - K @ H) @ P0, atol=1e-12)
+
+
+def test_gps_and_imu_updates_use_the_notes_H():
+    f = EKFLocalizer(gate_confidence=1.0)
+    P0 = np.diag([0.04, 0.09, 0.01])
+    f.reset((1.0, 2.0, 0.5), P0)
+    f.update_gps((1.1, 1.8))
+    np.testing.assert_allclose(f.x[:2], [1.0 + 0.04 / (0.04 + 1e-4) * 0.1, 2.0 - 0.09 / (0.09 + 1e-4) * 0.2], atol=1e-12)
+    assert f.x[2] == 0.5
+    f.update_imu(0.6)
+    np.testing.assert_allclose(f.x[2], 0.5 + 0.01 / (0.01 + 1e-3) * 0.1, atol=1e-12)
+
+
+# ---------------------------------------------------------------- errata of the notes
+def test_yaw_residual_is_wrapped():
+    """θ̂ = π − 0.05, z = −π + 0.05: the true difference is +0.1 rad, not −2π + 0.1."""
+    f = EKFLocalizer(gate_confidence=1.0)
+    f.reset((0.0, 0.0, np.pi - 0.05), np.diag([1.0, 1.0, 0.01]))
+    f.update_imu(-np.pi + 0.05)
+    gain = 0.01 / (0.01 + 1e-3)
+    assert abs(wrap_angle(f.x[2] - (np.pi - 0.05 + gain * 0.1))) < 1e-12
+    assert -np.pi < f.x[2] <= np.pi
+    naive = np.pi - 0.05 + gain * (-2 * np.pi + 0.1)  # the erroneous unwrapped innovation
+    assert abs(wrap_angle(naive - f.x[2])) > 0.5
+
+
+def test_bearing_residual_is_wrapped():
+    f = EKFLocalizer(gate_confidence=1.0)
+    f.reset((0.0, 0.0, np.pi - 0.02), np.diag([1e-4, 1e-4, 0.01]))
+    m = np.array([-5.0, -0.1])  # bearing from the estimate ≈ +0.04 rad; the measured −π-ish wrap must not flip it
+    z = observe(np.array([0.0, 0.0, -np.pi + 0.02]), m)  # true heading 0.04 rad further, across the ±π seam
+    f.update_landmark(z[0], z[1], m)
+    assert abs(wrap_angle(f.x[2] - (-np.pi + 0.02))) < 0.02
+
+
+@pytest.mark.parametrize("unit_q, unit", [(0.01, "per_step"), (0.5, "per_second")])
+def test_q_unit_is_stated_and_independent_of_how_time_is_cut(unit_q, unit):
+    """per_step Q=0.01 (per 0.02 s) ≡ per_second Q=0.5 m²/s. One second adds 0.5 whether it is
+    predicted in 50 steps or 200: the literal "+Q per predict call" would add 0.5 or 2.0."""
+    for n in (50, 200, 7):
+        f = EKFLocalizer(Q=unit_q, q_unit=unit, initial_cov=0.0)
+        for _ in range(n):
+            f.predict(0.0, 0.0, 1.0 / n)
+        np.testing.assert_allclose(np.diag(f.P), 0.5, rtol=1e-12)
+
+
+def test_twist_noise_of_split_commands_adds_up_to_the_whole_command():
+    seq_whole = Twist(t=[0.0], v=[1.0], omega=[0.0], dt=[0.02])
+    M = np.diag([0.05**2, 0.02**2])
+    a = EKFLocalizer(Q=0.0, twist_cov=M.tolist(), initial_cov=0.0)
+    a.predict(1.0, 0.0, 0.02)
+    b = EKFLocalizer(Q=0.0, twist_cov=M.tolist(), initial_cov=0.0)
+    b.predict(1.0, 0.0, 0.005, period=0.02)
+    b.predict(1.0, 0.0, 0.015, period=0.02)
+    # straight-line motion: x-variance is additive in the pieces and equals (σ_v τ)² for the whole command
+    assert a.P[0, 0] == pytest.approx((0.05 * 0.02) ** 2, rel=1e-12)
+    assert b.P[0, 0] == pytest.approx(a.P[0, 0], rel=1e-12)
+    assert len(seq_whole) == 1
+
+
+def test_compass_heading_converts_to_enu_yaw():
+    assert compass_to_yaw(0.0) == pytest.approx(np.pi / 2)  # north → +y
+    assert compass_to_yaw(np.pi / 2) == pytest.approx(0.0)  # east → +x
+    assert compass_to_yaw(np.pi) == pytest.approx(-np.pi / 2)
+    assert compass_to_yaw(0.0, declination=0.1) == pytest.approx(np.pi / 2 - 0.1)
+    # a filter told the heading is a compass heading localises; fed as yaw (the notes' H_imu = [0 0 1] on ψ) it does not
+    seq = _scenario(seed=1, duration=10.0)
+    psi = wrap_angle(np.pi / 2 - seq.heading.yaw)
+    compass = Sequence(**{**seq.__dict__, "heading": Heading(t=seq.heading.t, yaw=psi)})
+    good = _true_noise_filter(heading_convention="compass", gate_confidence={"imu": 1.0}).run(compass)
+    bad = _true_noise_filter(gate_confidence={"imu": 1.0}).run(compass)
+    err_good = np.abs(wrap_angle(good.poses[-1, 2] - seq.ground_truth.poses[-1, 2]))
+    err_bad = np.abs(wrap_angle(bad.poses[-1, 2] - seq.ground_truth.poses[-1, 2]))
+    assert err_good < 0.05 < 0.5 < err_bad
+    gated = _true_noise_filter().run(compass)  # with the gate, the misread heading is refused, not fused
+    assert gated.meta["rejected"]["imu"]["gate"] > 0.9 * len(seq.heading)
+
+
+# ---------------------------------------------------------------- bad input
+def test_dt_must_be_positive():
+    f = EKFLocalizer()
+    for dt in (0.0, -0.02, np.nan):
+        with pytest.raises(ValueError):
+            f.predict(1.0, 0.0, dt)
+    with pytest.raises(ValueError):
+        f.process(0.0, "twist", (1.0, 0.0, 0.0))
+
+
+def test_bad_configuration_is_rejected():
+    with pytest.raises(ValueError):
+        EKFLocalizer(q_unit="per_fortnight")
+    with pytest.raises(ValueError):
+        EKFLocalizer(Q=[[1, 2, 0], [0, 1, 0], [0, 0, 1]])
+    with pytest.raises(ValueError):
+        EKFLocalizer(gate_confidence={"lidar": 0.9})
+    with pytest.raises(ValueError):
+        EKFLocalizer(gate_confidence=0.0)
+    assert isinstance(create("ekf_localizer"), EKFLocalizer)
+
+
+def test_nonfinite_measurements_are_rejected_and_counted():
+    seq = _scenario(seed=2, duration=6.0, landmarks=np.array([[5.0, 5.0], [-3.0, 4.0]]))
+    gps_xy = seq.gps.xy.copy()
+    gps_xy[[3, 10], 0] = np.nan
+    gps_xy[20, 1] = np.inf
+    yaw = seq.heading.yaw.copy()
+    yaw[[5, 6, 7]] = np.nan
+    rng = seq.range_bearing.range.copy()
+    rng[4] = np.nan
+    v = seq.motion.v.copy()
+    v[17] = np.nan
+    bad = Sequence(**{**seq.__dict__, "gps": Gps(t=seq.gps.t, xy=gps_xy), "heading": Heading(t=seq.heading.t, yaw=yaw),
+                      "range_bearing": RangeBearing(t=seq.range_bearing.t, range=rng, bearing=seq.range_bearing.bearing,
+                                                    landmark_id=seq.range_bearing.landmark_id),
+                      "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt)})
+    est = _true_noise_filter().run(bad)
+    assert np.all(np.isfinite(est.poses)) and np.all(np.isfinite(est.pose_cov))
+    assert est.meta["rejected"]["gps"]["nonfinite"] == 3
+    assert est.meta["rejected"]["imu"]["nonfinite"] == 3
+    assert est.meta["rejected"]["landmark"]["nonfinite"] == 1
+    assert est.meta["rejected"]["motion"]["nonfinite"] == 1
+    assert int(est.diagnostics["rejected_gps_nonfinite"]) == 3
+    f = EKFLocalizer()
+    f.process(0.0, "gps", (0.0, 0.0))
+    f.process(np.nan, "gps", (0.0, 0.0))
+    assert f.rejected["gps"]["nonfinite"] == 1
+
+
+def test_unknown_landmark_ids_are_counted():
+    seq = _scenario(seed=3, duration=2.0, landmarks=np.array([[5.0, 5.0], [-3.0, 4.0]]))
+    rb = seq.range_bearing
+    ids = rb.landmark_id.copy()
+    ids[::2] = 99
+    est = _true_noise_filter().run(Sequence(**{**seq.__dict__, "range_bearing": RangeBearing(t=rb.t, range=rb.range, bearing=rb.bearing, landmark_id=ids)}))
+    assert est.meta["rejected"]["landmark"]["unknown_landmark"] == int(np.sum(ids == 99))
+
+
+# ---------------------------------------------------------------- run(), accuracy, NIS
+def test_run_records_one_pose_per_event_and_localizes():
+    seq = _scenario(seed=4, duration=20.0)
+    est = _true_noise_filter().run(seq)
+    n_events = len(seq.motion) + len(seq.gps) + len(seq.heading)
+    assert est.t.shape == (n_events,) and est.poses.shape == (n_events, 3) and est.pose_cov.shape == (n_events, 3, 3)
+    assert est.step_time.shape == (n_events,) and np.all(est.step_time >= 0)
+    assert np.all(np.diff(est.t) >= 0)
+    err = est.poses[:, :2] - _truth_at(seq, est.t)[:, :2]
+    rmse = np.sqrt(np.mean(np.sum(err**2, axis=1)))
+    dead = EKFLocalizer(Q=0.0).run(Sequence(**{**seq.__dict__, "gps": None, "heading": None}))
+    dead_rmse = np.sqrt(np.mean(np.sum((dead.poses[:, :2] - _truth_at(seq, dead.t)[:, :2]) ** 2, axis=1)))
+    assert rmse < 0.01 and dead_rmse > 3 * rmse
+    for sensor, dim in (("gps", 2), ("imu", 1)):
+        nis = est.diagnostics[f"nis_{sensor}"]
+        assert int(est.diagnostics[f"nis_dim_{sensor}"]) == dim
+        assert nis.size == len(getattr(seq, "gps" if sensor == "gps" else "heading"))
+        assert abs(nis.mean() - dim) < 0.25 * dim
+
+
+def test_landmark_localization_beats_dead_reckoning():
+    lms = np.array([[5.0, 5.0], [-3.0, 4.0], [10.0, -2.0], [0.0, 12.0], [15.0, 8.0]])
+    seq = _scenario(seed=5, duration=30.0, landmarks=lms)
+    seq = Sequence(**{**seq.__dict__, "gps": None, "heading": None})
+    est = _true_noise_filter().run(seq)
+    err = np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
+    dead = EKFLocalizer(Q=0.0).run(Sequence(**{**seq.__dict__, "range_bearing": None}))
+    dead_err = np.linalg.norm(dead.poses[:, :2] - _truth_at(seq, dead.t)[:, :2], axis=1)
+    assert err.max() < 0.15 and dead_err.max() > 3 * err.max()
+    nis = est.diagnostics["nis_landmark"]
+    assert abs(nis.mean() - 2.0) < 0.4
+
+
+# ---------------------------------------------------------------- gating, outages
+def test_gps_outlier_burst_does_not_move_the_estimate():
+    seq = _scenario(seed=6, duration=30.0)
+    rng = np.random.default_rng(0)
+    spikes = rng.choice(len(seq.gps), size=int(0.02 * len(seq.gps)), replace=False)
+    xy = seq.gps.xy.copy()
+    angle = rng.uniform(0, 2 * np.pi, spikes.size)
+    xy[spikes] += 10.0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    spiked = Sequence(**{**seq.__dict__, "gps": Gps(t=seq.gps.t, xy=xy)})
+    clean = _true_noise_filter().run(seq)
+    gated = _true_noise_filter().run(spiked)
+    ungated = _true_noise_filter(gate_confidence=1.0).run(spiked)
+    assert gated.meta["rejected"]["gps"]["gate"] == spikes.size
+    assert np.max(np.linalg.norm(gated.poses[:, :2] - clean.poses[:, :2], axis=1)) < 0.01  # the GPS σ
+    assert np.max(np.linalg.norm(ungated.poses[:, :2] - clean.poses[:, :2], axis=1)) > 1.0
+
+
+def test_recovery_after_a_20_s_gps_outage():
+    seq = _scenario(seed=7, duration=50.0)
+    out = (seq.gps.t > 15.0) & (seq.gps.t < 35.0)
+    no_gps = Sequence(**{**seq.__dict__, "gps": seq.gps.select(~out)})
+    est = _true_noise_filter().run(no_gps)
+    pos_var = est.pose_cov[:, 0, 0] + est.pose_cov[:, 1, 1]
+    inside = (est.t > 15.0) & (est.t < 35.0)
+    grow = pos_var[inside]
+    assert grow[-1] > 50 * grow[0]  # covariance grows through the outage (IMU keeps θ; x, y drift)
+    err = np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
+    assert err[inside].max() > 0.02
+    after = est.t > 36.0
+    assert err[after].max() < 0.03  # back to GPS accuracy within a second
+    assert pos_var[after].max() < 4e-4
+    assert est.meta["rejected"]["gps"].get("gate", 0) == 0  # the first fixes after the outage are accepted
+
+
+# ---------------------------------------------------------------- delayed, out-of-order input
+def _stream(seq: Sequence) -> list[tuple[float, str, object]]:
+    items = [(t, "twist", (v, w, dt)) for t, v, w, dt in zip(seq.motion.t, seq.motion.v, seq.motion.omega, seq.motion.dt)]
+    items += [(t, "gps", xy) for t, xy in zip(seq.gps.t, seq.gps.xy)]
+    items += [(t, "imu", yaw) for t, yaw in zip(seq.heading.t, seq.heading.yaw)]
+    return sorted(items, key=lambda item: item[0])
+
+
+def _arrive(items, max_delay, seed):
+    rng = np.random.default_rng(seed)
+    arrival = np.array([t for t, _, _ in items]) + rng.uniform(0, max_delay, len(items))
+    return [items[k] for k in np.argsort(arrival, kind="stable")]
+
+
+def test_out_of_order_input_gives_the_in_order_estimate():
+    seq = _scenario(seed=8, duration=10.0)
+    in_order = _true_noise_filter().run(seq)
+    f = _true_noise_filter(history_length=1.0)
+    f._configure_noise(seq)
+    f.reset(seq.start_pose, t=seq.t0)
+    shuffled = _arrive(_stream(seq), max_delay=0.3, seed=1)
+    assert any(a[0] > b[0] for a, b in zip(shuffled, shuffled[1:]))  # really out of order
+    for t, kind, value in shuffled:
+        f.process(t, kind, value)
+    np.testing.assert_allclose(f.x, in_order.poses[-1], atol=1e-9)
+    np.testing.assert_allclose(f.P, in_order.pose_cov[-1], atol=1e-12)
+    ht, hx, hP = f.history()
+    last = np.r_[ht[1:] > ht[:-1], True]  # the state after the last input of each stamp
+    ht, hx, hP = ht[last], hx[last], hP[last]
+    k = np.searchsorted(in_order.t, ht, side="right") - 1
+    assert ht.size > 50
+    np.testing.assert_allclose(hx, in_order.poses[k], atol=1e-9)
+    np.testing.assert_allclose(hP, in_order.pose_cov[k], atol=1e-12)
+    assert f.rejected["gps"].get("too_old", 0) == 0
+
+
+def test_input_older_than_the_history_is_rejected_and_counted():
+    seq = _scenario(seed=9, duration=5.0)
+    f = _true_noise_filter(history_length=0.5)
+    f._configure_noise(seq)
+    f.reset(seq.start_pose, t=seq.t0)
+    items = _stream(seq)
+    late_gps = [it for it in items if it[1] == "gps"][:5]  # the first five fixes arrive at the very end
+    for it in items:
+        if not any(it is late for late in late_gps):
+            f.process(*it)
+    for it in late_gps:
+        f.process(*it)
+    assert f.rejected["gps"]["too_old"] == 5
+    assert np.all(np.isfinite(f.x))
