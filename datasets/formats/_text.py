@@ -71,8 +71,9 @@ def _token_counts(blob: bytes, n_lines: int) -> np.ndarray:
     space = (b == 32) | (b == 9) | (b == 10) | (b == 13) | (b == 11) | (b == 12)
     starts = ~space
     starts[1:] &= space[:-1]
-    line_of = np.cumsum(b == 10)
-    return np.bincount(line_of[starts], minlength=n_lines)[:n_lines]
+    first_token = np.flatnonzero(starts)
+    bounds = np.concatenate([[0], np.flatnonzero(b == 10) + 1, [b.size]])[: n_lines + 1]
+    return np.diff(np.searchsorted(first_token, bounds))
 
 
 def _first_bad_token(bodies: list[str]) -> tuple[int, str]:

@@ -1,0 +1,267 @@
+"""CARMEN log files (``.clf``, ``.log``; optionally ``.gz``/``.bz2``): raw and SLAM-corrected logs.
+
+One message per line (metres, radians; the last three fields of a message are
+``ipc_timestamp ipc_hostname logger_timestamp``)::
+
+    ODOM        x y θ tv rv accel  ts host lts                      odometry pose of the robot
+    FLASER      n r_1…r_n  x y θ  odom_x odom_y odom_θ  ts host lts  laser pose, robot odometry pose
+    ROBOTLASER1 type start fov res max_range accuracy remission_mode n r_1…r_n  m rem_1…rem_m
+                laser_x laser_y laser_θ  robot_x robot_y robot_θ  tv rv fwd_safety side_safety turn_axis ts host lts
+    PARAM name value ts host lts        kept in meta["params"]
+    NEFF value                          (corrected logs) counted
+
+Other message names (SYNC, RLASER, TRUEPOS, NMEA…) are counted in ``meta["ignored_messages"]``;
+a first token that is not a message name (upper-case identifier) is a :class:`DataFormatError`.
+
+The :class:`Sequence` of a **raw** log:
+
+- ``scans``: :class:`Scans` (float32 ranges) with ``pose`` = the robot's odometry pose at each
+  scan, ``mount`` = the laser pose in the robot frame (FLASER: ``between(odom pose, laser pose)``;
+  ROBOTLASER1: ``between(robot pose, laser pose)``; the median over scans, the spread is in
+  ``meta["mount_spread"]``). Beam angles: FLASER covers 180° from −90°, ``n`` even → step π/n
+  (180 → 1°, 360 → 0.5°), ``n`` odd → step π/(n−1) (181, 361: both ends included); ROBOTLASER1
+  states ``start + k·res``. One Scans stream has one beam layout: scans of other layouts are
+  dropped and counted (``meta["dropped_scans_other_layout"]``; choose with ``beams=``).
+  ``max_range``: readings ``>= max_range`` are "no return" (the per-dataset sentinel, e.g. 81.83 m
+  for Intel; when not given: ROBOTLASER1's stated max range, else the largest reading of the log).
+- ``motion``: :class:`Increments` ``between(pose_{k−1}, pose_k)`` of consecutive ODOM poses at the
+  ODOM stamps (logs without ODOM: of the scans' odometry poses at the scan stamps).
+- ``initial_pose``: the first odometry pose, so dead reckoning reproduces the odometry frame.
+
+A **corrected** log (``corrected=True``) carries the SLAM-corrected pose in the FLASER pose fields
+and repeats it in an ODOM line with timestamp 0 after each scan; those ODOM lines are skipped
+(counted). ``Scans.pose`` and ``ground_truth`` are the corrected poses
+(``meta["ground_truth_kind"] = "slam-reference"``: a reference, not independent truth); ``motion``
+is the raw odometry between consecutive scans (the last raw ODOM pose before each scan).
+
+Time: ``t`` is the ipc_timestamp. Real logs contain stamps that step backwards (Intel: 631 scans,
+jitter < 1 s, while the file order is the true order: sorting by stamp makes the odometry path
+30 % longer). Stamps are therefore made non-decreasing in file order by a running maximum over all
+timestamped messages (``meta["time_adjusted_messages"]`` counts the changed ones; ``strict_time=True``
+raises instead). Where stamps are unusable (zero, negative, or stepping back by more than 1 s —
+several corrected logs) ``t`` is the scan index (``meta["time_source"]``). The original stamps are
+always kept in ``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..geometry import between
+from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
+from ._text import Lines, check_monotonic, fixed, numbers, read_lines, tags
+
+__all__ = ["read", "load", "beam_angles", "JITTER_S"]
+
+#: largest backward step of ipc timestamps treated as clock jitter (clamped), seconds
+JITTER_S = 1.0
+_NAME = re.compile(r"^[A-Z][A-Z0-9_\-]*$")
+
+
+def beam_angles(n: int) -> np.ndarray:
+    """FLASER beam angles: 180° from −90°; even n → step π/n, odd n → step π/(n−1)."""
+    step = np.pi / n if n % 2 == 0 else np.pi / max(n - 1, 1)
+    return -np.pi / 2 + step * np.arange(n)
+
+
+def _heads(lines: Lines, rows: np.ndarray) -> list[str]:
+    """Numeric part of messages ending in ``ts host lts``: the tag and ``host lts`` removed."""
+    out = []
+    for r in rows:
+        parts = lines[r].split(None, 1)
+        tail = parts[1].rsplit(None, 2) if len(parts) > 1 else []
+        out.append(tail[0] if len(tail) == 3 else "")
+    return out
+
+
+def _fail(lines: Lines, row: int, expected: str) -> DataFormatError:
+    return DataFormatError(lines.path, row + 1, expected, lines[row][:100])
+
+
+def _flaser(lines: Lines, rows: np.ndarray):
+    heads = _heads(lines, rows)
+    values, counts = numbers(lines.path, heads, rows + 1, "a FLASER message")
+    off = np.cumsum(counts) - counts
+    has_n = counts > 0
+    n = np.where(has_n, values[np.minimum(off, max(values.size - 1, 0))] if values.size else 0, -1)
+    bad = np.flatnonzero(~has_n | (n != np.round(n)) | (n < 0) | (counts != n + 8))
+    if bad.size:
+        raise _fail(lines, int(rows[bad[0]]), "FLASER n r_1..r_n x y theta odom_x odom_y odom_theta ts host lts")
+    n = n.astype(np.int64)
+    tail = off + 1 + n
+    laser = values[tail[:, None] + np.arange(3)]
+    odom = values[tail[:, None] + 3 + np.arange(3)]
+    ts = values[tail + 6]
+    return values, off + 1, n, laser, odom, ts, None, None
+
+
+def _robotlaser(lines: Lines, rows: np.ndarray):
+    heads = _heads(lines, rows)
+    values, counts = numbers(lines.path, heads, rows + 1, "a ROBOTLASER1 message")
+    off = np.cumsum(counts) - counts
+    expected = "ROBOTLASER1 type start fov res max_range accuracy mode n r.. m rem.. laser_pose robot_pose tv rv 3 more ts host lts"
+    ok = counts >= 9
+    n = np.full(len(rows), -1.0)
+    n[ok] = values[off[ok] + 7]
+    ok &= (n == np.round(n)) & (n >= 0) & (counts >= n + 9)
+    m = np.full(len(rows), -1.0)
+    m[ok] = values[off[ok] + 8 + n[ok].astype(np.int64)]
+    ok &= (m == np.round(m)) & (m >= 0) & (counts == n + m + 21)
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        raise _fail(lines, int(rows[bad[0]]), expected)
+    n = n.astype(np.int64)
+    m = m.astype(np.int64)
+    tail = off + 9 + n + m
+    laser = values[tail[:, None] + np.arange(3)]
+    robot = values[tail[:, None] + 3 + np.arange(3)]
+    ts = values[tail + 11]
+    start, res, max_range = values[off + 1], values[off + 3], values[off + 4]
+    return values, off + 8, n, laser, robot, ts, (start, res), max_range
+
+
+def _usable(ts: np.ndarray) -> bool:
+    """Stamps that are positive, finite, not all equal, and step back by at most :data:`JITTER_S`."""
+    if ts.size == 0:
+        return True
+    back = np.maximum.accumulate(ts) - ts
+    return bool(np.all(np.isfinite(ts)) and np.all(ts > 0) and back.max() <= JITTER_S and (ts.size == 1 or np.ptp(ts) > 0))
+
+
+def _params(lines: Lines, rows: np.ndarray) -> dict:
+    out = {}
+    for r in rows:
+        parts = lines[r].split()
+        if len(parts) >= 3:
+            out[parts[1]] = parts[2]
+    return out
+
+
+def read(path: str | Path, max_range: float | None = None, corrected: bool = False, beams: int | None = None,
+         strict_time: bool = False, name: str | None = None) -> Sequence:
+    """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
+    lines = read_lines(path)
+    tag = tags(lines)
+    present = [t for t in np.unique(tag) if t]
+    for t in present:
+        if not _NAME.match(t):
+            raise _fail(lines, int(np.flatnonzero(tag == t)[0]), "a CARMEN message name (upper-case identifier)")
+    odom_rows = np.flatnonzero(tag == "ODOM")
+    flaser_rows = np.flatnonzero(tag == "FLASER")
+    rl_rows = np.flatnonzero(tag == "ROBOTLASER1")
+    if flaser_rows.size and rl_rows.size:
+        raise _fail(lines, int(max(flaser_rows[0], rl_rows[0])), "one laser message type per log (FLASER or ROBOTLASER1)")
+    scan_rows = flaser_rows if flaser_rows.size else rl_rows
+    if not scan_rows.size:
+        raise DataFormatError(lines.path, None, "FLASER or ROBOTLASER1 messages", "none")
+    parse = _flaser if flaser_rows.size else _robotlaser
+    values, first, n, laser_pose, robot_pose, scan_ts, layout, stated_max = parse(lines, scan_rows)
+
+    odo = fixed(lines.path, _heads(lines, odom_rows), odom_rows + 1, 7, "an ODOM message (x y theta tv rv accel ts host lts)")
+    odo_ts = odo[:, 6]
+    # corrected logs echo each scan's corrected pose in the ODOM line right after it (usually with
+    # timestamp 0; some echoes carry garbage stamps, and freiburg-campus stamps ALL odometry 0)
+    after = np.searchsorted(scan_rows, odom_rows) - 1
+    messages = np.flatnonzero(tag != "")
+    prev_line = messages[np.searchsorted(messages, odom_rows) - 1] if odom_rows.size else odom_rows
+    echo = np.isin(prev_line, scan_rows) if corrected else np.zeros(len(odo), dtype=bool)
+    echo_matches = int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum()) if corrected else 0
+    zero_odom_count = int((odo_ts == 0).sum())
+    odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
+
+    # --- one beam layout per Scans stream
+    key = np.column_stack([n, *(np.round(a, 6) for a in layout)]) if layout else n[:, None]
+    layouts, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    if beams is None:
+        chosen = int(np.argmax(counts))
+    else:
+        matches = np.flatnonzero(layouts[:, 0] == beams)
+        if not matches.size:
+            raise ValueError(f"{lines.path}: no scans with {beams} beams (layouts: {layouts[:, 0].astype(int).tolist()})")
+        chosen = int(matches[np.argmax(counts[matches])])
+    keep = inverse == chosen
+    B = int(layouts[chosen, 0])
+    angles = beam_angles(B) if layout is None else layouts[chosen, 1] + layouts[chosen, 2] * np.arange(B)
+    ranges = values[first[keep][:, None] + np.arange(B)].astype(np.float32)
+
+    # --- time (per stream: running maximum over jitter; else the scan index)
+    meta: dict = {}
+    if strict_time:
+        check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
+        check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
+    streams = [scan_ts[keep]] + ([odo_ts] if not corrected else [])
+    if all(_usable(ts) for ts in streams):
+        scan_t = np.maximum.accumulate(scan_ts[keep])
+        odo_t = np.maximum.accumulate(odo_ts) if odo_ts.size else odo_ts
+        meta["time_source"] = "ipc_timestamp (running maximum within each message type)"
+        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if corrected else (odo_t != odo_ts).sum()))
+    else:
+        # unusable stamps: the scan index; each ODOM at the index of the next scan in file order
+        scan_t = np.arange(keep.sum(), dtype=float)
+        odo_t = np.searchsorted(scan_rows[keep], odom_rows).astype(float)
+        meta["time_source"] = "scan index (ipc timestamps zero, negative or stepping back more than 1 s)"
+        meta["time_adjusted_messages"] = 0
+
+    # --- poses, mount, motion
+    mounts = between(robot_pose[keep], laser_pose[keep])
+    mount = np.median(mounts, axis=0)
+    if corrected:
+        # each scan's odometry = last raw ODOM pose before it in the file (else the first one)
+        last = np.searchsorted(odom_rows, scan_rows[keep]) - 1
+        motion = None
+        if odo.shape[0]:
+            scan_odom = odo[np.clip(last, 0, None), :3]
+            motion = Increments(t=scan_t[1:], delta=between(scan_odom[:-1], scan_odom[1:]))
+        truth = Trajectory(t=scan_t, poses=robot_pose[keep])
+        initial = robot_pose[keep][0]
+        meta["ground_truth_kind"] = "slam-reference"
+        meta["motion_source"] = "raw ODOM pose before each scan, between consecutive scans"
+    else:
+        truth = None
+        if odo.shape[0] >= 2:
+            motion = Increments(t=odo_t[1:], delta=between(odo[:-1, :3], odo[1:, :3]))
+            initial = odo[0, :3]
+            meta["motion_source"] = "ODOM poses, between consecutive messages"
+        else:
+            motion = Increments(t=scan_t[1:], delta=between(robot_pose[keep][:-1], robot_pose[keep][1:]))
+            initial = robot_pose[keep][0]
+            meta["motion_source"] = "odometry pose of each scan message (the log has no ODOM)"
+        meta["ground_truth_kind"] = "none"
+
+    if max_range is None:
+        max_range = float(np.max(stated_max[keep])) if stated_max is not None else float(values[first[keep][:, None] + np.arange(B)].max())
+        meta["max_range_source"] = "ROBOTLASER1 max_range" if stated_max is not None else "largest reading of the log"
+    else:
+        meta["max_range_source"] = "given (the dataset's no-return sentinel)"
+    scans = Scans(t=scan_t, ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=robot_pose[keep])
+    ignored = {str(t): int((tag == t).sum()) for t in present if t not in ("ODOM", "FLASER", "ROBOTLASER1", "PARAM")}
+    meta.update({
+        "format": "CARMEN log", "file": lines.path, "corrected": corrected,
+        "scan_message": "FLASER" if flaser_rows.size else "ROBOTLASER1",
+        "scans": int(keep.sum()), "odom_messages": int(len(odo)),
+        "skipped_echo_odom": int(echo.sum()),
+        "echo_odom_matching_scan_pose": echo_matches,
+        "zero_time_odom": zero_odom_count,
+        "dropped_scans_other_layout": int((~keep).sum()),
+        "beam_layouts": [{"beams": int(layouts[k, 0]), "start": float(angles[0] if layout is None else layouts[k, 1]),
+                          "step": float(np.diff(beam_angles(int(layouts[k, 0])))[0] if layout is None else layouts[k, 2]),
+                          "scans": int(counts[k]), "chosen": k == chosen} for k in range(len(layouts))],
+        "no_return_readings": int((ranges >= max_range).sum()),
+        "mount_spread": float(np.abs(mounts - mount).max()) if mounts.size else 0.0,
+        "ignored_messages": ignored,
+        "params": _params(lines, np.flatnonzero(tag == "PARAM")),
+        "scan_ipc_timestamp": scan_ts[keep],
+        "odom_ipc_timestamp": odo_ts,
+        "noise": "not stated by the log",
+    })
+    return Sequence(name=name or Path(path).name, motion=motion, scans=scans, ground_truth=truth,
+                    initial_pose=initial, noise=Noise(), meta=meta)
+
+
+def load(paths: dict, name: str, **params) -> Sequence:
+    """Catalogue reader: role ``log``; ``max_range``, ``corrected``, ``beams`` from the entry/params."""
+    return read(paths["log"], name=name, **params)
