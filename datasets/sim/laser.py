@@ -1,0 +1,350 @@
+"""``sim:laser`` — a polygon world with ray-cast 2D laser scans and noisy wheel odometry.
+
+World
+-----
+A world (:data:`WORLDS`) is a set of wall polylines — line segments of zero thickness, metres —
+and a closed **route**, a polygon of waypoints the robot follows with its corners rounded
+by circular fillets of radius ``corner_radius``. ``"loop"``: a 4 m wide corridor around a
+central block (24 m × 16 m outside) with alcoves and pillars, so that corridors are not
+featureless. ``"rooms"``: an office floor (32 m × 22 m) — a ring corridor around a central
+block, with ten rooms off the corridor behind 1 m doors and some furniture in the rooms.
+:func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
+:func:`true_occupancy` rasterises them for map IoU.
+
+Motion and odometry
+-------------------
+The true controls drive the route at ``speed`` (each straight stretched to a whole number of
+odometry periods ``dt = 1/odom_rate``; each fillet a whole number of periods at
+``ω = α/(n dt)``, ``v = |ω| r``), so the true path, integrated with the exact arc model
+(``estimators.models.ARC``), closes every lap. Ground truth: the true pose at every odometry
+stamp ``t_k = t0 + k dt``, ``k = 0 … K`` (``t0`` included).
+
+Wheel odometry: ``Increments`` row k (stamp ``t_{k+1}``) is the body-frame motion from ``t_k``
+to ``t_{k+1}``, ``δ̃_k = δ_k + ε_k``, ``ε_k ~ N(0, C_k)`` with a variance that grows with the
+motion (so the drift per metre does not depend on the odometry rate)::
+
+    C_k = diag(k_t² |Δs|, k_s² |Δs|, k_r² |Δθ| + k_rt² |Δs|) + 1e-12 I
+
+``Δs`` the true arc length, ``Δθ`` the true turn; ``k_t`` [m/√m] along, ``k_s`` [m/√m] across,
+``k_r`` [rad/√rad], ``k_rt`` [rad/√m]. ``Increments.cov`` holds every ``C_k`` (the stated noise).
+
+Scans
+-----
+Scans at ``scan_rate`` (a divisor of ``odom_rate``), at odometry stamps ``t0 + j/scan_rate``,
+``t0`` included. Beam ``b`` of a scan leaves the sensor pose ``x ⊕ mount`` (``x`` the true
+pose, ``mount`` the sensor pose in the robot frame) at angle ``angles[b]`` (``fov`` wide,
+centred ahead; end points included unless ``fov = 2π``). The reading is the distance to the
+nearest wall, ray-cast over all beams × all segments (numpy), plus ``N(0, sigma_range²)``;
+a beam that hits nothing within ``max_range`` — or whose noisy reading reaches it, or that
+drops out (probability ``dropout``) — reads exactly ``max_range`` ("no return",
+``Scans.max_range``). ``Scans.pose`` is the odometry pose (the noisy increments accumulated
+from the true start pose) at each scan: what a log attaches to its scans.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry import accumulate, compose, wrap_angle
+from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
+
+__all__ = ["World", "WORLDS", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
+
+#: sensor poses × beams × segments evaluated at once by :func:`raycast`
+_BLOCK_ELEMENTS = 1_000_000
+
+
+@dataclass(frozen=True)
+class World:
+    """Walls (polylines of (x, y) vertices) and the closed route the robot drives."""
+
+    name: str
+    walls: tuple
+    route: tuple
+    corner_radius: float
+    description: str
+
+
+def _box(x0, y0, x1, y1):
+    return ((x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0))
+
+
+def _wall_with_doors(fixed: float, lo: float, hi: float, doors, horizontal: bool):
+    """A straight wall from ``lo`` to ``hi`` at ``fixed`` with gaps ``[(a, b), …]``; returns polylines."""
+    edges = [lo] + [e for door in doors for e in door] + [hi]
+    pieces = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        pieces.append(((a, fixed), (b, fixed)) if horizontal else ((fixed, a), (fixed, b)))
+    return tuple(pieces)
+
+
+_LOOP = World(
+    name="loop",
+    walls=(
+        ((0, 0), (8, 0), (8, -1.5), (10, -1.5), (10, 0), (24, 0), (24, 9), (25.5, 9), (25.5, 11), (24, 11), (24, 16),
+         (14, 16), (14, 17.5), (12, 17.5), (12, 16), (0, 16), (0, 0)),
+        ((4, 4), (15, 4), (15, 4.6), (16.5, 4.6), (16.5, 4), (20, 4), (20, 12), (4, 12), (4, 4)),
+        _box(16.0, 0.4, 16.5, 0.9),
+        _box(22.8, 5.5, 23.3, 6.0),
+        _box(7.0, 15.1, 7.6, 15.6),
+        _box(0.4, 7.5, 0.9, 8.0),
+    ),
+    route=((12.0, 2.0), (22.0, 2.0), (22.0, 14.0), (2.0, 14.0), (2.0, 2.0)),
+    corner_radius=1.5,
+    description="4 m corridor loop around a 16 m × 8 m block, with alcoves and pillars",
+)
+
+_ROOM_DOORS = ((7.5, 8.5), (13.0, 14.0), (18.0, 19.0), (23.5, 24.5))
+_ROOMS = World(
+    name="rooms",
+    walls=(
+        _box(0, 0, 32, 22),
+        _box(8, 8, 24, 14),
+        *_wall_with_doors(5.0, 5.0, 27.0, _ROOM_DOORS, horizontal=True),
+        *_wall_with_doors(17.0, 5.0, 27.0, _ROOM_DOORS, horizontal=True),
+        *_wall_with_doors(5.0, 5.0, 17.0, ((7.5, 8.5), (13.5, 14.5)), horizontal=False),
+        *_wall_with_doors(27.0, 5.0, 17.0, ((7.5, 8.5), (13.5, 14.5)), horizontal=False),
+        *(((x, 0), (x, 5)) for x in (11, 16, 21)),
+        *(((x, 17), (x, 22)) for x in (11, 16, 21)),
+        ((0, 5), (5, 5)), ((0, 17), (5, 17)), ((27, 5), (32, 5)), ((27, 17), (32, 17)),
+        ((0, 11), (5, 11)), ((27, 11), (32, 11)),
+        _box(2.0, 1.5, 4.0, 2.5), _box(13.0, 19.0, 14.0, 21.0), _box(29.0, 13.0, 31.0, 14.0), _box(17.5, 1.0, 19.5, 2.0),
+    ),
+    route=((16.0, 6.5), (25.5, 6.5), (25.5, 15.5), (6.5, 15.5), (6.5, 6.5)),
+    corner_radius=1.2,
+    description="office floor: ring corridor around a 16 m × 6 m block, ten rooms behind 1 m doors, furniture",
+)
+
+#: world name → World
+WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, _ROOMS)}
+
+
+def _world(world: str | World) -> World:
+    if isinstance(world, World):
+        return world
+    if world not in WORLDS:
+        raise ValueError(f"unknown world {world!r}; choose from {sorted(WORLDS)}")
+    return WORLDS[world]
+
+
+def segments(world: str | World = "loop") -> np.ndarray:
+    """The world's walls as ``(S, 4)`` segments ``(x0, y0, x1, y1)`` [m]."""
+    rows = []
+    for line in _world(world).walls:
+        p = np.asarray(line, dtype=float)
+        rows.append(np.hstack([p[:-1], p[1:]]))
+    return np.vstack(rows)
+
+
+def raycast(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, max_range: float = np.inf) -> np.ndarray:
+    """Distance along each ray to the nearest wall, ``inf`` when none is hit within ``max_range``.
+
+    ``origins`` (P, 2) sensor positions, ``directions`` (P, B) world angles of the beams,
+    ``walls`` (S, 4). Ray ``o + t d`` meets segment ``a + u e`` (``e = b − a``) at
+    ``t = (w × e)/(d × e)``, ``u = (w × d)/(d × e)`` with ``w = a − o``; a hit needs ``t > 0``
+    and ``0 ≤ u ≤ 1``. Parallel rays never hit. Vectorised over P × B × S in blocks.
+    """
+    origins = np.asarray(origins, dtype=float).reshape(-1, 2)
+    directions = np.asarray(directions, dtype=float).reshape(origins.shape[0], -1)
+    walls = np.asarray(walls, dtype=float).reshape(-1, 4)
+    P, B = directions.shape
+    a, e = walls[:, :2], walls[:, 2:] - walls[:, :2]
+    out = np.full((P, B), np.inf)
+    block = max(1, _BLOCK_ELEMENTS // max(1, B * walls.shape[0]))
+    for lo in range(0, P, block):
+        o = origins[lo:lo + block, None, None, :]  # (p, 1, 1, 2)
+        dx = np.cos(directions[lo:lo + block])[:, :, None]  # (p, B, 1)
+        dy = np.sin(directions[lo:lo + block])[:, :, None]
+        wx = a[None, None, :, 0] - o[..., 0]  # (p, 1, S)
+        wy = a[None, None, :, 1] - o[..., 1]
+        denom = dx * e[:, 1] - dy * e[:, 0]  # d × e, (p, B, S)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (wx * e[:, 1] - wy * e[:, 0]) / denom
+            u = (wx * dy - wy * dx) / denom
+        hit = (denom != 0) & (t > 0) & (u >= 0) & (u <= 1)
+        nearest = np.where(hit, t, np.inf).min(axis=2)
+        out[lo:lo + block] = np.where(nearest <= max_range, nearest, np.inf)
+    return out
+
+
+def true_occupancy(resolution: float, world: str | World = "loop", origin=None, shape=None, margin: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The walls rasterised: a boolean grid ``occupied[iy, ix]`` and its ``origin`` (2,).
+
+    Conventions of :mod:`mapping.occupancy_grid`: ``origin`` is the lower-left corner of cell
+    (0, 0), cell ``(ix, iy)`` covers ``origin + [i, i + 1)·resolution``. A cell is occupied when
+    a wall segment meets its closed square (so a wall lying exactly on a cell border marks
+    the cells on both sides). Default grid: the walls' bounding box plus ``margin``, with the
+    origin shifted half a cell so that cell centres fall on multiples of ``resolution`` (walls
+    on round coordinates then run through cell centres, one cell thick). Give ``origin`` and
+    ``shape = (ny, nx)`` to rasterise onto an estimated map's grid.
+    """
+    if not resolution > 0:
+        raise ValueError("resolution must be > 0")
+    walls = segments(world)
+    if origin is None:
+        lo = walls.reshape(-1, 2).min(axis=0) - margin
+        origin = (np.floor(lo / resolution) - 0.5) * resolution
+    origin = np.asarray(origin, dtype=float).reshape(2)
+    if shape is None:
+        hi = walls.reshape(-1, 2).max(axis=0) + margin
+        nx, ny = (np.ceil((hi - origin) / resolution)).astype(int) + 1
+        shape = (int(ny), int(nx))
+    ny, nx = shape
+    grid = np.zeros((ny, nx), dtype=bool)
+    for x0, y0, x1, y1 in walls:
+        i_lo = np.floor((np.minimum([x0, y0], [x1, y1]) - origin) / resolution).astype(int) - 1
+        i_hi = np.floor((np.maximum([x0, y0], [x1, y1]) - origin) / resolution).astype(int) + 1
+        i_lo = np.maximum(i_lo, 0)
+        i_hi = np.minimum(i_hi, [nx - 1, ny - 1])
+        if np.any(i_hi < i_lo):
+            continue
+        ix, iy = np.meshgrid(np.arange(i_lo[0], i_hi[0] + 1), np.arange(i_lo[1], i_hi[1] + 1))
+        cx0 = origin[0] + ix * resolution
+        cy0 = origin[1] + iy * resolution
+        grid[iy, ix] |= _segment_meets_box(x0, y0, x1, y1, cx0, cy0, cx0 + resolution, cy0 + resolution)
+    return grid, origin
+
+
+def _segment_meets_box(x0, y0, x1, y1, bx0, by0, bx1, by1) -> np.ndarray:
+    """Whether segment (x0, y0)–(x1, y1) meets the closed boxes [bx0, bx1] × [by0, by1] (Liang–Barsky)."""
+    t_in = np.zeros(np.shape(bx0))
+    t_out = np.ones(np.shape(bx0))
+    ok = np.ones(np.shape(bx0), dtype=bool)
+    for p0, d, lo, hi in ((x0, x1 - x0, bx0, bx1), (y0, y1 - y0, by0, by1)):
+        if d == 0:
+            ok &= (p0 >= lo) & (p0 <= hi)
+            continue
+        ta, tb = (lo - p0) / d, (hi - p0) / d
+        t_in = np.maximum(t_in, np.minimum(ta, tb))
+        t_out = np.minimum(t_out, np.maximum(ta, tb))
+    return ok & (t_in <= t_out)
+
+
+def route_controls(world: str | World, speed: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """True (v, ω) of one lap of the world's route and the start pose (see the module docstring)."""
+    w = _world(world)
+    p = np.asarray(w.route, dtype=float)
+    heading = np.arctan2(*(np.roll(p, -1, axis=0) - p)[:, ::-1].T)  # of the leg leaving waypoint i
+    length = np.hypot(*(np.roll(p, -1, axis=0) - p).T)
+    turn = wrap_angle(heading - np.roll(heading, 1))  # at waypoint i
+    if abs(turn[0]) > 1e-12:
+        raise ValueError(f"world {w.name!r}: the route must start on a straight (no turn at its first waypoint)")
+    tangent = w.corner_radius * np.tan(0.5 * np.abs(turn))
+    v, omega = [], []
+    for i in range(len(p)):
+        straight = length[i] - tangent[i] - tangent[(i + 1) % len(p)]
+        if straight < -1e-9:
+            raise ValueError(f"world {w.name!r}: leg {i} is too short for corner radius {w.corner_radius}")
+        if straight > 1e-9:
+            n = max(1, int(round(straight / (speed * dt))))
+            v += [straight / (n * dt)] * n
+            omega += [0.0] * n
+        alpha = turn[(i + 1) % len(p)]
+        if abs(alpha) > 1e-12:
+            n = max(1, int(round(w.corner_radius * abs(alpha) / (speed * dt))))
+            rate = alpha / (n * dt)
+            v += [abs(rate) * w.corner_radius] * n
+            omega += [rate] * n
+    return np.asarray(v), np.asarray(omega), np.array([p[0, 0], p[0, 1], heading[0]])
+
+
+def _beam_angles(n_beams: int, fov: float) -> np.ndarray:
+    if fov >= 2.0 * math.pi - 1e-12:
+        return -math.pi + 2.0 * math.pi * np.arange(n_beams) / n_beams
+    return np.linspace(-0.5 * fov, 0.5 * fov, n_beams)
+
+
+def simulate(
+    world: str = "loop",
+    n_beams: int = 361,
+    fov: float = 1.5 * math.pi,
+    max_range: float = 12.0,
+    sigma_range: float = 0.01,
+    dropout: float = 0.0,
+    mount=(0.0, 0.0, 0.0),
+    speed: float = 0.5,
+    laps: int = 1,
+    odom_rate: float = 20.0,
+    scan_rate: float = 5.0,
+    k_t: float = 0.02,
+    k_s: float = 0.01,
+    k_r: float = 0.03,
+    k_rt: float = 0.01,
+    t0: float = 0.0,
+    seed: int = 0,
+) -> Sequence:
+    """Simulate one run of the laser world (see the module docstring for the model).
+
+    Units: metres, radians, seconds, Hz. ``mount`` is the sensor pose (x, y, θ) in the robot
+    frame; ``odom_rate / scan_rate`` must be a whole number.
+    """
+    from estimators.models import ARC
+
+    w = _world(world)
+    for name, value in dict(fov=fov, max_range=max_range, speed=speed, odom_rate=odom_rate, scan_rate=scan_rate).items():
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    for name, value in dict(sigma_range=sigma_range, k_t=k_t, k_s=k_s, k_r=k_r, k_rt=k_rt).items():
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if fov > 2.0 * math.pi + 1e-12:
+        raise ValueError("fov must be <= 2π")
+    if not 0.0 <= dropout < 1.0:
+        raise ValueError("dropout must be in [0, 1)")
+    if int(n_beams) < 1 or int(laps) < 1:
+        raise ValueError("n_beams and laps must be >= 1")
+    ratio = odom_rate / scan_rate
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        raise ValueError(f"odom_rate / scan_rate must be a whole number >= 1, got {ratio!r}")
+    every = int(round(ratio))
+    mount = np.asarray(mount, dtype=float).reshape(3)
+
+    rng_odom, rng_range, rng_dropout = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(3))
+
+    # ---------------------------------------------------------------- truth and odometry
+    dt = 1.0 / odom_rate
+    v_lap, w_lap, start = route_controls(w, speed, dt)
+    v, omega = np.tile(v_lap, int(laps)), np.tile(w_lap, int(laps))
+    K = v.size
+    t = t0 + dt * np.arange(K + 1)
+    delta = ARC.increment(v, omega, dt)
+    truth = accumulate(start, delta)
+    ds, dth = np.abs(v) * dt, np.abs(omega) * dt
+    var = np.column_stack([k_t**2 * ds, k_s**2 * ds, k_r**2 * dth + k_rt**2 * ds]) + 1e-12
+    cov = np.zeros((K, 3, 3))
+    cov[:, [0, 1, 2], [0, 1, 2]] = var
+    noisy = delta + np.sqrt(var) * rng_odom.standard_normal((K, 3))
+    odometry = accumulate(start, noisy)
+
+    # ---------------------------------------------------------------- scans
+    k_scan = np.arange(0, K + 1, every)
+    angles = _beam_angles(int(n_beams), fov)
+    sensor = compose(truth[k_scan], mount)
+    true_ranges = raycast(sensor[:, :2], sensor[:, 2:3] + angles[None, :], segments(w), max_range)
+    ranges = true_ranges + sigma_range * rng_range.standard_normal(true_ranges.shape)
+    dropped = rng_dropout.uniform(size=ranges.shape) < dropout
+    ranges[~np.isfinite(true_ranges) | (ranges >= max_range) | dropped] = max_range
+
+    params = dict(world=w.name, n_beams=int(n_beams), fov=fov, max_range=max_range, sigma_range=sigma_range, dropout=dropout,
+                  mount=mount.tolist(), speed=speed, laps=int(laps), odom_rate=odom_rate, scan_rate=scan_rate, k_t=k_t, k_s=k_s,
+                  k_r=k_r, k_rt=k_rt, t0=t0, seed=int(seed))
+    meta = dict(
+        dataset="sim:laser",
+        **params,
+        world_description=w.description,
+        steps_per_lap=int(v_lap.size),
+        route_length=float(np.sum(np.abs(v_lap)) * dt),
+        no_return_fraction=float(np.mean(ranges >= max_range)),
+        dropped_beams=int(dropped.sum()),
+    )
+    return Sequence(
+        name=f"sim:laser({w.name},seed={int(seed)})",
+        motion=Increments(t=t[1:], delta=noisy, cov=cov),
+        scans=Scans(t=t[k_scan], ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=odometry[k_scan]),
+        ground_truth=Trajectory(t=t, poses=truth),
+        initial_pose=start,
+        noise=Noise(),
+        meta=meta,
+    )

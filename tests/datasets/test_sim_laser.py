@@ -1,0 +1,174 @@
+"""sim:laser — analytic scans of a known world, max-range and dropout, odometry noise, closure, occupancy."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import datasets
+from datasets.geometry import accumulate, between, compose, transform_points
+from datasets.sim.laser import WORLDS, World, raycast, route_controls, segments, simulate, true_occupancy
+
+BOX = World(
+    name="box",
+    walls=(((-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0), (-5.0, -5.0)),),
+    route=((0.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0), (-2.0, -2.0)),
+    corner_radius=0.5,
+    description="a 10 m square room",
+)
+
+
+def box_ranges(pose: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Distance from inside the 10 m box to its walls along world angles pose[2] + angles."""
+    c, s = np.cos(pose[2] + angles), np.sin(pose[2] + angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (5.0 - pose[0]) / c, np.where(c < 0, (-5.0 - pose[0]) / c, np.inf))
+        ty = np.where(s > 0, (5.0 - pose[1]) / s, np.where(s < 0, (-5.0 - pose[1]) / s, np.inf))
+    return np.minimum(tx, ty)
+
+
+def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:
+    """Sample mean ≈ 0 (|mean| within the normal quantile) and variance inside the χ² interval."""
+    e = np.asarray(residuals, dtype=float)
+    n = e.size
+    assert abs(e.mean()) <= stats.norm.ppf(1 - p / 2) * sigma / math.sqrt(n), (e.mean(), sigma, n)
+    lo, hi = stats.chi2.ppf([p / 2, 1 - p / 2], n - 1) / (n - 1)
+    assert lo <= e.var(ddof=1) / sigma**2 <= hi
+
+
+@pytest.mark.parametrize("mount", [(0.0, 0.0, 0.0), (0.3, 0.1, 0.2)])
+def test_scans_of_a_box_equal_the_analytic_ranges(mount):
+    s = simulate(world=BOX, sigma_range=0.0, max_range=20.0, fov=2 * math.pi, n_beams=360, mount=mount)
+    for j in (0, len(s.scans) // 3, len(s.scans) - 1):
+        k = np.searchsorted(s.ground_truth.t, s.scans.t[j])
+        sensor = compose(s.ground_truth.poses[k], np.asarray(mount))
+        np.testing.assert_allclose(s.scans.ranges[j], box_ranges(sensor, s.scans.angles), rtol=1e-9)
+
+
+def test_max_range_readings():
+    s = simulate(world=BOX, sigma_range=0.0, max_range=4.0, fov=2 * math.pi, n_beams=720)
+    k = np.searchsorted(s.ground_truth.t, s.scans.t)
+    expected = np.stack([box_ranges(s.ground_truth.poses[i], s.scans.angles) for i in k])
+    beyond = expected > 4.0
+    assert 0.2 < beyond.mean() < 0.95
+    np.testing.assert_array_equal(s.scans.ranges[beyond], 4.0)
+    np.testing.assert_allclose(s.scans.ranges[~beyond], expected[~beyond], rtol=1e-9)
+    assert s.scans.max_range == 4.0
+
+
+def test_beam_angles_and_fov():
+    s = simulate(world=BOX, n_beams=181, fov=math.pi)
+    np.testing.assert_allclose(s.scans.angles[[0, 90, 180]], [-math.pi / 2, 0.0, math.pi / 2])
+    full = simulate(world=BOX, n_beams=4, fov=2 * math.pi)
+    np.testing.assert_allclose(full.scans.angles, [-math.pi, -math.pi / 2, 0.0, math.pi / 2])
+
+
+def test_range_noise_and_dropout_statistics():
+    s = simulate(world="loop", sigma_range=0.02, dropout=0.05, seed=3)
+    clean = simulate(world="loop", sigma_range=0.0, seed=3)
+    hit = clean.scans.ranges < 11.5
+    changed = s.scans.ranges != clean.scans.ranges
+    dropped = hit & (s.scans.ranges == s.scans.max_range)
+    n = hit.sum()
+    assert stats.binom.ppf(1e-4, n, 0.05) <= dropped.sum() <= stats.binom.ppf(1 - 1e-4, n, 0.05)
+    keep = hit & ~dropped
+    assert changed[keep].all()
+    assert_gaussian(s.scans.ranges[keep] - clean.scans.ranges[keep], 0.02)
+
+
+def test_odometry_noise_has_the_stated_covariance():
+    s = simulate(world="rooms", seed=4, laps=2)
+    inc = s.motion
+    true = between(s.ground_truth.poses[:-1], s.ground_truth.poses[1:])
+    z = (inc.delta - true) / np.sqrt(np.diagonal(inc.cov, axis1=1, axis2=2))
+    for c in range(3):
+        assert_gaussian(z[:, c], 1.0)
+    np.testing.assert_allclose(inc.t, s.ground_truth.t[1:])
+
+
+def test_scan_pose_is_the_odometry_pose():
+    s = simulate(world="loop", seed=5)
+    odometry = accumulate(s.initial_pose, s.motion.delta)
+    k = np.searchsorted(s.ground_truth.t, s.scans.t)
+    np.testing.assert_allclose(s.scans.pose, odometry[k], atol=1e-12)
+    assert s.scans.t[0] == s.ground_truth.t[0]
+    np.testing.assert_allclose(np.diff(s.scans.t), 0.2)
+    assert np.linalg.norm(s.scans.pose[-1, :2] - s.ground_truth.poses[-1, :2]) > 0.01  # odometry drifts
+
+
+@pytest.mark.parametrize("world", sorted(WORLDS))
+def test_route_closes_every_lap_and_stays_clear_of_walls(world):
+    s = simulate(world=world, laps=2, n_beams=8)
+    gt = s.ground_truth.poses
+    per_lap = s.meta["steps_per_lap"]
+    np.testing.assert_allclose(gt[per_lap], gt[0], atol=1e-9)
+    np.testing.assert_allclose(gt[-1], gt[0], atol=1e-9)
+    around = raycast(gt[::5, :2], gt[::5, 2:3] + np.linspace(-np.pi, np.pi, 72, endpoint=False), segments(world))
+    assert around.min() > 0.5
+
+
+def test_route_speed():
+    v, w, start = route_controls("loop", speed=0.5, dt=0.05)
+    assert np.all(np.abs(v - 0.5) < 0.05)
+    assert start[2] == 0.0 and np.isclose(np.sum(w) * 0.05, 2 * math.pi)
+
+
+def test_raycast_equals_a_literal_loop(rng):
+    walls = rng.uniform(-5, 5, (25, 4))
+    origins = rng.uniform(-3, 3, (6, 2))
+    directions = rng.uniform(-np.pi, np.pi, (6, 40))
+    fast = raycast(origins, directions, walls, max_range=6.0)
+    for p in range(6):
+        for b in range(40):
+            d = np.array([math.cos(directions[p, b]), math.sin(directions[p, b])])
+            best = math.inf
+            for x0, y0, x1, y1 in walls:
+                e = np.array([x1 - x0, y1 - y0])
+                M = np.column_stack([d, -e])
+                if abs(np.linalg.det(M)) < 1e-12:
+                    continue
+                t, u = np.linalg.solve(M, np.array([x0, y0]) - origins[p])
+                if t > 0 and 0 <= u <= 1:
+                    best = min(best, t)
+            expected = best if best <= 6.0 else math.inf
+            assert fast[p, b] == pytest.approx(expected, rel=1e-9)
+
+
+def test_true_occupancy_of_the_box():
+    grid, origin = true_occupancy(0.1, BOX)
+    np.testing.assert_allclose(origin, [-6.05, -6.05])
+    assert grid.sum() == 4 * 100  # one-cell-thick walls through cell centres
+    centres = origin + (np.argwhere(grid)[:, ::-1] + 0.5) * 0.1
+    assert np.all(np.isclose(np.abs(centres).max(axis=1), 5.0))
+    aligned, _ = true_occupancy(0.1, BOX, origin=(-6.0, -6.0), shape=(120, 120))
+    assert aligned.sum() == 4 * 2 * 102 - 4 * 4  # walls on cell borders mark both sides; 2 × 2 corner blocks shared
+
+
+def test_scan_end_points_fall_in_occupied_cells():
+    s = simulate(world="rooms", sigma_range=0.0, seed=1)
+    grid, origin = true_occupancy(0.05, "rooms")
+    k = np.searchsorted(s.ground_truth.t, s.scans.t)
+    for j in range(0, len(s.scans), 37):
+        r = s.scans.ranges[j]
+        hit = r < s.scans.max_range
+        local = np.column_stack([r * np.cos(s.scans.angles), r * np.sin(s.scans.angles)])[hit]
+        pts = transform_points(s.ground_truth.poses[k[j]], local)
+        ij = np.floor((pts - origin) / 0.05).astype(int)
+        assert grid[ij[:, 1], ij[:, 0]].all()
+
+
+def test_registry_and_determinism():
+    a = datasets.load("sim:laser", world="rooms", n_beams=31, seed=9)
+    b = simulate(world="rooms", n_beams=31, seed=9)
+    np.testing.assert_array_equal(a.scans.ranges, b.scans.ranges)
+    np.testing.assert_array_equal(a.motion.delta, b.motion.delta)
+    assert not np.array_equal(a.motion.delta, simulate(world="rooms", n_beams=31, seed=10).motion.delta)
+
+
+@pytest.mark.parametrize("bad", [dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0),
+                                 dict(sigma_range=-0.1), dict(max_range=0.0)])
+def test_bad_config_is_rejected(bad):
+    with pytest.raises(ValueError):
+        simulate(**bad)
