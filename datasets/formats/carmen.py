@@ -166,7 +166,8 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
     # timestamp 0; some echoes carry garbage stamps, and freiburg-campus stamps ALL odometry 0)
     after = np.searchsorted(scan_rows, odom_rows) - 1
     messages = np.flatnonzero(tag != "")
-    prev_line = messages[np.searchsorted(messages, odom_rows) - 1] if odom_rows.size else odom_rows
+    pos = np.searchsorted(messages, odom_rows)
+    prev_line = np.where(pos > 0, messages[np.maximum(pos - 1, 0)], -1) if odom_rows.size else odom_rows
     echo = np.isin(prev_line, scan_rows) if corrected else np.zeros(len(odo), dtype=bool)
     echo_matches = int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum()) if corrected else 0
     zero_odom_count = int((odo_ts == 0).sum())
