@@ -4,3 +4,61 @@ from __future__ import annotations
 import typer
 
 data_app = typer.Typer(help="Datasets: what is registered, what is present, summaries, downloads.", no_args_is_help=True)
+
+
+@data_app.command("list")
+def list_datasets():
+    """Every registered dataset: kind, ground truth, whether its files are present."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from datasets import available
+
+    table = Table(title="slamarena datasets")
+    for column in ("name", "kind", "ground truth", "present"):
+        table.add_column(column)
+    for info in available():
+        table.add_row(info.name, info.kind, info.ground_truth, "yes" if info.present else "[red]no[/red]")
+    Console().print(table)
+
+
+@data_app.command("info")
+def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/robot1 or carmen:intel.")):
+    """Load a dataset and print its summary (counts, time span, rates, noise, what the reader dropped)."""
+    import json
+
+    import numpy as np
+    from rich.console import Console
+
+    from datasets import DatasetNotFoundError, load
+
+    console = Console()
+    try:
+        data = load(name)
+    except (KeyError, DatasetNotFoundError) as exc:
+        console.print(f"[red]{exc.args[0] if isinstance(exc, KeyError) else exc}[/red]")
+        raise typer.Exit(1)
+    summary = data.summary()
+
+    def plain(x):
+        return x.tolist() if isinstance(x, np.ndarray) else x.item() if isinstance(x, np.generic) else str(x)
+
+    console.print_json(json.dumps(summary, default=plain))
+
+
+@data_app.command("fetch")
+def fetch(name: str = typer.Argument(..., help="A registry name (see `slamarena data list`)."),
+          force: bool = typer.Option(False, "--force", help="Download even when a data root already has the files.")):
+    """Download a dataset's files (pinned commit URLs, sha256-checked) into the cache data root."""
+    from rich.console import Console
+
+    from datasets.fetch import FetchError, fetch as do_fetch
+
+    console = Console()
+    try:
+        paths = do_fetch(name, force=force)
+    except (KeyError, FetchError) as exc:
+        console.print(f"[red]{exc.args[0] if isinstance(exc, KeyError) else exc}[/red]")
+        raise typer.Exit(1)
+    for p in paths:
+        console.print(str(p))
