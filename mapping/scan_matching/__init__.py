@@ -1,0 +1,48 @@
+"""2D scan matchers: registry and the common result type.
+
+Every matcher is a class built from keyword parameters with ``kind`` telling what it
+matches against and a ``match`` method:
+
+    kind = "grid":   match(maps: MapPyramid, points (N, 2), guess (3,)) -> MatchResult
+    kind = "points": match(reference (M, 2) world points, points (N, 2), guess (3,)) -> MatchResult
+
+``points`` are the scan end points in the robot frame; ``guess`` and the result are robot
+poses in the map (world) frame. Heavy libraries (numba, scipy, open3d, kiss_icp) are
+imported inside the matcher modules only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["MATCHERS", "MatchResult", "make_matcher"]
+
+MATCHERS: dict[str, str] = {
+    "gauss_newton": "mapping.scan_matching.gauss_newton:GaussNewtonMatcher",
+    "correlative": "mapping.scan_matching.correlative:CorrelativeMatcher",
+    "branch_and_bound": "mapping.scan_matching.correlative:BranchAndBoundMatcher",
+    "kiss_icp": "mapping.scan_matching.icp:KissICPMatcher",
+    "open3d_icp": "mapping.scan_matching.icp:Open3DICPMatcher",
+}
+
+
+@dataclass
+class MatchResult:
+    """pose (3,), covariance (3, 3), a matcher-specific score (higher is better), iterations."""
+
+    pose: np.ndarray
+    cov: np.ndarray
+    score: float
+    iterations: int = 0
+    info: dict = field(default_factory=dict)
+
+
+def make_matcher(name: str, **params):
+    """Instantiate a registered matcher by name (``KeyError`` listing the names)."""
+    import importlib
+
+    if name not in MATCHERS:
+        raise KeyError(f"unknown matcher {name!r}; known: {', '.join(MATCHERS)}")
+    module, _, attr = MATCHERS[name].partition(":")
+    return getattr(importlib.import_module(module), attr)(**params)

@@ -1,0 +1,213 @@
+"""Correlative scan matching (Olson 2009) and its branch-and-bound form (Hess et al. 2016).
+
+Likelihood grid. From the map's occupied cells (``p > occupied_threshold``) and the
+Euclidean distance ``d`` of every cell to the nearest one, each cell stores the
+log-likelihood of a scan end point falling in it,
+
+    G = log( p_floor + (1 − p_floor) · exp(−d² / 2σ²) )
+
+(a Gaussian smoothing of the obstacles, with a floor for points that hit nothing mapped).
+
+Search space. Around the guess ``(x, y, θ)``: translations ``(a, b)·res`` for integers
+``|a|, |b| ≤ w = ⌈linear_window / res⌉`` and rotations ``θ + k·δθ``, ``|k| ≤ ⌈angular_window / δθ⌉``
+with ``δθ = arccos(1 − res² / 2 r_max²)`` (the farthest point moves at most one cell, as in
+Cartographer) unless given. A candidate's score is ``S = Σ_i G[cell(R(θ_k) s_i + t) + (a, b)]``;
+``score`` in the result is ``S / N`` (mean log-likelihood per point).
+
+Exhaustive search (:class:`CorrelativeMatcher`) evaluates every candidate; the response gives
+the covariance as in Olson (2009, §IV): weights ``w_j = exp(S_j − S_max)``,
+
+    μ = Σ w_j ξ_j / Σ w_j,    Σ = Σ w_j (ξ_j − μ)(ξ_j − μ)ᵀ / Σ w_j  + diag(res², res², δθ²)/12
+
+(the last term is the variance of the discretisation).
+
+Branch and bound (:class:`BranchAndBoundMatcher`): precomputed grids ``P_h[y, x] = max G`` over
+the ``2^h × 2^h`` block starting at ``(x, y)``. A node ``(h, a, b, k)`` stands for the
+offsets ``a … a + 2^h − 1``, ``b … b + 2^h − 1``; its score with ``P_h`` bounds the score of
+every candidate below it, so a depth-first search from the top level that visits children
+best-first and prunes nodes whose bound does not beat the best leaf found returns the same
+optimum as the exhaustive search. Its covariance comes from the exhaustive response in a
+small window (``± covariance_cells`` cells and angle steps) around the optimum.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import MatchResult
+
+__all__ = ["CorrelativeMatcher", "BranchAndBoundMatcher", "likelihood_grid"]
+
+
+def likelihood_grid(grid, sigma: float, p_floor: float) -> np.ndarray:
+    """``G`` (rows = y) of the module docstring for an :class:`OccupancyGrid`."""
+    from scipy.ndimage import distance_transform_edt
+
+    occupied = grid.probability() > grid.occupied_threshold
+    if not occupied.any():
+        return np.full(grid.shape, np.log(p_floor))
+    d = distance_transform_edt(~occupied) * grid.resolution
+    return np.log(p_floor + (1.0 - p_floor) * np.exp(-0.5 * (d / sigma) ** 2))
+
+
+class _Correlative:
+    kind = "grid"
+
+    def __init__(
+        self,
+        linear_window: float = 0.3,
+        angular_window: float = 0.3,
+        angular_step: float | None = None,
+        sigma: float = 0.05,
+        p_floor: float = 0.01,
+        level: int = 0,
+        covariance_cells: int = 2,
+    ):
+        if linear_window < 0 or angular_window < 0 or sigma <= 0 or not 0 < p_floor < 1 or level < 0 or covariance_cells < 1:
+            raise ValueError("correlative matcher: windows ≥ 0, sigma > 0, 0 < p_floor < 1, level ≥ 0, covariance_cells ≥ 1")
+        if angular_step is not None and angular_step <= 0:
+            raise ValueError("angular_step must be > 0")
+        self.linear_window, self.angular_window, self.angular_step = float(linear_window), float(angular_window), angular_step
+        self.sigma, self.p_floor, self.level, self.covariance_cells = float(sigma), float(p_floor), int(level), int(covariance_cells)
+        self._cache_key = None
+        self._cache: dict = {}
+
+    # ----------------------------------------------------------- shared pieces
+    def _grids(self, maps, depth: int):
+        """Padded likelihood grid and (for depth > 0) its max-pyramid, cached per map version."""
+        grid = maps.levels[min(self.level, len(maps.levels) - 1)]
+        key = (id(grid), grid.version, grid.shape, depth)
+        if key != self._cache_key:
+            floor = np.log(self.p_floor)
+            pad = 2**depth + self._w(grid) + 1
+            G = np.pad(likelihood_grid(grid, self.sigma, self.p_floor), pad, constant_values=floor)
+            pyramid = [G]
+            for h in range(1, depth + 1):
+                s = 2 ** (h - 1)
+                A = pyramid[-1]
+                B = np.full_like(A, floor)
+                B[:, :-s] = A[:, s:]
+                A = np.maximum(A, B)
+                B = np.full_like(A, floor)
+                B[:-s, :] = A[s:, :]
+                pyramid.append(np.maximum(A, B))
+            self._cache_key = key
+            self._cache = {"grid": grid, "pad": pad, "pyramid": pyramid}
+        return self._cache
+
+    def _w(self, grid) -> int:
+        return int(np.ceil(self.linear_window / grid.resolution - 1e-9))
+
+    def _angles(self, grid, pts: np.ndarray) -> tuple[float, int]:
+        r_max = max(float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 1.0, grid.resolution)
+        step = self.angular_step or float(np.arccos(1.0 - grid.resolution**2 / (2.0 * r_max**2)))
+        return step, int(np.ceil(self.angular_window / step - 1e-9))
+
+    @staticmethod
+    def _cells(grid, pad, pts, guess, angles):
+        """Cell indices (K, N) of the points at each rotation, translated by the guess, in the padded grid."""
+        c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+        wx = guess[0] + c * pts[:, 0] - s * pts[:, 1]
+        wy = guess[1] + s * pts[:, 0] + c * pts[:, 1]
+        ix = np.floor((wx - grid.origin[0]) / grid.resolution).astype(np.int64) + pad
+        iy = np.floor((wy - grid.origin[1]) / grid.resolution).astype(np.int64) + pad
+        return ix, iy
+
+    @staticmethod
+    def _score(P, ix, iy, a, b):
+        """Scores (M,) of offsets (a, b) (M,) for points with cells ix, iy (N,)."""
+        h, w = P.shape
+        xs = np.clip(ix[None, :] + a[:, None], 0, w - 1)
+        ys = np.clip(iy[None, :] + b[:, None], 0, h - 1)
+        return P[ys, xs].sum(axis=1)
+
+    def _response(self, P, ix, iy, ks, w_a, w_b, centre=(0, 0)):
+        """Exhaustive scores S[k, b, a] over angle indices ks and offsets centre ± (w_a, w_b)."""
+        a = np.arange(centre[0] - w_a, centre[0] + w_a + 1)
+        b = np.arange(centre[1] - w_b, centre[1] + w_b + 1)
+        A, B = np.meshgrid(a, b)
+        S = np.stack([self._score(P, ix[k], iy[k], A.ravel(), B.ravel()).reshape(A.shape) for k in ks])
+        return S, a, b
+
+    @staticmethod
+    def _moments(S, a, b, th, res, dth, guess):
+        wts = np.exp(S - S.max())
+        wts /= wts.sum()
+        K, Bg, Ag = np.meshgrid(th, b * res, a * res, indexing="ij")
+        xi = np.stack([Ag.ravel(), Bg.ravel(), K.ravel()], axis=1)
+        mu = wts.ravel() @ xi
+        d = xi - mu
+        cov = (wts.ravel()[:, None] * d).T @ d + np.diag([res**2, res**2, dth**2]) / 12.0
+        return cov
+
+    def _result(self, grid, S_best, n, guess, a, b, th, cov, evaluated):
+        pose = np.array([guess[0] + a * grid.resolution, guess[1] + b * grid.resolution, guess[2] + th])
+        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        return MatchResult(pose=pose, cov=cov, score=float(S_best / max(n, 1)), iterations=int(evaluated), info={"candidates_scored": int(evaluated)})
+
+
+class CorrelativeMatcher(_Correlative):
+    """Exhaustive correlative scan matching over the search window (Olson 2009)."""
+
+    def match(self, maps, points, guess) -> MatchResult:
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        guess = np.asarray(guess, dtype=float)
+        cache = self._grids(maps, 0)
+        grid, pad, G = cache["grid"], cache["pad"], cache["pyramid"][0]
+        w = self._w(grid)
+        dth, na = self._angles(grid, pts)
+        offsets = np.arange(-na, na + 1) * dth
+        ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
+        S, a, b = self._response(G, ix, iy, range(offsets.size), w, w)
+        k, j, i = np.unravel_index(int(np.argmax(S)), S.shape)
+        cov = self._moments(S, a, b, offsets, grid.resolution, dth, guess)
+        return self._result(grid, S[k, j, i], len(pts), guess, a[i], b[j], offsets[k], cov, S.size)
+
+
+class BranchAndBoundMatcher(_Correlative):
+    """Branch and bound over max-pyramids of the likelihood grid (Cartographer's fast matcher)."""
+
+    def match(self, maps, points, guess) -> MatchResult:
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        guess = np.asarray(guess, dtype=float)
+        grid0 = maps.levels[min(self.level, len(maps.levels) - 1)]
+        w = self._w(grid0)
+        depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
+        cache = self._grids(maps, depth)
+        grid, pad, pyramid = cache["grid"], cache["pad"], cache["pyramid"]
+        dth, na = self._angles(grid, pts)
+        offsets = np.arange(-na, na + 1) * dth
+        ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
+
+        top = np.arange(-w, w + 1, 2**depth)
+        A, B = (v.ravel() for v in np.meshgrid(top, top))
+        nodes = []  # (bound, k, a, b) at the top level
+        for k in range(offsets.size):
+            bounds = self._score(pyramid[depth], ix[k], iy[k], A, B)
+            nodes += [(float(s), k, int(x), int(y)) for s, x, y in zip(bounds, A, B)]
+        best = [-np.inf, 0, 0, 0]
+        evaluated = len(nodes)
+
+        def search(cands, h):
+            nonlocal evaluated
+            for bound, k, a, b in sorted(cands, reverse=True):
+                if bound <= best[0]:
+                    return
+                if h == 0:
+                    best[:] = [bound, k, a, b]
+                    continue
+                s = 2 ** (h - 1)
+                ca = np.array([a, a + s, a, a + s])
+                cb = np.array([b, b, b + s, b + s])
+                keep = (ca <= w) & (cb <= w)
+                ca, cb = ca[keep], cb[keep]
+                scores = self._score(pyramid[h - 1], ix[k], iy[k], ca, cb)
+                evaluated += int(keep.sum())
+                search([(float(v), k, int(x), int(y)) for v, x, y in zip(scores, ca, cb)], h - 1)
+
+        search(nodes, depth)
+        S_best, k, a, b = best
+        c = self.covariance_cells
+        ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
+        S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))
+        cov = self._moments(S, ga, gb, offsets[list(ks)], grid.resolution, dth, guess)
+        return self._result(grid, S_best, len(pts), guess, a, b, offsets[k], cov, evaluated)
