@@ -58,7 +58,7 @@ def _check_time(name: str, t: np.ndarray) -> None:
         bad = np.flatnonzero(np.diff(t) < 0)
         if bad.size:
             k = int(bad[0])
-            raise ValueError(f"{name}.t is not monotonic: t[{k}]={t[k]!r} > t[{k + 1}]={t[k + 1]!r}")
+            raise ValueError(f"{name}.t is not monotonic: t[{k}]={float(t[k])!r} > t[{k + 1}]={float(t[k + 1])!r}")
 
 
 def _check_len(name: str, t: np.ndarray, **arrays: np.ndarray) -> None:
