@@ -1,0 +1,165 @@
+"""Data association for EKF-SLAM: Mahalanobis nearest neighbour and JCBB.
+
+Both work on the current estimate ``x`` (N,), ``P`` (N, N) with the layout
+``[x, y, θ, m0x, m0y, …]`` and an observation set ``z`` (M, 2) = (range, bearing).
+
+Individual compatibility (vectorised over all M × n pairs). For landmark i the Jacobian
+``H_i = [H_x,i  H_m,i]`` (2 × 5) does not depend on the observation, so ``S_i`` is computed
+once per landmark from the robot block, the robot-landmark cross-covariance and the landmark
+block — batched 2 × 2 algebra, O(n)::
+
+    S_i  = H_x P_rr H_xᵀ + H_x P_ri H_mᵀ + (H_x P_ri H_mᵀ)ᵀ + H_m P_ii H_mᵀ + R      (n, 2, 2)
+    ν_ji = z_j − h(x_r, m_i)   (bearing wrapped)                                    (M, n, 2)
+    d²_ji = ν_jiᵀ S_i⁻¹ ν_ji   (closed-form 2 × 2 inverse)                           (M, n)
+
+Nearest neighbour: observation j pairs with ``i* = argmin_i d²_ji`` when
+``d² < χ²₂(match_confidence)``; it starts a new landmark when even the nearest is beyond the
+separate new-landmark gate ``χ²₂(new_confidence)``; in between it is rejected (ambiguous).
+
+JCBB (Neira & Tardós 2001): branch and bound over hypotheses that pair each observation
+with an individually compatible landmark or with nothing, requiring the whole hypothesis to be
+jointly compatible, ``ν_Jᵀ S_J⁻¹ ν_J < χ²_{2k}(confidence)`` with
+``S_J = H_J P_sub H_Jᵀ + I_k ⊗ R`` over the robot and the candidate landmarks (``P_sub`` is
+the small dense block of those states), and keeping the hypothesis with the most pairings
+(ties: the smaller joint NIS). Unpaired observations then go through the new-landmark gate.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import gammaincinv
+
+from datasets.geometry import wrap_angle
+
+from ..models import observation_jacobians, observe
+from .checks import CovarianceError
+
+__all__ = ["MATCHED", "NEW", "REJECTED", "DECISIONS", "chi2_gate", "Association", "compatibility", "nearest_neighbour", "jcbb"]
+
+MATCHED, NEW, REJECTED = 0, 1, 2
+DECISIONS = {MATCHED: "matched", NEW: "new", REJECTED: "rejected"}
+
+
+def chi2_gate(confidence: float, dof: int) -> float:
+    """The χ² quantile: P(χ²_dof < gate) = confidence."""
+    return float(2.0 * gammaincinv(0.5 * dof, confidence))
+
+
+@dataclass
+class Association:
+    """Per observation: decision (MATCHED/NEW/REJECTED), landmark slot (−1 if none), d² to the nearest."""
+
+    decision: np.ndarray
+    slot: np.ndarray
+    d2: np.ndarray
+
+
+def _landmark_blocks(P: np.ndarray, n: int) -> np.ndarray:
+    base = 3 + 2 * np.arange(n)
+    rows = base[:, None, None] + np.arange(2)[None, :, None]
+    cols = base[:, None, None] + np.arange(2)[None, None, :]
+    return P[rows, cols]
+
+
+def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Innovations ν (M, n, 2), innovation covariances S (n, 2, 2) and Mahalanobis d² (M, n)."""
+    n = (x.shape[0] - 3) // 2
+    M = z.shape[0]
+    if n == 0:
+        return np.zeros((M, 0, 2)), np.zeros((0, 2, 2)), np.zeros((M, 0))
+    xr = x[:3]
+    L = x[3:].reshape(n, 2)
+    Hx, Hm = observation_jacobians(xr, L)
+    Prr = P[:3, :3]
+    Pri = P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
+    Pii = _landmark_blocks(P, n)
+    cross = Hx @ Pri @ Hm.transpose(0, 2, 1)
+    S = Hx @ Prr @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1) + R
+    det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
+    if np.any(~(det > 0)) or np.any(~(S[:, 0, 0] > 0)):
+        k = int(np.flatnonzero(~((det > 0) & (S[:, 0, 0] > 0)))[0])
+        raise CovarianceError(f"innovation covariance of landmark slot {k} is not positive definite")
+    nu = z[:, None, :] - observe(xr, L)[None, :, :]
+    nu[..., 1] = wrap_angle(nu[..., 1])
+    a, b, c, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1]
+    n0, n1 = nu[..., 0], nu[..., 1]
+    d2 = (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
+    return nu, S, d2
+
+
+def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:
+    return np.where(d2_min >= gate_new, NEW, REJECTED)
+
+
+def nearest_neighbour(d2: np.ndarray, gate_match: float, gate_new: float) -> Association:
+    """Mahalanobis nearest neighbour with a match gate and a separate new-landmark gate."""
+    M, n = d2.shape
+    if n == 0:
+        return Association(np.full(M, NEW, dtype=np.int8), np.full(M, -1), np.full(M, np.inf))
+    best = np.argmin(d2, axis=1)
+    d2_min = d2[np.arange(M), best]
+    matched = d2_min < gate_match
+    decision = np.where(matched, MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
+    return Association(decision, np.where(matched, best, -1), d2_min)
+
+
+def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndarray, nu: np.ndarray,
+         gate_match: float, gate_new: float, confidence: float) -> Association:
+    """Joint compatibility branch and bound (see the module docstring)."""
+    M, n = d2.shape
+    if n == 0:
+        return nearest_neighbour(d2, gate_match, gate_new)
+    candidates = [np.flatnonzero(d2[j] < gate_match) for j in range(M)]
+    candidates = [c[np.argsort(d2[j, c])] for j, c in enumerate(candidates)]
+    union = np.unique(np.concatenate(candidates)) if any(c.size for c in candidates) else np.zeros(0, dtype=int)
+    d2_min = d2.min(axis=1)
+    if union.size == 0:
+        return Association(_gate_unpaired(d2_min, gate_new).astype(np.int8), np.full(M, -1), d2_min)
+    # dense block of the robot and the candidate landmarks; Jacobians in that sub-state
+    local = {int(s): k for k, s in enumerate(union)}
+    sub = np.r_[0:3, np.ravel(3 + 2 * union[:, None] + np.arange(2))]
+    C = P[np.ix_(sub, sub)]
+    Hx, Hm = observation_jacobians(x[:3], x[3:].reshape(n, 2)[union])
+    width = sub.size
+    gates = [0.0] + [chi2_gate(confidence, 2 * k) for k in range(1, M + 1)]
+
+    def rows(j: int, s: int) -> np.ndarray:
+        H = np.zeros((2, width))
+        k = local[s]
+        H[:, :3] = Hx[k]
+        H[:, 3 + 2 * k: 5 + 2 * k] = Hm[k]
+        return H
+
+    def joint_nis(pairs: list[tuple[int, int]]) -> float:
+        H = np.vstack([rows(j, s) for j, s in pairs])
+        v = np.concatenate([nu[j, s] for j, s in pairs])
+        S = H @ C @ H.T + np.kron(np.eye(len(pairs)), R)
+        return float(v @ np.linalg.solve(S, v))
+
+    best: dict = {"pairs": [], "nis": np.inf}
+
+    def search(j: int, pairs: list[tuple[int, int]], nis: float) -> None:
+        if j == M:
+            if len(pairs) > len(best["pairs"]) or (len(pairs) == len(best["pairs"]) and nis < best["nis"]):
+                best["pairs"], best["nis"] = list(pairs), nis
+            return
+        used = {s for _, s in pairs}
+        for s in candidates[j]:
+            s = int(s)
+            if s in used:
+                continue
+            trial = pairs + [(j, s)]
+            value = joint_nis(trial)
+            if value < gates[len(trial)]:
+                search(j + 1, trial, value)
+        if len(pairs) + (M - j - 1) > len(best["pairs"]):
+            search(j + 1, pairs, nis)
+
+    search(0, [], 0.0)
+    slot = np.full(M, -1)
+    for j, s in best["pairs"]:
+        slot[j] = s
+    decision = np.where(slot >= 0, MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
+    d2_out = np.where(slot >= 0, d2[np.arange(M), np.maximum(slot, 0)], d2_min)
+    return Association(decision, slot, d2_out)

@@ -1,0 +1,457 @@
+"""EKF-SLAM with a growing state, O(n) prediction and O(n²) updates.
+
+Model
+-----
+Robot pose ``x_r = (x, y, θ)``, control ``u = (v, ω)`` held for ``dt``, static point landmarks
+``m_i = (m_ix, m_iy)``. Motion ``x_r' = f(x_r, u, dt)`` is the Euler or the exact arc model of
+:mod:`estimators.models` (``MOTION_MODELS``); odometry increments ``δ`` move the robot by
+``x_r' = x_r ⊕ δ``. Observations ``z = h(x_r, m_i) + η = [range, bearing] + η``,
+``η ~ N(0, R)``.
+
+State layout (N = 3 + 2n, growing as landmarks are discovered)::
+
+    x = [x, y, θ, m0x, m0y, m1x, m1y, …]                          (N,)
+    P = [[P_rr (3×3)   P_rm (3×2n) ],
+         [P_mr (2n×3)  P_mm (2n×2n)]]                               (N, N)
+
+Prediction (touches the robot block and the robot-landmark cross-covariances: O(n))::
+
+    x_r ← f(x_r, u, dt)
+    P_rr ← G P_rr Gᵀ + Q          G = ∂f/∂x_r (3×3)
+    P_rm ← G P_rm ,  P_mr = P_rmᵀ  (3×2n)
+    Q = V M Vᵀ  (control-space noise, V = ∂f/∂u 3×2, M = twist covariance 2×2)   or
+    Q = Cx · dt (additive robot-block noise, Cx a 3×3 covariance per second)
+
+This equals the dense ``P ← G_N P G_Nᵀ + F_xᵀ Q F_x`` with ``G_N = I_N + F_xᵀ (G − I₃) F_x``.
+
+Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+1]``,
+``s = 3 + 2i``): H (2×N) has only the five columns ``idx`` non-zero,
+``H[:, idx] = [H_x (2×3), H_m (2×2)]``, so::
+
+    PHᵀ = P[:, idx] @ H[:, idx]ᵀ                                   (N×5 @ 5×2 = N×2), O(N)
+    S   = H[:, idx] @ PHᵀ[idx] + R                                  (2×2), Cholesky-checked
+    K   = PHᵀ S⁻¹        (2×2 solve, never an N×N inverse)          (N×2)
+    ν   = z − h(x_r, m_i), bearing wrapped to (−π, π]               (2,)
+    x  ← x + K ν ,  θ wrapped
+    P  ← P − K (PHᵀ)ᵀ, then P ← (P + Pᵀ)/2                         standard form, O(N²)
+    P  ← P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ                               Joseph form, O(N²)
+
+The Joseph form is ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` expanded with ``HP = (PHᵀ)ᵀ`` and
+``HPHᵀ + R = S``: a rank-4 correction, no N×N×N product. With ``update="batch"`` all matched
+observations of a set are stacked (H 2m×N, S 2m×2m) and applied as one update with the same
+formulas, O(m N²).
+
+New landmark (inverse observation model ``m = g(x_r, z)``, ``G_x = ∂g/∂x_r`` 2×3,
+``G_z = ∂g/∂z`` 2×2)::
+
+    init="jacobian":  P_new,: = G_x P[0:3, :] ,  P_new,new = G_x P_rr G_xᵀ + G_z R G_zᵀ
+    init="initP":     P_new,: = 0 ,              P_new,new = init_cov · I₂
+                      (the matrix-dimensions reference: ignores the robot uncertainty and
+                      the robot-landmark correlation, which makes the filter overconfident)
+
+Linearisation points (``jacobians=``):
+
+* ``"standard"``: every Jacobian at the current estimate.
+* ``"fej"`` (first-estimates Jacobian EKF, Huang, Mourikis & Roumeliotis 2008): the motion
+  Jacobian is ``G = I + [[0, 0, −(ŷ_{k+1|k} − ŷ_{k|k−1})], [0, 0, x̂_{k+1|k} − x̂_{k|k−1}], 0]``,
+  i.e. the position difference uses the robot's *propagated* estimate ``x̂_{k|k−1}`` (the
+  output of the previous prediction, before any update) instead of the updated ``x̂_{k|k}``
+  (for Euler, arc and increment motion ``G = I + [0 0 −Δy; 0 0 Δx; 0 0 0]``); the
+  measurement Jacobians ``H_x, H_m`` are evaluated at the robot's propagated estimate
+  ``x̂_{k|k−1}`` and at the landmark's FIRST estimate (its value when initialised). The noise
+  Jacobian V, the landmark-initialisation Jacobians and the predicted measurement ``h(x̂)``
+  use the current estimate.
+* ``"ideal"``: every Jacobian (G and V with the measured control, H, G_x, G_z) at the TRUE
+  robot pose and TRUE landmark positions, given through :meth:`EKFSLAM.set_truth` (``run``
+  supplies them from the sequence's ground truth). A diagnostic device of consistency
+  studies, not an estimator.
+
+Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
+−1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
+(:mod:`.association`), decided on the estimate before the set is applied.
+
+Bad input: rows with a non-finite value or a negative range are rejected and counted;
+``dt <= 0`` or a non-finite control raise ``ValueError``; after every step the covariance is
+checked (:mod:`.checks`), and a loss of positive definiteness raises
+:class:`~.checks.CovarianceError` (``on_indefinite="record"``: the step is counted and, for an
+indefinite S, the observation skipped).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from datasets.geometry import compose, wrap_angle
+
+from ..models import MOTION_MODELS, compose_jacobians, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
+from . import association as assoc
+from .checks import CovarianceError, check_covariance, check_innovation_cov
+from .storage import GrowingState
+
+__all__ = ["EKFSLAM", "CovarianceError", "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
+
+#: fall-back noise when neither the parameters nor the sequence state it
+DEFAULT_TWIST_COV = np.diag([0.1**2, 0.05**2])
+DEFAULT_RANGE_BEARING_COV = np.diag([0.1**2, np.radians(1.0) ** 2])
+#: ids given to landmarks created from unlabelled rows while labelled ids are in use
+NEW_ID_BASE = 1_000_000
+
+_CHOICES = {
+    "motion_model": tuple(MOTION_MODELS),
+    "motion_noise": ("control", "additive"),
+    "update": ("sequential", "batch"),
+    "covariance_update": ("standard", "joseph"),
+    "init": ("jacobian", "initP"),
+    "association": ("nn", "jcbb"),
+    "jacobians": ("standard", "fej", "ideal"),
+    "on_indefinite": ("raise", "record"),
+}
+
+
+def _cov(value, dim: int, name: str) -> np.ndarray | None:
+    """A covariance parameter: None, a list of `dim` variances, or a dim×dim matrix."""
+    if value is None:
+        return None
+    a = np.asarray(value, dtype=float)
+    if a.shape == (dim,):
+        a = np.diag(a)
+    if a.shape != (dim, dim) or not np.all(np.isfinite(a)) or not np.allclose(a, a.T):
+        raise ValueError(f"{name} must be {dim} variances or a symmetric {dim}×{dim} matrix, got {value!r}")
+    if np.linalg.eigvalsh(a).min() < 0:
+        raise ValueError(f"{name} is not positive semi-definite: {value!r}")
+    return a
+
+
+def _confidence(value: float, name: str) -> float:
+    value = float(value)
+    if not 0.0 < value < 1.0:
+        raise ValueError(f"{name} must be in (0, 1), got {value!r}")
+    return value
+
+
+class EKFSLAM:
+    """EKF-SLAM (see the module docstring for model, layout and equations).
+
+    Keyword parameters (all optional):
+        motion_model      "arc" (default) | "euler"
+        motion_noise      "control" (V M Vᵀ, default) | "additive" (Cx·dt on the robot block)
+        twist_cov         M, 2 variances or 2×2 [(m/s)², (rad/s)²] (default: sequence noise,
+                          else DEFAULT_TWIST_COV)
+        Cx                3 variances or 3×3 per second (required with motion_noise="additive")
+        increment_cov     3×3 covariance of an odometry increment (default: Increments.cov,
+                          else the sequence's Noise.increment_cov)
+        range_bearing_cov R, 2 variances or 2×2 (default: sequence noise, else
+                          DEFAULT_RANGE_BEARING_COV)
+        update            "sequential" (default) | "batch"
+        covariance_update "standard" (default) | "joseph"
+        init              "jacobian" (default) | "initP"; init_cov (float, m², default 1.0)
+        association       "nn" (default) | "jcbb"; use_ids (default True: trust given ids)
+        match_confidence  χ² gate of a match (0.95); new_confidence, gate beyond which an
+                          unmatched row starts a landmark (0.999); jcbb_confidence (0.95)
+        jacobians         "standard" (default) | "fej" | "ideal"
+        initial_pose      3 floats (default: the sequence's start pose, else the origin)
+        initial_cov       3 variances or 3×3 (default zeros: the start defines the frame)
+        on_indefinite     "raise" (default) | "record"
+        capacity          initial state capacity (default 64; doubled when full)
+    """
+
+    def __init__(self, *, motion_model: str = "arc", motion_noise: str = "control", twist_cov=None, Cx=None,
+                 increment_cov=None, range_bearing_cov=None, update: str = "sequential",
+                 covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
+                 association: str = "nn", use_ids: bool = True, match_confidence: float = 0.95,
+                 new_confidence: float = 0.999, jcbb_confidence: float = 0.95, jacobians: str = "standard",
+                 initial_pose=None, initial_cov=None, on_indefinite: str = "raise", capacity: int = 64):
+        self.params = dict(motion_model=motion_model, motion_noise=motion_noise, update=update,
+                           covariance_update=covariance_update, init=init, association=association,
+                           jacobians=jacobians, on_indefinite=on_indefinite)
+        for key, value in self.params.items():
+            if value not in _CHOICES[key]:
+                raise ValueError(f"{key} must be one of {_CHOICES[key]}, got {value!r}")
+        self.model = MOTION_MODELS[motion_model]
+        self._twist_cov = _cov(twist_cov, 2, "twist_cov")
+        self._Cx = _cov(Cx, 3, "Cx")
+        if motion_noise == "additive" and self._Cx is None:
+            raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
+        self._increment_cov = _cov(increment_cov, 3, "increment_cov")
+        self._range_bearing_cov = _cov(range_bearing_cov, 2, "range_bearing_cov")
+        if not (np.isfinite(init_cov) and init_cov > 0):
+            raise ValueError(f"init_cov must be > 0, got {init_cov!r}")
+        self.init_cov = float(init_cov)
+        self.use_ids = bool(use_ids)
+        self.gate_match = assoc.chi2_gate(_confidence(match_confidence, "match_confidence"), 2)
+        self.gate_new = assoc.chi2_gate(_confidence(new_confidence, "new_confidence"), 2)
+        if self.gate_new < self.gate_match:
+            raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
+        self.jcbb_confidence = _confidence(jcbb_confidence, "jcbb_confidence")
+        self._initial_pose = None if initial_pose is None else np.asarray(initial_pose, dtype=float).reshape(3)
+        self._initial_cov = _cov(initial_cov, 3, "initial_cov")
+        self._capacity = int(capacity)
+        self.params.update(twist_cov=twist_cov, Cx=Cx, increment_cov=increment_cov, range_bearing_cov=range_bearing_cov,
+                           init_cov=self.init_cov, use_ids=self.use_ids, match_confidence=match_confidence,
+                           new_confidence=new_confidence, jcbb_confidence=jcbb_confidence, initial_pose=initial_pose,
+                           initial_cov=initial_cov, capacity=capacity)
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self, sequence=None) -> None:
+        """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
+        noise = getattr(sequence, "noise", None)
+        self.M = self._twist_cov if self._twist_cov is not None else getattr(noise, "twist_cov", None)
+        self.M = DEFAULT_TWIST_COV if self.M is None else np.asarray(self.M, dtype=float)
+        self.R = self._range_bearing_cov if self._range_bearing_cov is not None else getattr(noise, "range_bearing_cov", None)
+        self.R = DEFAULT_RANGE_BEARING_COV if self.R is None else np.asarray(self.R, dtype=float)
+        self.increment_cov = self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
+        pose = self._initial_pose if self._initial_pose is not None else (sequence.start_pose if sequence is not None else np.zeros(3))
+        self._s = GrowingState(3, self._capacity)
+        self._s.x[:] = pose
+        self._s.x[2] = wrap_angle(pose[2])
+        if self._initial_cov is not None:
+            self._s.P[:] = self._initial_cov
+        self._ids: list[int] = []
+        self._slot: dict[int, int] = {}
+        self._first = np.zeros((8, 2))
+        self._robot_prior = self._s.x[:3].copy()
+        self._truth_pose: np.ndarray | None = None
+        self._truth_landmarks: dict[int, np.ndarray] = {}
+        self._next_id = NEW_ID_BASE if self.use_ids else 0
+        self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
+        self.nis_log: list[tuple[float, int]] = []
+        self.assoc_log: list[tuple[int, int, float, int]] = []
+
+    @property
+    def x(self) -> np.ndarray:
+        """State estimate (N,), read-only view."""
+        v = self._s.x.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def P(self) -> np.ndarray:
+        """State covariance (N, N), read-only view."""
+        v = self._s.P.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def landmark_ids(self) -> np.ndarray:
+        """Id of each landmark slot (n,), in state order."""
+        return np.asarray(self._ids, dtype=np.int64)
+
+    @property
+    def n_landmarks(self) -> int:
+        return len(self._ids)
+
+    def set_truth(self, pose=None, landmarks=None) -> None:
+        """True robot pose (3,) and/or true landmarks ({id: (x, y)} or a LandmarkMap) for jacobians="ideal"."""
+        if pose is not None:
+            self._truth_pose = np.asarray(pose, dtype=float).reshape(3)
+        if landmarks is not None:
+            if hasattr(landmarks, "ids"):
+                landmarks = dict(zip(landmarks.ids.tolist(), landmarks.xy))
+            self._truth_landmarks = {int(k): np.asarray(v, dtype=float).reshape(2) for k, v in landmarks.items()}
+
+    # ------------------------------------------------------------------ prediction
+    def predict(self, u, dt: float) -> None:
+        """Propagate with control u = [v, yaw_rate] held for dt > 0 (O(n))."""
+        u = np.asarray(u, dtype=float).reshape(2)
+        dt = float(dt)
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a finite number > 0, got {dt!r}")
+        if not np.all(np.isfinite(u)):
+            raise ValueError(f"control must be finite, got {u.tolist()}")
+        xr = self._s.x[:3].copy()
+        x_new = self.model.predict(xr, u[0], u[1], dt)
+        G, V = self.model.jacobians(self._linearisation_pose(), u[0], u[1], dt)
+        Q = V @ self.M @ V.T if self.params["motion_noise"] == "control" else self._Cx * dt
+        self._propagate(x_new, G, Q)
+
+    def predict_increment(self, delta, cov=None) -> None:
+        """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""
+        delta = np.asarray(delta, dtype=float).reshape(3)
+        if not np.all(np.isfinite(delta)):
+            raise ValueError(f"odometry increment must be finite, got {delta.tolist()}")
+        cov = self.increment_cov if cov is None else np.asarray(cov, dtype=float)
+        if cov is None:
+            raise ValueError("an odometry increment needs a covariance (Increments.cov, Noise.increment_cov or increment_cov=)")
+        x_new = compose(self._s.x[:3], delta)
+        Jx, Jd = compose_jacobians(self._linearisation_pose(), delta)
+        self._propagate(x_new, Jx, Jd @ cov @ Jd.T)
+
+    def _linearisation_pose(self) -> np.ndarray:
+        if self.params["jacobians"] == "ideal":
+            if self._truth_pose is None:
+                raise ValueError("jacobians='ideal' needs the true pose: call set_truth(pose=...)")
+            return self._truth_pose
+        return self._s.x[:3]
+
+    def _propagate(self, x_new: np.ndarray, G: np.ndarray, Q: np.ndarray) -> None:
+        if self.params["jacobians"] == "fej":
+            G = np.eye(3)
+            G[0, 2] = -(x_new[1] - self._robot_prior[1])
+            G[1, 2] = x_new[0] - self._robot_prior[0]
+        x, P = self._s.x, self._s.P
+        P[:3, :3] = G @ P[:3, :3] @ G.T + Q
+        P[:3, 3:] = G @ P[:3, 3:]
+        P[3:, :3] = P[:3, 3:].T
+        x[:3] = x_new
+        self._robot_prior = x_new.copy()
+        self._check()
+
+    # ------------------------------------------------------------------ update
+    def update(self, z) -> None:
+        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown)."""
+        z = np.asarray(z, dtype=float)
+        if z.ndim != 2 or z.shape[1] != 3:
+            raise ValueError(f"z must be an (M, 3) array [range, bearing, id], got shape {z.shape}")
+        finite = np.all(np.isfinite(z), axis=1)
+        negative = finite & (z[:, 0] < 0)
+        self.rejected["nonfinite"] += int((~finite).sum())
+        self.rejected["negative_range"] += int(negative.sum())
+        z = z[finite & ~negative]
+        if not len(z):
+            return
+        given = z[:, 2].astype(np.int64)
+        ids = given if self.use_ids else np.full(len(z), -1)
+        decision, slot, d2 = self._associate(z[:, :2], ids)
+        self.assoc_log.extend(zip(decision.tolist(), [-1] * len(z), d2.tolist(), given.tolist()))
+        log0 = len(self.assoc_log) - len(z)
+        pending = np.flatnonzero(decision != assoc.REJECTED)
+        if self.params["update"] == "batch":
+            matched = pending[decision[pending] == assoc.MATCHED]
+            if matched.size:
+                self._update_batch(slot[matched], z[matched, :2])
+            pending = pending[decision[pending] != assoc.MATCHED]
+        for j in pending:
+            if decision[j] == assoc.MATCHED:
+                self._update_one(int(slot[j]), z[j, :2])
+            elif ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
+                slot[j] = self._slot[int(ids[j])]
+                self.assoc_log[log0 + j] = (assoc.MATCHED, -1, np.nan, int(given[j]))
+                self._update_one(int(slot[j]), z[j, :2])
+            else:
+                slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None)
+        for j in range(len(z)):
+            dec, _, dist, gid = self.assoc_log[log0 + j]
+            self.assoc_log[log0 + j] = (dec, self._ids[slot[j]] if slot[j] >= 0 else -1, dist, gid)
+
+    def _associate(self, z: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        M = len(z)
+        decision = np.full(M, assoc.NEW, dtype=np.int8)
+        slot = np.full(M, -1)
+        d2 = np.full(M, np.nan)
+        known = ids >= 0
+        for j in np.flatnonzero(known):
+            s = self._slot.get(int(ids[j]), -1)
+            if s >= 0:
+                decision[j], slot[j] = assoc.MATCHED, s
+        unknown = np.flatnonzero(~known)
+        if unknown.size:
+            x, P = self._s.x, self._s.P
+            nu, _, dist = assoc.compatibility(x, P, self.R, z[unknown])
+            if self.params["association"] == "jcbb":
+                a = assoc.jcbb(x, P, self.R, z[unknown], dist, nu, self.gate_match, self.gate_new, self.jcbb_confidence)
+            else:
+                a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
+            decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
+        return decision, slot, d2
+
+    def _jacobians_at(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """H_x (m, 2, 3) and H_m (m, 2, 2) of landmark slots at the chosen linearisation point."""
+        mode = self.params["jacobians"]
+        if mode == "standard":
+            xr, m = self._s.x[:3], self._landmarks()[slots]
+        elif mode == "fej":
+            xr, m = self._robot_prior, self._first[slots]
+        else:
+            xr = self._linearisation_pose()
+            m = np.array([self._true_landmark(self._ids[s]) for s in slots]).reshape(-1, 2)
+        return observation_jacobians(xr, m)
+
+    def _true_landmark(self, landmark_id: int) -> np.ndarray:
+        if landmark_id not in self._truth_landmarks:
+            raise ValueError(f"jacobians='ideal' needs the true position of landmark {landmark_id}: call set_truth(landmarks=...)")
+        return self._truth_landmarks[landmark_id]
+
+    def _landmarks(self) -> np.ndarray:
+        return self._s.x[3:].reshape(-1, 2)
+
+    def _update_one(self, slot: int, z: np.ndarray) -> None:
+        self._update_batch(np.array([slot]), z[None, :])
+
+    def _update_batch(self, slots: np.ndarray, z: np.ndarray) -> None:
+        """One EKF update with m observations of landmark slots (m,): H is 2m × N with 5 non-zero columns a row pair."""
+        x, P = self._s.x, self._s.P
+        m = slots.size
+        Hx, Hm = self._jacobians_at(slots)
+        Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
+        idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1)  # (m, 5)
+        N = x.shape[0]
+        PHt = np.einsum("nmk,mjk->nmj", P[:, idx.ravel()].reshape(N, m, 5), Hs).reshape(N, 2 * m)
+        S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx.ravel()].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)
+        S = 0.5 * (S + S.T) + np.kron(np.eye(m), self.R)
+        nu = z - observe(x[:3], self._landmarks()[slots])
+        nu[:, 1] = wrap_angle(nu[:, 1])
+        nu = nu.ravel()
+        try:
+            check_innovation_cov(S)
+        except CovarianceError:
+            if self.params["on_indefinite"] == "raise":
+                raise
+            self.rejected["indefinite"] += m
+            return
+        K = np.linalg.solve(S, PHt.T).T                                # (N, 2m)
+        self.nis_log.append((float(nu @ np.linalg.solve(S, nu)), 2 * m))
+        x += K @ nu
+        x[2] = wrap_angle(x[2])
+        A = -PHt if self.params["covariance_update"] == "standard" else K @ S - 2.0 * PHt
+        T = self._s.scratch()
+        np.matmul(A, K.T, out=T)
+        P += T
+        np.add(P, P.T, out=T)
+        np.multiply(T, 0.5, out=P)
+        self._check()
+
+    # ------------------------------------------------------------------ new landmarks
+    def _add_landmark(self, z: np.ndarray, landmark_id: int | None) -> int:
+        if landmark_id is None:
+            landmark_id = self._next_id
+            self._next_id += 1
+        xr = self._s.x[:3].copy()
+        m = inverse_observe(xr, z)
+        if self.params["jacobians"] == "ideal":
+            x_true, m_true = self._linearisation_pose(), self._true_landmark(landmark_id)
+            Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
+        else:
+            Gx, Gz = inverse_observation_jacobians(xr, z)
+        N = self._s.n
+        new = self._s.grow(2)
+        x, P = self._s.x, self._s.P
+        x[new] = m
+        if self.params["init"] == "jacobian":
+            P[new, :N] = Gx @ P[:3, :N]
+            P[:N, new] = P[new, :N].T
+            P[new, new] = Gx @ P[:3, :3] @ Gx.T + Gz @ self.R @ Gz.T
+        else:
+            P[new, new] = self.init_cov * np.eye(2)
+        slot = len(self._ids)
+        if slot == self._first.shape[0]:
+            self._first = np.concatenate([self._first, np.zeros_like(self._first)])
+        self._first[slot] = m
+        self._ids.append(landmark_id)
+        self._slot[landmark_id] = slot
+        self._check()
+        return slot
+
+    def _check(self) -> None:
+        try:
+            check_covariance(self._s.P)
+        except CovarianceError:
+            if self.params["on_indefinite"] == "raise":
+                raise
+            self.rejected["indefinite"] += 1
+
+    # ------------------------------------------------------------------ runner
+    def run(self, sequence):
+        """Walk ``sequence.events()`` and return an :class:`~datasets.estimate.Estimate` (see :mod:`.run`)."""
+        from .run import run_sequence
+
+        return run_sequence(self, sequence)

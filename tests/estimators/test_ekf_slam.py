@@ -1,0 +1,240 @@
+"""EKF-SLAM: oracle equivalence, Jacobians, structure of the O(n) / O(n²) steps, accuracy, bad input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import datasets
+from datasets.geometry import interpolate_poses, wrap_angle
+from datasets.sequence import Increments, Noise, RangeBearing, Sequence
+from estimators.ekf_slam import EKFSLAM, CovarianceError
+from estimators.ekf_slam.reference import ReferenceEKFSLAM
+from estimators.models import MOTION_MODELS, inverse_observe, observe
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return datasets.load("sim:landmarks", n_landmarks=30, seed=2)
+
+
+def _steps(seq, n_steps):
+    """(u, dt, z) per control row of a sim:landmarks sequence (z: the set stamped at the row's end)."""
+    mo, rb = seq.motion, seq.range_bearing
+    for k in range(n_steps):
+        sel = np.isclose(rb.t, mo.t[k] + mo.dt[k])
+        yield (mo.v[k], mo.omega[k]), mo.dt[k], rb.z[sel]
+
+
+def _state_diff(a, b):
+    d = np.asarray(a) - np.asarray(b)
+    d[2] = wrap_angle(d[2])
+    return np.abs(d).max()
+
+
+ORACLE_CASES = [
+    dict(),
+    dict(covariance_update="joseph"),
+    dict(init="initP", init_cov=0.5),
+    dict(motion_model="euler", motion_noise="additive", Cx=[0.01, 0.01, 0.002]),
+    dict(update="batch"),
+]
+
+
+@pytest.mark.parametrize("kw", ORACLE_CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()) or "default")
+def test_efficient_filter_matches_literal_dense_reference(sim, kw):
+    """Several hundred predict/update steps with known association: x and P agree to 1e-9."""
+    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw)
+    ref_kw = {k: v for k, v in kw.items() if k in ("motion_model", "motion_noise", "covariance_update", "init", "init_cov", "update")}
+    if "Cx" in kw:
+        ref_kw["Cx"] = np.diag(kw["Cx"])
+    ref = ReferenceEKFSLAM(sim.noise.twist_cov, sim.noise.range_bearing_cov, initial_pose=sim.start_pose, **ref_kw)
+    worst_x = worst_P = 0.0
+    for u, dt, z in _steps(sim, 300):
+        ekf.predict(u, dt)
+        ref.predict(u, dt)
+        if len(z):
+            ekf.update(z)
+            ref.update(z)
+        assert ekf.x.shape == ref.xEst.shape
+        worst_x = max(worst_x, _state_diff(ekf.x, ref.xEst))
+        worst_P = max(worst_P, np.abs(ekf.P - ref.PEst).max())
+    assert ekf.n_landmarks >= 20
+    assert worst_x < 1e-9 and worst_P < 1e-9
+    np.testing.assert_array_equal(ekf.landmark_ids, ref.ids)
+
+
+def test_full_state_jacobians_match_finite_differences():
+    """G_N (N×N) of the prediction and H (2×N) of one observation, as the filter builds them."""
+    rng = np.random.default_rng(0)
+    x = np.r_[1.0, -2.0, 0.7, rng.uniform(-5, 5, 6)]
+    u, dt = (1.3, 0.4), 0.2
+    for model in MOTION_MODELS.values():
+        def f(s):
+            out = s.copy()
+            out[:3] = model.predict(s[:3], u[0], u[1], dt)
+            return out
+        G3, _ = model.jacobians(x[:3], u[0], u[1], dt)
+        GN = np.eye(x.size)
+        GN[:3, :3] = G3
+        num = np.column_stack([(f(x + e) - f(x - e)) / 2e-6 for e in 1e-6 * np.eye(x.size)])
+        np.testing.assert_allclose(GN, num, atol=1e-7)
+    # H of landmark 1 (state columns 0,1,2,5,6) from the filter's own update path
+    from estimators.models import observation_jacobians
+
+    Hx, Hm = observation_jacobians(x[:3], x[5:7])
+    H = np.zeros((2, x.size))
+    H[:, :3], H[:, 5:7] = Hx, Hm
+    h = lambda s: observe(s[:3], s[5:7])
+    num = np.column_stack([wrap_angle(h(x + e) - h(x - e)) / 2e-6 for e in 1e-6 * np.eye(x.size)])
+    np.testing.assert_allclose(H, num, atol=1e-7)
+
+
+def test_landmark_initialisation_covariance_is_the_jacobian_propagation():
+    """Augmented P equals J blockdiag(P, R) Jᵀ with J the finite-difference Jacobian of [x; g(x_r, z)]."""
+    ekf = EKFSLAM(initial_pose=[0.5, -0.3, 0.4], initial_cov=[0.04, 0.09, 0.01], range_bearing_cov=[0.01, 0.002])
+    ekf.update(np.array([[4.0, 0.6, 7]]))
+    P0, R = np.diag([0.04, 0.09, 0.01]), np.diag([0.01, 0.002])
+    xr, z = np.array([0.5, -0.3, 0.4]), np.array([4.0, 0.6])
+
+    def g(v):
+        return np.r_[v[:3], inverse_observe(v[:3], v[3:])]
+
+    v0 = np.r_[xr, z]
+    J = np.column_stack([(g(v0 + e) - g(v0 - e)) / 2e-6 for e in 1e-6 * np.eye(5)])
+    expected = J @ np.block([[P0, np.zeros((3, 2))], [np.zeros((2, 3)), R]]) @ J.T
+    np.testing.assert_allclose(ekf.P, expected, atol=1e-9)
+    np.testing.assert_allclose(ekf.x[3:], inverse_observe(xr, z))
+
+
+def test_prediction_touches_only_robot_block_and_cross_covariances(sim):
+    ekf = EKFSLAM()
+    for u, dt, z in _steps(sim, 60):
+        ekf.predict(u, dt)
+        if len(z):
+            ekf.update(z)
+    before = ekf.P.copy()
+    ekf.predict((1.0, 0.3), 0.1)
+    np.testing.assert_array_equal(ekf.P[3:, 3:], before[3:, 3:])
+    assert not np.allclose(ekf.P[:3, 3:], before[:3, 3:])
+    np.testing.assert_array_equal(ekf.P, ekf.P.T)
+
+
+def test_fej_motion_jacobian_reduces_to_the_model_jacobian_without_updates():
+    """Without an update between predictions x̂_{k|k} = x̂_{k|k−1}: FEJ and standard coincide."""
+    a, b = EKFSLAM(jacobians="fej", initial_cov=[0.1, 0.1, 0.05]), EKFSLAM(initial_cov=[0.1, 0.1, 0.05])
+    for k in range(20):
+        for ekf in (a, b):
+            ekf.predict((1.0, 0.2 * np.sin(k)), 0.1)
+    np.testing.assert_allclose(a.P, b.P, atol=1e-12)
+
+
+def test_storage_grows_by_doubling_and_state_views_are_read_only():
+    ekf = EKFSLAM(capacity=8)
+    buffers = set()
+    for k in range(200):
+        ekf.update(np.array([[5.0 + 0.01 * k, -1.5 + 0.015 * k, k]]))
+        buffers.add(id(ekf._s._P))
+    assert ekf.x.shape == (403,) and ekf.P.shape == (403, 403)
+    assert ekf._s.capacity == 512 and len(buffers) <= 7  # 8 → 16 → … → 512
+    with pytest.raises(ValueError):
+        ekf.x[0] = 1.0
+    with pytest.raises(ValueError):
+        ekf.P[0, 0] = 1.0
+    np.testing.assert_array_equal(ekf.landmark_ids, np.arange(200))
+
+
+@pytest.mark.parametrize("jacobians", ["standard", "fej", "ideal"])
+def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
+    """Pose errors within the 99.7 % χ²₃ bound at ≥ 95 % of steps; landmarks within their χ²₂ gate; NIS ≈ 2."""
+    seq = datasets.load("sim:landmarks", seed=0)
+    est = EKFSLAM(jacobians=jacobians).run(seq)
+    gt = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, est.t)
+    d = est.poses - gt
+    d[:, 2] = wrap_angle(d[:, 2])
+    nees = np.einsum("ki,kij,kj->k", d[20:], np.linalg.inv(est.pose_cov[20:]), d[20:])
+    assert np.mean(nees < 14.16) > 0.95
+    assert np.hypot(d[:, 0], d[:, 1]).max() < 0.5
+    assert est.meta["n_landmarks"] == np.unique(seq.range_bearing.landmark_id).size
+    dl = est.landmarks - seq.landmarks.xy[est.landmark_ids]
+    lnees = np.einsum("ki,kij,kj->k", dl, np.linalg.inv(est.landmark_cov), dl)
+    assert np.mean(lnees < 11.83) > 0.9  # χ²₂ 99.73 %
+    nis = est.diagnostics["nis"]
+    assert abs(nis.mean() - 2.0) < 0.3 and np.all(est.diagnostics["nis_dof"] == 2)
+    assert est.step_time.shape == est.t.shape and est.pose_cov.shape == (est.t.size, 3, 3)
+
+
+def test_run_with_odometry_increments():
+    """Increments input (Victoria Park style): the same trajectory as the equivalent twist input."""
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=4)
+    mo = seq.motion
+    model = MOTION_MODELS["arc"]
+    delta = model.increment(mo.v, mo.omega, mo.dt)
+    cov = np.array([V @ seq.noise.twist_cov @ V.T for V in model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]])
+    inc = Sequence(name="inc", motion=Increments(t=seq.ground_truth.t[1:], delta=delta, cov=cov), range_bearing=seq.range_bearing,
+                   initial_pose=seq.start_pose, noise=seq.noise)
+    a = EKFSLAM().run(seq)
+    b = EKFSLAM().run(inc)
+    np.testing.assert_allclose(b.poses[-1], a.poses[-1], atol=1e-9)
+    np.testing.assert_allclose(b.pose_cov[-1], a.pose_cov[-1], atol=1e-12)
+    np.testing.assert_array_equal(b.landmark_ids, a.landmark_ids)
+    np.testing.assert_allclose(b.landmarks, a.landmarks, atol=1e-9)
+
+
+def test_bad_measurements_are_rejected_and_counted():
+    ekf = EKFSLAM()
+    z = np.array([[5.0, 0.1, 0], [np.nan, 0.2, 1], [np.inf, 0.0, 2], [-1.0, 0.3, 3], [4.0, np.nan, 4], [3.0, 0.5, 5]])
+    ekf.update(z)
+    assert ekf.rejected == {"nonfinite": 3, "negative_range": 1, "indefinite": 0}
+    np.testing.assert_array_equal(ekf.landmark_ids, [0, 5])
+    assert np.all(np.isfinite(ekf.x)) and np.all(np.isfinite(ekf.P))
+    with pytest.raises(ValueError):
+        ekf.update(np.zeros((3, 2)))
+
+
+def test_bad_motion_and_config_raise():
+    ekf = EKFSLAM()
+    for dt in (0.0, -0.1, np.nan):
+        with pytest.raises(ValueError):
+            ekf.predict((1.0, 0.0), dt)
+    with pytest.raises(ValueError):
+        ekf.predict((np.nan, 0.0), 0.1)
+    for bad in (dict(jacobians="best"), dict(motion_noise="additive"), dict(twist_cov=[[1, 2], [3, 4]]),
+                dict(match_confidence=1.5), dict(match_confidence=0.99, new_confidence=0.9), dict(init_cov=-1.0)):
+        with pytest.raises(ValueError):
+            EKFSLAM(**bad)
+
+
+def test_run_counts_nonfinite_rows_of_a_sequence():
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=5)
+    rb = seq.range_bearing
+    r = rb.range.copy()
+    r[::17] = np.nan
+    bad = Sequence(name="bad", motion=seq.motion, range_bearing=RangeBearing(rb.t, r, rb.bearing, rb.landmark_id),
+                   ground_truth=seq.ground_truth, initial_pose=seq.start_pose, noise=seq.noise)
+    est = EKFSLAM().run(bad)
+    assert int(est.diagnostics["rejected_nonfinite"]) == int(np.isnan(r).sum())
+    assert np.all(np.isfinite(est.poses)) and np.all(np.isfinite(est.pose_cov))
+
+
+def test_loss_of_positive_definiteness_is_detected():
+    ekf = EKFSLAM(initial_cov=[0.1, 0.1, 0.01])
+    ekf.update(np.array([[5.0, 0.1, 0]]))
+    ekf._s.P[4, 4] = -1.0  # corrupt a landmark variance, as a numerical blow-up would
+    ekf._s.P[3, 3] = -1.0
+    with pytest.raises(CovarianceError):
+        ekf.update(np.array([[5.0, 0.1, 0]]))
+    rec = EKFSLAM(initial_cov=[0.1, 0.1, 0.01], on_indefinite="record")
+    rec.update(np.array([[5.0, 0.1, 0]]))
+    rec._s.P[3, 3] = rec._s.P[4, 4] = -1.0
+    rec.update(np.array([[5.0, 0.1, 0]]))
+    assert rec.rejected["indefinite"] >= 1
+
+
+def test_step_interface_defaults_and_noise_from_sequence():
+    ekf = EKFSLAM()
+    ekf.predict([1.0, 0.1], 0.1)
+    assert ekf.x.shape == (3,) and ekf.P.shape == (3, 3) and ekf.landmark_ids.shape == (0,)
+    seq = Sequence(name="s", noise=Noise(twist_cov=np.diag([0.2, 0.3]), range_bearing_cov=np.diag([0.4, 0.5])))
+    ekf.reset(seq)
+    np.testing.assert_array_equal(ekf.M, np.diag([0.2, 0.3]))
+    np.testing.assert_array_equal(ekf.R, np.diag([0.4, 0.5]))
