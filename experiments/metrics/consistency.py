@@ -11,6 +11,10 @@ The error must be expressed where the covariance lives:
   ``x = x̂ ⊕ Exp(ξ)``): ``e = Log(x̂⁻¹ x)``, the SE(2) logarithm of the true pose seen from the
   estimate.
 
+Steps whose covariance is not finite or is (numerically) singular — condition number above
+``max_condition``, e.g. the rank-2 covariance of dead reckoning after its first step — are
+skipped: their NEES measures rounding, not consistency.
+
 NIS of an innovation ``ν`` with covariance ``S`` (dimension m): ``ν_kᵀ S_k⁻¹ ν_k ~ χ²(m)``.
 Estimators report it in ``Estimate.diagnostics`` as ``nis`` (M,), ``nis_dof`` (M,) and,
 optionally, ``nis_t`` (M,) (stamps).
@@ -40,6 +44,7 @@ class NEESParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     frame: Literal["world", "body"] = "world"
     max_gap: float = Field(0.1, ge=0)
+    max_condition: float = Field(1e9, gt=1, description="steps whose covariance has a larger condition number are skipped")
     probability: float = Field(0.95, gt=0, lt=1)
 
 
@@ -63,11 +68,11 @@ NIS_OUTPUTS = {
 
 def chi2_band(dof, runs: int = 1, probability: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
     """Two-sided band of the run-average of χ²(dof) statistics over ``runs`` runs."""
-    from scipy.stats import chi2
+    from scipy.special import gammaincinv  # χ²_k quantile q = 2·P⁻¹(k/2, q); lighter than scipy.stats
 
     alpha = 1.0 - probability
-    dof = np.asarray(dof, dtype=float)
-    return chi2.ppf(alpha / 2, runs * dof) / runs, chi2.ppf(1 - alpha / 2, runs * dof) / runs
+    k = runs * np.asarray(dof, dtype=float)
+    return 2.0 * gammaincinv(k / 2, alpha / 2) / runs, 2.0 * gammaincinv(k / 2, 1 - alpha / 2) / runs
 
 
 def pose_error(estimate_poses: np.ndarray, true_poses: np.ndarray, frame: str) -> np.ndarray:
@@ -85,9 +90,11 @@ def nees(estimate: Estimate, ref: Reference, params: NEESParams = NEESParams()) 
         raise MetricUnavailable(f"{estimate.method} reports no pose covariance")
     assoc = associate(ref, estimate.t, params.max_gap)
     P = estimate.pose_cov[assoc.index]
-    usable = np.all(np.isfinite(P.reshape(len(P), -1)), axis=1) & (np.linalg.eigvalsh(np.where(np.isfinite(P), P, 0.0))[:, 0] > 0)
+    finite = np.all(np.isfinite(P.reshape(len(P), -1)), axis=1)
+    w = np.linalg.eigvalsh(np.where(finite[:, None, None], P, np.eye(3)))
+    usable = finite & (w[:, 0] > params.max_condition**-1 * w[:, -1])
     if not usable.any():
-        raise MetricUnavailable("no step has ground truth and a positive-definite covariance")
+        raise MetricUnavailable("no step has ground truth and a well-conditioned covariance")
     e = pose_error(estimate.poses[assoc.index][usable], assoc.gt[usable], params.frame)
     eps = np.einsum("ki,ki->k", e, np.linalg.solve(P[usable], e[..., None])[..., 0])
     lo, hi = chi2_band(3, 1, params.probability)

@@ -10,7 +10,9 @@ The error of one relation is ``ε_ij = δ*_ij⁻¹ δ_ij`` (``between(δ*, δ)``
     reported: mean ± std of trans and rot, and the mean squared errors (the paper's ε(δ))
 
 Relations whose stamps cannot be matched are dropped and counted. The relations come from
-the READERS' relations-file reader, or are given as arrays ``(t_i, t_j, δ*)``.
+``datasets.formats.relations`` (stamps of the original log, mapped to the
+Sequence's scan times through ``meta["scan_ipc_timestamp"]`` where present), or are given as arrays
+``(t_i, t_j, δ*)``.
 """
 from __future__ import annotations
 
@@ -79,14 +81,31 @@ def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_r
     return out, {"t": t_i[ok], "trans_error": trans, "rot_error": rot}
 
 
+def _to_sequence_time(data, stamps: np.ndarray, tolerance: float) -> np.ndarray:
+    """Relation stamps are the log's original scan stamps; map them to the Sequence's scan times.
+
+    A CARMEN Sequence keeps the original stamps in ``meta["scan_ipc_timestamp"]``, aligned with
+    ``scans.t``. Stamps without a scan within ``tolerance`` become NaN (dropped, counted).
+    """
+    ipc = np.asarray((getattr(data, "meta", {}) or {}).get("scan_ipc_timestamp", []), dtype=float)
+    scans = getattr(data, "scans", None)
+    if ipc.size == 0 or scans is None or ipc.size != len(scans):
+        return stamps
+    order = np.argsort(ipc)
+    k = np.clip(np.searchsorted(ipc[order], stamps), 1, ipc.size - 1)
+    k = np.where(np.abs(ipc[order][k - 1] - stamps) <= np.abs(ipc[order][k] - stamps), k - 1, k)
+    idx = order[k]
+    return np.where(np.abs(ipc[idx] - stamps) <= tolerance, scans.t[idx], np.nan)
+
+
 def relation_error_from_file(estimate: Estimate, data, params: RelationsParams) -> tuple[dict, dict]:
-    """Read the relations (``params.file`` or the dataset's ``meta['relations']``) and score."""
+    """Read the relations (``params.file`` or the dataset's ``meta['relations']``) and score them."""
+    from datasets.formats import relations as relations_format
+
     path = params.file or (getattr(data, "meta", {}) or {}).get("relations")
     if path is None:
-        raise MetricUnavailable("no relations file for this dataset")
-    try:
-        from datasets.formats.relations import read_relations
-    except ImportError as exc:  # the reader belongs to the data layer
-        raise MetricUnavailable(f"no relations reader available: {exc}") from exc
-    rel = read_relations(path)
-    return relation_error(estimate, rel.t1, rel.t2, rel.delta, params)
+        raise MetricUnavailable("no relations file for this dataset (set metrics.relations.file)")
+    rel = relations_format.read(path)
+    t1 = _to_sequence_time(data, rel.t1, params.tolerance)
+    t2 = _to_sequence_time(data, rel.t2, params.tolerance)
+    return relation_error(estimate, t1, t2, rel.se2, params)

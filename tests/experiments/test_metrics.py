@@ -177,8 +177,12 @@ def test_nees_consistent_and_inconsistent():
 
 
 def test_chi2_bands_and_monte_carlo_average():
+    from scipy.stats import chi2
+
     lo, hi = chi2_band(3)
     assert lo == pytest.approx(0.2158, abs=1e-3) and hi == pytest.approx(9.348, abs=1e-3)
+    for dof, runs in ((1, 1), (2, 7), (3, 50), (4, 200)):
+        np.testing.assert_allclose(chi2_band(dof, runs, 0.99), chi2.ppf([0.005, 0.995], runs * dof) / runs, rtol=1e-10)
     rng = np.random.default_rng(9)
     lo, hi = chi2_band(3, runs=50)  # N ε̄ ~ χ²(150): the empirical quantiles of averages of 50 χ²(3)
     averages = rng.chisquare(3, (200_000, 50)).mean(axis=1)
@@ -271,3 +275,20 @@ def test_cost_and_evaluate_records_skipped_metrics():
     assert scalars["cost"]["peak_rss_mb"] == 123.0
     assert scalars["ate"]["rmse"] < 1e-12
     assert set(skipped) == {"nees", "map"} and "covariance" in skipped["nees"]
+
+
+def test_relations_file_through_the_reader(tmp_path):
+    from datasets.formats import relations as fmt
+    from datasets.geometry import between
+    from experiments.metrics.relations import relation_error_from_file
+
+    t, gt = _truth()
+    i, j = np.arange(0, 250, 25), np.arange(25, 275, 25)
+    d = compose(between(gt[i], gt[j]), np.array([0.0, 0.2, 0.0]))
+    motion = np.column_stack([d[:, 0], d[:, 1], np.zeros(len(i)), np.zeros(len(i)), np.zeros(len(i)), d[:, 2]])
+    path = tmp_path / "toy.relations"
+    fmt.write(path, fmt.Relations(t1=t[i], t2=t[j], motion=motion))
+    res, _ = relation_error_from_file(Estimate("x", t, gt), Sequence("s"), RelationsParams(file=path))
+    assert res["trans_mean"] == pytest.approx(0.2) and res["used"] == len(i)
+    with pytest.raises(MetricUnavailable, match="no relations file"):
+        relation_error_from_file(Estimate("x", t, gt), Sequence("s"), RelationsParams())

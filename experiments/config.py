@@ -1,0 +1,291 @@
+"""Experiment configs: a YAML file validated by pydantic before anything runs.
+
+An experiment is the grid datasets × estimators × seeds, the metrics to compute on every
+cell, the tables and figures to write, where to write them and a per-cell timeout::
+
+    name: default                     # results go to <output>, default results/<name>
+    seeds: 3                          # a count (0, 1, 2) or a list [0, 7, 42]
+    timeout: 600                      # seconds per cell (null: none)
+    datasets:
+      - name: sim:landmarks           # a registry name (datasets.load)
+        params: {n_landmarks: 50}     # keyword arguments; a simulator's seed is the cell's seed
+        label: lm50                   # optional directory/table name (default: sanitised name)
+    estimators:
+      - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
+        params: {motion_model: arc}   # constructor keywords, checked by constructing the class
+    metrics:                          # metric name → parameters (experiments.metrics.METRICS)
+      ate: {align: se2}
+      nees: {}
+    tables:
+      - name: accuracy
+        columns: [ate.rmse, rpe.trans_rmse, cost.step_median]
+    figures: [trajectories, errors, nees, scaling]
+
+Every mistake — an unknown key, a wrong type or value, an unregistered dataset or method, a
+parameter the simulator/reader/estimator does not take or rejects — is a
+:class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
+"""
+from __future__ import annotations
+
+import importlib
+import inspect
+import re
+import typing
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
+
+from .metrics import METRICS, output_columns
+
+__all__ = ["ExperimentConfig", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
+
+#: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
+FIGURES = ("trajectories", "errors", "nees", "scaling")
+
+
+class ConfigError(ValueError):
+    """An experiment config that cannot run; the message lists every problem with its field path."""
+
+
+def sanitize(name: str) -> str:
+    """A dataset or method name as a directory name: ``utias:6/robot1`` → ``utias_6_robot1``."""
+    return re.sub(r"[^A-Za-z0-9.+-]+", "_", name).strip("_")
+
+
+def method_table() -> dict[str, str]:
+    """Every runnable method: ``estimators.REGISTRY`` merged with ``mapping.REGISTRY``."""
+    from estimators import REGISTRY as ESTIMATORS
+    from mapping import REGISTRY as MAPPERS
+
+    return {**ESTIMATORS, **MAPPERS}
+
+
+def _import(target: str):
+    module, _, attr = target.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def check_keywords(func, params: dict, what: str, reserved: tuple[str, ...] = ()) -> None:
+    """Check ``params`` against ``func``'s keyword parameters: names, and types where annotated."""
+    sig = inspect.signature(func)
+    accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+    names = [n for n, p in sig.parameters.items() if n != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    for key in params:
+        if key in reserved:
+            raise ValueError(f"{what}: {key!r} is set by the runner (from seeds:), not in params")
+        if key not in names and not accepts_any:
+            raise ValueError(f"{what} takes no parameter {key!r}; it takes: {', '.join(n for n in names if n not in reserved) or 'none'}")
+    try:
+        hints = typing.get_type_hints(func)
+    except Exception:  # unresolvable annotations: the names were checked, the call checks values
+        return
+    fields = {k: (hints[k], ...) for k in params if k in hints}
+    if fields:
+        model = create_model(f"{what}_params", __config__=ConfigDict(arbitrary_types_allowed=True, strict=False), **fields)
+        try:
+            model(**{k: params[k] for k in fields})
+        except ValidationError as exc:
+            problems = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
+            raise ValueError(f"{what}: {problems}") from None
+
+
+class DatasetSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    label: str | None = None
+
+    @property
+    def is_simulator(self) -> bool:
+        from datasets.registry import SIMULATORS
+
+        return self.name in SIMULATORS
+
+    @model_validator(mode="after")
+    def _registered(self):
+        from datasets.catalogue import CATALOGUE
+        from datasets.registry import SIMULATORS
+
+        if self.name in SIMULATORS:
+            try:
+                simulate = _import(SIMULATORS[self.name])
+            except ImportError as exc:
+                raise ValueError(f"simulator {self.name!r} is registered but cannot be imported: {exc}") from None
+            check_keywords(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
+        elif self.name in CATALOGUE:
+            entry = CATALOGUE[self.name]
+            try:
+                reader = _import(entry.reader)
+            except ImportError as exc:
+                raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
+            check_keywords(reader, self.params, f"dataset {self.name!r}", reserved=("paths", "name"))
+        else:
+            known = sorted(SIMULATORS) + sorted(CATALOGUE)
+            raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
+        if self.label is not None and sanitize(self.label) != self.label:
+            raise ValueError(f"label {self.label!r} must be a plain directory name, e.g. {sanitize(self.label)!r}")
+        return self
+
+
+class EstimatorSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    label: str | None = None
+
+    @model_validator(mode="after")
+    def _registered(self):
+        table = method_table()
+        if self.name not in table:
+            raise ValueError(f"unknown method {self.name!r}; registered: {', '.join(sorted(table))}")
+        try:
+            cls = _import(table[self.name])
+        except (ImportError, AttributeError) as exc:
+            raise ValueError(f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}") from None
+        check_keywords(cls.__init__, self.params, f"method {self.name!r}")
+        try:
+            cls(**self.params)
+        except Exception as exc:  # the constructor's own validation of values
+            raise ValueError(f"method {self.name!r} rejects params {self.params}: {type(exc).__name__}: {exc}") from None
+        if self.label is not None and sanitize(self.label) != self.label:
+            raise ValueError(f"label {self.label!r} must be a plain directory name, e.g. {sanitize(self.label)!r}")
+        return self
+
+    def takes_seed(self) -> bool:
+        cls = _import(method_table()[self.name])
+        return "seed" in inspect.signature(cls.__init__).parameters and "seed" not in self.params
+
+
+MetricsSpec = create_model(
+    "MetricsSpec",
+    __config__=ConfigDict(extra="forbid"),
+    **{name: (m.params | None, None) for name, m in METRICS.items()},
+)
+MetricsSpec.__doc__ = "Metric name → parameters; a metric left out is not computed."
+
+
+def _default_metrics():
+    return MetricsSpec(ate={}, rpe={}, nees={}, nis={}, map={}, cost={})
+
+
+class TableSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    columns: list[str] = Field(min_length=1)
+    formats: list[Literal["md", "csv", "tex"]] = ["md", "csv", "tex"]
+
+    @field_validator("columns")
+    @classmethod
+    def _known(cls, columns):
+        known = output_columns()
+        for c in columns:
+            if c not in known:
+                raise ValueError(f"unknown column {c!r}; columns are <metric>.<output>, e.g. {', '.join(list(known)[:6])}, …")
+        return columns
+
+    @field_validator("name")
+    @classmethod
+    def _plain(cls, name):
+        if sanitize(name) != name:
+            raise ValueError(f"table name {name!r} must be a plain file name, e.g. {sanitize(name)!r}")
+        return name
+
+
+class ExperimentConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    description: str = ""
+    datasets: list[DatasetSpec] = Field(min_length=1)
+    estimators: list[EstimatorSpec] = Field(min_length=1)
+    seeds: int | list[int] = 1
+    metrics: MetricsSpec = Field(default_factory=_default_metrics)  # type: ignore[valid-type]
+    tables: list[TableSpec] = Field(default_factory=list)
+    figures: list[Literal["trajectories", "errors", "nees", "scaling"]] = list(FIGURES)
+    output: Path | None = None
+    timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
+
+    @field_validator("metrics", mode="before")
+    @classmethod
+    def _metric_list(cls, metrics):
+        """``metrics: [ate, rpe]`` is short for ``metrics: {ate: {}, rpe: {}}``."""
+        if isinstance(metrics, list) and all(isinstance(m, str) for m in metrics):
+            return {m: {} for m in metrics}
+        return metrics
+
+    @field_validator("seeds")
+    @classmethod
+    def _seeds(cls, seeds):
+        if isinstance(seeds, int):
+            if seeds < 1:
+                raise ValueError("a seed count must be ≥ 1")
+            return seeds
+        if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+            raise ValueError("seeds must be a non-empty list of distinct non-negative integers")
+        return seeds
+
+    @field_validator("name")
+    @classmethod
+    def _plain(cls, name):
+        if sanitize(name) != name:
+            raise ValueError(f"experiment name {name!r} must be a plain directory name, e.g. {sanitize(name)!r}")
+        return name
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        for kind, labels in (("dataset", self.dataset_labels()), ("estimator", self.estimator_labels())):
+            dup = sorted({x for x in labels if labels.count(x) > 1})
+            if dup:
+                raise ValueError(f"{kind} labels must be unique; give entries a distinct 'label': {', '.join(dup)}")
+        enabled = {k for k, v in self.metrics if v is not None}
+        for k, table in enumerate(self.tables):
+            missing = sorted({c.split(".")[0] for c in table.columns} - enabled)
+            if missing:
+                raise ValueError(f"tables.{k} ({table.name}) uses metrics that are not enabled under metrics: {', '.join(missing)}")
+        return self
+
+    # ------------------------------------------------------------------ derived
+    def seed_list(self) -> list[int]:
+        return list(range(self.seeds)) if isinstance(self.seeds, int) else list(self.seeds)
+
+    def dataset_labels(self) -> list[str]:
+        return [d.label or sanitize(d.name) for d in self.datasets]
+
+    def estimator_labels(self) -> list[str]:
+        return [e.label or sanitize(e.name) for e in self.estimators]
+
+    def enabled_metrics(self) -> dict[str, BaseModel]:
+        return {k: v for k, v in self.metrics if v is not None}
+
+    def output_dir(self, override: Path | None = None) -> Path:
+        return Path(override) if override is not None else (self.output or Path("results") / self.name)
+
+
+def load_config(path: str | Path | None = None) -> ExperimentConfig:
+    """Read and validate an experiment YAML; ``None`` → the shipped ``configs/default.yaml``."""
+    import yaml
+
+    if path is None:
+        from importlib.resources import files
+
+        text, where = files("experiments").joinpath("configs/default.yaml").read_text(), "default.yaml (shipped)"
+    else:
+        path = Path(path)
+        if not path.exists():
+            raise ConfigError(f"{path}: no such config file")
+        text, where = path.read_text(), str(path)
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{where}: not valid YAML: {exc}") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where}: an experiment config is a mapping (name, datasets, estimators, …)")
+    try:
+        return ExperimentConfig.model_validate(raw)
+    except ValidationError as exc:
+        lines = []
+        for e in exc.errors():
+            loc = ".".join(str(x) for x in e["loc"] if not str(x).startswith("function-"))
+            msg = e["msg"].removeprefix("Value error, ")
+            lines.append(f"  {loc or '(top level)'}: {msg}")
+        raise ConfigError(f"{where}: invalid experiment config\n" + "\n".join(lines)) from None
