@@ -1,0 +1,164 @@
+"""Fixed-lag localization smoother: the factor-graph counterpart of the EKF localizer.
+
+Graph over the poses x_k ∈ SE(2) at the start, the end, and every GPS or IMU stamp::
+
+    PriorFactorPose2        x_0 ~ start pose (σ = prior_sigma)
+    BetweenFactorPose2      x_{k−1}⁻¹ x_k ≈ δ_k, Σ_k = Jᵀ P_δ J        cmd_vel pieces through the motion
+                                                                      model, P_δ = Σ G·VMVᵀ·Gᵀ (as the EKF)
+    PoseTranslationPrior2D  t(x_k) = z_gps + v,  v ~ N(0, R_gps)      world-frame (x, y) (2×2)
+    PoseRotationPrior2D     θ(x_k) = z_yaw ⊖ w,  w ~ N(0, R_imu)      wrapped angle error (1×1)
+
+The same inputs and noise as the EKF localizer run with the sequence's noise
+(``use_sequence_noise=True``): M = ``Noise.twist_cov``, R_gps = ``Noise.gps_cov``,
+R_imu = ``Noise.yaw_var`` (each can be overridden). GTSAM's ``IncrementalFixedLagSmoother``
+(iSAM2 inside) keeps the poses of the last ``lag`` seconds and marginalises older ones into a
+prior on the window. A robust kernel (``robust``) can be put on the GPS factors for outliers.
+
+``Estimate`` (one pose per key, world-frame ``pose_cov`` from ``marginalCovariance``):
+``output="smoothed"`` — each pose as estimated just before it leaves the window (it has seen
+``lag`` seconds of later data; the last window at the end of the run); ``output="online"`` —
+each pose right after its own update (what a filter reports). ``diagnostics`` hold the other
+trajectory (without covariances) as ``online_poses`` / ``smoothed_poses``, and the
+rejected-input counts. ``step_time[k]`` =
+wall time of update k.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import gtsam
+import numpy as np
+
+from datasets.estimate import Estimate
+from datasets.geometry import compose
+from datasets.sequence import Sequence
+
+from .graph import ROBUST, X, check_choice, noise_model
+from .noise import body_to_world
+from .problem import check_covariance, motion_chain
+
+__all__ = ["FixedLagLocalizer"]
+
+
+@dataclass(kw_only=True)
+class FixedLagLocalizer:
+    lag: float = 2.0
+    motion_model: str = "euler"
+    output: str = "smoothed"
+    regularisation: float = 1e-4
+    prior_sigma: list[float] = field(default_factory=lambda: [1e-3, 1e-3, 1e-3])
+    robust: str = "none"
+    robust_k: float = 1.345
+    relinearize_threshold: float = 0.1
+    relinearize_skip: int = 1
+    twist_cov: list | None = None
+    gps_cov: list | None = None
+    yaw_var: float | None = None
+
+    def __post_init__(self):
+        check_choice("output", self.output, ("smoothed", "online"))
+        check_choice("robust", self.robust, ROBUST)
+        sigma = np.asarray(self.prior_sigma, dtype=float)
+        if not self.lag > 0 or sigma.shape != (3,) or np.any(~(sigma > 0)) or self.relinearize_skip < 1:
+            raise ValueError("need lag > 0, three positive prior_sigma, relinearize_skip ≥ 1")
+
+    def run(self, sequence: Sequence) -> Estimate:
+        counts: dict = {}
+        gps, heading = sequence.gps, sequence.heading
+        stamps = []
+        if gps is not None and len(gps):
+            R_gps = check_covariance("gps_cov", self.gps_cov if self.gps_cov is not None else _required(sequence.noise.gps_cov, "gps_cov"), (2, 2))
+            ok = np.isfinite(gps.xy).all(axis=1)
+            counts["rejected_nonfinite_gps"] = int((~ok).sum())
+            gps = gps.select(ok)
+            stamps.append(gps.t)
+        else:
+            gps = None
+        if heading is not None and len(heading):
+            var = self.yaw_var if self.yaw_var is not None else _required(sequence.noise.yaw_var, "yaw_var")
+            R_imu = check_covariance("yaw_var", np.atleast_2d(float(var)), (1, 1))
+            ok = np.isfinite(heading.yaw)
+            counts["rejected_nonfinite_heading"] = int((~ok).sum())
+            heading = heading.select(ok)
+            stamps.append(heading.t)
+        else:
+            heading = None
+        chain = motion_chain(sequence, np.concatenate(stamps) if stamps else np.zeros(0), motion_model=self.motion_model,
+                             regularisation=self.regularisation, twist_cov=self.twist_cov)
+        counts.update(chain.counts)
+        K = chain.t.size
+        gps_rows = _rows_per_pose(chain, gps.t if gps is not None else np.zeros(0), K, counts, "gps")
+        yaw_rows = _rows_per_pose(chain, heading.t if heading is not None else np.zeros(0), K, counts, "heading")
+
+        params = gtsam.ISAM2Params()
+        params.setRelinearizeThreshold(float(self.relinearize_threshold))
+        params.relinearizeSkip = int(self.relinearize_skip)
+        smoother = gtsam.IncrementalFixedLagSmoother(float(self.lag), params)
+        gps_noise = noise_model(R_gps, self.robust, self.robust_k) if gps is not None else None
+        yaw_noise = noise_model(R_imu) if heading is not None else None
+        online = np.empty((K, 3))
+        smoothed = np.empty((K, 3))
+        smoothed_cov = np.empty((K, 3, 3))
+        online_cov = np.empty((K, 3, 3))
+        step_time = np.empty(K)
+        want_smoothed_cov = self.output == "smoothed"
+        window: list[int] = []
+        for k in range(K):
+            tic = time.perf_counter()
+            # poses that this update will marginalise (timestamp < t_k − lag): read them while they are in the window
+            while window and chain.t[window[0]] < chain.t[k] - self.lag:
+                j = window.pop(0)
+                smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
+            factors = gtsam.NonlinearFactorGraph()
+            if k == 0:
+                factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(np.diag(np.asarray(self.prior_sigma) ** 2))))
+                x = chain.start
+            else:
+                factors.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])))
+                x = compose(online[k - 1], chain.delta[k - 1])
+            for r in gps_rows[k]:
+                factors.add(gtsam.PoseTranslationPrior2D(X(k), gps.xy[r], gps_noise))
+            for r in yaw_rows[k]:
+                factors.add(gtsam.PoseRotationPrior2D(X(k), gtsam.Rot2(float(heading.yaw[r])), yaw_noise))
+            values = gtsam.Values()
+            values.insert(X(k), gtsam.Pose2(*x))
+            smoother.update(factors, values, {X(k): float(chain.t[k])})
+            online[k], online_cov[k] = _pose_and_cov(smoother, k, not want_smoothed_cov)
+            window.append(k)
+            step_time[k] = time.perf_counter() - tic
+        for j in window:
+            smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
+        if self.output == "smoothed":
+            poses, cov, other = smoothed, smoothed_cov, {"online_poses": online}
+        else:
+            poses, cov, other = online, online_cov, {"smoothed_poses": smoothed}
+        return Estimate(
+            method="gtsam_fixed_lag", t=chain.t, poses=poses, pose_cov=cov, step_time=step_time,
+            diagnostics={**other, **counts}, meta={"lag": self.lag, "output": self.output, "poses": K},
+        )
+
+
+def _required(value, name: str):
+    if value is None:
+        raise ValueError(f"the sequence states no {name}; pass {name}=...")
+    return value
+
+
+def _rows_per_pose(chain, t: np.ndarray, K: int, counts: dict, name: str) -> list[np.ndarray]:
+    """Measurement rows attached to each pose key (those outside the motion's span are counted and skipped)."""
+    snapped, inside = chain.inside(t)
+    counts[f"skipped_{name}_outside_motion"] = int((~inside).sum())
+    rows = np.flatnonzero(inside)
+    pose = chain.index(snapped[rows])
+    bounds = np.searchsorted(pose, np.arange(K + 1))
+    return [rows[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _pose_and_cov(smoother, k: int, with_cov: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Current estimate of pose k and (``with_cov``) its world-frame covariance (else NaN)."""
+    p = smoother.calculateEstimatePose2(X(k))
+    pose = np.array([p.x(), p.y(), p.theta()])
+    if not with_cov:
+        return pose, np.full((3, 3), np.nan)
+    return pose, body_to_world(pose[2], smoother.marginalCovariance(X(k)))

@@ -1,0 +1,147 @@
+"""Pose-graph optimisation of a :class:`~datasets.posegraph.PoseGraph` (g2o, TORO, iSAM files) with GTSAM.
+
+Graph (2D): nodes x_i ∈ SE(2) keyed by their file ids, one ``BetweenFactorPose2`` per edge with
+``Gaussian.Information(Ω)`` — the file's information matrix in (x, y, θ) order, which is the
+order of GTSAM's Pose2 tangent (vx, vy, ω) and, like g2o's, a right (body-frame) perturbation of
+the measured relative pose — and a prior that anchors the first node at its initial pose
+(σ = ``anchor_sigma``). Landmark edges, when the graph has them: ``"xy"`` (a point in the robot
+frame, iSAM's LANDMARK lines) as the factor ``e = x_i⁻¹ · l_j − z`` (``Pose2.transformTo`` with
+its Jacobians, in a ``CustomFactor``); ``"bearing_range"`` with z = (bearing, range) and the
+information in that order as ``BearingRangeFactor2D``. Robust kernels (``robust``) apply to the
+loop closures (the edges that are not odometry i → i+1).
+
+Initial values: ``initial="file"`` uses the file's vertices when it has them, else the odometry
+chain (:meth:`PoseGraph.initial_poses`); ``initial="chain"`` always composes the chain. Landmarks
+start from their first observation.
+
+``Estimate``: ``t`` = node ids (as float; a pose graph has no time), optimised poses, landmarks;
+``pose_cov`` (world frame, from ``Marginals``) only with ``covariances=True``; diagnostics
+``initial_error``, ``final_error`` (½ Σ‖e‖²_Ω), ``iterations``, ``time_optimize``. A
+``Sequence`` given to :meth:`PoseGraphOptimizer.run` is solved by :class:`~.batch.BatchSmoother`
+with the same optimiser settings (its motion and observations are a pose graph with landmarks).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+
+from datasets.estimate import Estimate
+from datasets.geometry import transform_points
+from datasets.posegraph import PoseGraph
+from datasets.sequence import Sequence
+from estimators.models import inverse_observe
+
+from .batch import BatchSmoother
+from .graph import OPTIMIZERS, ROBUST, L, X, check_choice, information_model, noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances
+
+__all__ = ["PoseGraphOptimizer", "build_pose_graph"]
+
+
+def _point_in_frame_factor(pose_key: int, point_key: int, z: np.ndarray, model) -> gtsam.CustomFactor:
+    """e = x⁻¹ · l − z: a landmark seen at the robot-frame point z (2,)."""
+    z = np.asarray(z, dtype=float)
+
+    def error(this: gtsam.CustomFactor, values: gtsam.Values, H):
+        pose = values.atPose2(this.keys()[0])
+        point = values.atPoint2(this.keys()[1])
+        if H is None:
+            return pose.transformTo(point) - z
+        Hx, Hl = np.zeros((2, 3), order="F"), np.zeros((2, 2), order="F")
+        e = pose.transformTo(point, Hx, Hl) - z
+        H[0], H[1] = Hx, Hl
+        return e
+
+    return gtsam.CustomFactor(model, [pose_key, point_key], error)
+
+
+def build_pose_graph(graph: PoseGraph, *, initial: str = "file", robust: str = "none", robust_k: float = 1.345,
+                     anchor_sigma: float = 1e-6) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
+    """The GTSAM factor graph and initial values of a 2D :class:`PoseGraph`."""
+    if graph.dim != 2:
+        raise NotImplementedError(f"{graph.name}: only 2D pose graphs are optimised (got dim={graph.dim})")
+    poses = graph.initial_poses() if initial == "file" else graph.chain_initialisation()
+    factors = gtsam.NonlinearFactorGraph()
+    factors.add(gtsam.PriorFactorPose2(X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * anchor_sigma**2)))
+    odometry = graph.odometry_mask()
+    for i, j, z, info, odo in zip(graph.edge_i, graph.edge_j, graph.edge_z, graph.edge_information, odometry):
+        factors.add(gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, "none" if odo else robust, robust_k)))
+    values = gtsam.Values()
+    for node, p in zip(graph.node_ids, poses):
+        values.insert(X(node), gtsam.Pose2(*p))
+    if graph.landmark_pose is not None:
+        rows = graph.index_of(graph.landmark_pose)
+        ids, first = np.unique(graph.landmark_id, return_index=True)
+        if graph.landmark_kind == "xy":
+            for i, j, z, info in zip(graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information):
+                factors.add(_point_in_frame_factor(X(i), L(j), z, information_model(info)))
+            seen = transform_points(poses[rows[first]], graph.landmark_z[first])
+        else:
+            for i, j, z, info in zip(graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information):
+                factors.add(gtsam.BearingRangeFactor2D(X(i), L(j), gtsam.Rot2(float(z[0])), float(z[1]), information_model(info)))
+            seen = inverse_observe(poses[rows[first]], graph.landmark_z[first][:, ::-1])
+        for j, m in zip(ids, seen):
+            values.insert(L(j), gtsam.Point2(*m))
+    return factors, values
+
+
+@dataclass(kw_only=True)
+class PoseGraphOptimizer:
+    optimizer: str = "lm"
+    max_iterations: int = 100
+    relative_error_tol: float = 1e-8
+    absolute_error_tol: float = 1e-8
+    initial: str = "file"
+    robust: str = "none"
+    robust_k: float = 1.345
+    anchor_sigma: float = 1e-6
+    covariances: bool = False
+
+    def __post_init__(self):
+        check_choice("optimizer", self.optimizer, OPTIMIZERS)
+        check_choice("initial", self.initial, ("file", "chain"))
+        check_choice("robust", self.robust, ROBUST)
+        if self.max_iterations < 1 or not self.robust_k > 0 or not self.anchor_sigma > 0:
+            raise ValueError("need max_iterations ≥ 1, robust_k > 0, anchor_sigma > 0")
+
+    def run(self, data: PoseGraph | Sequence) -> Estimate:
+        if isinstance(data, Sequence):
+            smoother = BatchSmoother(optimizer=self.optimizer, max_iterations=self.max_iterations, robust=self.robust,
+                                     robust_k=self.robust_k, relative_error_tol=self.relative_error_tol,
+                                     absolute_error_tol=self.absolute_error_tol, covariances=self.covariances)
+            estimate = smoother.run(data)
+            estimate.method = "gtsam_pose_graph"
+            return estimate
+        if not isinstance(data, PoseGraph):
+            raise TypeError(f"PoseGraphOptimizer.run takes a PoseGraph or a Sequence, not {type(data).__name__}")
+        tic = time.perf_counter()
+        graph, initial = build_pose_graph(data, initial=self.initial, robust=self.robust, robust_k=self.robust_k, anchor_sigma=self.anchor_sigma)
+        time_build = time.perf_counter() - tic
+        result = optimize(graph, initial, optimizer=self.optimizer, max_iterations=self.max_iterations,
+                          relative_error_tol=self.relative_error_tol, absolute_error_tol=self.absolute_error_tol)
+        pose_keys = [X(i) for i in data.node_ids]
+        poses = poses_of(result.values, pose_keys)
+        ids = landmarks = pose_cov = landmark_cov = None
+        if data.landmark_id is not None:
+            ids = np.unique(data.landmark_id)
+            landmarks = points_of(result.values, [L(j) for j in ids])
+        if self.covariances:
+            marginals = gtsam.Marginals(graph, result.values)
+            pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
+            if ids is not None:
+                landmark_cov = point_covariances(marginals.marginalCovariance, [L(j) for j in ids])
+        diagnostics = {
+            "initial_error": result.initial_error,
+            "final_error": result.final_error,
+            "iterations": result.iterations,
+            "time_optimize": result.time_s,
+            "time_build": time_build,
+        }
+        return Estimate(
+            method="gtsam_pose_graph", t=data.node_ids.astype(float), poses=poses, pose_cov=pose_cov, landmark_ids=ids,
+            landmarks=landmarks, landmark_cov=landmark_cov, diagnostics=diagnostics,
+            meta={"graph": data.name, "nodes": data.n_nodes, "edges": data.n_edges, "optimizer": self.optimizer,
+                  "initial": "file" if (self.initial == "file" and data.poses is not None) else "chain"},
+        )

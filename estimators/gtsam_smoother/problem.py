@@ -1,0 +1,254 @@
+"""The landmark-SLAM smoothing problem of a ``Sequence``, as arrays (numpy only; no GTSAM here).
+
+Pose keys
+    One pose key at the start of the motion, at every observation set with a known landmark
+    id, every ``max_interval`` seconds if given, and at the end of the motion. Keys with no
+    motion between them (no command in force, no increment) are the same pose.
+Relative motion (pose k−1 → k)
+    ``delta[k−1]`` (3,): the dead-reckoned relative pose, and ``cov[k−1]`` (3, 3): its
+    covariance in GTSAM's right-perturbation (body) coordinates ``Jᵀ P_δ J`` — see
+    :mod:`.noise`. P_δ comes from the filters' own propagation of the motion noise
+    (``Noise.twist_cov`` through the motion model's V, or the increments' covariance).
+Observations
+    ``obs_pose`` (N,) pose index, ``obs_id`` (N,), ``obs_range``, ``obs_bearing`` (N,), noise
+    ``R = Noise.range_bearing_cov`` (2, 2) in (range, bearing) order.
+
+Rejected and counted (``counts``): non-finite motion rows, non-finite observations, and
+observations without a landmark id (this smoother uses known association only).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from datasets.geometry import accumulate
+from datasets.sequence import Increments, Sequence, Twist
+from estimators.models import MOTION_MODELS, inverse_observe
+from estimators.stepping import twist_pieces
+
+from .noise import increments_relative, regularise, twist_relative, world_to_body
+
+__all__ = ["LandmarkProblem", "MotionChain", "motion_chain", "build_problem", "check_covariance"]
+
+#: relative tolerance within which an observation stamp equals the end of the motion
+_STAMP_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class LandmarkProblem:
+    t: np.ndarray
+    start: np.ndarray
+    delta: np.ndarray
+    cov: np.ndarray
+    obs_pose: np.ndarray
+    obs_id: np.ndarray
+    obs_range: np.ndarray
+    obs_bearing: np.ndarray
+    R: np.ndarray
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def n_poses(self) -> int:
+        return int(self.t.shape[0])
+
+    def dead_reckoning(self) -> np.ndarray:
+        """Poses (K, 3) composed from the start along the relative motions."""
+        return accumulate(self.start, self.delta)
+
+    def observation_slices(self) -> list[slice]:
+        """Rows of the observations of each pose (observations are sorted by pose)."""
+        bounds = np.searchsorted(self.obs_pose, np.arange(self.n_poses + 1))
+        return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+    def first_sightings(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Landmark ids (L,) and initial positions (L, 2) from each landmark's first observation."""
+        ids, first = np.unique(self.obs_id, return_index=True)
+        z = np.column_stack([self.obs_range[first], self.obs_bearing[first]])
+        return ids, inverse_observe(poses[self.obs_pose[first]], z)
+
+
+def check_covariance(name: str, C, shape: tuple[int, ...]) -> np.ndarray:
+    """A finite, symmetric positive-semidefinite covariance of the given shape, or ValueError."""
+    C = np.asarray(C, dtype=float)
+    if C.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {C.shape}")
+    if not np.isfinite(C).all():
+        raise ValueError(f"{name} has non-finite entries")
+    if not np.allclose(C, np.swapaxes(C, -1, -2)) or np.linalg.eigvalsh(C).min() < -1e-12 * max(1.0, np.abs(C).max()):
+        raise ValueError(f"{name} is not symmetric positive semidefinite")
+    return C
+
+
+def _motion_span(motion: Twist | Increments) -> tuple[float, float]:
+    """Start and end time of the motion. An increment is the motion up to its stamp, so the first
+    one starts a (median) period before its stamp: the start pose is the pose before every increment."""
+    if isinstance(motion, Twist):
+        return float(motion.t[0]), float(np.max(motion.t + motion.dt))
+    gaps = np.diff(motion.t)
+    period = float(np.median(gaps[gaps > 0])) if np.any(gaps > 0) else 1.0
+    return float(motion.t[0]) - period, float(motion.t[-1])
+
+
+@dataclass(frozen=True)
+class MotionChain:
+    """Pose keys at ``t`` (K,) linked by relative motions ``delta`` (K−1, 3) with body-frame ``cov``."""
+
+    t: np.ndarray
+    start: np.ndarray
+    delta: np.ndarray
+    cov: np.ndarray
+    stamps: np.ndarray
+    pose_of_stamp: np.ndarray
+    counts: dict
+
+    def index(self, t: np.ndarray) -> np.ndarray:
+        """Pose index of each time in ``t`` (which must be among the requested stamps)."""
+        return self.pose_of_stamp[np.searchsorted(self.stamps, t)]
+
+    def inside(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Times snapped to the motion's end where they differ from it by rounding, and the mask of those
+        within the motion's span."""
+        t_end = self.stamps[-1]
+        snapped = np.where(np.abs(t - t_end) <= _STAMP_TOL * max(1.0, abs(t_end)), t_end, t)
+        return snapped, (snapped >= self.stamps[0]) & (snapped <= t_end)
+
+
+def motion_chain(
+    sequence: Sequence,
+    stamps: np.ndarray,
+    *,
+    motion_model: str = "arc",
+    max_interval: float | None = None,
+    regularisation: float = 1e-4,
+    twist_cov=None,
+    increment_cov=None,
+) -> MotionChain:
+    """Pose keys at the start and end of the motion, at ``stamps`` inside it and every ``max_interval``;
+    the relative motion between consecutive keys and its covariance (the filters' propagation).
+
+    ``twist_cov`` / ``increment_cov`` override the sequence's stated motion noise.
+    """
+    motion = sequence.motion
+    if motion is None or not len(motion):
+        raise ValueError(f"{sequence.name}: the smoother needs a motion input (Twist or Increments)")
+    if motion_model not in MOTION_MODELS:
+        raise ValueError(f"unknown motion_model {motion_model!r}; known: {', '.join(MOTION_MODELS)}")
+    counts: dict = {}
+    if isinstance(motion, Twist):
+        M = twist_cov if twist_cov is not None else sequence.noise.twist_cov
+        if M is None:
+            raise ValueError(f"{sequence.name}: no twist noise stated; pass twist_cov")
+        M = check_covariance("twist_cov", M, (2, 2))
+        finite = np.isfinite(motion.v) & np.isfinite(motion.omega)
+        counts["rejected_nonfinite_motion"] = int((~finite).sum())
+        motion = motion.select(finite)
+    else:
+        finite = np.isfinite(motion.delta).all(axis=1)
+        counts["rejected_nonfinite_motion"] = int((~finite).sum())
+        if motion.cov is not None:
+            inc_cov = motion.cov if increment_cov is None else np.broadcast_to(check_covariance("increment_cov", increment_cov, (3, 3)), motion.cov.shape)
+        else:
+            C = increment_cov if increment_cov is not None else sequence.noise.increment_cov
+            if C is None:
+                raise ValueError(f"{sequence.name}: no odometry-increment noise stated; pass increment_cov")
+            inc_cov = np.broadcast_to(check_covariance("increment_cov", C, (3, 3)), (len(motion), 3, 3))
+        inc_cov, inc_delta, inc_t = inc_cov[finite], motion.delta[finite], motion.t[finite]
+    if not len(motion.t):
+        raise ValueError(f"{sequence.name}: every motion row is non-finite")
+
+    t_start, t_end = _motion_span(motion)
+    stamps = np.asarray(stamps, dtype=float)
+    parts = [np.array([t_start, t_end]), np.where(np.abs(stamps - t_end) <= _STAMP_TOL * max(1.0, abs(t_end)), t_end, stamps)]
+    if max_interval is not None:
+        if not max_interval > 0:
+            raise ValueError("max_interval must be > 0")
+        parts.append(np.arange(t_start, t_end, max_interval))
+    key_t = np.unique(np.concatenate(parts))
+    key_t = key_t[(key_t >= t_start) & (key_t <= t_end)]
+
+    model = MOTION_MODELS[motion_model]
+    pose_of_stamp = np.zeros(key_t.size, dtype=np.int64)
+    times, deltas, covs = [key_t[0]], [], []
+    for s in range(1, key_t.size):
+        a, b = key_t[s - 1], key_t[s]
+        if isinstance(motion, Twist):
+            v, w, dt = twist_pieces(motion, a, b)
+            moved = v.size > 0
+            if moved:
+                d, P = twist_relative(model, v, w, dt, M)
+        else:
+            rows = np.flatnonzero((inc_t > a) & (inc_t <= b))
+            moved = rows.size > 0
+            if moved:
+                d, P = increments_relative(inc_delta[rows], inc_cov[rows])
+        if not moved:
+            pose_of_stamp[s] = pose_of_stamp[s - 1]
+            continue
+        deltas.append(d)
+        covs.append(regularise(world_to_body(d[2], P), regularisation))
+        times.append(b)
+        pose_of_stamp[s] = len(times) - 1
+    return MotionChain(
+        t=np.asarray(times, dtype=float),
+        start=np.asarray(sequence.start_pose, dtype=float),
+        delta=np.asarray(deltas, dtype=float).reshape(-1, 3),
+        cov=np.asarray(covs, dtype=float).reshape(-1, 3, 3),
+        stamps=key_t,
+        pose_of_stamp=pose_of_stamp,
+        counts=counts,
+    )
+
+
+def build_problem(
+    sequence: Sequence,
+    *,
+    motion_model: str = "arc",
+    max_interval: float | None = None,
+    regularisation: float = 1e-4,
+    twist_cov=None,
+    increment_cov=None,
+    range_bearing_cov=None,
+) -> LandmarkProblem:
+    """Pose keys, relative motions with their covariances, and known-id observations of ``sequence``.
+
+    ``twist_cov``, ``increment_cov``, ``range_bearing_cov`` override the sequence's stated noise.
+    """
+    counts: dict = {}
+    R = range_bearing_cov if range_bearing_cov is not None else sequence.noise.range_bearing_cov
+    rb = sequence.range_bearing
+    if rb is not None and len(rb):
+        if R is None:
+            raise ValueError(f"{sequence.name}: no range-bearing noise stated; pass range_bearing_cov")
+        R = check_covariance("range_bearing_cov", R, (2, 2))
+        finite = np.isfinite(rb.range) & np.isfinite(rb.bearing)
+        known = rb.landmark_id >= 0
+        counts["rejected_nonfinite_observations"] = int((~finite).sum())
+        counts["skipped_unknown_id_observations"] = int((finite & ~known).sum())
+        rb = rb.select(finite & known)
+    else:
+        R = np.eye(2) if R is None else check_covariance("range_bearing_cov", R, (2, 2))
+        rb = None
+    chain = motion_chain(sequence, np.zeros(0) if rb is None else rb.t, motion_model=motion_model, max_interval=max_interval,
+                         regularisation=regularisation, twist_cov=twist_cov, increment_cov=increment_cov)
+    counts.update(chain.counts)
+    if rb is not None:
+        rb_t, inside = chain.inside(rb.t)
+        counts["skipped_observations_outside_motion"] = int((~inside).sum())
+        obs_pose = chain.index(rb_t[inside])
+        order = np.argsort(obs_pose, kind="stable")
+        obs = (obs_pose[order], rb.landmark_id[inside][order], rb.range[inside][order], rb.bearing[inside][order])
+    else:
+        obs = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+    return LandmarkProblem(
+        t=chain.t,
+        start=chain.start,
+        delta=chain.delta,
+        cov=chain.cov,
+        obs_pose=obs[0],
+        obs_id=obs[1],
+        obs_range=obs[2],
+        obs_bearing=obs[3],
+        R=R,
+        counts=counts,
+    )

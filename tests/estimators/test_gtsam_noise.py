@@ -1,0 +1,103 @@
+"""Noise mapping and frame conventions of the GTSAM smoothers (checked against GTSAM and Monte Carlo)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+gtsam = pytest.importorskip("gtsam")
+
+from datasets.geometry import compose, wrap_angle  # noqa: E402
+from estimators.gtsam_smoother.graph import X, observation_noise  # noqa: E402
+from estimators.gtsam_smoother.noise import body_to_world, increments_relative, regularise, twist_relative, world_to_body  # noqa: E402
+from estimators.models import ARC, EULER  # noqa: E402
+
+
+def _pose(p) -> np.ndarray:
+    return np.array([p.x(), p.y(), p.theta()])
+
+
+def test_marginal_covariance_is_body_frame_constructed_case():
+    """A pose facing +y (θ = π/2) that is uncertain along its own x axis is uncertain along world y."""
+    Sigma_body = np.diag([4.0, 0.01, 1e-4])
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2), gtsam.noiseModel.Gaussian.Covariance(Sigma_body)))
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2))
+    marginal = gtsam.Marginals(graph, values).marginalCovariance(X(0))
+    np.testing.assert_allclose(marginal, Sigma_body, atol=1e-12)  # GTSAM reports the body frame
+    world = body_to_world(np.pi / 2, marginal)
+    np.testing.assert_allclose(np.diag(world), [0.01, 4.0, 1e-4], atol=1e-12)
+    np.testing.assert_allclose(world_to_body(np.pi / 2, world), marginal, atol=1e-12)
+
+
+def test_body_to_world_matches_monte_carlo_of_gtsam_retraction(rng):
+    """Samples x̂ · Exp(ξ), ξ ~ N(0, Σ_body): their world-frame (x, y, θ) covariance is J Σ Jᵀ."""
+    x_hat = gtsam.Pose2(3.0, -1.0, 2.2)
+    A = rng.normal(size=(3, 3))
+    Sigma = 1e-3 * (A @ A.T + np.eye(3))
+    xi = rng.multivariate_normal(np.zeros(3), Sigma, size=20000)
+    samples = np.array([_pose(x_hat.compose(gtsam.Pose2.Expmap(d))) for d in xi])
+    e = samples - _pose(x_hat)
+    e[:, 2] = wrap_angle(e[:, 2])
+    empirical = np.cov(e.T)
+    predicted = body_to_world(2.2, Sigma)
+    np.testing.assert_allclose(empirical, predicted, atol=0.05 * np.abs(predicted).max())
+    wrong = body_to_world(-2.2, Sigma)  # the transposed rotation: must be distinguishable
+    assert np.abs(empirical - wrong).max() > 5 * np.abs(empirical - predicted).max()
+
+
+@pytest.mark.parametrize("model", [EULER, ARC], ids=["euler", "arc"])
+def test_twist_relative_covariance_is_the_between_factor_error_covariance(model, rng):
+    """Monte Carlo of the control noise: (1) the relative pose's additive covariance is the filters'
+    propagation; (2) GTSAM's BetweenFactorPose2 error of the samples has covariance Jᵀ P J."""
+    v = np.array([1.0, 1.2, 0.8, 1.1])
+    w = np.array([0.3, -0.2, 0.5, 0.4])
+    dt = np.array([0.1, 0.1, 0.05, 0.1])
+    M = np.diag([0.05**2, 0.1**2])
+    delta, P = twist_relative(model, v, w, dt, M)
+    N = 20000
+    noisy_v = v + rng.normal(0, 0.05, size=(N, v.size))
+    noisy_w = w + rng.normal(0, 0.1, size=(N, w.size))
+    rel = np.zeros((N, 3))
+    for k in range(v.size):
+        rel = model.predict(rel, noisy_v[:, k], noisy_w[:, k], dt[k])
+    e = rel - delta
+    e[:, 2] = wrap_angle(e[:, 2])
+    np.testing.assert_allclose(np.cov(e.T), P, atol=0.05 * np.abs(P).max())
+    factor = gtsam.BetweenFactorPose2(X(0), X(1), gtsam.Pose2(*delta), gtsam.noiseModel.Unit.Create(3))
+    errors = []
+    for r in rel[:5000]:
+        values = gtsam.Values()
+        values.insert(X(0), gtsam.Pose2())
+        values.insert(X(1), gtsam.Pose2(*r))
+        errors.append(factor.unwhitenedError(values))
+    body = world_to_body(delta[2], P)
+    np.testing.assert_allclose(np.cov(np.array(errors).T), body, atol=0.07 * np.abs(body).max())
+
+
+def test_increments_relative_matches_monte_carlo(rng):
+    deltas = np.array([[0.5, 0.02, 0.1], [0.4, -0.01, 0.3], [0.6, 0.0, -0.2]])
+    C = np.diag([0.02**2, 0.01**2, 0.02**2])
+    covs = np.broadcast_to(C, (3, 3, 3))
+    delta, P = increments_relative(deltas, covs)
+    np.testing.assert_allclose(delta, compose(compose(deltas[0], deltas[1]), deltas[2]), atol=1e-12)
+    rel = np.zeros((20000, 3))
+    for d in deltas:
+        rel = compose(rel, d + rng.multivariate_normal(np.zeros(3), C, size=20000))
+    e = rel - delta
+    e[:, 2] = wrap_angle(e[:, 2])
+    np.testing.assert_allclose(np.cov(e.T), P, atol=0.05 * np.abs(P).max())
+
+
+def test_observation_noise_is_in_bearing_range_order():
+    R = np.diag([0.3**2, 0.02**2])  # (range, bearing)
+    np.testing.assert_allclose(observation_noise(R).sigmas(), [0.02, 0.3])
+
+
+def test_regularise_lifts_only_the_null_direction():
+    V = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+    P = V @ np.diag([0.04, 0.01]) @ V.T  # rank 2: no lateral noise
+    Q = regularise(P, 1e-4)
+    lam = np.linalg.eigvalsh(Q)
+    np.testing.assert_allclose(lam, [4e-6, 0.01, 0.04], rtol=1e-9)
+    np.testing.assert_allclose(regularise(P, 0.0), P)

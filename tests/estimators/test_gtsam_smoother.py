@@ -1,0 +1,181 @@
+"""Landmark-SLAM smoothers on sim:landmarks: accuracy vs dead reckoning, Monte Carlo consistency,
+iSAM2 = batch, optimisers, robust kernels, bad input."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+gtsam = pytest.importorskip("gtsam")
+
+from datasets.geometry import compose, interpolate_poses, wrap_angle  # noqa: E402
+from datasets.sequence import Increments, RangeBearing  # noqa: E402
+from datasets.sim.landmarks import simulate  # noqa: E402
+from estimators import create  # noqa: E402
+from estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
+from estimators.gtsam_smoother.problem import build_problem  # noqa: E402
+from estimators.models import ARC  # noqa: E402
+from experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
+
+SIM = dict(n_landmarks=30, laps=1)
+
+
+def _truth_at(seq, t):
+    return interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, np.minimum(t, seq.ground_truth.t[-1]))
+
+
+def _world_error(poses, truth):
+    e = poses - truth
+    e[:, 2] = wrap_angle(e[:, 2])
+    return e
+
+
+def _nees(e, P):
+    return np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0])
+
+
+@pytest.fixture(scope="module")
+def seq():
+    return simulate(seed=3, **SIM)
+
+
+@pytest.fixture(scope="module")
+def batch(seq):
+    return BatchSmoother().run(seq)
+
+
+def test_registry_names_construct_the_smoothers():
+    assert isinstance(create("gtsam_batch"), BatchSmoother)
+    assert isinstance(create("gtsam_isam2", relinearize_skip=1), ISAM2Smoother)
+
+
+def test_batch_beats_dead_reckoning(seq, batch):
+    truth = _truth_at(seq, batch.t)
+    dr = build_problem(seq).dead_reckoning()
+    rmse = lambda p: np.sqrt(np.mean(np.sum((p[:, :2] - truth[:, :2]) ** 2, axis=1)))  # noqa: E731
+    assert rmse(batch.poses) < 0.2 * rmse(dr)
+    assert rmse(batch.poses) < 0.15
+    true_xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, batch.landmark_ids)]
+    assert np.sqrt(np.mean(np.sum((batch.landmarks - true_xy) ** 2, axis=1))) < 0.2
+    assert batch.diagnostics["final_error"] < 0.2 * batch.diagnostics["initial_error"]
+    # ½ χ² of the residuals at the optimum ≈ ½ (measurements − unknowns)
+    dof = 2 * len(seq.range_bearing) + 3 * (len(batch.t) - 1) + 3 - 3 * len(batch.t) - 2 * len(batch.landmarks)
+    assert 0.5 * chi2_band(dof, 1, 0.999)[0] < batch.diagnostics["final_error"] < 0.5 * chi2_band(dof, 1, 0.999)[1]
+
+
+def test_batch_monte_carlo_nees_within_chi2_band():
+    """10 seeds: pose NEES (world frame, vs the simulator's truth) averaged over the runs lies in the
+    χ²(30)/10 band at most steps and at the end; landmark NEES likewise with χ²(20)/10."""
+    runs, final, landmark = [], [], []
+    for seed in range(10):
+        s = simulate(seed=seed, **SIM)
+        est = BatchSmoother().run(s)
+        eps = _nees(_world_error(est.poses, _truth_at(s, est.t)), est.pose_cov)
+        runs.append((est.t, eps))
+        final.append(eps[-1])
+        true_xy = s.landmarks.xy[np.searchsorted(s.landmarks.ids, est.landmark_ids)]
+        landmark.append(_nees(est.landmarks - true_xy, est.landmark_cov)[:20])
+    poses = monte_carlo(runs, 3)
+    assert poses["in_band"] > 0.75
+    lo, hi = chi2_band(3, 10)
+    assert lo < np.mean(final) < hi
+    lo, hi = chi2_band(2, 10)
+    mean_l = np.mean(landmark, axis=0)
+    assert np.mean((mean_l > lo) & (mean_l < hi)) > 0.75
+
+
+def test_isam2_final_equals_batch(seq, batch):
+    est = ISAM2Smoother().run(seq)
+    np.testing.assert_allclose(est.t, batch.t)
+    assert np.abs(_world_error(est.poses, batch.poses)).max() < 1e-6
+    np.testing.assert_allclose(est.landmarks, batch.landmarks, atol=1e-6)
+    np.testing.assert_allclose(est.pose_cov, batch.pose_cov, atol=1e-6 * np.abs(batch.pose_cov).max())
+    np.testing.assert_allclose(est.landmark_cov, batch.landmark_cov, atol=1e-6 * np.abs(batch.landmark_cov).max())
+    assert est.step_time.shape == est.t.shape and np.all(est.step_time > 0)
+    assert est.diagnostics["final_change"] < 1e-6
+    # the online estimates (what a filter would report at each step) are far better than dead reckoning
+    truth = _truth_at(seq, est.t)
+    online = np.abs(_world_error(est.diagnostics["online_poses"], truth)[:, :2]).mean()
+    dead_reckoning = np.abs(_world_error(build_problem(seq).dead_reckoning(), truth)[:, :2]).mean()
+    assert online < 0.3 * dead_reckoning
+
+
+def test_isam2_without_final_updates_differs_from_batch(seq, batch):
+    """The final updates are what make iSAM2 equal batch (with GTSAM's default thresholds)."""
+    est = ISAM2Smoother(final_updates=0, covariances=False).run(seq)
+    assert np.abs(_world_error(est.poses, batch.poses)).max() > 1e-5
+
+
+@pytest.mark.parametrize("optimizer", ["gauss_newton", "dogleg"])
+def test_optimizers_reach_the_same_optimum(seq, batch, optimizer):
+    est = BatchSmoother(optimizer=optimizer, covariances=False).run(seq)
+    assert np.abs(_world_error(est.poses, batch.poses)).max() < 1e-6
+    assert est.diagnostics["final_error"] == pytest.approx(batch.diagnostics["final_error"], rel=1e-9)
+
+
+def test_increments_input_gives_the_same_answer_as_twist(seq, batch):
+    """The same motion as odometry increments with covariance V M Vᵀ per row (arc model)."""
+    tw = seq.motion
+    M = seq.noise.twist_cov
+    delta = ARC.increment(tw.v, tw.omega, tw.dt)
+    _, V = ARC.jacobians(np.zeros((len(tw), 3)), tw.v, tw.omega, tw.dt)
+    inc = Increments(t=np.append(tw.t[1:], tw.t[-1] + tw.dt[-1]), delta=delta, cov=V @ M @ np.swapaxes(V, 1, 2))
+    inc_seq = dataclasses.replace(seq, motion=inc)
+    est = BatchSmoother(covariances=False).run(inc_seq)
+    np.testing.assert_allclose(est.t[1:], batch.t[1:], atol=1e-9)
+    assert np.abs(_world_error(est.poses[1:], batch.poses[1:])).max() < 1e-6
+
+
+def _with_outliers(seq, fraction, rng):
+    rb = seq.range_bearing
+    bad = rng.random(len(rb)) < fraction
+    rng_ = rb.range + np.where(bad, rng.uniform(3.0, 6.0, len(rb)), 0.0)
+    return dataclasses.replace(seq, range_bearing=RangeBearing(t=rb.t, range=rng_, bearing=rb.bearing, landmark_id=rb.landmark_id)), bad
+
+
+@pytest.mark.parametrize("kernel", ["huber", "cauchy"])
+def test_robust_kernels_resist_outliers(seq, kernel):
+    bad_seq, _ = _with_outliers(seq, 0.05, np.random.default_rng(7))
+    truth = _truth_at(seq, BatchSmoother(covariances=False).run(seq).t)
+    plain = BatchSmoother(covariances=False).run(bad_seq)
+    robust = BatchSmoother(covariances=False, robust=kernel).run(bad_seq)
+    err = lambda e: np.sqrt(np.mean(np.sum(_world_error(e.poses, truth)[:, :2] ** 2, axis=1)))  # noqa: E731
+    assert err(robust) < 0.5 * err(plain)
+
+
+def test_nonfinite_and_unknown_observations_are_rejected_and_counted(seq, batch):
+    rb = seq.range_bearing
+    rng_ = rb.range.copy()
+    ids = rb.landmark_id.copy()
+    rng_[[5, 40]] = [np.nan, np.inf]
+    ids[[7, 8, 9]] = -1
+    bad = dataclasses.replace(seq, range_bearing=RangeBearing(t=rb.t, range=rng_, bearing=rb.bearing, landmark_id=ids))
+    est = BatchSmoother(covariances=False).run(bad)
+    assert est.diagnostics["rejected_nonfinite_observations"] == 2
+    assert est.diagnostics["skipped_unknown_id_observations"] == 3
+    assert np.all(np.isfinite(est.poses)) and np.abs(_world_error(est.poses, batch.poses)).max() < 0.05
+
+
+@pytest.mark.parametrize("params", [dict(robust="tukey"), dict(optimizer="newton"), dict(prior_sigma=[0.1, 0.1]),
+                                    dict(max_interval=-1.0), dict(regularisation=2.0)])
+def test_bad_config_is_rejected_before_work(params):
+    with pytest.raises(ValueError):
+        BatchSmoother(**params)
+
+
+def test_missing_noise_is_a_clear_error(seq):
+    from datasets.sequence import Noise
+
+    with pytest.raises(ValueError, match="twist_cov"):
+        BatchSmoother().run(dataclasses.replace(seq, noise=Noise(range_bearing_cov=seq.noise.range_bearing_cov)))
+
+
+def test_max_interval_adds_pose_keys(seq):
+    coarse = dataclasses.replace(seq, range_bearing=seq.range_bearing.select(np.isin(seq.range_bearing.t, seq.range_bearing.t[::200])))
+    few = build_problem(coarse)
+    many = build_problem(coarse, max_interval=1.0)
+    assert many.n_poses > few.n_poses + 30
+    # the chain of relative motions composes to the same end pose either way
+    np.testing.assert_allclose(few.dead_reckoning()[-1], many.dead_reckoning()[-1], atol=1e-9)
+    np.testing.assert_allclose(compose(few.start, np.zeros(3)), many.start)
