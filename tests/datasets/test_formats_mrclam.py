@@ -1,0 +1,100 @@
+"""UTIAS MRCLAM reader on the staged Datasets 1 and 6 (values checked by hand against the files)."""
+from __future__ import annotations
+
+import gzip
+
+import numpy as np
+import pytest
+
+from datasets import DataFormatError, load
+from datasets.formats import mrclam
+from tests.conftest import staged
+
+pytestmark = pytest.mark.realdata
+
+
+@pytest.fixture(scope="module")
+def d6r1():
+    staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
+    return load("utias:6/robot1")
+
+
+def test_dataset6_robot1_odometry_first_and_last(d6r1):
+    m = d6r1.motion
+    assert len(m) == 61785  # SOURCE.md row count; no repeated stamps in this file
+    assert m.t[0] == 1248444187.156 and m.v[0] == 0.086 and m.omega[0] == -0.398
+    assert m.t[-1] == 1248445075.103 and m.v[-1] == 0.0 and m.omega[-1] == 0.0
+    assert np.isclose(m.dt[0], 1248444187.186 - 1248444187.156)
+
+
+def test_dataset6_robot1_measurements_mapped_through_barcodes(d6r1):
+    rb, meta = d6r1.range_bearing, d6r1.meta
+    # 1942 rows = 1534 landmark observations + 407 of other robots + 1 misread (barcode 43)
+    assert meta["measurement_rows"] == 1942
+    assert len(rb) == meta["landmark_observations"] == 1534
+    assert meta["dropped_robot_observations"] == 407
+    assert meta["dropped_misread_barcodes"] == 1 and meta["misread_barcodes"] == [43]
+    # first row: barcode 14 = subject 2 (a robot) -> dropped; second: barcode 90 = subject 15
+    assert rb.t[0] == 1248444189.599 and rb.landmark_id[0] == 15
+    assert rb.range[0] == 6.758 and rb.bearing[0] == -0.005
+    # last row: barcode 9 = subject 18
+    assert rb.t[-1] == 1248444927.166 and rb.landmark_id[-1] == 18 and rb.range[-1] == 1.110 and rb.bearing[-1] == 0.469
+    assert set(np.unique(rb.landmark_id)) <= set(range(6, 21))
+
+
+def test_dataset6_robot1_ground_truth_and_landmarks(d6r1):
+    gt = d6r1.ground_truth
+    assert len(gt) == 49241
+    assert gt.t[0] == 1248444175.103 and np.allclose(gt.poses[0], [1.41277290, -3.89107760, 2.26960000])
+    assert gt.t[-1] == 1248444946.976 and np.allclose(gt.poses[-1], [3.77380520, 2.97411890, 0.43450000])
+    lm = d6r1.landmarks
+    assert lm.ids.tolist() == list(range(6, 21))
+    assert np.allclose(lm.position(6), [0.58831396, -4.28264845]) and np.allclose(lm.std[0], [0.00004570, 0.00027395])
+    # initial pose: ground truth interpolated at the first odometry stamp (robot static before it)
+    assert np.allclose(d6r1.initial_pose[:2], gt.poses[0, :2], atol=0.01)
+
+
+def test_dataset1_has_no_robot_ground_truth_and_counts_drops():
+    staged("utias_mrclam/MRCLAM_Dataset1/Robot3_Odometry.dat.gz")
+    s = load("utias:1/robot3")
+    assert s.ground_truth is None and s.initial_pose is None
+    assert s.meta["measurement_rows"] == 8742
+    assert (s.meta["landmark_observations"], s.meta["dropped_robot_observations"], s.meta["dropped_misread_barcodes"]) == (6771, 1969, 2)
+    # Dataset 1 maps barcodes differently from Dataset 6 (6 -> 72 there)
+    assert len(s.landmarks) == 15
+
+
+def _write(path, header_lines, rows):
+    path.write_text("\n".join(["# header"] * header_lines + rows) + "\n")
+
+
+def test_any_directory_in_the_format_and_repeated_stamps(tmp_path):
+    _write(tmp_path / "Barcodes.dat", 4, ["1 5", "2 14", "6 63", "7 81"])
+    _write(tmp_path / "Landmark_Groundtruth.dat", 4, ["6 1.0 2.0 0.01 0.02", "7 3.0 4.0 0.01 0.02"])
+    _write(tmp_path / "Robot2_Odometry.dat", 4, ["10.0 0.1 0.0", "10.0 0.2 0.0", "10.5 0.3 0.1", "11.0 0.0 0.0"])
+    with gzip.open(tmp_path / "Robot2_Measurement.dat.gz", "wt") as f:
+        f.write("# h\n10.2 63 1.5 0.1\n10.2 5 2.0 0.0\n10.7 99 1.0 0.0\n10.9 81 2.5 -0.2\n")
+    s = mrclam.read_directory(tmp_path, 2)
+    assert s.range_bearing.landmark_id.tolist() == [6, 7]
+    assert s.meta["dropped_robot_observations"] == 1 and s.meta["misread_barcodes"] == [99]
+    assert s.meta["odometry_zero_length_commands"] == 1 and len(s.motion) == 3
+    assert s.ground_truth is None
+
+
+@pytest.mark.parametrize(
+    "rows, line, fragment",
+    [
+        (["1.0 0.1 0.0", "2.0 0.1"], 6, "3 numeric fields"),          # truncated line
+        (["1.0 0.1 0.0", "2.0 abc 0.0"], 6, "numeric"),              # non-numeric field
+        (["1.0 0.1 0.0", "2.0 0.1 0.0 7"], 6, "3 numeric fields"),    # extra field
+        (["2.0 0.1 0.0", "1.0 0.1 0.0"], 6, "non-decreasing time"),   # time going back
+    ],
+)
+def test_malformed_odometry_names_file_and_line(tmp_path, rows, line, fragment):
+    _write(tmp_path / "Barcodes.dat", 4, ["6 63"])
+    _write(tmp_path / "Landmark_Groundtruth.dat", 4, ["6 1 2 0 0"])
+    _write(tmp_path / "Robot1_Measurement.dat", 4, [])
+    _write(tmp_path / "Robot1_Odometry.dat", 4, rows)
+    with pytest.raises(DataFormatError) as err:
+        mrclam.read_directory(tmp_path, 1)
+    assert err.value.line == line and "Robot1_Odometry.dat" in str(err.value) and fragment in str(err.value)
