@@ -46,9 +46,9 @@ Range-bearing to a KNOWN landmark m = (mx, my):
 
 Gating and bad input
 --------------------
-NIS = yᵀ S⁻¹ y is compared with the χ² quantile of the measurement dimension at
-``gate_confidence`` (per sensor; 1.0 disables the gate). Rejected measurements leave x, P
-untouched and are counted per sensor and reason: ``nonfinite`` (NaN/inf value or stamp),
+NIS = yᵀ S⁻¹ y (filterpy's ``y`` and ``SI`` of the update) is compared with the χ² quantile of
+the measurement dimension at ``gate_confidence`` (per sensor; 1.0 disables the gate). A rejected
+update is undone (x, P are the prior again) and counted per sensor and reason: ``nonfinite`` (NaN/inf value or stamp),
 ``gate``, ``too_old`` (older than the history), ``unknown_landmark`` (no such id in the map).
 Non-finite motion input is rejected and counted (``motion``/``nonfinite``); Δt ≤ 0 raises ``ValueError``.
 
@@ -71,7 +71,8 @@ R_landmark and twist_cov by the noise the sequence states (e.g. a simulator's tr
 Diagnostics of :meth:`run`: ``nis_<sensor>``, ``nis_<sensor>_t``, ``nis_<sensor>_accepted`` and
 ``nis_dim_<sensor>`` for sensor in gps, imu, landmark (NIS of every measurement that reached the
 gate, as finally processed: a replay replaces the records of the steps it redoes), and ``rejected_<sensor>_<reason>``
-counts; ``meta["rejected"]`` holds the same counts as a nested dict.
+counts; ``meta["rejected"]`` holds the same counts as a nested dict. ``nis``, ``nis_dof`` and
+``nis_t`` merge all sensors in time order (the names :mod:`experiments.metrics` reads).
 """
 from __future__ import annotations
 
@@ -346,16 +347,15 @@ class EKFLocalizer:
             self._reject(sensor, "nonfinite")
             return False
         kf = self._kf
-        H = HJ(kf.x, *args)
-        y = residual(z, hx(kf.x, *args))
-        S = H @ kf.P @ H.T + R
-        nis = float(y @ np.linalg.solve(S, y))
+        prior = kf.x, kf.P  # filterpy's update rebinds x and P to new arrays: the prior stays intact
+        kf.update(z, HJ, hx, R=R, args=args, hx_args=args, residual=residual)
+        nis = float(kf.y @ kf.SI @ kf.y)  # filterpy's innovation y and S⁻¹ of this update
         accepted = nis <= self.gate[sensor]
         self._note(("nis", sensor, np.nan if self._t is None else self._t, nis, accepted))
         if not accepted:
+            kf.x, kf.P = prior
             self._reject(sensor, "gate")
             return False
-        kf.update(z, HJ, hx, R=R, args=args, hx_args=args, residual=residual)
         kf.x[2] = wrap_angle(kf.x[2])
         return True
 
@@ -577,6 +577,11 @@ class EKFLocalizer:
             out[f"nis_{sensor}"] = rows[:, 1]
             out[f"nis_{sensor}_accepted"] = rows[:, 2].astype(bool)
             out[f"nis_dim_{sensor}"] = np.array(dim)
+        t_all = np.concatenate([out[f"nis_{s}_t"] for s in SENSORS])
+        order = np.argsort(t_all, kind="stable")
+        out["nis_t"] = t_all[order]
+        out["nis"] = np.concatenate([out[f"nis_{s}"] for s in SENSORS])[order]
+        out["nis_dof"] = np.concatenate([np.full(out[f"nis_{s}"].size, d) for s, d in SENSORS.items()])[order]
         for sensor, counts in self.rejected.items():
             for reason, n in counts.items():
                 out[f"rejected_{sensor}_{reason}"] = np.array(n)
