@@ -10,8 +10,12 @@ Robot (differential drive, track width ``wheel_base`` b)
 * **Actuators**: the commanded wheel surface speeds ``c_{L,R} = v_c ∓ ω_c b/2`` are executed
   through a first-order lag with time constant ``actuator_tau`` driven by white noise
   (an Ornstein–Uhlenbeck process around the lagged command whose stationary std is
-  ``actuator_sigma`` [m/s]), integrated exactly on a fine grid of ``substeps`` per row:
-  ``w_{n+1} = a w_n + (1 − a) c_n + actuator_sigma √(1 − a²) ξ_n``, ``a = exp(−h/τ)``.
+  ``actuator_sigma`` [m/s]), integrated exactly on a fine grid of ``substeps`` per row
+  (step ``h = T/substeps``): ``w_{n+1} = a w_n + (1 − a) c_n + actuator_sigma √(1 − a²) ξ_n``,
+  ``a = exp(−h/τ)``; in substep n the wheel travels ``h (c_n + κ (w_n − c_n))``,
+  ``κ = (1 − a) τ/h`` (the exact mean of the lag response). ``actuator_tau = 0``: no lag, the
+  wheel runs at ``c_n + actuator_sigma ξ_n`` (white; ``actuator_sigma = 0`` executes the
+  command exactly).
 * **Ground contact**: the ground speed of each wheel is ``slip factor × executed speed``;
   the factor is 1 except in slip episodes ``slip = [(t_start, t_end, f)]`` (both wheels) or
   ``[(t_start, t_end, f_left, f_right)]``. The true body twist is ``v = (g_R + g_L)/2``,
@@ -197,8 +201,10 @@ def simulate(
     drive = (1.0 - a) * c + actuator_sigma * math.sqrt(1.0 - a * a) * rng_actuator.standard_normal(c.shape)
     wheel = first_order_response(drive, a, np.zeros(2))  # executed wheel speeds at the fine stamps
     # executed wheel travel per substep (K m, 2): the exact mean of the lag response over the substep
-    kappa = (1.0 - a) * actuator_tau / h
-    travel = h * (c + kappa * (wheel[:-1] - c))
+    if actuator_tau > 0:
+        travel = h * (c + (1.0 - a) * actuator_tau / h * (wheel[:-1] - c))
+    else:
+        travel = h * wheel[1:]  # no lag: w_{n+1} = c_n + σ ξ_n runs through substep n
     t_fine = t0 + h * np.arange(K * m + 1)
     ground = travel * _slip_factors(0.5 * (t_fine[:-1] + t_fine[1:]), slip)
     v_true = (ground[:, 1] + ground[:, 0]) / (2.0 * h)

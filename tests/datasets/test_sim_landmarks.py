@@ -82,6 +82,21 @@ def test_truth_follows_piecewise_constant_true_controls(seq):
     np.testing.assert_allclose(again, seq.ground_truth.poses, atol=1e-9)
 
 
+def test_stated_control_noise_makes_dead_reckoning_consistent():
+    """Monte Carlo NEES of the final pose of dead reckoning with Noise.twist_cov: inside the χ² band."""
+    from estimators.dead_reckoning import DeadReckoning
+
+    nees = []
+    for seed in range(30):
+        s = simulate(seed=seed, n_landmarks=10)
+        e = DeadReckoning().run(s)
+        d = e.poses[-1] - s.ground_truth.poses[-1]
+        d[2] = wrap_angle(d[2])
+        nees.append(d @ np.linalg.solve(e.pose_cov[-1], d))
+    lo, hi = stats.chi2.ppf([1e-3, 1 - 1e-3], 3 * 30) / 30
+    assert lo <= np.mean(nees) <= hi, np.mean(nees)
+
+
 @pytest.mark.parametrize("model", sorted(MOTION_MODELS))
 def test_loop_closes_every_lap(model):
     s = simulate(seed=0, laps=3, motion_model=model)

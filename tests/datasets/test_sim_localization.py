@@ -108,6 +108,30 @@ def test_odometry_noise_matches_the_encoder_model():
     assert np.all((lo <= ratio) & (ratio <= hi)), ratio
 
 
+def test_white_actuator_noise_gives_the_stated_cmd_vel_covariance():
+    s = simulate(seed=8, actuator_tau=0.0, actuator_sigma=0.05)
+    m, b = 10, 0.5
+    expected = np.array([0.05**2 / (2 * m), 2 * 0.05**2 / (b * b * m)])  # per row: mean of m white substeps
+    lo, hi = stats.chi2.ppf([1e-4, 1 - 1e-4], 120) / 120
+    ratio = np.diag(s.noise.twist_cov) / expected
+    assert np.all((lo <= ratio) & (ratio <= hi)), ratio
+
+
+def test_stated_noise_makes_dead_reckoning_consistent():
+    """Monte Carlo NEES of the final pose of dead reckoning with Noise.twist_cov: inside the χ² band."""
+    from estimators.dead_reckoning import DeadReckoning
+
+    nees = []
+    for seed in range(30):
+        s = simulate(seed=seed, duration=15.0, motion_source="odometry")
+        e = DeadReckoning().run(s)
+        d = e.poses[-1] - s.ground_truth.poses[-1]
+        d[2] = wrap_angle(d[2])
+        nees.append(d @ np.linalg.solve(e.pose_cov[-1], d))
+    lo, hi = stats.chi2.ppf([1e-3, 1 - 1e-3], 3 * 30) / 30
+    assert lo <= np.mean(nees) <= hi, np.mean(nees)
+
+
 def test_noiseless_odometry_reproduces_the_truth():
     s = simulate(seed=6, motion_source="odometry", encoder_sigma=0.0)
     poses = ARC.integrate(s.initial_pose, s.motion.v, s.motion.omega, s.motion.dt)
