@@ -63,12 +63,16 @@ def tags(lines: list[str], comment: str = "#") -> np.ndarray:
     return np.array(first, dtype=str) if first else np.zeros(0, dtype="<U1")
 
 
+_SPACE = np.zeros(256, dtype=bool)
+_SPACE[[9, 10, 11, 12, 13, 32]] = True
+
+
 def _token_counts(blob: bytes, n_lines: int) -> np.ndarray:
     """Whitespace-separated tokens per line of ``blob`` (lines joined by ``\\n``), vectorised."""
     if n_lines == 0:
         return np.zeros(0, dtype=np.int64)
     b = np.frombuffer(blob, dtype=np.uint8)
-    space = (b == 32) | (b == 9) | (b == 10) | (b == 13) | (b == 11) | (b == 12)
+    space = _SPACE[b]
     starts = ~space
     starts[1:] &= space[:-1]
     first_token = np.flatnonzero(starts)
