@@ -1,0 +1,164 @@
+"""One cell of an experiment (dataset × method × seed), run in a fresh process of its own.
+
+``run_cell(spec, timeout)`` — called by the runner's local thread pool or on a Dask worker —
+starts ``python -m experiments.cell SPEC.json`` and waits for it, killing it at the timeout.
+A fresh process per cell isolates crashes of native libraries, makes the timeout a hard one
+(the process is killed) and makes ``ru_maxrss`` the peak memory of this cell alone.
+
+In the child (:func:`main`): load the dataset (a simulator gets the cell's seed as ``seed``;
+a real dataset is loaded as is), construct the method from the registry (``seed`` passed only
+if its constructor takes one), run it and time the run, then compute the metrics and write
+the cell's files (see :mod:`experiments.results`) — ``metrics.json`` last. If
+``estimate.npz`` already holds this cell's key (only the metric settings changed), the
+estimate is reused and only the metrics are recomputed.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from datetime import datetime, timezone
+from pathlib import Path
+
+__all__ = ["run_cell", "main"]
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def run_cell(spec: dict, timeout: float | None) -> dict:
+    """Run one cell in a child process; returns ``{"id", "status", "error", "traceback", "elapsed"}``."""
+    cell = Path(spec["dir"])
+    cell.mkdir(parents=True, exist_ok=True)
+    (cell / "error.json").unlink(missing_ok=True)
+    with tempfile.NamedTemporaryFile("w", suffix=".json", dir=cell, prefix=".spec.", delete=False) as fh:
+        json.dump(spec, fh)
+        spec_path = fh.name
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, "-m", "experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env=spec.get("env") or None)
+    except subprocess.TimeoutExpired:
+        return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
+    finally:
+        Path(spec_path).unlink(missing_ok=True)
+    elapsed = time.perf_counter() - start
+    if proc.returncode == 0:
+        return {"id": spec["id"], "status": "ok", "error": "", "traceback": "", "elapsed": elapsed}
+    error_file = cell / "error.json"
+    if error_file.exists():
+        info = json.loads(error_file.read_text())
+        return {"id": spec["id"], "status": "error", "error": info["error"], "traceback": info["traceback"], "elapsed": elapsed}
+    tail = (proc.stderr or "").strip().splitlines()[-20:]
+    return {"id": spec["id"], "status": "error", "error": f"cell process exited with code {proc.returncode}", "traceback": "\n".join(tail), "elapsed": elapsed}
+
+
+def _flatten_series(series: dict) -> dict:
+    import numpy as np
+
+    out = {}
+    for metric, values in series.items():
+        for key, value in values.items():
+            if isinstance(value, np.ndarray):
+                out[f"{metric}/{key}"] = value
+    return out
+
+
+def _truth_arrays(ref) -> dict:
+    out = {}
+    if ref.t is not None:
+        out.update(t=ref.t, poses=ref.poses)
+    if ref.landmarks is not None:
+        out.update(landmark_ids=ref.landmark_ids, landmarks=ref.landmarks)
+    return out
+
+
+def execute(spec: dict) -> dict:
+    """The work of one cell (in the child process); returns the ``metrics.json`` content."""
+    import inspect
+
+    import datasets
+    from datasets.estimate import Estimate
+
+    from .config import method_table
+    from .metrics import METRICS, CellData, evaluate, reference_of
+    from .metrics.cost import peak_rss_mb
+    from .results import load_npz, read_json, save_npz, write_json, write_trajectory_tum
+
+    started = _now()
+    cell = Path(spec["dir"])
+    ds, es, seed = spec["dataset"], spec["estimator"], spec["seed"]
+    t0 = time.perf_counter()
+    params = dict(ds["params"], seed=seed) if ds["simulator"] else dict(ds["params"])
+    data = datasets.load(ds["name"], **params)
+    load_time = time.perf_counter() - t0
+
+    estimate_file = cell / "estimate.npz"
+    previous = cell / "estimate.json"
+    if estimate_file.exists() and previous.exists() and read_json(previous).get("key") == spec["key"]:
+        estimate = Estimate.load(estimate_file)
+        wall = read_json(previous)["wall"]
+    else:
+        module, _, attr = method_table()[es["name"]].partition(":")
+        import importlib
+
+        cls = getattr(importlib.import_module(module), attr)
+        kwargs = dict(es["params"])
+        if spec["seed_to_estimator"] and "seed" in inspect.signature(cls.__init__).parameters:
+            kwargs["seed"] = seed
+        method = cls(**kwargs)
+        t1 = time.perf_counter()
+        estimate = method.run(data)
+        wall = time.perf_counter() - t1
+        estimate.save(estimate_file)
+        write_trajectory_tum(cell / "trajectory.tum", estimate.t, estimate.poses)
+        write_json(previous, {"key": spec["key"], "wall": wall, "finished": _now()})
+
+    ref = reference_of(data)
+    selected = {name: METRICS[name].params(**p) for name, p in spec["metrics"].items()}
+    cell_data = CellData(estimate, data, ref, wall=wall, peak_rss=peak_rss_mb())
+    scalars, series, skipped = evaluate(cell_data, selected)
+    save_npz(cell / "series.npz", _flatten_series(series))
+    save_npz(cell / "truth.npz", _truth_arrays(ref))
+    alignment = series.get("ate", {}).get("alignment")
+    result = {
+        "status": "ok",
+        "id": spec["id"],
+        "key": spec["key"],
+        "metrics_key": spec["metrics_key"],
+        "dataset": ds,
+        "estimator": es,
+        "seed": seed,
+        "metrics": scalars,
+        "skipped": skipped,
+        "alignment": None if alignment is None else alignment.as_dict(),
+        "wall": wall,
+        "load_time": load_time,
+        "peak_rss_mb": peak_rss_mb(),
+        "started": started,
+        "finished": _now(),
+        "pid": os.getpid(),
+    }
+    write_json(cell / "metrics.json", result)
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    from .results import write_json
+
+    argv = sys.argv[1:] if argv is None else argv
+    spec = json.loads(Path(argv[0]).read_text())
+    try:
+        execute(spec)
+    except Exception as exc:
+        write_json(Path(spec["dir"]) / "error.json", {"status": "error", "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc(), "finished": _now()})
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

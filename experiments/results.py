@@ -1,0 +1,91 @@
+"""The results layout of an experiment and atomic file writes.
+
+::
+
+    <out>/                                   e.g. results/default
+      manifest.json                          config, package versions, git revision, machine, times
+      runs/<dataset>/<method>/<seed>/
+        estimate.npz                         datasets.Estimate (save/load)
+        trajectory.tum                       the estimated trajectory, TUM format (evo reads it)
+        truth.npz                            the dataset's ground truth (t, poses, landmark ids/xy)
+        series.npz                           per-step metric series ("<metric>/<name>" arrays)
+        metrics.json                         scalars, skipped metrics with reasons, cache keys
+                                             — written last: its presence marks a finished cell
+        error.json                           a failed cell's error and traceback
+      summary.csv                            one row per cell
+      tables/<name>.md .csv .tex
+      figures/<name>.png .pdf
+
+Every file is written to a temporary name in the same directory and renamed over the target
+(``os.replace`` is atomic on POSIX), so a killed run never leaves a half-written file behind.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "save_npz", "load_npz", "write_trajectory_tum", "cell_dir", "MANIFEST", "SUMMARY"]
+
+MANIFEST = "manifest.json"
+SUMMARY = "summary.csv"
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def _jsonable(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def write_json(path: str | Path, obj) -> None:
+    atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
+
+
+def read_json(path: str | Path):
+    return json.loads(Path(path).read_text())
+
+
+def save_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **{k: np.asarray(v) for k, v in arrays.items()})
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def load_npz(path: str | Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
+    """The estimate as a TUM trajectory (``t x y z qx qy qz qw``, planar: z = 0, yaw quaternion)."""
+    from datasets.formats import tum
+
+    buffer = io.StringIO()
+    tum.write(buffer, t, poses)
+    atomic_write_text(path, buffer.getvalue())
+
+
+def cell_dir(out: Path, dataset_label: str, estimator_label: str, seed: int) -> Path:
+    return Path(out) / "runs" / dataset_label / estimator_label / str(seed)

@@ -1,0 +1,105 @@
+"""Experiment configs: every mistake rejected before anything runs, with the field path."""
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+
+from experiments.config import FIGURES, ConfigError, load_config, sanitize
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "exp.yaml"
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+GOOD = """
+name: tiny
+seeds: [0, 3]
+datasets:
+  - name: sim:landmarks
+    params: {n_landmarks: 10}
+estimators:
+  - name: dead_reckoning
+    params: {motion_model: euler}
+metrics: [ate, cost]
+tables:
+  - name: acc
+    columns: [ate.rmse, cost.wall]
+figures: [errors]
+"""
+
+
+def test_good_config_and_derived_values(tmp_path):
+    cfg = load_config(_write(tmp_path, GOOD))
+    assert cfg.seed_list() == [0, 3]
+    assert cfg.dataset_labels() == ["sim_landmarks"] and cfg.estimator_labels() == ["dead_reckoning"]
+    assert set(cfg.enabled_metrics()) == {"ate", "cost"}
+    assert cfg.enabled_metrics()["ate"].align == "se2"
+    assert str(cfg.output_dir()) == "results/tiny"
+
+
+@pytest.mark.parametrize(
+    "change,path,message",
+    [
+        (("name: tiny", "name: tiny\nbogus: 1"), "bogus", "Extra inputs"),
+        (("seeds: [0, 3]", "seeds: 0"), "seeds", "≥ 1"),
+        (("seeds: [0, 3]", "seeds: [1, 1]"), "seeds", "distinct"),
+        (("sim:landmarks", "sim:nowhere"), "datasets.0", "unknown dataset 'sim:nowhere'"),
+        (("{n_landmarks: 10}", "{n_landmarks: ten}"), "datasets.0", "n_landmarks"),
+        (("{n_landmarks: 10}", "{n_landmark: 10}"), "datasets.0", "takes no parameter 'n_landmark'"),
+        (("{n_landmarks: 10}", "{seed: 4}"), "datasets.0", "set by the runner"),
+        (("name: dead_reckoning", "name: kalman"), "estimators.0", "unknown method 'kalman'"),
+        (("{motion_model: euler}", "{motion_model: rk4}"), "estimators.0", "rejects params"),
+        (("{motion_model: euler}", "{speed: 3}"), "estimators.0", "takes no parameter 'speed'"),
+        (("metrics: [ate, cost]", "metrics: {ate: {align: se3}, cost: {}}"), "metrics.ate.align", "'none', 'se2' or 'sim2'"),
+        (("metrics: [ate, cost]", "metrics: {ate: {}, cost: {}, speed: {}}"), "metrics.speed", "Extra inputs"),
+        (("[ate.rmse, cost.wall]", "[ate.rmse, ate.nope]"), "tables.0.columns", "unknown column 'ate.nope'"),
+        (("[ate.rmse, cost.wall]", "[ate.rmse, rpe.trans_rmse]"), "", "not enabled under metrics: rpe"),
+        (("figures: [errors]", "figures: [heatmap]"), "figures.0", "Input should be"),
+        (("name: tiny", "name: my experiment"), "name", "plain directory name"),
+    ],
+)
+def test_mistakes_are_rejected_with_their_path(tmp_path, change, path, message):
+    with pytest.raises(ConfigError) as err:
+        load_config(_write(tmp_path, GOOD.replace(*change)))
+    text = str(err.value)
+    assert message in text
+    assert f"  {path}" in text if path else True
+
+
+def test_duplicate_labels_need_a_label(tmp_path):
+    text = GOOD.replace("    params: {n_landmarks: 10}\n", "    params: {n_landmarks: 10}\n  - name: sim:landmarks\n    params: {n_landmarks: 20}\n")
+    with pytest.raises(ConfigError, match="labels must be unique"):
+        load_config(_write(tmp_path, text))
+    text = text.replace("params: {n_landmarks: 20}", "params: {n_landmarks: 20}\n    label: lm20")
+    assert load_config(_write(tmp_path, text)).dataset_labels() == ["sim_landmarks", "lm20"]
+
+
+def test_shipped_default_config_is_valid():
+    cfg = load_config(None)
+    assert cfg.name == "default"
+    assert all(d.is_simulator for d in cfg.datasets)  # needs no downloaded data
+    assert "dead_reckoning" in cfg.estimator_labels()
+
+
+def test_not_a_mapping_and_bad_yaml(tmp_path):
+    with pytest.raises(ConfigError, match="mapping"):
+        load_config(_write(tmp_path, "- a\n- b\n"))
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_config(_write(tmp_path, "name: [unclosed\n"))
+    with pytest.raises(ConfigError, match="no such config"):
+        load_config(tmp_path / "missing.yaml")
+
+
+def test_figure_kinds_match_paper_figures():
+    from paper_figures.make import FIGURES as IMPLEMENTED
+
+    assert set(FIGURES) == set(IMPLEMENTED)
+
+
+def test_sanitize():
+    assert sanitize("utias:6/robot1") == "utias_6_robot1"
+    assert sanitize("sim:landmarks") == "sim_landmarks"
+    assert sanitize("carmen-corrected:intel") == "carmen-corrected_intel"

@@ -1,0 +1,179 @@
+"""The runner: layout, cache and resume, failures and timeouts, Dask = local, kill and resume."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from rich.console import Console
+
+from experiments.config import load_config
+from experiments.runner import plan, run_experiment
+
+TINY = """
+name: tiny
+seeds: 2
+timeout: 120
+datasets:
+  - name: sim:landmarks
+    params: {n_landmarks: 8, laps: 1}
+estimators:
+  - name: dead_reckoning
+metrics: [ate, rpe, nees, map, cost]
+tables:
+  - name: acc
+    columns: [ate.rmse, rpe.trans_rmse, nees.in_band, cost.step_median]
+figures: []
+"""
+
+
+def _config(tmp_path, text=TINY, name="exp.yaml"):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return load_config(path), path
+
+
+def _quiet():
+    return Console(file=open(os.devnull, "w"), width=120)
+
+
+def _stamps(out):
+    return {p.parent.name: (p.stat().st_mtime_ns, json.loads(p.read_text())["finished"]) for p in sorted(out.glob("runs/*/*/*/metrics.json"))}
+
+
+@pytest.fixture(scope="module")
+def local_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("local")
+    cfg, _ = _config(tmp)
+    out = tmp / "out"
+    code = run_experiment(cfg, out, jobs=2, console=_quiet())
+    return cfg, out, code
+
+
+def test_layout_and_contents(local_run):
+    cfg, out, code = local_run
+    assert code == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["config"]["name"] == "tiny" and manifest["finished"] and manifest["versions"]["numpy"]
+    assert {"hostname", "cpus"} <= set(manifest["machine"]) and "git_revision" in manifest
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["seed"]) == [0, 1] and (summary["status"] == "ok").all()
+    assert {"ate.rmse", "rpe.trans_rmse", "nees.in_band", "cost.peak_rss_mb"} <= set(summary.columns)
+    assert summary["skipped"].str.contains("map: dead_reckoning estimates no landmarks").all()
+    for ext in ("md", "csv", "tex"):
+        assert (out / "tables" / f"acc.{ext}").exists()
+    assert (out / "tables" / "nees_monte_carlo.md").exists()
+    cell = out / "runs" / "sim_landmarks" / "dead_reckoning" / "0"
+    for name in ("estimate.npz", "trajectory.tum", "metrics.json", "series.npz", "truth.npz"):
+        assert (cell / name).exists(), name
+    assert not list(out.rglob("*.tmp*"))  # atomic writes leave no temporaries
+    # the TUM file is what evo reads, and it is the estimate
+    from evo.tools import file_interface
+
+    from datasets.estimate import Estimate
+
+    traj = file_interface.read_tum_trajectory_file(str(cell / "trajectory.tum"))
+    est = Estimate.load(cell / "estimate.npz")
+    np.testing.assert_allclose(traj.timestamps, est.t)
+    np.testing.assert_allclose(traj.positions_xyz[:, :2], est.poses[:, :2], atol=1e-12)
+    # and the metrics are those of the estimate against the simulator's truth for that seed
+    import datasets
+    from experiments.metrics.reference import reference_of
+    from experiments.metrics.trajectory import ate
+
+    seq = datasets.load("sim:landmarks", n_landmarks=8, laps=1, seed=0)
+    expected = ate(est, reference_of(seq))[0]["rmse"]
+    assert json.loads((cell / "metrics.json").read_text())["metrics"]["ate"]["rmse"] == pytest.approx(expected, rel=1e-12)
+    # different seeds are different runs
+    assert summary["ate.rmse"].nunique() == 2
+
+
+def test_rerun_skips_finished_cells_and_force_recomputes(local_run, tmp_path):
+    cfg, out, _ = local_run
+    before = _stamps(out)
+    assert all(c.finished() for c in plan(cfg, out))
+    assert run_experiment(cfg, out, jobs=1, console=_quiet()) == 0
+    assert _stamps(out) == before
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["cells"] == {"total": 2, "to_run": 0, "cached": 2}
+    # a changed estimator parameter is a different cell key → recomputed
+    changed, _ = _config(tmp_path, TINY.replace("  - name: dead_reckoning\n", "  - name: dead_reckoning\n    params: {motion_model: euler}\n"))
+    assert not any(c.finished() for c in plan(changed, out))
+    assert [c.key for c in plan(cfg, out)] != [c.key for c in plan(changed, out)]
+
+
+def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
+    text = TINY.replace("datasets:\n", "datasets:\n  - name: sim:landmarks\n    label: broken\n    params: {layout: no-such-layout}\n").replace("seeds: 2", "seeds: 1")
+    cfg, _ = _config(tmp_path, text)
+    out = tmp_path / "out"
+    assert run_experiment(cfg, out, jobs=2, console=_quiet()) == 1
+    summary = pd.read_csv(out / "summary.csv").set_index("dataset")
+    assert summary.at["sim_landmarks", "status"] == "ok"
+    assert summary.at["broken", "status"] == "error"
+    assert "layout" in summary.at["broken", "error"] and "Traceback" in summary.at["broken", "traceback"]
+    assert "broken" in json.loads((out / "manifest.json").read_text())["failed"][0]
+    # a timeout kills the cell's process and is reported like a failure
+    cfg, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 0.05").replace("seeds: 2", "seeds: 1"), "timeout.yaml")
+    assert run_experiment(cfg, tmp_path / "slow", jobs=1, console=_quiet()) == 1
+    summary = pd.read_csv(tmp_path / "slow" / "summary.csv")
+    assert summary.at[0, "status"] == "timeout" and "timed out" in summary.at[0, "error"]
+
+
+def test_dask_cluster_gives_the_local_results(local_run, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    cfg, local_out, _ = local_run
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster:
+        code = run_experiment(cfg, tmp_path / "dask", scheduler=cluster.scheduler_address, console=_quiet())
+    assert code == 0
+    for seed in ("0", "1"):
+        a = json.loads((local_out / "runs/sim_landmarks/dead_reckoning" / seed / "metrics.json").read_text())
+        b = json.loads((tmp_path / "dask/runs/sim_landmarks/dead_reckoning" / seed / "metrics.json").read_text())
+        assert a["key"] == b["key"]
+        for metric in ("ate", "rpe", "nees"):
+            assert a["metrics"][metric] == b["metrics"][metric]
+        ea = np.load(local_out / "runs/sim_landmarks/dead_reckoning" / seed / "estimate.npz")
+        eb = np.load(tmp_path / "dask/runs/sim_landmarks/dead_reckoning" / seed / "estimate.npz")
+        np.testing.assert_array_equal(ea["poses"], eb["poses"])
+
+
+def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
+    _, path = _config(tmp_path, TINY.replace("seeds: 2", "seeds: 3"))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-c", "from experiments.cli import main; main()", "run", str(path), "--out", str(out), "--jobs", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(_stamps(out)) < 1:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)  # the runner and its cell process, mid-way
+    proc.wait()
+    finished = _stamps(out)
+    assert 1 <= len(finished) < 3, "the kill must land after the first cell and before the last"
+    assert not (out / "summary.csv").exists()
+    cfg = load_config(path)
+    assert run_experiment(cfg, out, jobs=2, console=_quiet()) == 0
+    after = _stamps(out)
+    assert len(after) == 3
+    for seed, stamp in finished.items():
+        assert after[seed] == stamp  # not recomputed
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["cells"]["cached"] == len(finished)
+
+
+def test_dry_run_lists_the_grid(tmp_path, capsys):
+    from experiments.runner import run_from_cli
+
+    _, path = _config(tmp_path)
+    assert run_from_cli(config=path, jobs=1, scheduler=None, out=tmp_path / "o", force=False, dry_run=True) == 0
+    text = capsys.readouterr().out
+    assert "2 cells" in text and "to run" in text
+    assert not (tmp_path / "o" / "runs").exists()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\n")
+    assert run_from_cli(config=bad, jobs=1, scheduler=None, out=None, force=False, dry_run=False) == 2
