@@ -28,6 +28,15 @@ def check_innovation_cov(S: np.ndarray) -> np.ndarray:
         raise CovarianceError(f"innovation covariance is not positive definite: S = {S.tolist()}") from exc
 
 
+def _psd3(A: np.ndarray, tol: float) -> bool:
+    """3 × 3 symmetric A is PSD iff every principal minor is ≥ 0 (up to tol)."""
+    (a, b, c), (_, d, e), (_, _, f) = A.tolist()
+    minors2 = (a * d - b * b, a * f - c * c, d * f - e * e)
+    det = a * (d * f - e * e) - b * (b * f - c * e) + c * (b * e - c * d)
+    scale2 = max(tol, 1e-300) / _TOL
+    return min(a, d, f) >= -tol and min(minors2) >= -tol * scale2 and det >= -tol * scale2 * scale2
+
+
 def check_covariance(P: np.ndarray, n_robot: int = 3) -> None:
     """Raise CovarianceError if P has a negative diagonal entry or an indefinite robot/landmark block."""
     d = np.diagonal(P)
@@ -37,7 +46,7 @@ def check_covariance(P: np.ndarray, n_robot: int = 3) -> None:
     if d.min(initial=0.0) < -_TOL * scale:
         k = int(np.argmin(d))
         raise CovarianceError(f"covariance diagonal entry {k} is negative: {d[k]!r}")
-    if np.linalg.eigvalsh(P[:n_robot, :n_robot]).min() < -_TOL * scale:
+    if not _psd3(P[:n_robot, :n_robot], _TOL * scale):
         raise CovarianceError("robot covariance block is not positive semi-definite")
     n = (P.shape[0] - n_robot) // 2
     if n:

@@ -146,7 +146,9 @@ class EKFSLAM:
         init              "jacobian" (default) | "initP"; init_cov (float, m², default 1.0)
         association       "nn" (default) | "jcbb"; use_ids (default True: trust given ids)
         match_confidence  χ² gate of a match (0.95); new_confidence, gate beyond which an
-                          unmatched row starts a landmark (0.999); jcbb_confidence (0.95)
+                          unmatched row starts a landmark (0.99999: a true re-observation
+                          lands beyond it with probability 1e-5, so thousands of
+                          observations do not duplicate landmarks); jcbb_confidence (0.95)
         jacobians         "standard" (default) | "fej" | "ideal"
         initial_pose      3 floats (default: the sequence's start pose, else the origin)
         initial_cov       3 variances or 3×3 (default zeros: the start defines the frame)
@@ -158,7 +160,7 @@ class EKFSLAM:
                  increment_cov=None, range_bearing_cov=None, update: str = "sequential",
                  covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
                  association: str = "nn", use_ids: bool = True, match_confidence: float = 0.95,
-                 new_confidence: float = 0.999, jcbb_confidence: float = 0.95, jacobians: str = "standard",
+                 new_confidence: float = 0.99999, jcbb_confidence: float = 0.95, jacobians: str = "standard",
                  initial_pose=None, initial_cov=None, on_indefinite: str = "raise", capacity: int = 64):
         self.params = dict(motion_model=motion_model, motion_noise=motion_noise, update=update,
                            covariance_update=covariance_update, init=init, association=association,
@@ -375,33 +377,49 @@ class EKFSLAM:
         return self._s.x[3:].reshape(-1, 2)
 
     def _update_one(self, slot: int, z: np.ndarray) -> None:
-        self._update_batch(np.array([slot]), z[None, :])
+        """One observation of landmark ``slot``: H has the five non-zero columns idx."""
+        x, P = self._s.x, self._s.P
+        s = 3 + 2 * slot
+        idx = [0, 1, 2, s, s + 1]
+        Hx, Hm = self._jacobians_at(np.array([slot]))
+        H = np.concatenate([Hx[0], Hm[0]], axis=1)                     # (2, 5)
+        PHt = P[:, idx] @ H.T                                          # (N, 2)
+        S = H @ PHt[idx] + self.R                                      # (2, 2)
+        nu = z - observe(x[:3], x[s:s + 2])
+        nu[1] = wrap_angle(nu[1])
+        self._correct(PHt, 0.5 * (S + S.T), nu)
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray) -> None:
-        """One EKF update with m observations of landmark slots (m,): H is 2m × N with 5 non-zero columns a row pair."""
+        """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
         x, P = self._s.x, self._s.P
         m = slots.size
         Hx, Hm = self._jacobians_at(slots)
         Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
-        idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1)  # (m, 5)
+        idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1).ravel()
         N = x.shape[0]
-        PHt = np.einsum("nmk,mjk->nmj", P[:, idx.ravel()].reshape(N, m, 5), Hs).reshape(N, 2 * m)
-        S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx.ravel()].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)
+        PHt = np.einsum("nmk,mjk->nmj", P[:, idx].reshape(N, m, 5), Hs).reshape(N, 2 * m)               # (N, 2m)
+        S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
         S = 0.5 * (S + S.T) + np.kron(np.eye(m), self.R)
         nu = z - observe(x[:3], self._landmarks()[slots])
         nu[:, 1] = wrap_angle(nu[:, 1])
-        nu = nu.ravel()
+        self._correct(PHt, S, nu.ravel())
+
+    def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> None:
+        """x ← x + K ν, P ← standard or Joseph form, with K = PHᵀ S⁻¹ (d × d solve, d = 2m)."""
+        x, P = self._s.x, self._s.P
         try:
             check_innovation_cov(S)
         except CovarianceError:
             if self.params["on_indefinite"] == "raise":
                 raise
-            self.rejected["indefinite"] += m
+            self.rejected["indefinite"] += nu.size // 2
             return
-        K = np.linalg.solve(S, PHt.T).T                                # (N, 2m)
-        self.nis_log.append((float(nu @ np.linalg.solve(S, nu)), 2 * m))
+        K = np.linalg.solve(S, PHt.T).T                                # (N, d)
+        self.nis_log.append((float(nu @ np.linalg.solve(S, nu)), nu.size))
         x += K @ nu
         x[2] = wrap_angle(x[2])
+        # P + A Kᵀ, symmetrised: A = −PHᵀ gives P − K(PHᵀ)ᵀ (standard form);
+        # A = K S − 2 PHᵀ gives P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ (Joseph form)
         A = -PHt if self.params["covariance_update"] == "standard" else K @ S - 2.0 * PHt
         T = self._s.scratch()
         np.matmul(A, K.T, out=T)
