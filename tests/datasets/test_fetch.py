@@ -1,0 +1,86 @@
+"""`slamarena data fetch`: pinned URLs and sha256, tested offline with pooch's downloader replaced."""
+from __future__ import annotations
+
+import gzip
+import hashlib
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from datasets import catalogue, fetch, load
+from datasets.formats import isam
+from tests.conftest import staged
+
+
+def _serve_staged(url: str, output_file, pooch_obj=None):
+    """A pooch downloader that copies the staged file (decompressed where the stager compressed it)."""
+    rel = next(r for r, (up, _, _) in fetch.FILES.items() if url.endswith(up))
+    data = staged(rel).read_bytes()
+    if fetch.FILES[rel][2]:
+        data = gzip.decompress(data)
+    Path(output_file).write_bytes(data)
+
+
+@pytest.fixture
+def offline(tmp_path, monkeypatch):
+    monkeypatch.setenv("SLAMARENA_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(fetch, "_downloader", lambda: _serve_staged)
+    return tmp_path / "cache"
+
+
+def test_every_catalogue_file_is_pinned_to_a_commit():
+    for entry in catalogue.CATALOGUE.values():
+        for rel in entry.files:
+            upstream, sha, _ = fetch.FILES[rel]
+            assert re.fullmatch(r"[0-9a-f]{64}", sha)
+            assert re.match(r"https://raw\.githubusercontent\.com/[^/]+/[^/]+/[0-9a-f]{40}/", fetch.url_of(rel))
+    assert "/curow/multi-robot-localization/adf9111354153f5bf3fc55ecc0c348c222241f37/MRCLAM/" in fetch.url_of(
+        "utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
+
+
+@pytest.mark.realdata
+def test_pinned_hashes_match_the_staged_upstream_content():
+    for rel, (_, sha, compressed) in fetch.FILES.items():
+        data = staged(rel).read_bytes()
+        assert hashlib.sha256(gzip.decompress(data) if compressed else data).hexdigest() == sha, rel
+
+
+@pytest.mark.realdata
+def test_fetch_plain_file(offline):
+    paths = fetch.fetch("g2o:noisyToyGraph", force=True)
+    assert paths == [offline / "gtsam_examples_data/noisyToyGraph.txt"]
+    assert paths[0].read_bytes() == staged("gtsam_examples_data/noisyToyGraph.txt").read_bytes()
+    assert not list((offline / ".downloads").rglob("*.txt"))  # the staging copy is removed
+
+
+@pytest.mark.realdata
+def test_fetch_recompresses_into_the_catalogue_layout(offline):
+    (path,) = fetch.fetch("isam:w20000", force=True)
+    assert path == offline / "gtsam_examples_data/w20000.txt.gz"
+    assert gzip.decompress(path.read_bytes()) == gzip.decompress(staged("gtsam_examples_data/w20000.txt.gz").read_bytes())
+    assert np.array_equal(isam.read(path).edge_z, load("isam:w20000").edge_z)
+
+
+@pytest.mark.realdata
+def test_fetch_rejects_a_bad_hash_and_stores_nothing(offline, monkeypatch):
+    def corrupt(url, output_file, pooch_obj=None):
+        _serve_staged(url, output_file, pooch_obj)
+        Path(output_file).write_bytes(Path(output_file).read_bytes() + b"\n")
+
+    monkeypatch.setattr(fetch, "_downloader", lambda: corrupt)
+    with pytest.raises(fetch.FetchError, match="sha256"):
+        fetch.fetch("g2o:noisyToyGraph", force=True)
+    assert not (offline / "gtsam_examples_data/noisyToyGraph.txt").exists()
+
+
+def test_fetch_skips_files_already_under_a_data_root(offline, monkeypatch):
+    monkeypatch.setattr(fetch, "_downloader", lambda: pytest.fail("no download expected"))
+    staged("gtsam_examples_data/pose2example.txt")
+    assert fetch.fetch("g2o:pose2example")[0].exists()
+
+
+def test_unknown_name():
+    with pytest.raises(KeyError, match="unknown dataset"):
+        fetch.fetch("g2o:nope")

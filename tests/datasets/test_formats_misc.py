@@ -1,0 +1,99 @@
+"""Relations, TUM, KITTI .bin and PLY: staged files, round trips, malformed input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from datasets import DataFormatError
+from datasets.formats import kitti, ply, relations, tum
+from tests.conftest import staged
+
+
+def test_relations_round_trip_and_tagged_lines(tmp_path, rng):
+    rel = relations.Relations(t1=rng.uniform(0, 1e9, 20), t2=rng.uniform(0, 1e9, 20), motion=rng.normal(size=(20, 6)))
+    relations.write(tmp_path / "r.relations", rel)
+    back = relations.read(tmp_path / "r.relations")
+    assert np.array_equal(back.t1, rel.t1) and np.array_equal(back.t2, rel.t2) and np.array_equal(back.motion, rel.motion)
+    assert np.array_equal(back.se2, rel.motion[:, [0, 1, 5]])
+    (tmp_path / "tagged").write_text("FLASER 1.5 2.5 0.1 0 0 0 0 0.2\nFLASER 2.5 3.5 0.1 0 0 0 0 0.3\n")
+    tagged = relations.read(tmp_path / "tagged")
+    assert tagged.t1.tolist() == [1.5, 2.5] and tagged.motion[1, 5] == 0.3
+
+
+def test_relations_malformed(tmp_path):
+    (tmp_path / "bad").write_text("1 2 0 0 0 0 0 0\n3 4 0 0 0 0 0\n")
+    with pytest.raises(DataFormatError) as err:
+        relations.read(tmp_path / "bad")
+    assert err.value.line == 2 and "8 numeric fields" in str(err.value)
+
+
+def test_tum_round_trip_and_quaternion_convention(tmp_path, rng):
+    t = np.cumsum(rng.uniform(0.01, 0.1, 50))
+    poses = np.column_stack([rng.normal(size=(50, 2)), rng.uniform(-np.pi, np.pi, 50)])
+    tum.write(tmp_path / "traj.tum", t, poses)
+    raw = tum.read(tmp_path / "traj.tum")
+    assert np.allclose(raw.quat[:, :2], 0) and np.allclose(raw.quat[:, 2], np.sin(poses[:, 2] / 2))
+    back = tum.read_trajectory(tmp_path / "traj.tum")
+    assert np.array_equal(back.t, t) and np.allclose(back.poses, poses, atol=1e-12)
+    first = (tmp_path / "traj.tum").read_text().splitlines()[1].split()
+    assert len(first) == 8 and float(first[3]) == 0.0  # timestamp x y z qx qy qz qw
+
+
+def test_tum_rejects_tilted_rotation_and_bad_lines(tmp_path):
+    (tmp_path / "a.tum").write_text("0 0 0 0 0.3 0 0 0.95\n")
+    with pytest.raises(ValueError, match="rotation about z"):
+        tum.read_trajectory(tmp_path / "a.tum")
+    (tmp_path / "b.tum").write_text("# c\n0 0 0 0 0 0 0 1\n1 0 0 0 0 0 1\n")
+    with pytest.raises(DataFormatError) as err:
+        tum.read(tmp_path / "b.tum")
+    assert err.value.line == 3
+    (tmp_path / "c.tum").write_text("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n")
+    with pytest.raises(DataFormatError, match="non-decreasing"):
+        tum.read(tmp_path / "c.tum")
+
+
+@pytest.mark.realdata
+def test_kitti_staged_scan():
+    p = kitti.read(staged("lidar3d_smoke/kitti_velodyne_6frames/velodyne/000000.bin"))
+    assert p.shape == (124668, 4) and p.dtype == np.float32
+    assert np.allclose(p[0], [52.898, 0.023, 1.998, 0.08], atol=1e-3)
+
+
+def test_kitti_round_trip_and_truncated(tmp_path, rng):
+    pts = rng.normal(size=(100, 4)).astype(np.float32)
+    kitti.write(tmp_path / "a.bin", pts)
+    assert np.array_equal(kitti.read(tmp_path / "a.bin"), pts)
+    (tmp_path / "b.bin").write_bytes(pts.tobytes()[:-4])
+    with pytest.raises(DataFormatError, match="multiple of 16 bytes"):
+        kitti.read(tmp_path / "b.bin")
+
+
+@pytest.mark.realdata
+def test_ply_staged_pair():
+    src = ply.read(staged("lidar3d_smoke/gicp_pair/source.ply"))
+    assert list(k for k in src if not k.startswith("_")) == ["x", "y", "z", "scalar_intensity"]
+    assert src["x"].shape == (69792,) and src["x"].dtype == np.float32
+    assert ply.points(staged("lidar3d_smoke/gicp_pair/target.ply")).shape == (69088, 3)
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_ply_round_trip(tmp_path, rng, binary):
+    props = {"x": rng.normal(size=30).astype(np.float32), "y": rng.normal(size=30).astype(np.float32),
+             "z": rng.normal(size=30).astype(np.float32), "ring": rng.integers(0, 64, 30).astype(np.uint8)}
+    ply.write(tmp_path / "a.ply", props, binary=binary)
+    back = ply.read(tmp_path / "a.ply")
+    for k, v in props.items():
+        assert back[k].dtype == v.dtype and np.array_equal(back[k], v)
+
+
+def test_ply_malformed(tmp_path):
+    (tmp_path / "a.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3\n")
+    with pytest.raises(DataFormatError) as err:
+        ply.read(tmp_path / "a.ply")
+    assert err.value.line == 8
+    (tmp_path / "b.ply").write_bytes(b"ply\nformat binary_big_endian 1.0\nelement vertex 2\nend_header\n")
+    with pytest.raises(DataFormatError, match="binary_little_endian"):
+        ply.read(tmp_path / "b.ply")
+    (tmp_path / "c.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nend_header\n\0\0\0\0")
+    with pytest.raises(DataFormatError, match="2 vertices"):
+        ply.read(tmp_path / "c.ply")
