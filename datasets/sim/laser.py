@@ -257,7 +257,7 @@ def _beam_angles(n_beams: int, fov: float) -> np.ndarray:
 
 
 def simulate(
-    world: str = "loop",
+    world: str | World = "loop",
     n_beams: int = 361,
     fov: float = 1.5 * math.pi,
     max_range: float = 12.0,
