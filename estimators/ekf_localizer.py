@@ -101,6 +101,7 @@ _STREAM_KIND = {"gps": "gps", "heading": "imu", "range_bearing": "landmark"}
 Q_UNITS = ("per_step", "per_second")
 HEADING_CONVENTIONS = ("enu", "compass")
 
+_ORIGIN = np.zeros(3)
 H_GPS = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 H_IMU = np.array([[0.0, 0.0, 1.0]])
 
@@ -263,6 +264,7 @@ class EKFLocalizer:
         self._commands: list[tuple[float, float, float, float]] = []
         self._twist: Twist | None = None
         self._source: Twist | None = None
+        self._row_cache: tuple[np.ndarray, np.ndarray] | None = None  # δ and ∂δ/∂u of every row of _source
         self._history: list[_Snapshot] = []
         self._history_t: list[float] = []
         self._records: list | None = None  # records of the step in progress (None: outside a timed step)
@@ -306,11 +308,20 @@ class EKFLocalizer:
         if not (np.isfinite(v) and np.isfinite(omega)):
             self._reject("motion", "nonfinite")
             return False
-        G, V = self.model.jacobians(self._kf.x, v, omega, dt)
-        self._kf.F = G
-        self._kf.Q = self.process_noise(dt, V, period)
-        self._kf.predict(u=self.model.increment(v, omega, dt))
+        delta = self.model.increment(v, omega, dt)
+        D = self.model.jacobians(_ORIGIN, v, omega, dt)[1]
+        self._predict_delta(delta, D, dt, period)
         return True
+
+    def _predict_delta(self, delta: np.ndarray, D: np.ndarray, dt: float, period: float | None) -> None:
+        """x⁻ = x ⊕ δ with F = ∂(x ⊕ δ)/∂x and V = ∂(x ⊕ δ)/∂δ · ∂δ/∂u (D = ∂δ/∂u, the model's V at the origin).
+
+        This is the model's (G, V) at x: δ does not depend on x, so only the composition does.
+        """
+        F, J_delta = compose_jacobians(self._kf.x, delta)
+        self._kf.F = F
+        self._kf.Q = self.process_noise(dt, J_delta @ D, period)
+        self._kf.predict(u=delta)
 
     def predict_increment(self, delta, cov=None) -> bool:
         """Propagate with a body-frame odometry increment δ (3,) of covariance ``cov`` (default ``increment_cov``)."""
@@ -432,7 +443,11 @@ class EKFLocalizer:
         if source is not None and t > self._t:
             v, omega, dt, rows = twist_pieces(source, self._t, t, with_rows=True)
             for k in range(dt.size):
-                self.predict(v[k], omega[k], dt[k], source.dt[rows[k]])
+                r = rows[k]
+                if self._row_cache is not None and dt[k] == source.dt[r] and np.isfinite(self._row_cache[0][r, 0]):
+                    self._predict_delta(self._row_cache[0][r], self._row_cache[1][r], dt[k], None)  # a whole row
+                else:
+                    self.predict(v[k], omega[k], dt[k], source.dt[r])
         self._t = t
 
     def _step(self, t: float, kind: str, value) -> None:
@@ -538,7 +553,10 @@ class EKFLocalizer:
         """
         self._configure_noise(sequence)
         self.reset(sequence.start_pose, t=sequence.t0)
-        self._source = sequence.motion if isinstance(sequence.motion, Twist) else None
+        if isinstance(sequence.motion, Twist):
+            m = sequence.motion
+            self._source = m
+            self._row_cache = (self.model.increment(m.v, m.omega, m.dt), self.model.jacobians(np.zeros((len(m), 3)), m.v, m.omega, m.dt)[1])
         t_table = sequence.event_table()[0]
         times = np.empty(t_table.size)
         poses = np.empty((t_table.size, 3))
