@@ -46,7 +46,9 @@ class GridSLAM:
     matcher: a name of :data:`mapping.scan_matching.MATCHERS`; matcher_params: its keywords.
     resolution [m], levels: the map pyramid. update_distance [m], update_angle [rad]: map
     update thresholds (Hector's 0.4 m, 0.9 rad). p_hit, p_miss, clamp: the cell model.
-    clear_range [m]: how far a no-return reading clears space. max_usable_range [m]: longer
+    clear_range [m]: how far a no-return reading clears space (5 m, Cartographer's
+    missing_data_ray_length: no-returns of real lasers also come from glass and dark
+    surfaces, and long clearing rays erase walls they pass). max_usable_range [m]: longer
     returns are not matched or mapped (None: all returns). min_beams: fewest usable beams
     for a match. reference_scans: point matchers' reference size. use_odometry: guess from
     the scans' odometry poses.
@@ -58,13 +60,13 @@ class GridSLAM:
         matcher_params: dict | None = None,
         use_odometry: bool = True,
         resolution: float = 0.05,
-        levels: int = 3,
+        levels: int = 2,
         update_distance: float = 0.4,
         update_angle: float = 0.9,
         p_hit: float = 0.7,
         p_miss: float = 0.4,
         clamp: list | tuple | None = (0.12, 0.97),
-        clear_range: float = 20.0,
+        clear_range: float = 5.0,
         max_usable_range: float | None = None,
         min_beams: int = 10,
         reference_scans: int = 10,

@@ -33,20 +33,30 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..occupancy_grid import probability as _probability
 from . import MatchResult
 
 __all__ = ["CorrelativeMatcher", "BranchAndBoundMatcher", "likelihood_grid"]
 
+_BLOCK = 64
 
-def likelihood_grid(grid, sigma: float, p_floor: float) -> np.ndarray:
-    """``G`` (rows = y) of the module docstring for an :class:`OccupancyGrid`."""
+
+def likelihood_grid(grid, sigma: float, p_floor: float, box: tuple[int, int, int, int] | None = None) -> np.ndarray:
+    """``G`` (rows = y) of the module docstring for an :class:`OccupancyGrid`, or for its cells
+    ``box = (ix0, iy0, ix1, iy1)`` (half-open); obstacles up to ``4σ`` outside the box count."""
     from scipy.ndimage import distance_transform_edt
 
-    occupied = grid.probability() > grid.occupied_threshold
-    if not occupied.any():
-        return np.full(grid.shape, np.log(p_floor))
-    d = distance_transform_edt(~occupied) * grid.resolution
-    return np.log(p_floor + (1.0 - p_floor) * np.exp(-0.5 * (d / sigma) ** 2))
+    h, w = grid.shape
+    ix0, iy0, ix1, iy1 = box if box is not None else (0, 0, w, h)
+    m = int(np.ceil(4 * sigma / grid.resolution))
+    x0, y0, x1, y1 = max(ix0 - m, 0), max(iy0 - m, 0), min(ix1 + m, w), min(iy1 + m, h)
+    occupied = _probability(grid.log_odds[y0:y1, x0:x1]) > grid.occupied_threshold
+    if occupied.any():
+        d = distance_transform_edt(~occupied) * grid.resolution
+        G = np.log(p_floor + (1.0 - p_floor) * np.exp(-0.5 * (d / sigma) ** 2))
+    else:
+        G = np.full(occupied.shape, np.log(p_floor))
+    return G[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
 
 
 class _Correlative:
@@ -72,27 +82,32 @@ class _Correlative:
         self._cache: dict = {}
 
     # ----------------------------------------------------------- shared pieces
-    def _grids(self, maps, depth: int):
-        """Padded likelihood grid and (for depth > 0) its max-pyramid, cached per map version."""
+    def _grids(self, maps, depth: int, guess, reach: float):
+        """Padded likelihood grid of the map region within ``reach`` of the guess (snapped to
+        blocks of 64 cells) and, for ``depth > 0``, its max-pyramid; cached per map version."""
         grid = maps.levels[min(self.level, len(maps.levels) - 1)]
-        key = (id(grid), grid.version, grid.shape, depth)
+        h, w = grid.shape
+        lo = np.clip((grid.world_to_grid(np.asarray(guess[:2]) - reach) // _BLOCK) * _BLOCK, 0, [w, h])
+        hi = np.clip((grid.world_to_grid(np.asarray(guess[:2]) + reach) // _BLOCK + 1) * _BLOCK, 0, [w, h])
+        key = (id(grid), grid.version, grid.shape, depth, *lo, *hi)
         if key != self._cache_key:
             floor = np.log(self.p_floor)
             pad = 2**depth + self._w(grid) + 1
-            G = np.pad(likelihood_grid(grid, self.sigma, self.p_floor), pad, constant_values=floor)
-            pyramid = [G]
+            G = likelihood_grid(grid, self.sigma, self.p_floor, (lo[0], lo[1], hi[0], hi[1]))
+            pyramid = [np.pad(G, pad, constant_values=floor)]
             for h in range(1, depth + 1):
                 s = 2 ** (h - 1)
-                A = pyramid[-1]
-                B = np.full_like(A, floor)
-                B[:, :-s] = A[:, s:]
-                A = np.maximum(A, B)
-                B = np.full_like(A, floor)
-                B[:-s, :] = A[s:, :]
-                pyramid.append(np.maximum(A, B))
+                P = pyramid[-1].copy()
+                np.maximum(P[:, :-s], P[:, s:], out=P[:, :-s])
+                np.maximum(P[:-s, :], P[s:, :], out=P[:-s, :])
+                pyramid.append(P)
             self._cache_key = key
-            self._cache = {"grid": grid, "pad": pad, "pyramid": pyramid}
+            self._cache = {"grid": grid, "pad": pad, "pyramid": pyramid, "corner": lo}
         return self._cache
+
+    def _reach(self, grid, pts) -> float:
+        r = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 0.0
+        return r + self.linear_window + 4 * self.sigma + 2 * grid.resolution
 
     def _w(self, grid) -> int:
         return int(np.ceil(self.linear_window / grid.resolution - 1e-9))
@@ -104,12 +119,14 @@ class _Correlative:
 
     @staticmethod
     def _cells(grid, pad, pts, guess, angles):
-        """Cell indices (K, N) of the points at each rotation, translated by the guess, in the padded grid."""
+        """Cell indices (K, N) of the points at each rotation, translated by the guess, in the padded crop.
+
+        ``pad`` is the padding minus the crop's lower-left corner ``(2,)``."""
         c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
         wx = guess[0] + c * pts[:, 0] - s * pts[:, 1]
         wy = guess[1] + s * pts[:, 0] + c * pts[:, 1]
-        ix = np.floor((wx - grid.origin[0]) / grid.resolution).astype(np.int64) + pad
-        iy = np.floor((wy - grid.origin[1]) / grid.resolution).astype(np.int64) + pad
+        ix = np.floor((wx - grid.origin[0]) / grid.resolution).astype(np.int64) + pad[0]
+        iy = np.floor((wy - grid.origin[1]) / grid.resolution).astype(np.int64) + pad[1]
         return ix, iy
 
     @staticmethod
@@ -151,10 +168,11 @@ class CorrelativeMatcher(_Correlative):
     def match(self, maps, points, guess) -> MatchResult:
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         guess = np.asarray(guess, dtype=float)
-        cache = self._grids(maps, 0)
-        grid, pad, G = cache["grid"], cache["pad"], cache["pyramid"][0]
+        grid = maps.levels[min(self.level, len(maps.levels) - 1)]
         w = self._w(grid)
         dth, na = self._angles(grid, pts)
+        cache = self._grids(maps, 0, guess, self._reach(grid, pts))
+        G, pad = cache["pyramid"][0], cache["pad"] - cache["corner"]
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
         S, a, b = self._response(G, ix, iy, range(offsets.size), w, w)
@@ -172,9 +190,10 @@ class BranchAndBoundMatcher(_Correlative):
         grid0 = maps.levels[min(self.level, len(maps.levels) - 1)]
         w = self._w(grid0)
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
-        cache = self._grids(maps, depth)
-        grid, pad, pyramid = cache["grid"], cache["pad"], cache["pyramid"]
+        grid = grid0
         dth, na = self._angles(grid, pts)
+        cache = self._grids(maps, depth, guess, self._reach(grid, pts))
+        pyramid, pad = cache["pyramid"], cache["pad"] - cache["corner"]
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
 

@@ -151,14 +151,23 @@ def _solve3(H, g):
 
 
 @njit(cache=True)
-def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, bug):
-    """Gauss-Newton on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations)."""
+def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, bug, prior, w_t, w_r):
+    """Gauss-Newton on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations).
+
+    ``w_t, w_r > 0`` add the prior term ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards ``prior``.
+    """
     x, y, th = pose[0], pose[1], pose[2]
     it = 0
     for it in range(1, iterations + 1):
         H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
         if n < 3:
             break
+        H[0, 0] += w_t
+        H[1, 1] += w_t
+        H[2, 2] += w_r
+        g[0] += w_t * (prior[0] - x)
+        g[1] += w_t * (prior[1] - y)
+        g[2] += w_r * (prior[2] - th)
         d, ok = _solve3(H, g)
         if not ok:
             break
@@ -184,6 +193,10 @@ class GaussNewtonMatcher:
     ``tol_translation`` [m] and ``tol_rotation`` [rad], step clamps ``max_step_translation``
     [m, on the finest level; scaled with each level's resolution] and ``max_step_rotation``
     [rad], ``hector_gradient_bug`` to reproduce the published gradient weights.
+    ``prior_translation_weight`` [1/m²] and ``prior_rotation_weight`` [1/rad²] (default 0:
+    Hector's objective) add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the
+    objective, as Cartographer's Ceres matcher does: directions the map does not constrain
+    (along a featureless corridor) then follow the guess instead of drifting on coarse levels.
     """
 
     kind = "grid"
@@ -196,6 +209,8 @@ class GaussNewtonMatcher:
         max_step_translation: float = 0.1,
         max_step_rotation: float = 0.2,
         hector_gradient_bug: bool = False,
+        prior_translation_weight: float = 0.0,
+        prior_rotation_weight: float = 0.0,
     ):
         if iterations < 1 or max_step_translation <= 0 or max_step_rotation <= 0 or tol_translation < 0 or tol_rotation < 0:
             raise ValueError("GaussNewtonMatcher: iterations ≥ 1, positive step clamps and non-negative tolerances required")
@@ -203,17 +218,21 @@ class GaussNewtonMatcher:
         self.tol_translation, self.tol_rotation = float(tol_translation), float(tol_rotation)
         self.max_step_translation, self.max_step_rotation = float(max_step_translation), float(max_step_rotation)
         self.hector_gradient_bug = bool(hector_gradient_bug)
+        if prior_translation_weight < 0 or prior_rotation_weight < 0:
+            raise ValueError("GaussNewtonMatcher: prior weights must be ≥ 0")
+        self.w_t, self.w_r = float(prior_translation_weight), float(prior_rotation_weight)
 
     def match(self, maps, points: np.ndarray, guess: np.ndarray) -> MatchResult:
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
-        pose = np.asarray(guess, dtype=np.float64).copy()
+        guess = np.asarray(guess, dtype=np.float64)
+        pose = guess.copy()
         fine = maps.levels[0].resolution
         total = 0
         for grid in reversed(maps.levels):
             pose, H, ssr, msum, n, it = solve_level(
                 grid.log_odds, grid.origin[0], grid.origin[1], grid.resolution, pts, pose, self.iterations,
                 self.tol_translation, self.tol_rotation, self.max_step_translation * grid.resolution / fine,
-                self.max_step_rotation, self.hector_gradient_bug,
+                self.max_step_rotation, self.hector_gradient_bug, guess, self.w_t, self.w_r,
             )
             total += it
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi

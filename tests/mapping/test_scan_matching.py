@@ -1,0 +1,225 @@
+"""Scan matchers: gradients, the Hector objective and its errata, offsets recovered on hand-made,
+simulated and real (corrected-log) scans, branch and bound = exhaustive search, covariances."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import WALLS, raycast
+
+from datasets.geometry import between, transform_points
+from mapping.map_pyramid import MapPyramid
+from mapping.scan_matching import MATCHERS, make_matcher
+from mapping.scan_matching.gauss_newton import interpolate
+
+ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+ROOM_POSES = np.array([[-4.0, -3.5, 0.2], [-1.0, -3.0, 0.0], [2.0, -2.5, -0.3], [4.5, -3.0, 0.5], [-4.0, 2.5, -1.2]])
+
+
+def scan_points(pose, walls=WALLS, angles=ANGLES, max_range=20.0):
+    r = raycast(pose, angles, walls, max_range)
+    ok = r < max_range
+    return np.column_stack([r[ok] * np.cos(angles[ok]), r[ok] * np.sin(angles[ok])]), r
+
+
+@pytest.fixture(scope="module")
+def room_map():
+    """A map of the hand-made room built with known poses."""
+    maps = MapPyramid(resolution=0.05, levels=3, size=16.0)
+    for pose in ROOM_POSES:
+        maps.integrate(raycast(pose, ANGLES), ANGLES, pose, max_range=20.0)
+    return maps
+
+
+def grid_of(maps):
+    g = maps.finest
+    return g.log_odds, g.origin[0], g.origin[1], g.resolution
+
+
+# --------------------------------------------------------------------------- gradients
+def test_interpolation_gradient_matches_finite_differences_and_the_hector_bug_does_not(room_map):
+    L, ox, oy, res = grid_of(room_map)
+    rng = np.random.default_rng(0)
+    # points near walls (where the map has gradients), off the cell lattice
+    pts, _ = scan_points(ROOM_POSES[1])
+    xy = transform_points(ROOM_POSES[1], pts)[::7] + rng.uniform(-0.03, 0.03, (len(pts[::7]), 2))
+    h = 1e-6
+    fd = np.column_stack([
+        (interpolate(L, ox, oy, res, xy + [h, 0]) - interpolate(L, ox, oy, res, xy - [h, 0]))[:, 0] / (2 * h),
+        (interpolate(L, ox, oy, res, xy + [0, h]) - interpolate(L, ox, oy, res, xy - [0, h]))[:, 0] / (2 * h),
+    ])
+    good = interpolate(L, ox, oy, res, xy, False)[:, 1:]
+    bug = interpolate(L, ox, oy, res, xy, True)[:, 1:]
+    assert np.allclose(good, fd, atol=1e-4 * np.abs(fd).max())
+    assert np.abs(bug - fd).max() > 0.1 * np.abs(fd).max()
+
+
+def test_bug_and_correct_gradients_agree_on_the_diagonal_of_a_cell():
+    """With f_x = f_y the two weightings coincide: the bug only shows off the diagonal."""
+    L = np.array([[0.0, 2.0], [-1.0, 1.5]], dtype=np.float32)
+    on = np.array([[0.5 * 1.0 + 0.3, 0.5 * 1.0 + 0.3]])  # cell-centre coordinates f_x = f_y = 0.3
+    off = np.array([[0.8, 0.6]])
+    args = (L, 0.0, 0.0, 1.0)
+    assert np.allclose(interpolate(*args, on, False), interpolate(*args, on, True))
+    assert not np.allclose(interpolate(*args, off, False), interpolate(*args, off, True))
+
+
+# --------------------------------------------------------------------------- objective
+def _objective(L, ox, oy, res, pts, pose):
+    M = interpolate(L, ox, oy, res, transform_points(pose, pts))[:, 0]
+    return float(np.sum((1.0 - M) ** 2)), float(np.sum(M**2))
+
+
+def test_hector_objective_is_minimal_at_the_true_pose_and_the_notes_objective_is_not(room_map):
+    """Σ[1 − M]² grows away from the true pose; the notes' Σ M² shrinks (scan pushed into free space)."""
+    L, ox, oy, res = grid_of(room_map)
+    pose = ROOM_POSES[2]
+    pts, _ = scan_points(pose)
+    hector0, notes0 = _objective(L, ox, oy, res, pts, pose)
+    for d in ([0.04, 0, 0], [0, -0.04, 0], [0, 0, 0.02]):
+        hector, notes = _objective(L, ox, oy, res, pts, pose + np.array(d))
+        assert hector > hector0
+        assert notes < notes0
+
+
+def test_notes_update_rule_walks_away_from_the_map(room_map):
+    """x ← x − (JᵀJ)⁻¹Jᵀ f with f = M (the notes) vs Δξ = H⁻¹ Σ Jᵀ(1 − M) (Hector), from a 3 cm error."""
+    L, ox, oy, res = grid_of(room_map)
+    truth = ROOM_POSES[2]
+    pts, _ = scan_points(truth)
+
+    def step(pose, notes):
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        V = interpolate(L, ox, oy, res, transform_points(pose, pts))
+        J = np.column_stack([V[:, 1], V[:, 2], V[:, 1] * (-s * pts[:, 0] - c * pts[:, 1]) + V[:, 2] * (c * pts[:, 0] - s * pts[:, 1])])
+        r = V[:, 0] if notes else 1.0 - V[:, 0]
+        d = np.linalg.solve(J.T @ J, J.T @ r)
+        return pose - d if notes else pose + d
+
+    err = {}
+    for notes in (False, True):
+        pose = truth + np.array([0.03, -0.02, 0.01])
+        for _ in range(5):
+            pose = step(pose, notes)
+        err[notes] = np.hypot(*(pose[:2] - truth[:2]))
+    assert err[False] < 0.02 and err[True] > 0.036
+
+
+# --------------------------------------------------------------------------- recover offsets
+GRID_MATCHERS = [("gauss_newton", {}), ("gauss_newton", {"hector_gradient_bug": True}), ("correlative", {}), ("branch_and_bound", {})]
+POINT_MATCHERS = [("kiss_icp", {}), ("open3d_icp", {"method": "point_to_point"}), ("open3d_icp", {"method": "point_to_plane"}), ("open3d_icp", {"method": "generalized"})]
+
+
+@pytest.mark.parametrize("name,params", GRID_MATCHERS + POINT_MATCHERS)
+def test_matchers_recover_a_known_offset_in_the_room(room_map, name, params):
+    m = make_matcher(name, **params)
+    truth = np.array([0.5, -3.2, 0.1])
+    pts, _ = scan_points(truth, angles=np.linspace(-np.pi / 2, np.pi / 2, 181))
+    ref = room_map if m.kind == "grid" else np.concatenate([transform_points(p, scan_points(p)[0]) for p in ROOM_POSES])
+    # the correlative matchers search a lattice of whole cells around the guess: error ≤ ½ cell diagonal
+    tol = 0.5 * np.hypot(0.05, 0.05) + 0.01 if name in ("correlative", "branch_and_bound") else 0.03
+    for offset in ([0.12, -0.08, 0.05], [-0.07, 0.1, -0.06]):
+        res = m.match(ref, pts, truth + np.array(offset))
+        e = between(truth, res.pose)
+        assert np.hypot(e[0], e[1]) < tol and abs(e[2]) < 0.01, (name, params, e)
+        assert np.all(np.isfinite(res.cov)) and np.all(np.linalg.eigvalsh(res.cov) > 0)
+
+
+def test_branch_and_bound_equals_exhaustive_search(room_map):
+    rng = np.random.default_rng(3)
+    ex = make_matcher("correlative", linear_window=0.25, angular_window=0.15)
+    bb = make_matcher("branch_and_bound", linear_window=0.25, angular_window=0.15)
+    for _ in range(4):
+        truth = np.array([rng.uniform(-4, 4), rng.uniform(-4, -2.5), rng.uniform(-np.pi, np.pi)])
+        pts, _ = scan_points(truth)
+        guess = truth + rng.uniform(-0.2, 0.2, 3) * [1, 1, 0.5]
+        a, b = ex.match(room_map, pts, guess), bb.match(room_map, pts, guess)
+        assert a.score == pytest.approx(b.score, abs=1e-9)
+        assert np.allclose(a.pose, b.pose)
+        assert b.iterations < a.iterations / 4  # candidates scored
+
+
+def test_covariance_is_long_along_a_corridor():
+    """Two parallel walls constrain y and θ, not x: the covariances say so."""
+    corridor = np.array([[-20, -1.0, 20, -1.0], [-20, 1.0, 20, 1.0]]) + 0.013
+    angles = np.linspace(-1.2, 1.2, 121)
+    maps = MapPyramid(resolution=0.05, levels=2, size=24.0)
+    for x in np.arange(-8.0, 8.1, 1.0):  # the walls mapped far beyond what the scan sees
+        maps.integrate(raycast(np.array([x, 0, 0]), ANGLES, corridor, 8.0), ANGLES, np.array([x, 0, 0]), max_range=8.0)
+    pts, _ = scan_points(np.array([0.2, 0.0, 0.0]), corridor, angles, 4.0)
+    for name in ("gauss_newton", "correlative"):
+        res = make_matcher(name, linear_window=0.2, angular_window=0.1) if name == "correlative" else make_matcher(name)
+        out = res.match(maps, pts, np.array([0.2, 0.03, 0.0]))
+        w, V = np.linalg.eigh(out.cov[:2, :2])
+        assert abs(V[0, 1]) > 0.99 and w[1] > 4 * w[0], (name, out.cov)  # major axis along x
+
+
+# --------------------------------------------------------------------------- simulated and real scans
+def test_matchers_recover_offsets_on_sim_laser():
+    sim = pytest.importorskip("datasets.sim.laser")
+    seq = sim.simulate(laps=1, seed=4)
+    sc, gt = seq.scans, seq.ground_truth
+    truth = gt.poses[np.searchsorted(gt.t, sc.t)]
+    ks = np.arange(20, len(sc.t), 60)
+    maps = MapPyramid(resolution=0.05, levels=2, size=40.0)
+    for k in range(0, len(sc.t), 10):
+        maps.integrate(sc.ranges[k], sc.angles, truth[k], sc.mount, max_range=sc.max_range)
+    rng = np.random.default_rng(1)
+    for name, params in [("gauss_newton", {}), ("branch_and_bound", {})]:
+        m = make_matcher(name, **params)
+        errs = []
+        for k in ks:
+            ok = sc.ranges[k] < sc.max_range
+            pts = transform_points(sc.mount, np.column_stack([sc.ranges[k][ok] * np.cos(sc.angles[ok]), sc.ranges[k][ok] * np.sin(sc.angles[ok])]))
+            res = m.match(maps, pts, truth[k] + rng.uniform(-1, 1, 3) * [0.1, 0.1, 0.04])
+            e = between(truth[k], res.pose)
+            errs.append([np.hypot(e[0], e[1]), abs(e[2])])
+        errs = np.array(errs)
+        assert np.median(errs[:, 0]) < 0.03 and np.median(errs[:, 1]) < 0.01, (name, errs)
+        assert errs[:, 0].max() < 0.08, (name, errs)
+
+
+@pytest.mark.realdata
+def test_matchers_on_consecutive_corrected_intel_scans():
+    """Scan k+1 matched against a map of scans k−3 … k at the corrected poses, from the corrected
+    pose of k+1 plus an offset; compared with the corrected pose (a SLAM reference, itself
+    uncertain by a few cm)."""
+    from conftest_staged import corrected_intel
+
+    sc = corrected_intel()
+    offset = np.array([0.1, -0.08, 0.05])
+    ks = range(104, 900, 80)
+    for name, params, tol in [("gauss_newton", {}, (0.07, 0.02)), ("branch_and_bound", {}, (0.05, 0.01)), ("kiss_icp", {}, (0.05, 0.01)), ("open3d_icp", {"method": "generalized"}, (0.05, 0.01))]:
+        m = make_matcher(name, **params)
+        errs = []
+        for k in ks:
+            pts = [_points(sc, j) for j in range(k - 3, k + 2)]
+            if m.kind == "grid":
+                ref = MapPyramid(resolution=0.05, levels=2, size=40.0)
+                for j in range(k - 3, k + 1):
+                    ref.integrate(sc.ranges[j], sc.angles, sc.pose[j], sc.mount, max_range=sc.max_range, clear_range=5.0)
+            else:
+                ref = np.concatenate([transform_points(sc.pose[j], pts[i]) for i, j in enumerate(range(k - 3, k + 1))])
+            res = m.match(ref, pts[-1], sc.pose[k + 1] + offset)
+            e = between(sc.pose[k + 1], res.pose)
+            errs.append([np.hypot(e[0], e[1]), abs(e[2])])
+        med = np.median(errs, axis=0)
+        assert med[0] < tol[0] and med[1] < tol[1], (name, med)
+        assert med[0] < 0.5 * np.hypot(*offset[:2]) and med[1] < 0.5 * offset[2]
+
+
+def _points(sc, k):
+    r = sc.ranges[k].astype(float)
+    ok = (r > 0) & (r < sc.max_range)
+    return transform_points(sc.mount, np.column_stack([r[ok] * np.cos(sc.angles[ok]), r[ok] * np.sin(sc.angles[ok])]))
+
+
+def test_registry_and_bad_parameters():
+    assert set(MATCHERS) == {"gauss_newton", "correlative", "branch_and_bound", "kiss_icp", "open3d_icp"}
+    with pytest.raises(KeyError):
+        make_matcher("ndt")
+    with pytest.raises(ValueError):
+        make_matcher("gauss_newton", iterations=0)
+    with pytest.raises(ValueError):
+        make_matcher("correlative", sigma=0)
+    with pytest.raises(ValueError):
+        make_matcher("open3d_icp", method="colored")
