@@ -42,7 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datasets.geometry import accumulate, compose, wrap_angle
+from datasets import kinematics
+from datasets.geometry import compose, wrap_angle
 
 __all__ = [
     "MotionModel",
@@ -76,14 +77,8 @@ class MotionModel:
     name: str
 
     def increment(self, v, omega, dt) -> np.ndarray:
-        """Body-frame pose increment δ(u, dt), shape ``(..., 3)``."""
-        v, omega, dt = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v, omega, dt)))
-        phi = omega * dt
-        if self.name == "euler":
-            return np.stack([v * dt, np.zeros_like(v), phi], axis=-1)
-        half = 0.5 * phi
-        d = v * dt * _sinc(half)
-        return np.stack([d * np.cos(half), d * np.sin(half), phi], axis=-1)
+        """Body-frame pose increment δ(u, dt), shape ``(..., 3)`` (:mod:`datasets.kinematics`)."""
+        return kinematics.increment(self.name, v, omega, dt)
 
     def predict(self, x, v, omega, dt) -> np.ndarray:
         """x' = x ⊕ δ(u, dt) (heading wrapped)."""
@@ -91,7 +86,7 @@ class MotionModel:
 
     def integrate(self, start, v, omega, dt) -> np.ndarray:
         """Dead reckoning of a whole control sequence: (K + 1, 3) poses, vectorised."""
-        return accumulate(start, self.increment(v, omega, dt))
+        return kinematics.integrate(self.name, start, v, omega, dt)
 
     def jacobians(self, x, v, omega, dt) -> tuple[np.ndarray, np.ndarray]:
         """G = ∂x'/∂x (..., 3, 3) and V = ∂x'/∂(v, ω) (..., 3, 2) at (x, u)."""

@@ -24,7 +24,7 @@ twice. Straights run at ``speed``; a turn holds ``ω = (π/2) / (n_turn dt)`` wi
 ``v = ω r`` for an integer number of steps, so every turn is exactly π/2 and the loop closes
 exactly for either motion model (a rigid motion of rotation π composed with itself is the
 identity). The truth is ``x_{k+1} = x_k ⊕ δ(u_k, dt)`` with
-``estimators.models.MOTION_MODELS[motion_model]`` (default ``"arc"``, the exact
+``datasets.kinematics`` with model ``motion_model`` (default ``"arc"``, the exact
 constant-twist step). The estimator sees the noisy controls
 ``ũ_k = u_k + ε_k, ε_k ~ N(0, diag(σ_v², σ_ω²))``, one draw per row, held constant for the
 row's ``dt`` (``Noise.twist_cov`` is the covariance of a row's velocity error, not a
@@ -58,6 +58,7 @@ import math
 
 import numpy as np
 
+from .. import kinematics
 from ..geometry import wrap_angle
 from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
 
@@ -165,12 +166,10 @@ def simulate(
         max_observations: keep the nearest m visible landmarks per step (None: all),
         t0 [s] first stamp, seed.
     """
-    from estimators.models import MOTION_MODELS
-
     if layout not in LAYOUTS:
         raise ValueError(f"unknown layout {layout!r}; choose from {sorted(LAYOUTS)}")
-    if motion_model not in MOTION_MODELS:
-        raise ValueError(f"unknown motion_model {motion_model!r}; choose from {sorted(MOTION_MODELS)}")
+    if motion_model not in kinematics.MODELS:
+        raise ValueError(f"unknown motion_model {motion_model!r}; choose from {list(kinematics.MODELS)}")
     positive = dict(density=density, band=band, turn_radius=turn_radius, aspect=aspect, speed=speed, dt=dt, max_range=max_range, fov=fov)
     for name, value in positive.items():
         if not (np.isfinite(value) and value > 0):
@@ -198,12 +197,11 @@ def simulate(
     n_b = int(round(2 * half_b / (speed * dt)))
     half_a, half_b = 0.5 * n_a * speed * dt, 0.5 * n_b * speed * dt
     start = np.array([-half_a, -half_b - radius, 0.0])
-    model = MOTION_MODELS[motion_model]
     dts_lap = np.full(v_lap.size, float(dt))
 
     ss_landmarks, ss_controls, ss_obs = np.random.SeedSequence(int(seed)).spawn(3)
     geo = dict(half_a=half_a, half_b=half_b, radius=radius, band=band, clearance=clearance, density=density,
-               lap_poses=model.integrate(start, v_lap, w_lap, dts_lap))
+               lap_poses=kinematics.integrate(motion_model, start, v_lap, w_lap, dts_lap))
     xy = LAYOUTS[layout](np.random.default_rng(ss_landmarks), n, geo)
 
     # ---------------------------------------------------------------- controls and truth
@@ -211,7 +209,7 @@ def simulate(
     w = np.tile(w_lap, int(laps))
     K = v.size
     t = t0 + dt * np.arange(K + 1)
-    truth = model.integrate(start, v, w, np.full(K, float(dt)))
+    truth = kinematics.integrate(motion_model, start, v, w, np.full(K, float(dt)))
     eps = np.random.default_rng(ss_controls).standard_normal((K, 2)) * [sigma_v, sigma_omega]
     motion = Twist(t=t[:K], v=v + eps[:, 0], omega=w + eps[:, 1], dt=np.full(K, float(dt)))
 

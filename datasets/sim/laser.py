@@ -16,7 +16,7 @@ Motion and odometry
 The true controls drive the route at ``speed`` (each straight stretched to a whole number of
 odometry periods ``dt = 1/odom_rate``; each fillet a whole number of periods at
 ``ω = α/(n dt)``, ``v = |ω| r``), so the true path, integrated with the exact arc model
-(``estimators.models.ARC``), closes every lap. Ground truth: the true pose at every odometry
+(``datasets.kinematics``, model ``"arc"``), closes every lap. Ground truth: the true pose at every odometry
 stamp ``t_k = t0 + k dt``, ``k = 0 … K`` (``t0`` included).
 
 Wheel odometry: ``Increments`` row k (stamp ``t_{k+1}``) is the body-frame motion from ``t_k``
@@ -47,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 
@@ -280,7 +281,6 @@ def simulate(
     Units: metres, radians, seconds, Hz. ``mount`` is the sensor pose (x, y, θ) in the robot
     frame; ``odom_rate / scan_rate`` must be a whole number.
     """
-    from estimators.models import ARC
 
     w = _world(world)
     for name, value in dict(fov=fov, max_range=max_range, speed=speed, odom_rate=odom_rate, scan_rate=scan_rate).items():
@@ -309,7 +309,7 @@ def simulate(
     v, omega = np.tile(v_lap, int(laps)), np.tile(w_lap, int(laps))
     K = v.size
     t = t0 + dt * np.arange(K + 1)
-    delta = ARC.increment(v, omega, dt)
+    delta = kinematics.increment("arc", v, omega, dt)
     truth = accumulate(start, delta)
     ds, dth = np.abs(v) * dt, np.abs(omega) * dt
     var = np.column_stack([k_t**2 * ds, k_s**2 * ds, k_r**2 * dth + k_rt**2 * ds]) + 1e-12

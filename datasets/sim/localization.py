@@ -60,6 +60,7 @@ import math
 
 import numpy as np
 
+from .. import kinematics
 from ..geometry import interpolate_poses, wrap_angle
 from ..sequence import Gps, Heading, Noise, Sequence, Trajectory, Twist
 
@@ -159,7 +160,6 @@ def simulate(
     ``(t_start, t_end)`` in sequence time; ``slip`` a list of ``(t_start, t_end, factor)`` or
     ``(t_start, t_end, left, right)`` ground/wheel speed ratios.
     """
-    from estimators.models import ARC
 
     if motion_source not in MOTION_SOURCES:
         raise ValueError(f"unknown motion_source {motion_source!r}; choose from {MOTION_SOURCES}")
@@ -209,7 +209,7 @@ def simulate(
     ground = travel * _slip_factors(0.5 * (t_fine[:-1] + t_fine[1:]), slip)
     v_true = (ground[:, 1] + ground[:, 0]) / (2.0 * h)
     w_true = (ground[:, 1] - ground[:, 0]) / (wheel_base * h)
-    fine = ARC.integrate(start, v_true, w_true, np.full(K * m, h))
+    fine = kinematics.integrate("arc", start, v_true, w_true, np.full(K * m, h))
 
     # ---------------------------------------------------------------- wheel odometry per row
     d = travel.reshape(K, m, 2).sum(axis=1) + encoder_sigma * rng_encoder.standard_normal((K, 2))

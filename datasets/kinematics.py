@@ -1,0 +1,34 @@
+"""Planar kinematics of a velocity-driven robot: the body-frame increment of (v, ω) held for dt.
+
+Two models, the same as :mod:`estimators.models` (which adds their Jacobians and uses this
+module for the motion itself, so simulators and estimators share one implementation)::
+
+    euler: δ = (v dt, 0, ω dt)                       the notes' first-order step
+    arc:   δ = exp((v dt, 0, ω dt)) in SE(2)         the exact constant-twist motion
+             = (v dt sin φ/φ, v dt (1 − cos φ)/φ, φ),  φ = ω dt (smooth through φ = 0)
+
+A pose moves as ``x' = x ⊕ δ``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import accumulate, se2_exp
+
+__all__ = ["MODELS", "increment", "integrate"]
+
+MODELS = ("euler", "arc")
+
+
+def increment(model: str, v, omega, dt) -> np.ndarray:
+    """Body-frame increment δ (..., 3) of the velocities ``(v, omega)`` held for ``dt``."""
+    if model not in MODELS:
+        raise ValueError(f"unknown motion model {model!r}; choose from {MODELS}")
+    v, omega, dt = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v, omega, dt)))
+    twist = np.stack([v * dt, np.zeros_like(v), omega * dt], axis=-1)
+    return twist if model == "euler" else se2_exp(twist)
+
+
+def integrate(model: str, start, v, omega, dt) -> np.ndarray:
+    """Poses (K + 1, 3) from ``start`` through K velocity rows, vectorised (dead reckoning)."""
+    return accumulate(start, increment(model, v, omega, dt))
