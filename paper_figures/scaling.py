@@ -29,18 +29,26 @@ def fit_slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 def find_sweeps(runs) -> dict[tuple[str, str], dict[str, float]]:
-    """(dataset name, swept parameter) → {dataset label: parameter value}."""
+    """(dataset name, swept parameter) → {dataset label: parameter value}.
+
+    Entries of one dataset name whose parameters agree except for one numeric, positive
+    parameter form a sweep of it (at least two values).
+    """
     entries: dict[str, dict[str, dict]] = {}
     for run in runs:
         entries.setdefault(run.info["dataset"]["name"], {})[run.dataset] = run.info["dataset"]["params"]
     sweeps = {}
     for name, labelled in entries.items():
-        if len(labelled) < 2:
-            continue
-        keys = set().union(*(p.keys() for p in labelled.values()))
-        varying = [k for k in keys if len({json.dumps(p.get(k), sort_keys=True) for p in labelled.values()}) > 1]
-        if len(varying) == 1 and all(isinstance(p.get(varying[0]), (int, float)) and p.get(varying[0]) > 0 for p in labelled.values()):
-            sweeps[(name, varying[0])] = {label: float(p[varying[0]]) for label, p in labelled.items()}
+        for key in sorted(set().union(*(p.keys() for p in labelled.values()))):
+            groups: dict[str, dict[str, float]] = {}
+            for label, p in labelled.items():
+                value = p.get(key)
+                if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0:
+                    rest = json.dumps({k: v for k, v in p.items() if k != key}, sort_keys=True)
+                    groups.setdefault(rest, {})[label] = float(value)
+            for group in groups.values():
+                if len(set(group.values())) >= 2 and len(group) > len(sweeps.get((name, key), {})):
+                    sweeps[(name, key)] = group
     return sweeps
 
 
@@ -53,7 +61,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
     methods = sorted({r.estimator for r in runs})
     written = []
     for (name, param), values in sweeps.items():
-        fig, axes = plt.subplots(1, len(COSTS), figsize=(WIDTH, WIDTH * 0.45), squeeze=False)
+        fig, axes = plt.subplots(1, len(COSTS), figsize=(WIDTH, WIDTH * 0.45), squeeze=False, layout="constrained")
         swept = [r for r in runs if r.dataset in values]
         for ax, (key, label) in zip(axes[0], COSTS):
             metric, output = key.split("/")

@@ -31,7 +31,6 @@ RC = {
     "axes.grid": True,
     "grid.alpha": 0.3,
     "lines.linewidth": 1.0,
-    "pdf.fonttype": 42,
 }
 
 
