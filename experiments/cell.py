@@ -41,7 +41,7 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
         spec_path = fh.name
     start = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env=spec.get("env") or None)
+        proc = subprocess.run([sys.executable, "-m", "experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env={**os.environ, **spec.get("env", {})})
     except subprocess.TimeoutExpired:
         return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
     finally:
@@ -79,6 +79,7 @@ def _truth_arrays(ref) -> dict:
 
 def execute(spec: dict) -> dict:
     """The work of one cell (in the child process); returns the ``metrics.json`` content."""
+    import importlib
     import inspect
 
     import datasets
@@ -104,8 +105,6 @@ def execute(spec: dict) -> dict:
         wall = read_json(previous)["wall"]
     else:
         module, _, attr = method_table()[es["name"]].partition(":")
-        import importlib
-
         cls = getattr(importlib.import_module(module), attr)
         kwargs = dict(es["params"])
         if spec["seed_to_estimator"] and "seed" in inspect.signature(cls.__init__).parameters:

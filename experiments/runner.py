@@ -131,12 +131,10 @@ def _spec(config: ExperimentConfig, cell: Cell, env: dict) -> dict:
 
 
 def _cell_env() -> dict:
-    """The environment of a cell process: this one, with the data roots made explicit."""
+    """Variables a cell process gets on top of its worker's environment: the data roots in use here."""
     from datasets.dataroot import data_roots
 
-    env = dict(os.environ)
-    env["SLAMARENA_DATA"] = os.pathsep.join(str(p) for p in data_roots())
-    return env
+    return {"SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots())}
 
 
 # ---------------------------------------------------------------------------- execution
