@@ -53,8 +53,16 @@ class Lines(list):
 
 
 def read_lines(path: str | Path) -> Lines:
-    """All lines of a text file (latin-1, so that any byte sequence decodes)."""
-    return Lines(path, read_bytes(path).decode("latin-1").splitlines())
+    """All lines of a text file (latin-1, so that any byte sequence decodes).
+
+    Lines end at ``\\n`` only (``\\r\\n`` accepted), so line numbers are those of an editor,
+    not of :meth:`str.splitlines` (which also splits at form feeds and other separators).
+    """
+    text = read_bytes(path).decode("latin-1")
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    return Lines(path, [line[:-1] if line.endswith("\r") else line for line in lines] if "\r" in text else lines)
 
 
 def tags(lines: list[str], comment: str = "#") -> np.ndarray:
@@ -64,7 +72,7 @@ def tags(lines: list[str], comment: str = "#") -> np.ndarray:
 
 
 _SPACE = np.zeros(256, dtype=bool)
-_SPACE[[9, 10, 11, 12, 13, 32]] = True
+_SPACE[[9, 10, 11, 12, 13, 32]] = True  # C isspace(), as numpy's parser
 
 
 def _token_counts(blob: bytes, n_lines: int) -> np.ndarray:
@@ -80,19 +88,27 @@ def _token_counts(blob: bytes, n_lines: int) -> np.ndarray:
     return np.diff(np.searchsorted(first_token, bounds))
 
 
-def _first_bad_token(bodies: list[str]) -> tuple[int, str]:
-    """(row, token) of the first field Python's float() rejects (error path only)."""
+def _parse_row(body: str) -> np.ndarray | None:
+    """One record through numpy's parser; ``None`` if it is not all numbers."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", DeprecationWarning)
+            values = np.fromstring(body, sep=" ") if body.strip() else np.zeros(0)
+    except (ValueError, DeprecationWarning):
+        return None
+    return values
+
+
+def _first_bad_token(bodies: list[str], counts: np.ndarray) -> tuple[int, str]:
+    """(row, token) of the first record that does not parse to ``counts[row]`` numbers (error path only)."""
     for row, body in enumerate(bodies):
-        for token in body.split():
-            try:
-                float(token)
-            except ValueError:
-                return row, token
-    for row, body in enumerate(bodies):  # tokens strtod splits differently, e.g. "1-2"
-        for token in body.split():
-            if np.fromstring(token, sep=" ").size != 1:
-                return row, token
-    return 0, bodies[0] if bodies else ""
+        values = _parse_row(body)
+        if values is None or values.size != counts[row]:
+            for token in body.split():
+                if (v := _parse_row(token)) is None or v.size != 1:
+                    return row, token
+            return row, body[:80]
+    return 0, bodies[0][:80] if bodies else ""
 
 
 def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, valid=None, expected: str = "") -> tuple[np.ndarray, np.ndarray]:
@@ -117,7 +133,7 @@ def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, v
     except (ValueError, DeprecationWarning):
         ok = False
     if not ok:
-        row, token = _first_bad_token(bodies)
+        row, token = _first_bad_token(bodies, counts)
         raise DataFormatError(path, int(line_numbers[row]), f"numeric fields in {what}", token)
     return values, counts
 
