@@ -1,0 +1,59 @@
+"""The catalogue of real datasets: names, files, readers, the not-found message, and the data CLI."""
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+import datasets
+from datasets import DatasetNotFoundError, catalogue, dataroot
+from datasets.registry import SIMULATORS
+
+EXPECTED = (
+    [f"utias:{d}/robot{k}" for d in (1, 6) for k in range(1, 6)] + ["victoria_park"]
+    + [f"g2o:{n}" for n in ("intel", "MIT", "CSAIL", "ais2klinik", "manhattan", "city10000", "parking-garage",
+                            "sphere2500", "smallGrid3D", "tinyGrid3D", "noisyToyGraph", "pose2example", "w100")]
+    + [f"isam:{n}" for n in ("manhattanOlson3500", "city10000", "cityTrees10000", "w20000")]
+    + [f"carmen:{n}" for n in ("intel", "fr079", "aces", "mit-csail", "fr-clinic")]
+    + [f"carmen-corrected:{n}" for n in ("acapulco", "aces", "belgioioso", "csail", "edmonton", "fhw", "freiburg-079",
+                                         "freiburg-101", "freiburg-campus", "infinite-corridor", "intel", "orebro", "seattle")]
+)
+
+
+def test_every_registry_name_is_catalogued_with_a_resolvable_reader():
+    assert set(EXPECTED) <= set(catalogue.CATALOGUE)
+    for entry in catalogue.CATALOGUE.values():
+        module, _, attr = entry.reader.partition(":")
+        assert callable(getattr(importlib.import_module(module), attr))
+        assert entry.citation and entry.kind and entry.ground_truth
+    names = [info.name for info in datasets.available()]
+    assert set(names) == set(catalogue.CATALOGUE) | set(SIMULATORS)
+
+
+@pytest.mark.realdata
+def test_staged_datasets_are_present():
+    missing = [n for n, e in catalogue.CATALOGUE.items() if not e.present()]
+    assert not missing
+
+
+def test_missing_dataset_names_places_and_fetch_command(monkeypatch, tmp_path):
+    monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [tmp_path])
+    with pytest.raises(DatasetNotFoundError) as err:
+        datasets.load("g2o:intel")
+    message = str(err.value)
+    assert str(tmp_path / "sesync_g2o/intel.g2o") in message and "slamarena data fetch g2o:intel" in message
+
+
+@pytest.mark.realdata
+def test_data_cli_list_and_info():
+    from typer.testing import CliRunner
+
+    from experiments.cli import app
+
+    runner = CliRunner()
+    listed = runner.invoke(app, ["data", "list"], env={"COLUMNS": "200"})
+    assert listed.exit_code == 0 and "carmen-corrected:intel" in listed.output and "utias:6/robot1" in listed.output
+    info = runner.invoke(app, ["data", "info", "g2o:noisyToyGraph"])
+    assert info.exit_code == 0 and '"nodes": 4' in info.output
+    unknown = runner.invoke(app, ["data", "info", "nope"])
+    assert unknown.exit_code == 1 and "unknown dataset" in unknown.output
