@@ -95,7 +95,7 @@ def test_layout_and_contents(local_run):
     assert summary["ate.rmse"].nunique() == 2
 
 
-def test_rerun_skips_finished_cells_and_force_recomputes(local_run, tmp_path):
+def test_rerun_skips_finished_cells_and_keys_follow_the_spec(local_run, tmp_path):
     cfg, out, _ = local_run
     before = _stamps(out)
     assert all(c.finished() for c in plan(cfg, out))
@@ -107,6 +107,31 @@ def test_rerun_skips_finished_cells_and_force_recomputes(local_run, tmp_path):
     changed, _ = _config(tmp_path, TINY.replace("  - name: dead_reckoning\n", "  - name: dead_reckoning\n    params: {motion_model: euler}\n"))
     assert not any(c.finished() for c in plan(changed, out))
     assert [c.key for c in plan(cfg, out)] != [c.key for c in plan(changed, out)]
+
+
+def test_changed_metric_settings_reuse_the_estimate_and_force_recomputes(tmp_path):
+    text = TINY.replace("seeds: 2", "seeds: 1")
+    cfg, _ = _config(tmp_path, text)
+    out = tmp_path / "out"
+    assert run_experiment(cfg, out, console=_quiet()) == 0
+    cell = out / "runs/sim_landmarks/dead_reckoning/0"
+    estimate_stamp = json.loads((cell / "estimate.json").read_text())
+    estimate_mtime = (cell / "estimate.npz").stat().st_mtime_ns
+    first = json.loads((cell / "metrics.json").read_text())
+    # other metric settings: same estimate key, new metrics key → only the metrics are recomputed
+    changed, _ = _config(tmp_path, text.replace("metrics: [ate, rpe, nees, map, cost]", "metrics: {ate: {align: none}, rpe: {}, nees: {}, map: {}, cost: {}}"), "changed.yaml")
+    [c] = plan(changed, out)
+    assert c.key == first["key"] and c.metrics_key != first["metrics_key"] and not c.finished()
+    assert run_experiment(changed, out, console=_quiet()) == 0
+    second = json.loads((cell / "metrics.json").read_text())
+    assert json.loads((cell / "estimate.json").read_text()) == estimate_stamp
+    assert (cell / "estimate.npz").stat().st_mtime_ns == estimate_mtime
+    assert second["metrics"]["rpe"] == first["metrics"]["rpe"]
+    assert second["metrics"]["ate"]["rmse"] > first["metrics"]["ate"]["rmse"]  # no alignment: larger error
+    # --force recomputes the estimate too
+    assert run_experiment(changed, out, force=True, console=_quiet()) == 0
+    assert (cell / "estimate.npz").stat().st_mtime_ns != estimate_mtime
+    assert json.loads((cell / "metrics.json").read_text())["pid"] != second["pid"]
 
 
 def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
