@@ -10,7 +10,7 @@ a real dataset is loaded as is), construct the method from the registry (``seed`
 if its constructor takes one), run it and time the run, then compute the metrics and write
 the cell's files (see :mod:`experiments.results`) — ``metrics.json`` last. If
 ``estimate.npz`` already holds this cell's key (only the metric settings changed), the
-estimate is reused and only the metrics are recomputed.
+estimate is reused and only the metrics are recomputed (unless the spec says ``force``).
 """
 from __future__ import annotations
 
@@ -100,7 +100,7 @@ def execute(spec: dict) -> dict:
 
     estimate_file = cell / "estimate.npz"
     previous = cell / "estimate.json"
-    if estimate_file.exists() and previous.exists() and read_json(previous).get("key") == spec["key"]:
+    if not spec.get("force") and estimate_file.exists() and previous.exists() and read_json(previous).get("key") == spec["key"]:
         estimate = Estimate.load(estimate_file)
         wall = read_json(previous)["wall"]
     else:

@@ -118,7 +118,7 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
     return cells
 
 
-def _spec(config: ExperimentConfig, cell: Cell, env: dict) -> dict:
+def _spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = False) -> dict:
     ds, es = config.datasets[cell.dataset], config.estimators[cell.estimator]
     return {
         "id": cell.id, "dir": str(cell.dir), "key": cell.key, "metrics_key": cell.metrics_key, "seed": cell.seed,
@@ -127,6 +127,7 @@ def _spec(config: ExperimentConfig, cell: Cell, env: dict) -> dict:
         "seed_to_estimator": cell.seed_to_estimator,
         "metrics": {k: v.model_dump(mode="json") for k, v in config.enabled_metrics().items()},
         "env": env,
+        "force": force,
     }
 
 
@@ -310,7 +311,7 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
                 failures[result["id"]] = result
             progress.advance(task)
 
-        _execute([_spec(config, c, env) for c in pending], config.timeout, jobs, scheduler, on_done)
+        _execute([_spec(config, c, env, force) for c in pending], config.timeout, jobs, scheduler, on_done)
 
     frame = collect(config, cells, failures)
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
