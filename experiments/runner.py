@@ -220,32 +220,36 @@ def collect(config: ExperimentConfig, cells: list[Cell], failures: dict[str, dic
     return pd.DataFrame(rows)
 
 
-def nees_monte_carlo(config: ExperimentConfig, cells: list[Cell], probability: float):
-    """Per (dataset, method): NEES averaged over the seeds at shared stamps, with its χ² band."""
+def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
+    """Per (dataset, method): NEES and NIS averaged over the seeds at shared stamps, with the
+    N-run χ² band (:func:`experiments.metrics.consistency.monte_carlo`); one row per statistic."""
     import numpy as np
     import pandas as pd
 
-    from .metrics.consistency import monte_carlo
+    from .metrics.consistency import monte_carlo, nis_per_stamp
     from .metrics.reference import MetricUnavailable
     from .results import load_npz
 
-    groups: dict[tuple[str, str], list] = {}
+    enabled = config.enabled_metrics()
+    groups: dict[tuple[str, str, str], list] = {}
     for cell in cells:
         if not cell.finished() or not (cell.dir / "series.npz").exists():
             continue
         series = load_npz(cell.dir / "series.npz")
+        key = (config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator])
         if "nees/nees" in series:
-            key = (config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator])
-            groups.setdefault(key, []).append((series["nees/t"], series["nees/nees"]))
-    rows, curves = [], {}
-    for (ds, es), runs in groups.items():
+            groups.setdefault(key + ("nees",), []).append((series["nees/t"], series["nees/nees"], np.full(series["nees/t"].shape, 3.0)))
+        if "nis/nis" in series:
+            groups.setdefault(key + ("nis",), []).append(nis_per_stamp(series["nis/t"], series["nis/nis"], series["nis/dof"]))
+    rows = []
+    for (ds, es, stat), runs in groups.items():
         try:
-            mc = monte_carlo(runs, 3, probability)
+            mc = monte_carlo(runs, probability=enabled[stat].probability)
         except MetricUnavailable:
             continue
-        rows.append({"dataset": ds, "estimator": es, "runs": mc["runs"], "steps": int(mc["t"].size), "mean_nees": float(np.mean(mc["mean"])), "band_lo": float(mc["lo"][0]), "band_hi": float(mc["hi"][0]), "in_band": mc["in_band"]})
-        curves[(ds, es)] = mc
-    return pd.DataFrame(rows), curves
+        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(mc["t"].size),
+                     "mean_over_dof": float(np.mean(mc["mean"] / mc["dof"])), "in_band": mc["in_band"]})
+    return pd.DataFrame(rows)
 
 
 def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float) -> None:
@@ -317,12 +321,11 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
     tables = config.tables or [{"name": "summary", "columns": default_columns(config.enabled_metrics())}]
     written = write_tables(frame, tables, out / "tables")
-    if "nees" in config.enabled_metrics():
-        mc_frame, _ = nees_monte_carlo(config, cells, config.enabled_metrics()["nees"].probability)
-        if len(mc_frame):
-            from .tables import write_frame
+    mc_frame = monte_carlo_table(config, cells)
+    if len(mc_frame):
+        from .tables import write_frame
 
-            written += write_frame(mc_frame, out / "tables" / "nees_monte_carlo")
+        written += write_frame(mc_frame, out / "tables" / "monte_carlo")
     figure_files, figure_errors = [], {}
     if figures and config.figures:
         from paper_figures.make import make_all  # the CLI's delegate reaches the top layer, as `slamarena figures` does

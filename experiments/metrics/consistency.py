@@ -37,7 +37,7 @@ from datasets.geometry import between, se2_log, wrap_angle
 
 from .reference import MetricUnavailable, Reference, associate
 
-__all__ = ["NEESParams", "NISParams", "chi2_band", "nees", "nis", "monte_carlo", "NEES_OUTPUTS", "NIS_OUTPUTS"]
+__all__ = ["NEESParams", "NISParams", "chi2_band", "nees", "nis", "nis_per_stamp", "monte_carlo", "NEES_OUTPUTS", "NIS_OUTPUTS"]
 
 
 class NEESParams(BaseModel):
@@ -119,24 +119,39 @@ def nis(estimate: Estimate, params: NISParams = NISParams()) -> tuple[dict, dict
     return out, {"t": t, "nis": v, "dof": dof[ok]}
 
 
-def monte_carlo(runs: list[tuple[np.ndarray, np.ndarray]], dof, probability: float = 0.95, tol: float = 1e-6) -> dict:
-    """Average a statistic over N runs at the stamps all runs share; band for N runs.
+def nis_per_stamp(t: np.ndarray, value: np.ndarray, dof: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sum the NIS and dimensions of the innovations sharing a stamp (a sum of independent
+    χ² values is χ² with the summed dimension): (stamps, NIS sums, dof sums)."""
+    t = np.asarray(t, dtype=float)
+    order = np.argsort(t, kind="stable")
+    t, value, dof = t[order], np.asarray(value, dtype=float)[order], np.asarray(dof, dtype=float)[order]
+    first = np.flatnonzero(np.r_[True, t[1:] != t[:-1]])
+    return t[first], np.add.reduceat(value, first), np.add.reduceat(dof, first)
 
-    ``runs`` is a list of ``(t, value)`` (stamps matched to ``tol`` seconds); ``dof`` the
-    dimension, a scalar or an array aligned with the first run. Returns ``t, mean, lo, hi,
-    in_band, runs``.
+
+def monte_carlo(runs: list[tuple], dof=3, probability: float = 0.95, tol: float = 1e-6) -> dict:
+    """Average a χ² statistic over N runs at the stamps all runs share; band for N runs.
+
+    ``runs`` is a list of ``(t, value)`` with a common dimension ``dof``, or of
+    ``(t, value, dof_per_stamp)`` (NIS: :func:`nis_per_stamp`), in which case only the stamps
+    where every run has the same dimension are kept. Stamps match to ``tol`` seconds.
+    Returns ``t, mean, lo, hi, dof, in_band, runs``.
     """
     if not runs:
         raise MetricUnavailable("no runs to average")
-    tables = [dict(zip(np.round(np.asarray(t) / tol).tolist(), np.asarray(v, dtype=float).tolist())) for t, v in runs]
+    tables = []
+    for run in runs:
+        t, value = np.asarray(run[0], dtype=float), np.asarray(run[1], dtype=float)
+        d = np.broadcast_to(np.asarray(run[2] if len(run) > 2 else dof, dtype=float), t.shape)
+        tables.append(dict(zip(np.round(t / tol).tolist(), zip(value.tolist(), d.tolist()))))
     t0 = np.asarray(runs[0][0], dtype=float)
     keys = np.round(t0 / tol).tolist()
-    shared = np.array([all(k in table for table in tables) for k in keys], dtype=bool)
+    shared = np.array([all(k in table and table[k][1] == tables[0][k][1] for table in tables) for k in keys], dtype=bool)
     if not shared.any():
-        raise MetricUnavailable("the runs share no time stamp")
-    shared_keys = [k for k, s in zip(keys, shared) if s]
-    mean = np.mean([[table[k] for k in shared_keys] for table in tables], axis=0)
-    dof = np.broadcast_to(np.asarray(dof, dtype=float), t0.shape)[shared]
-    lo, hi = chi2_band(dof, len(runs), probability)
+        raise MetricUnavailable("the runs share no time stamp (with equal dimension)")
+    kept = [k for k, s in zip(keys, shared) if s]
+    mean = np.mean([[table[k][0] for k in kept] for table in tables], axis=0)
+    dims = np.array([tables[0][k][1] for k in kept])
+    lo, hi = chi2_band(dims, len(runs), probability)
     inside = (mean >= lo) & (mean <= hi)
-    return {"t": t0[shared], "mean": mean, "lo": lo, "hi": hi, "in_band": float(np.mean(inside)), "runs": len(runs)}
+    return {"t": t0[shared], "mean": mean, "lo": lo, "hi": hi, "dof": dims, "in_band": float(np.mean(inside)), "runs": len(runs)}

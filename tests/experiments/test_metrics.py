@@ -292,3 +292,25 @@ def test_relations_file_through_the_reader(tmp_path):
     assert res["trans_mean"] == pytest.approx(0.2) and res["used"] == len(i)
     with pytest.raises(MetricUnavailable, match="no relations file"):
         relation_error_from_file(Estimate("x", t, gt), Sequence("s"), RelationsParams())
+
+
+def test_nis_monte_carlo_sums_innovations_per_stamp():
+    from experiments.metrics.consistency import nis_per_stamp
+
+    rng = np.random.default_rng(13)
+    per_stamp = rng.integers(1, 4, 200)  # 1–3 range-bearing innovations (dof 2) per stamp, same in every run
+    t = np.repeat(np.arange(200) * 0.1, per_stamp)
+    dof = np.full(t.size, 2.0)
+    runs = [nis_per_stamp(t, rng.chisquare(2, t.size), dof) for _ in range(20)]
+    ts, sums, dims = runs[0]
+    np.testing.assert_array_equal(dims, 2 * per_stamp)
+    mc = monte_carlo(runs)
+    assert mc["t"].size == 200 and mc["in_band"] > 0.9
+    assert np.mean(mc["mean"] / mc["dof"]) == pytest.approx(1.0, abs=0.03)
+    # a filter whose innovations are twice as large as it claims leaves the band
+    assert monte_carlo([(a, 2 * b, c) for a, b, c in runs])["in_band"] < 0.05
+    # a stamp where the runs disagree on the dimension is not averaged
+    a, b, c = runs[1]
+    c = c.copy()
+    c[0] += 2
+    assert monte_carlo([runs[0], (a, b, c)] + runs[2:])["t"].size == 199

@@ -69,7 +69,7 @@ def test_layout_and_contents(local_run):
     assert summary["skipped"].str.contains("map: dead_reckoning estimates no landmarks").all()
     for ext in ("md", "csv", "tex"):
         assert (out / "tables" / f"acc.{ext}").exists()
-    assert (out / "tables" / "nees_monte_carlo.md").exists()
+    assert (out / "tables" / "monte_carlo.md").exists()
     cell = out / "runs" / "sim_landmarks" / "dead_reckoning" / "0"
     for name in ("estimate.npz", "trajectory.tum", "metrics.json", "series.npz", "truth.npz"):
         assert (cell / name).exists(), name
