@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = ["read_bytes", "read_lines", "numeric_table", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -142,6 +142,47 @@ def fixed(path: str, bodies: list[str], line_numbers: np.ndarray, ncols: int, wh
     """Parse records that each have exactly ``ncols`` numeric fields into an ``(N, ncols)`` array."""
     values, _ = numbers(path, bodies, line_numbers, what, lambda c: c == ncols, f"{ncols} numeric fields in {what}")
     return values.reshape(len(bodies), ncols)
+
+
+def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -> tuple[np.ndarray, np.ndarray]:
+    """A whitespace-separated numeric table (``comment`` lines and blank lines skipped), fully on bytes.
+
+    Returns the ``(N, ncols)`` values and the 1-based line number of each row. No Python code
+    runs per line: line bounds, token counts and comment lines are found with numpy on the raw
+    bytes, and the data lines go through numpy's parser in one call.
+    """
+    blob = read_bytes(path)
+    b = np.frombuffer(blob, dtype=np.uint8)
+    space = _SPACE[b]
+    starts = ~space
+    starts[1:] &= space[:-1]
+    first_token = np.flatnonzero(starts)
+    newlines = np.flatnonzero(b == 10)
+    line_start = np.concatenate([[0], newlines + 1])
+    line_end = np.concatenate([newlines, [b.size]])
+    if blob.endswith(b"\n"):
+        line_start, line_end = line_start[:-1], line_end[:-1]
+    first = np.searchsorted(first_token, line_start)
+    counts = np.searchsorted(first_token, line_end) - first
+    has = counts > 0
+    lead = np.zeros(line_start.size, dtype=np.uint8)
+    lead[has] = b[first_token[first[has]]]
+    data = has & (lead != ord(comment))
+    rows = np.flatnonzero(data)
+    bad = np.flatnonzero(data & (counts != ncols))
+    if bad.size:
+        k = int(bad[0])
+        got = blob[line_start[k]:line_end[k]].decode("latin-1")
+        raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
+    # contiguous runs of data lines, joined without the comment lines between them
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], data.astype(np.int8), [0]])))
+    text = b"\n".join(blob[line_start[a]:line_end[z - 1]] for a, z in zip(edges[::2], edges[1::2])).decode("latin-1")
+    values = _parse_row(text) if rows.size else np.zeros(0)
+    if values is None or values.size != rows.size * ncols:
+        bodies = [blob[line_start[r]:line_end[r]].decode("latin-1") for r in rows]
+        row, token = _first_bad_token(bodies, counts[rows])
+        raise DataFormatError(path, int(rows[row]) + 1, f"numeric fields in {what}", token)
+    return values.reshape(rows.size, ncols), rows + 1
 
 
 def check_monotonic(path: str, t: np.ndarray, line_numbers: np.ndarray, what: str) -> None:

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import DataFormatError
 from ..geometry import interpolate_poses
 from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
-from ._text import check_monotonic, fixed, read_lines, tags
+from ._text import check_monotonic, numeric_table
 
 __all__ = ["read_table", "read_robot", "read_directory", "read", "ROBOT_SUBJECTS"]
 
@@ -33,11 +33,9 @@ __all__ = ["read_table", "read_robot", "read_directory", "read", "ROBOT_SUBJECTS
 ROBOT_SUBJECTS = range(1, 6)
 
 
-def read_table(path: str | Path, ncols: int, what: str) -> np.ndarray:
-    """All data rows of one MRCLAM file as an ``(N, ncols)`` array (``#`` lines skipped)."""
-    lines = read_lines(path)
-    rows = np.flatnonzero(tags(lines) != "")
-    return fixed(lines.path, [lines[r] for r in rows], rows + 1, ncols, what), rows + 1
+def read_table(path: str | Path, ncols: int, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """All data rows of one MRCLAM file as an ``(N, ncols)`` array and their line numbers."""
+    return numeric_table(path, ncols, what)
 
 
 def _file(directory: Path, stem: str) -> Path | None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 from ..sequence import Trajectory
-from ._text import check_monotonic, fixed, read_lines, tags
+from ._text import check_monotonic, numeric_table
 
 __all__ = ["TumTrajectory", "read", "read_trajectory", "write", "yaw_to_quaternion", "quaternion_to_yaw"]
 
@@ -44,15 +44,14 @@ def quaternion_to_yaw(q: np.ndarray) -> np.ndarray:
 
 
 def read(path: str | Path) -> TumTrajectory:
-    lines = read_lines(path)
-    rows = np.flatnonzero(tags(lines) != "")
-    v = fixed(lines.path, [lines[r] for r in rows], rows + 1, 8, "a TUM pose (timestamp x y z qx qy qz qw)")
-    check_monotonic(lines.path, v[:, 0], rows + 1, "TUM timestamps")
+    path = str(path)
+    v, line = numeric_table(path, 8, "a TUM pose (timestamp x y z qx qy qz qw)")
+    check_monotonic(path, v[:, 0], line, "TUM timestamps")
     norm = np.linalg.norm(v[:, 4:8], axis=1)
     bad = np.flatnonzero(~(norm > 0.5) | ~np.isfinite(v[:, 1:]).all(axis=1))
     if bad.size:
-        raise DataFormatError(lines.path, int(rows[bad[0]]) + 1, "a finite pose with a unit quaternion", lines[rows[bad[0]]][:80])
-    return TumTrajectory(t=v[:, 0], xyz=v[:, 1:4], quat=v[:, 4:8], path=lines.path)
+        raise DataFormatError(path, int(line[bad[0]]), "a finite pose with a unit quaternion", str(v[bad[0]].tolist()))
+    return TumTrajectory(t=v[:, 0], xyz=v[:, 1:4], quat=v[:, 4:8], path=path)
 
 
 def read_trajectory(path: str | Path) -> Trajectory:

@@ -1,0 +1,61 @@
+"""``slamarena bench readers``: parse time of the vectorised readers as a ratio to reading the text.
+
+For the Intel CARMEN log (16 MB of text, 2.6 M numbers) and UTIAS MRCLAM Dataset 6 (all five robots:
+odometry, measurements, ground truth), the reference is what any reader must do anyway in the same
+run: decompress the files and split them into lines. The ratio ``parse / (decompress + split)``
+says how much the parsing (tokenising, numeric conversion, validation, building the Sequence) adds;
+the aim is ≤ 3×. Each timing is the minimum over repeats (shared machines: minima are the least noisy).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from datasets import load
+from datasets.catalogue import CATALOGUE
+from datasets.formats._text import read_bytes
+
+
+def _best(fn, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _split_only(paths: list[Path]) -> None:
+    for p in paths:
+        read_bytes(p).decode("latin-1").split("\n")
+
+
+def cases() -> dict[str, tuple[list[str], list[Path]]]:
+    mrclam = [f"utias:6/robot{k}" for k in range(1, 6)]
+    return {
+        "carmen:intel": (["carmen:intel"], list(CATALOGUE["carmen:intel"].paths().values())),
+        "utias:6 (5 robots)": (mrclam, [p for n in mrclam for p in CATALOGUE[n].paths().values()]),
+    }
+
+
+def main(out: Path | None = None, quick: bool = False) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    repeats = 1 if quick else 3
+    rows = []
+    for label, (names, paths) in cases().items():
+        baseline = _best(lambda: _split_only(paths), repeats)
+        parse = _best(lambda: [load(n) for n in names], repeats)
+        rows.append((label, baseline, parse, parse / baseline))
+    table = Table(title="reader parse time vs decompress + line split (same run, min of %d)" % repeats)
+    for col in ("dataset", "decompress+split [s]", "full parse [s]", "ratio (aim <= 3)"):
+        table.add_column(col)
+    for label, b, p, r in rows:
+        table.add_row(label, f"{b:.3f}", f"{p:.3f}", f"{r:.2f}")
+    Console().print(table)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        lines = ["dataset,baseline_s,parse_s,ratio"] + [f"{l},{b:.6f},{p:.6f},{r:.4f}" for l, b, p, r in rows]
+        (out / "readers.csv").write_text("\n".join(lines) + "\n")
+    return 0
