@@ -1,0 +1,116 @@
+"""``slamarena bench isam2``: iSAM2 time per step against the map size — the other side of ``bench ekf-slam``.
+
+The scenario of ``experiments/benchmarks/ekf_slam.py``: n = 25 … 1600 landmarks scattered 5–50 m
+around the robot, all mapped from the start pose (the first update adds them, like the EKF
+benchmark's pre-mapped filter); then steps of one motion (v, ω) = (0.5, 0.05) for 0.1 s and an
+update with 10 observations of randomly chosen known landmarks, with the same noise
+(M = diag(0.1², 0.05²), R = diag(0.1², (1°)²)). The run goes through the estimator itself
+(:class:`estimators.gtsam_smoother.ISAM2Smoother` on a :class:`~datasets.sequence.Sequence`), so
+the time is the one it records per step (``Estimate.step_time``: the iSAM2 update plus reading
+the new pose); reported are the mean (which includes the periodic relinearisations, every
+``relinearize_skip`` = 10 steps) and the median over the steps after the first ``WARMUP``, their
+log-log slopes over n, and the ratio to the smallest map. Each size runs in a child
+process with one BLAS thread, as the EKF benchmark does.
+
+iSAM2 re-eliminates only the cliques touched by a step; the 10 observed landmarks are random,
+so a step touches the part of the Bayes tree that joins them to the new pose. The slope says
+how that grows with n (the EKF's per-step cost is O(n²), slope ≈ 2).
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+OBSERVATIONS = 10
+R = np.diag([0.1**2, np.radians(1.0) ** 2])
+M = np.diag([0.1**2, 0.05**2])
+WARMUP = 10
+
+
+def scenario(n: int, steps: int, seed: int = 0):
+    """The Sequence of the EKF-SLAM scaling benchmark: n landmarks mapped at t = 0, then ``steps`` steps."""
+    from datasets.geometry import accumulate
+    from datasets.sequence import LandmarkMap, Noise, RangeBearing, Sequence, Twist
+    from estimators.models import EULER, observe
+
+    rng = np.random.default_rng(seed)
+    radius = 5.0 + rng.uniform(0, 45.0, n)
+    angle = rng.uniform(-np.pi, np.pi, n)
+    L = np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
+    dt = 0.1
+    t = dt * np.arange(steps)
+    v, w = np.full(steps, 0.5), np.full(steps, 0.05)
+    truth = accumulate(np.zeros(3), EULER.increment(v, w, dt))
+    sets = [(0.0, np.arange(n), truth[0])] + [(dt * (k + 1), rng.choice(n, OBSERVATIONS, replace=False), truth[k + 1]) for k in range(steps)]
+    stamps = np.concatenate([np.full(ids.size, s) for s, ids, _ in sets])
+    ids = np.concatenate([ids for _, ids, _ in sets])
+    z = np.concatenate([observe(pose, L[i]) for _, i, pose in sets]) + rng.normal(size=(ids.size, 2)) * np.sqrt(np.diag(R))
+    noisy_v = v + rng.normal(0, np.sqrt(M[0, 0]), steps)
+    noisy_w = w + rng.normal(0, np.sqrt(M[1, 1]), steps)
+    return Sequence(
+        name=f"isam2-bench(n={n})", motion=Twist(t=t, v=noisy_v, omega=noisy_w, dt=np.full(steps, dt)),
+        range_bearing=RangeBearing(t=stamps, range=z[:, 0], bearing=z[:, 1], landmark_id=ids),
+        landmarks=LandmarkMap(ids=np.arange(n), xy=L), initial_pose=np.zeros(3), noise=Noise(twist_cov=M, range_bearing_cov=R),
+    )
+
+
+def measure(n: int, steps: int, seed: int = 0) -> dict:
+    from estimators.gtsam_smoother import ISAM2Smoother
+
+    est = ISAM2Smoother(motion_model="euler", covariances=False, final_updates=0).run(scenario(n, steps, seed))
+    per_step = est.step_time[1 + WARMUP:]
+    return {"n": n, "steps": int(per_step.size), "mean": float(np.mean(per_step)), "median": float(np.median(per_step)),
+            "p90": float(np.percentile(per_step, 90)), "first": float(est.step_time[0])}
+
+
+def slope(rows: list[dict], key: str, lo: int, hi: int) -> float:
+    pts = [(r["n"], r[key]) for r in rows if lo <= r["n"] <= hi]
+    return float(np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)[0])
+
+
+def _single_threaded(n: int, steps: int) -> dict:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, "-m", "experiments.benchmarks.isam2", json.dumps({"n": n, "steps": steps})],
+                          env=env, capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main(out: Path | None = None, quick: bool = False) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    sizes = [25, 50, 100, 200, 400] if quick else [25, 50, 100, 200, 400, 800, 1600]
+    steps = 60 if quick else 200
+    console = Console()
+    rows = []
+    for n in sizes:
+        rows.append(_single_threaded(n, steps))
+        console.log(f"n = {n}: mean {1e3 * rows[-1]['mean']:.2f} ms/step, median {1e3 * rows[-1]['median']:.2f}")
+    fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
+    exponents = {key: slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}
+    table = Table(title=f"iSAM2 wall time per step (1 pose + {OBSERVATIONS} observations) over {rows[0]['steps']} steps")
+    for col in ("n", "mean [ms]", "median [ms]", "p90 [ms]", f"mean vs n = {sizes[0]}", "first update (maps all n) [ms]"):
+        table.add_column(col, justify="right")
+    for r in rows:
+        table.add_row(str(r["n"]), f"{1e3 * r['mean']:.2f}", f"{1e3 * r['median']:.2f}", f"{1e3 * r['p90']:.2f}",
+                      f"{r['mean'] / rows[0]['mean']:.1f}×", f"{1e3 * r['first']:.1f}")
+    console.print(table)
+    console.print(f"log-log exponent of the step time over n ∈ [{fit_lo}, {fit_hi}]: mean {exponents['mean']:.2f}, "
+                  f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)")
+    if out is not None:
+        import pandas as pd
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        pd.DataFrame(rows).to_csv(out / "isam2_scaling.csv", index=False)
+        console.print(f"wrote {out / 'isam2_scaling.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    print(json.dumps(measure(**json.loads(sys.argv[1]))))
