@@ -3,10 +3,11 @@
 * ``step_median``, ``step_p95``: median and 95th percentile of ``Estimate.step_time`` [s];
   ``step_total``: their sum (the estimator's own accounting).
 * ``wall``: wall time of ``run(sequence)`` measured by the runner around the call [s].
-* ``peak_rss_mb``: ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of the cell's process, read
-  when the cell finishes [MiB]. Every cell runs in a fresh process, so this is the peak
-  resident set of that cell: interpreter, imported libraries, the dataset and the estimator
-  (native allocations of GTSAM/Open3D included, which tracemalloc would miss).
+* ``peak_rss_mb``: the peak resident set of the cell's process, read when the cell finishes
+  [MiB] — Linux ``VmHWM`` (``/proc/self/status``), elsewhere ``getrusage().ru_maxrss`` (see
+  :func:`peak_rss_mb`). Every cell runs in a fresh process, so this is the peak of that cell:
+  interpreter, imported libraries, the dataset and the estimator (native allocations of
+  GTSAM/Open3D included, which tracemalloc would miss).
 """
 from __future__ import annotations
 
@@ -33,9 +34,23 @@ COST_OUTPUTS = {
 
 
 def peak_rss_mb() -> float:
-    """Peak resident set size of this process so far [MiB] (Linux reports KiB, macOS bytes)."""
-    import resource
+    """Peak resident set size of this process so far [MiB].
+
+    Linux: ``VmHWM`` of ``/proc/self/status``, the high-water mark of this process's own
+    address space. (``getrusage().ru_maxrss`` is not used there: Linux carries it across
+    ``exec``, so a cell started from a 200 MB runner would report at least 200 MB.)
+    Elsewhere: ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` (macOS bytes, others KiB).
+    """
     import sys
+
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    import resource
 
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return rss / 2**20 if sys.platform == "darwin" else rss / 2**10

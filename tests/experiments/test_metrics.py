@@ -314,3 +314,17 @@ def test_nis_monte_carlo_sums_innovations_per_stamp():
     c = c.copy()
     c[0] += 2
     assert monte_carlo([runs[0], (a, b, c)] + runs[2:])["t"].size == 199
+
+
+def test_peak_memory_is_the_cell_process_own():
+    """A cell process started from a big parent reports its own peak, not the parent's."""
+    import subprocess
+    import sys
+
+    from experiments.metrics.cost import peak_rss_mb
+
+    ballast = np.ones(400 * 2**20 // 8)  # 400 MiB, touched
+    assert peak_rss_mb() > 400
+    out = subprocess.run([sys.executable, "-c", "from experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
+    assert 5 < float(out.stdout) < 300
+    del ballast
