@@ -78,7 +78,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        ellipses = " ; landmark ellipses 95 %" if any(r.estimate.landmark_cov is not None for r in shown) else ""
+        ellipses = "; landmark ellipses 95 %" if any(r.estimate.landmark_cov is not None for r in shown) else ""
         ax.set_title(f"{dataset} (seed {seed}; estimates aligned as for the ATE{ellipses})")
         ax.legend(loc="best")
         written += save(fig, out_dir, f"trajectories_{dataset}")
