@@ -35,7 +35,7 @@ from datasets.geometry import wrap_angle
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
-__all__ = ["MATCHED", "NEW", "REJECTED", "DECISIONS", "chi2_gate", "Association", "compatibility", "nearest_neighbour", "jcbb"]
+__all__ = ["MATCHED", "NEW", "REJECTED", "DECISIONS", "chi2_gate", "Association", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
 
 MATCHED, NEW, REJECTED = 0, 1, 2
 DECISIONS = {MATCHED: "matched", NEW: "new", REJECTED: "rejected"}
@@ -55,11 +55,29 @@ class Association:
     d2: np.ndarray
 
 
-def _landmark_blocks(P: np.ndarray, n: int) -> np.ndarray:
-    base = 3 + 2 * np.arange(n)
+def _innovation_cov(x: np.ndarray, P: np.ndarray, R: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Predicted observations (k, 2) and innovation covariances S (k, 2, 2) of landmark slots (k,), O(k)."""
+    xr = x[:3]
+    base = 3 + 2 * slots
+    L = np.column_stack([x[base], x[base + 1]])
+    Hx, Hm = observation_jacobians(xr, L)
+    Pri = np.stack([P[:3, base], P[:3, base + 1]], axis=-1).transpose(1, 0, 2)   # (k, 3, 2)
     rows = base[:, None, None] + np.arange(2)[None, :, None]
-    cols = base[:, None, None] + np.arange(2)[None, None, :]
-    return P[rows, cols]
+    Pii = P[rows, rows.transpose(0, 2, 1)]                                        # (k, 2, 2)
+    cross = Hx @ Pri @ Hm.transpose(0, 2, 1)
+    S = Hx @ P[:3, :3] @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1) + R
+    det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
+    bad = ~((det > 0) & (S[:, 0, 0] > 0))
+    if bad.any():
+        raise CovarianceError(f"innovation covariance of landmark slot {int(slots[np.flatnonzero(bad)[0]])} is not positive definite")
+    return observe(xr, L), S
+
+
+def _mahalanobis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """ν_jiᵀ S_i⁻¹ ν_ji with the closed-form 2 × 2 inverse; ν (..., k, 2), S (k, 2, 2)."""
+    a, b, c, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1]
+    n0, n1 = nu[..., 0], nu[..., 1]
+    return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / (a * d - b * c)
 
 
 def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,24 +86,20 @@ def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) ->
     M = z.shape[0]
     if n == 0:
         return np.zeros((M, 0, 2)), np.zeros((0, 2, 2)), np.zeros((M, 0))
-    xr = x[:3]
-    L = x[3:].reshape(n, 2)
-    Hx, Hm = observation_jacobians(xr, L)
-    Prr = P[:3, :3]
-    Pri = P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
-    Pii = _landmark_blocks(P, n)
-    cross = Hx @ Pri @ Hm.transpose(0, 2, 1)
-    S = Hx @ Prr @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1) + R
-    det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
-    if np.any(~(det > 0)) or np.any(~(S[:, 0, 0] > 0)):
-        k = int(np.flatnonzero(~((det > 0) & (S[:, 0, 0] > 0)))[0])
-        raise CovarianceError(f"innovation covariance of landmark slot {k} is not positive definite")
-    nu = z[:, None, :] - observe(xr, L)[None, :, :]
+    zhat, S = _innovation_cov(x, P, R, np.arange(n))
+    nu = z[:, None, :] - zhat[None, :, :]
     nu[..., 1] = wrap_angle(nu[..., 1])
-    a, b, c, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1]
-    n0, n1 = nu[..., 0], nu[..., 1]
-    d2 = (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
-    return nu, S, d2
+    return nu, S, _mahalanobis(nu, S)
+
+
+def pair_d2(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, slots: np.ndarray) -> np.ndarray:
+    """Mahalanobis d² (k,) of observation z[j] (k, 2) against landmark slots[j] (k,)."""
+    if slots.size == 0:
+        return np.zeros(0)
+    zhat, S = _innovation_cov(x, P, R, slots)
+    nu = z - zhat
+    nu[:, 1] = wrap_angle(nu[:, 1])
+    return _mahalanobis(nu, S)
 
 
 def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:

@@ -33,13 +33,16 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     K   = PHᵀ S⁻¹        (2×2 solve, never an N×N inverse)          (N×2)
     ν   = z − h(x_r, m_i), bearing wrapped to (−π, π]               (2,)
     x  ← x + K ν ,  θ wrapped
-    P  ← P − K (PHᵀ)ᵀ, then P ← (P + Pᵀ)/2                         standard form, O(N²)
-    P  ← P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ                               Joseph form, O(N²)
+    P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
+    P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
-The Joseph form is ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` expanded with ``HP = (PHᵀ)ᵀ`` and
-``HPHᵀ + R = S``: a rank-4 correction, no N×N×N product. With ``update="batch"`` all matched
-observations of a set are stacked (H 2m×N, S 2m×2m) and applied as one update with the same
-formulas, O(m N²).
+The standard form is symmetrised by construction: ``K (PHᵀ)ᵀ = K S Kᵀ = W Wᵀ`` is applied as a
+sum of symmetric rank-one terms that keep P bitwise symmetric (:mod:`.kernels`; the 3×3 robot
+block and each new 2×2 block are symmetrised explicitly), instead of a separate
+``(P + Pᵀ)/2`` pass. The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S``
+into rank-2d symmetric terms (see ``_correct``); there is no N×N×N product and no N×N
+inverse anywhere. With ``update="batch"`` all matched observations of a set are stacked
+(H 2m×N, S 2m×2m) and applied as one update with the same formulas, O(m N²).
 
 New landmark (inverse observation model ``m = g(x_r, z)``, ``G_x = ∂g/∂x_r`` 2×3,
 ``G_z = ∂g/∂z`` 2×2)::
@@ -68,7 +71,8 @@ Linearisation points (``jacobians=``):
 
 Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
 −1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
-(:mod:`.association`), decided on the estimate before the set is applied.
+(:mod:`.association`), decided on the estimate before the set is applied. Optionally
+(``known_confidence``) labelled rows are χ²-gated too, rejecting outliers of real sensors.
 
 Bad input: rows with a non-finite value or a negative range are rejected and counted;
 ``dt <= 0`` or a non-finite control raise ``ValueError``; after every step the covariance is
@@ -80,11 +84,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from datasets.geometry import compose, wrap_angle
+from datasets.geometry import accumulate, wrap_angle
 
 from ..models import MOTION_MODELS, compose_jacobians, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
 from . import association as assoc
 from .checks import CovarianceError, check_covariance, check_innovation_cov
+from .kernels import robot_chain, symmetric_update
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "CovarianceError", "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
@@ -149,6 +154,9 @@ class EKFSLAM:
                           unmatched row starts a landmark (0.99999: a true re-observation
                           lands beyond it with probability 1e-5, so thousands of
                           observations do not duplicate landmarks); jcbb_confidence (0.95)
+        known_confidence  None (default: rows with a known id are always applied, as in the
+                          notes) or a confidence: a labelled row of a mapped landmark whose
+                          d² exceeds χ²₂(known_confidence) is rejected as an outlier
         jacobians         "standard" (default) | "fej" | "ideal"
         initial_pose      3 floats (default: the sequence's start pose, else the origin)
         initial_cov       3 variances or 3×3 (default zeros: the start defines the frame)
@@ -160,7 +168,8 @@ class EKFSLAM:
                  increment_cov=None, range_bearing_cov=None, update: str = "sequential",
                  covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
                  association: str = "nn", use_ids: bool = True, match_confidence: float = 0.95,
-                 new_confidence: float = 0.99999, jcbb_confidence: float = 0.95, jacobians: str = "standard",
+                 new_confidence: float = 0.99999, jcbb_confidence: float = 0.95, known_confidence: float | None = None,
+                 jacobians: str = "standard",
                  initial_pose=None, initial_cov=None, on_indefinite: str = "raise", capacity: int = 64):
         self.params = dict(motion_model=motion_model, motion_noise=motion_noise, update=update,
                            covariance_update=covariance_update, init=init, association=association,
@@ -184,12 +193,14 @@ class EKFSLAM:
         if self.gate_new < self.gate_match:
             raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
         self.jcbb_confidence = _confidence(jcbb_confidence, "jcbb_confidence")
+        self.gate_known = None if known_confidence is None else assoc.chi2_gate(_confidence(known_confidence, "known_confidence"), 2)
         self._initial_pose = None if initial_pose is None else np.asarray(initial_pose, dtype=float).reshape(3)
         self._initial_cov = _cov(initial_cov, 3, "initial_cov")
         self._capacity = int(capacity)
         self.params.update(twist_cov=twist_cov, Cx=Cx, increment_cov=increment_cov, range_bearing_cov=range_bearing_cov,
                            init_cov=self.init_cov, use_ids=self.use_ids, match_confidence=match_confidence,
-                           new_confidence=new_confidence, jcbb_confidence=jcbb_confidence, initial_pose=initial_pose,
+                           new_confidence=new_confidence, jcbb_confidence=jcbb_confidence, known_confidence=known_confidence,
+                           initial_pose=initial_pose,
                            initial_cov=initial_cov, capacity=capacity)
         self.reset()
 
@@ -255,28 +266,70 @@ class EKFSLAM:
     def predict(self, u, dt: float) -> None:
         """Propagate with control u = [v, yaw_rate] held for dt > 0 (O(n))."""
         u = np.asarray(u, dtype=float).reshape(2)
-        dt = float(dt)
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be a finite number > 0, got {dt!r}")
-        if not np.all(np.isfinite(u)):
-            raise ValueError(f"control must be finite, got {u.tolist()}")
-        xr = self._s.x[:3].copy()
-        x_new = self.model.predict(xr, u[0], u[1], dt)
-        G, V = self.model.jacobians(self._linearisation_pose(), u[0], u[1], dt)
-        Q = V @ self.M @ V.T if self.params["motion_noise"] == "control" else self._Cx * dt
-        self._propagate(x_new, G, Q)
+        self.predict_twists(u[:1], u[1:], np.array([dt], dtype=float))
+
+    def predict_twists(self, v, omega, dt, true_poses=None) -> tuple[np.ndarray, np.ndarray]:
+        """A chain of K predictions with (v_k, ω_k) held for dt_k; returns the K robot poses and 3×3 covariances.
+
+        ``true_poses`` (K, 3): the true pose at the start of each piece (jacobians="ideal").
+        """
+        v, omega, dt = (np.asarray(a, dtype=float).reshape(-1) for a in (v, omega, dt))
+        if not np.all(np.isfinite(dt) & (dt > 0)):
+            raise ValueError(f"dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}")
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
+            raise ValueError("controls must be finite")
+        delta = self.model.increment(v, omega, dt)
+        if self.params["motion_noise"] == "additive":
+            return self._chain(delta, None, self._Cx[None] * dt[:, None, None], true_poses)
+        _, Vb = self.model.jacobians(np.zeros(3), v, omega, dt)          # body-frame V (K, 3, 2)
+        return self._chain(delta, Vb @ self.M @ Vb.transpose(0, 2, 1), None, true_poses)
 
     def predict_increment(self, delta, cov=None) -> None:
         """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""
-        delta = np.asarray(delta, dtype=float).reshape(3)
+        self.predict_increments(np.asarray(delta, dtype=float).reshape(1, 3), None if cov is None else np.asarray(cov, dtype=float).reshape(1, 3, 3))
+
+    def predict_increments(self, delta, cov=None, true_poses=None) -> tuple[np.ndarray, np.ndarray]:
+        """A chain of K odometry increments (K, 3) with covariances (K, 3, 3) (default: increment_cov)."""
+        delta = np.asarray(delta, dtype=float).reshape(-1, 3)
         if not np.all(np.isfinite(delta)):
-            raise ValueError(f"odometry increment must be finite, got {delta.tolist()}")
-        cov = self.increment_cov if cov is None else np.asarray(cov, dtype=float)
+            raise ValueError("odometry increments must be finite")
         if cov is None:
-            raise ValueError("an odometry increment needs a covariance (Increments.cov, Noise.increment_cov or increment_cov=)")
-        x_new = compose(self._s.x[:3], delta)
-        Jx, Jd = compose_jacobians(self._linearisation_pose(), delta)
-        self._propagate(x_new, Jx, Jd @ cov @ Jd.T)
+            if self.increment_cov is None:
+                raise ValueError("an odometry increment needs a covariance (Increments.cov, Noise.increment_cov or increment_cov=)")
+            cov = np.broadcast_to(self.increment_cov, (len(delta), 3, 3))
+        return self._chain(delta, np.asarray(cov, dtype=float).reshape(-1, 3, 3), None, true_poses)
+
+    def _chain(self, delta, Q_body, Q_world, true_poses) -> tuple[np.ndarray, np.ndarray]:
+        """x_r ← x_r ⊕ δ_0 ⊕ … ⊕ δ_{K−1}, robot block by the 3×3 recursion, P_rm ← Φ P_rm once.
+
+        Every motion here is "compose with a body increment", so ``G_k = I + [[0, 0, −D_y], [0, 0, D_x], 0]``
+        with D_k the world-frame displacement at the linearisation point, and the product of
+        the chain is ``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]`` (the correction terms commute).
+        Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
+        """
+        x, P = self._s.x, self._s.P
+        poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
+        if self.params["jacobians"] == "ideal":
+            lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
+        else:
+            lin = poses[:-1]
+        Jx, Rot = compose_jacobians(lin, delta)                          # ∂x'/∂x (K, 3, 3), ∂x'/∂δ = Rot (K, 3, 3)
+        D = np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]])
+        if self.params["jacobians"] == "fej":
+            D[0] = poses[1, :2] - self._robot_prior[:2]
+        if Q_world is None:
+            Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
+        covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
+        Dsum = D.sum(axis=0)
+        P[:3, 3:] += np.outer([-Dsum[1], Dsum[0], 0.0], P[2, 3:])      # Φ P_rm, Φ = I + [0 0 −ΣD_y; 0 0 ΣD_x; 0]
+        P[3:, :3] = P[:3, 3:].T
+        P[:3, :3] = covs[-1]
+        x[:3] = poses[-1]
+        self._robot_prior = poses[-1].copy()
+        if not np.all(np.linalg.eigvalsh(covs)[:, 0] >= -1e-12 * max(1.0, float(np.abs(covs).max()))):
+            self._fail("robot covariance lost positive semi-definiteness during prediction")
+        self._check()
+        return poses[1:], covs
 
     def _linearisation_pose(self) -> np.ndarray:
         if self.params["jacobians"] == "ideal":
@@ -284,19 +337,6 @@ class EKFSLAM:
                 raise ValueError("jacobians='ideal' needs the true pose: call set_truth(pose=...)")
             return self._truth_pose
         return self._s.x[:3]
-
-    def _propagate(self, x_new: np.ndarray, G: np.ndarray, Q: np.ndarray) -> None:
-        if self.params["jacobians"] == "fej":
-            G = np.eye(3)
-            G[0, 2] = -(x_new[1] - self._robot_prior[1])
-            G[1, 2] = x_new[0] - self._robot_prior[0]
-        x, P = self._s.x, self._s.P
-        P[:3, :3] = G @ P[:3, :3] @ G.T + Q
-        P[:3, 3:] = G @ P[:3, 3:]
-        P[3:, :3] = P[:3, 3:].T
-        x[:3] = x_new
-        self._robot_prior = x_new.copy()
-        self._check()
 
     # ------------------------------------------------------------------ update
     def update(self, z) -> None:
@@ -345,6 +385,11 @@ class EKFSLAM:
             s = self._slot.get(int(ids[j]), -1)
             if s >= 0:
                 decision[j], slot[j] = assoc.MATCHED, s
+        if self.gate_known is not None:
+            labelled = np.flatnonzero(slot >= 0)
+            d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, self.R, z[labelled], slot[labelled])
+            outlier = labelled[d2[labelled] > self.gate_known]
+            decision[outlier], slot[outlier] = assoc.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
             x, P = self._s.x, self._s.P
@@ -405,27 +450,32 @@ class EKFSLAM:
         self._correct(PHt, S, nu.ravel())
 
     def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> None:
-        """x ← x + K ν, P ← standard or Joseph form, with K = PHᵀ S⁻¹ (d × d solve, d = 2m)."""
+        """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²)."""
         x, P = self._s.x, self._s.P
         try:
-            check_innovation_cov(S)
+            L = check_innovation_cov(S)
         except CovarianceError:
             if self.params["on_indefinite"] == "raise":
                 raise
             self.rejected["indefinite"] += nu.size // 2
             return
-        K = np.linalg.solve(S, PHt.T).T                                # (N, d)
-        self.nis_log.append((float(nu @ np.linalg.solve(S, nu)), nu.size))
+        Linv = np.linalg.inv(L)                                        # d × d triangular factor only
+        W = PHt @ Linv.T                                               # W = PHᵀ L⁻ᵀ (N, d)
+        K = W @ Linv                                                   # K = PHᵀ S⁻¹ (N, d)
+        e = Linv @ nu
+        self.nis_log.append((float(e @ e), nu.size))                   # νᵀ S⁻¹ ν
         x += K @ nu
         x[2] = wrap_angle(x[2])
-        # P + A Kᵀ, symmetrised: A = −PHᵀ gives P − K(PHᵀ)ᵀ (standard form);
-        # A = K S − 2 PHᵀ gives P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ (Joseph form)
-        A = -PHt if self.params["covariance_update"] == "standard" else K @ S - 2.0 * PHt
-        T = self._s.scratch()
-        np.matmul(A, K.T, out=T)
-        P += T
-        np.add(P, P.T, out=T)
-        np.multiply(T, 0.5, out=P)
+        # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
+        # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
+        # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
+        d = nu.size
+        if self.params["covariance_update"] == "standard":
+            C, signs = W, np.full(d, -1.0)
+        else:
+            D = K @ S - PHt
+            C, signs = np.hstack([W, K + D, K - D]), np.r_[np.full(d, -1.0), np.full(d, 0.5), np.full(d, -0.5)]
+        symmetric_update(self._s.buffer, self._s.n, C, signs)
         self._check()
 
     # ------------------------------------------------------------------ new landmarks
@@ -447,7 +497,8 @@ class EKFSLAM:
         if self.params["init"] == "jacobian":
             P[new, :N] = Gx @ P[:3, :N]
             P[:N, new] = P[new, :N].T
-            P[new, new] = Gx @ P[:3, :3] @ Gx.T + Gz @ self.R @ Gz.T
+            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ self.R @ Gz.T
+            P[new, new] = 0.5 * (Pnn + Pnn.T)
         else:
             P[new, new] = self.init_cov * np.eye(2)
         slot = len(self._ids)
@@ -462,10 +513,13 @@ class EKFSLAM:
     def _check(self) -> None:
         try:
             check_covariance(self._s.P)
-        except CovarianceError:
-            if self.params["on_indefinite"] == "raise":
-                raise
-            self.rejected["indefinite"] += 1
+        except CovarianceError as exc:
+            self._fail(str(exc))
+
+    def _fail(self, message: str) -> None:
+        if self.params["on_indefinite"] == "raise":
+            raise CovarianceError(message)
+        self.rejected["indefinite"] += 1
 
     # ------------------------------------------------------------------ runner
     def run(self, sequence):

@@ -5,13 +5,19 @@ Motion and range-bearing events are processed (other streams are not used by EKF
 * before every event the filter is propagated from its current time to the event time —
   :class:`Twist` input piecewise with :func:`estimators.stepping.twist_pieces`; rows with a
   non-finite velocity are skipped and counted (``rejected_motion``);
-* an :class:`Increments` event applies its row with :meth:`EKFSLAM.predict_increment`
-  (covariance from ``Increments.cov``, else ``Noise.increment_cov``);
+* an :class:`Increments` event applies its row (the motion since the previous stamp;
+  covariance from ``Increments.cov``, else ``Noise.increment_cov``);
 * a range-bearing event applies its whole observation set with :meth:`EKFSLAM.update`.
 
+The motion between two observation sets is applied as one chain
+(:meth:`EKFSLAM.predict_twists` / :meth:`EKFSLAM.predict_increments`: vectorised poses, the
+3 × 3 robot recursion per piece, the cross-covariances once), which gives the same result as
+piece-by-piece prediction and the pose and covariance after every piece.
+
 One pose and its 3 × 3 covariance are recorded per processed event, with the wall time spent
-since the previous record. With ``jacobians="ideal"`` the true pose (SE(2)-interpolated ground
-truth) is handed to the filter before every prediction piece and update.
+since the previous record (a chain's time is shared evenly by its motion events). With
+``jacobians="ideal"`` the true pose (SE(2)-interpolated ground truth, clipped to its span) is
+handed to the filter for every prediction piece and update.
 
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
@@ -45,48 +51,63 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         gt = sequence.ground_truth
         ekf.set_truth(landmarks=sequence.landmarks)
 
-    def truth_at(t: float) -> None:
-        if ideal:
-            ekf.set_truth(pose=interpolate_poses(gt.t, gt.poses, np.array([t]))[0])
-
     motion, rb = sequence.motion, sequence.range_bearing
+    table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
     times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
     rejected_motion = 0
     t_now = sequence.t0
     clock = time.perf_counter()
-    for event in sequence.events():
-        if event.stream not in ("motion", "range_bearing"):
-            continue
+    i = 0
+    while i < len(table):
+        # a chain: the motion events up to (and the propagation to) the next observation set
+        j = i
+        while j < len(table) and table[j].stream == "motion":
+            j += 1
+        chain = table[i:j]
+        t_end = table[j].t if j < len(table) else (chain[-1].t if chain else t_now)
         if isinstance(motion, Twist):
-            v, w, dts = twist_pieces(motion, t_now, event.t)
-            t_piece = t_now
-            for vk, wk, dtk in zip(v, w, dts):
-                if np.isfinite(vk) and np.isfinite(wk):
-                    truth_at(t_piece)
-                    ekf.predict((vk, wk), dtk)
-                else:
-                    rejected_motion += 1
-                t_piece += dtk
-        t_now = event.t
-        if event.stream == "motion" and isinstance(motion, Increments):
-            for k in range(event.start, event.stop):
-                if np.all(np.isfinite(motion.delta[k])):
-                    truth_at(t_now)
-                    ekf.predict_increment(motion.delta[k], None if motion.cov is None else motion.cov[k])
-                else:
-                    rejected_motion += 1
-        elif event.stream == "range_bearing":
-            truth_at(t_now)
+            v, w, dts = twist_pieces(motion, t_now, t_end)
+            ends = t_now + np.cumsum(dts)
+            ok = np.isfinite(v) & np.isfinite(w)
+            rejected_motion += int((~ok).sum())
+            starts = (ends - dts)[ok]
+            truth = interpolate_poses(gt.t, gt.poses, np.clip(starts, gt.t[0], gt.t[-1])) if ideal and ok.any() else None
+            done = ekf.predict_twists(v[ok], w[ok], dts[ok], true_poses=truth) if ok.any() else None
+            ends = ends[ok]
+        else:
+            rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
+            ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
+            rejected_motion += int((~ok).sum())
+            rows = rows[ok]
+            truth = interpolate_poses(gt.t, gt.poses, np.clip(motion.t[rows], gt.t[0], gt.t[-1])) if ideal and rows.size else None
+            cov = None if motion.cov is None else motion.cov[rows]
+            done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth) if rows.size else None
+            ends = motion.t[rows]
+        before_pose, before_cov = (poses[-1], covs[-1]) if poses else (ekf.x[:3].copy(), ekf.P[:3, :3].copy())
+        now = time.perf_counter()
+        for event in chain:  # poses at the motion events, from the chain
+            k = int(np.searchsorted(ends, event.t + 1e-9, side="right"))
+            times.append(event.t)
+            poses.append(done[0][k - 1] if k else before_pose)
+            covs.append(done[1][k - 1] if k else before_cov)
+            steps.append((now - clock) / max(len(chain), 1))
+        clock = now if chain else clock
+        t_now = t_end
+        if j < len(table):
+            event = table[j]
+            if ideal:
+                ekf.set_truth(pose=interpolate_poses(gt.t, gt.poses, np.clip([event.t], gt.t[0], gt.t[-1]))[0])
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
             ekf.update(rb.z[event.start:event.stop])
-            nis_t += [t_now] * (len(ekf.nis_log) - n_nis)
-            assoc_t += [t_now] * (len(ekf.assoc_log) - n_assoc)
-        times.append(t_now)
-        poses.append(ekf.x[:3].copy())
-        covs.append(ekf.P[:3, :3].copy())
-        now = time.perf_counter()
-        steps.append(now - clock)
-        clock = now
+            nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
+            assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
+            times.append(event.t)
+            poses.append(ekf.x[:3].copy())
+            covs.append(ekf.P[:3, :3].copy())
+            now = time.perf_counter()
+            steps.append(now - clock)
+            clock = now
+        i = j + 1
 
     n = ekf.n_landmarks
     P = ekf.P

@@ -4,8 +4,6 @@ The state ``x`` (N,) and covariance ``P`` (N, N) live in preallocated buffers of
 ``capacity ≥ N``; ``x`` and ``P`` are views of the live part. When a new landmark does not
 fit, the capacity doubles and the live part is copied once, so adding n landmarks costs
 O(N²) copies in total — O(N) amortised per landmark instead of an O(N²) copy each time.
-A scratch buffer of the same capacity holds the N × N temporaries of the covariance
-update, so the update allocates no N × N arrays either.
 """
 from __future__ import annotations
 
@@ -15,14 +13,13 @@ __all__ = ["GrowingState"]
 
 
 class GrowingState:
-    """``x``/``P`` views of capacity-doubling buffers, plus a same-sized scratch matrix."""
+    """``x``/``P`` views of capacity-doubling buffers."""
 
     def __init__(self, n_state: int = 3, capacity: int = 64):
         capacity = max(int(capacity), n_state)
         self.n = int(n_state)
         self._x = np.zeros(capacity)
         self._P = np.zeros((capacity, capacity))
-        self._scratch = np.empty((capacity, capacity))
 
     @property
     def capacity(self) -> int:
@@ -36,9 +33,10 @@ class GrowingState:
     def P(self) -> np.ndarray:
         return self._P[: self.n, : self.n]
 
-    def scratch(self, rows: int | None = None, cols: int | None = None) -> np.ndarray:
-        """A writable (rows, cols) scratch view (default N × N); its contents are undefined."""
-        return self._scratch[: self.n if rows is None else rows, : self.n if cols is None else cols]
+    @property
+    def buffer(self) -> np.ndarray:
+        """The whole C-contiguous covariance buffer (capacity × capacity); P is its [:N, :N]."""
+        return self._P
 
     def grow(self, extra: int) -> slice:
         """Append ``extra`` zero-initialised state entries; returns their slice of ``x``."""
@@ -50,7 +48,6 @@ class GrowingState:
             x[:start] = self._x[:start]
             P[:start, :start] = self._P[:start, :start]
             self._x, self._P = x, P
-            self._scratch = np.empty((capacity, capacity))
         self._x[start:stop] = 0.0
         self._P[start:stop, :stop] = 0.0
         self._P[:stop, start:stop] = 0.0
