@@ -375,3 +375,29 @@ def test_input_older_than_the_history_is_rejected_and_counted():
         f.process(*it)
     assert f.rejected["gps"]["too_old"] == 5
     assert np.all(np.isfinite(f.x))
+
+
+# ---------------------------------------------------------------- real data (skipped when not staged)
+@pytest.mark.realdata
+def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
+    """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
+    dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
+    from tests.conftest import staged
+    from experiments.metrics.reference import reference_of
+    from experiments.metrics.trajectory import ATEParams, ate
+
+    staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
+    import datasets
+
+    seq = datasets.load("utias:6/robot1")
+    t_end = seq.motion.t[0] + 120.0
+    seq = Sequence(**{**seq.__dict__, "motion": seq.motion.select(seq.motion.t < t_end),
+                      "range_bearing": seq.range_bearing.select(seq.range_bearing.t < t_end)})
+    cfg = dict(motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2))
+    est = EKFLocalizer(**cfg).run(seq)
+    dead = EKFLocalizer(**cfg).run(Sequence(**{**seq.__dict__, "range_bearing": None}))
+    ref = reference_of(seq)
+    a = ate(est, ref, ATEParams(align="none"))[0]["rmse"]
+    d = ate(dead, ref, ATEParams(align="none"))[0]["rmse"]
+    assert a < 0.3 and a < 0.5 * d
+    assert est.diagnostics["nis_landmark"].size > 100

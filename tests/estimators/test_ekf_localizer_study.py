@@ -81,7 +81,9 @@ def test_study_q_unit():
     _table("Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
            ["process noise", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES (3 = consistent)", "σ_xy at outage end [m]", "error at outage end [m]"], rows)
     per_step, per_second, true = out.values()
-    assert per_step[0]["nees"] < 0.3 and per_step[1] > 20 * per_step[2]  # per-step reading: σ of metres for cm errors
+    assert per_step[0]["nees"] < 1.0 and per_step[1] > 50 * per_step[2]  # per-step reading: σ of metres for cm errors
+    assert per_step[0]["heading"] > 2 * true[0]["heading"]  # the large θ noise makes the filter follow the noisy IMU
+    assert per_second[1] > 5 * per_second[2]
     assert 1.0 < true[0]["nees"] < 5.0
 
 
@@ -155,8 +157,8 @@ def test_study_gps_sweep():
 @pytest.mark.realdata
 def test_study_mrclam():
     """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
-    against dead reckoning of the same odometry (the filter with no measurements). Noise (the dataset
-    states none): per-second Q diag(0.01 m², 0.01 m², 0.01 rad²)/s... see research/ekf_localizer.md."""
+    against dead reckoning of the same odometry (the filter with no measurements). The dataset states
+    no noise; ``MRCLAM_FILTER`` and its derivation are in research/ekf_localizer.md."""
     from tests.conftest import staged
 
     staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
@@ -175,8 +177,8 @@ def test_study_mrclam():
            ["robot", "EKF ATE RMSE [m]", "EKF max [m]", "EKF heading RMSE [rad]", "dead-reckoning ATE RMSE [m]", "dead-reckoning max [m]",
             "landmark rows", "gated out", "mean NIS/2 (accepted)"], rows)
     for s, d in out.values():
-        assert s["ate"] < 0.5 * d["ate"] and s["ate"] < 0.3
+        assert s["ate"] < 0.5 * d["ate"] and s["ate"] < 0.35
 
 
 #: the MRCLAM configuration (research/ekf_localizer.md explains the choice)
-MRCLAM_FILTER = dict(motion_model="arc", Q=(0.01, 0.01, 0.02), q_unit="per_second", R_landmark=(0.15**2, 0.05**2), gate_confidence=0.999)
+MRCLAM_FILTER = dict(motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999)
