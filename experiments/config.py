@@ -262,18 +262,20 @@ class ExperimentConfig(BaseModel):
 
 
 def load_config(path: str | Path | None = None) -> ExperimentConfig:
-    """Read and validate an experiment YAML; ``None`` → the shipped ``configs/default.yaml``."""
+    """Read and validate an experiment YAML: a path, or the name of a shipped config
+    (``experiments/configs/<name>.yaml``); ``None`` → the shipped ``default``."""
     import yaml
+    from importlib.resources import files
 
-    if path is None:
-        from importlib.resources import files
-
-        text, where = files("experiments").joinpath("configs/default.yaml").read_text(), "default.yaml (shipped)"
+    shipped = files("experiments").joinpath("configs")
+    name = "default" if path is None else Path(path).stem
+    if path is not None and Path(path).is_file():
+        text, where = Path(path).read_text(), str(path)
+    elif (path is None or Path(path).parent == Path(".")) and shipped.joinpath(f"{name}.yaml").is_file():
+        text, where = shipped.joinpath(f"{name}.yaml").read_text(), f"{name}.yaml (shipped)"
     else:
-        path = Path(path)
-        if not path.exists():
-            raise ConfigError(f"{path}: no such config file")
-        text, where = path.read_text(), str(path)
+        names = sorted(p.name.removesuffix(".yaml") for p in shipped.iterdir() if p.name.endswith(".yaml"))
+        raise ConfigError(f"{path}: no such config file (shipped configs: {', '.join(names)})")
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:

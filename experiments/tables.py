@@ -99,7 +99,10 @@ def _latex(cells: pd.DataFrame, text_columns: int = 2) -> str:
 
 
 def to_markdown(means, stds, best) -> str:
-    return _markdown(_cells(means, stds, best, lambda s: f"**{s}**"))
+    """The table, then what each column is (from the metric's outputs)."""
+    described = output_columns()
+    legend = "".join(f"- `{c}`: {described[c][1]}\n" for c in best.columns if c in described)
+    return _markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold.\n\n" + legend
 
 
 def to_latex(means, stds, best) -> str:

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from matplotlib.ticker import NullFormatter
+
 from .runs import FigureSkipped, by, load_runs
 from .style import WIDTH, apply, method_style, plt, save
 
@@ -79,6 +81,9 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 style = method_style(estimator, methods)
                 ax.loglog(x, y, marker="o", color=style["color"], linestyle="none")
                 ax.loglog(x, np.exp(a) * x**b, color=style["color"], linestyle=style["linestyle"], label=f"{estimator}: slope {b:.2f}")
+            ticks = sorted(set(values.values()))
+            ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
+            ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel(param)
             ax.set_ylabel(label)
             if ax.lines:

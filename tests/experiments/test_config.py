@@ -103,3 +103,16 @@ def test_sanitize():
     assert sanitize("utias:6/robot1") == "utias_6_robot1"
     assert sanitize("sim:landmarks") == "sim_landmarks"
     assert sanitize("carmen-corrected:intel") == "carmen-corrected_intel"
+
+
+def test_every_shipped_config_is_valid():
+    from importlib.resources import files
+
+    shipped = [p for p in files("experiments").joinpath("configs").iterdir() if p.name.endswith(".yaml")]
+    assert {"default.yaml", "scaling.yaml"} <= {p.name for p in shipped}
+    for p in shipped:
+        import yaml
+
+        from experiments.config import ExperimentConfig
+
+        ExperimentConfig.model_validate(yaml.safe_load(p.read_text()))
