@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Run", "load_runs", "FigureSkipped"]
+__all__ = ["Run", "load_runs", "by", "FigureSkipped"]
 
 
 class FigureSkipped(Exception):

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from datasets.estimate import Estimate
 from datasets.geometry import between, interpolate_poses
@@ -35,6 +35,13 @@ class RelationsParams(BaseModel):
     file: Path | None = Field(None, description="relations file (Kümmerle et al. format); default: the dataset's")
     match: Literal["nearest", "interpolate"] = "nearest"
     tolerance: float = Field(0.05, ge=0, description="seconds, for match: nearest")
+
+    @field_validator("file")
+    @classmethod
+    def _exists(cls, path):
+        if path is not None and not Path(path).is_file():
+            raise ValueError(f"relations file {path} does not exist")
+        return path
 
 
 RELATION_OUTPUTS = {
