@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "numeric_table", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = ["read_bytes", "read_lines", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -183,6 +183,14 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
         row, token = _first_bad_token(bodies, counts[rows])
         raise DataFormatError(path, int(rows[row]) + 1, f"numeric fields in {what}", token)
     return values.reshape(rows.size, ncols), rows + 1
+
+
+def check_finite(path: str, values: np.ndarray, line_numbers: np.ndarray, what: str) -> None:
+    """Raise at the first row of ``values`` (N, k) holding NaN or infinity (graph files: never valid)."""
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1)) if values.size else np.zeros(0, dtype=int)
+    if bad.size:
+        k = int(bad[0])
+        raise DataFormatError(path, int(line_numbers[k]), f"finite numbers in {what}", str(values[k].tolist()))
 
 
 def check_monotonic(path: str, t: np.ndarray, line_numbers: np.ndarray, what: str) -> None:

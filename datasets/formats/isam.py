@@ -26,9 +26,9 @@ from ..errors import DataFormatError
 from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
-from ._text import fixed, read_lines, tags, upper_triangle, upper_triangular
+from ._text import check_finite, fixed, read_lines, tags, upper_triangle, upper_triangular
 
-__all__ = ["IsamRecords", "read_records", "information", "read", "true_poses_and_landmarks", "load"]
+__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load"]
 
 POSE_TAGS = ("ODOMETRY", "EDGE2")
 NOISE_CONVENTIONS = ("sqrt_information", "covariance", "information")
@@ -68,6 +68,8 @@ def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE
               "a pose constraint (i j dx dy dtheta + 6 noise values)")
     q = fixed(lines.path, [lines[r].split(None, 1)[1] if " " in lines[r].strip() else "" for r in lm_rows], lm_rows + 1, 7,
               "a LANDMARK record (p l dx dy + 3 noise values)")
+    check_finite(lines.path, p, pose_rows + 1, "a pose constraint")
+    check_finite(lines.path, q, lm_rows + 1, "a LANDMARK record")
     for arr, rows, cols in ((p, pose_rows, (0, 1)), (q, lm_rows, (0, 1))):
         ids = arr[:, cols]
         bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
@@ -98,13 +100,25 @@ def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
     raise ValueError(f"noise convention must be one of {NOISE_CONVENTIONS}, got {convention!r}")
 
 
-def _check_positive_definite(path: str, info: np.ndarray, lines: np.ndarray, what: str) -> None:
-    if info.shape[0] == 0:
+def _check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
+    if matrices.shape[0] == 0:
         return
-    eig = np.linalg.eigvalsh(info)
+    eig = np.linalg.eigvalsh(matrices)
     bad = np.flatnonzero(~(eig[:, 0] > 0))
     if bad.size:
         raise DataFormatError(path, int(lines[bad[0]]), f"a positive-definite {what} noise matrix", str(eig[bad[0]].tolist()))
+
+
+def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np.ndarray]:
+    """Information matrices of the pose and landmark records, each checked positive definite at its line."""
+    out = []
+    for noise, n, lines, what in ((rec.pose_noise, 3, rec.pose_line, "pose-constraint"), (rec.lm_noise, 2, rec.lm_line, "landmark")):
+        if convention == "covariance":
+            _check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
+        info = information(noise, n, convention)
+        _check_positive_definite(rec.path, info, lines, what)
+        out.append(info)
+    return out[0], out[1]
 
 
 def read(path: str | Path, noise: str = "sqrt_information", ground_truth: str | Path | None = None,
@@ -115,10 +129,7 @@ def read(path: str | Path, noise: str = "sqrt_information", ground_truth: str | 
     are their own space (cityTrees10000). ``ground_truth``: the noise-free file of the same graph.
     """
     rec = read_records(path)
-    info = information(rec.pose_noise, 3, noise)
-    _check_positive_definite(rec.path, info, rec.pose_line, "pose-constraint")
-    lm_info = information(rec.lm_noise, 2, noise)
-    _check_positive_definite(rec.path, lm_info, rec.lm_line, "landmark")
+    info, lm_info = noise_information(rec, noise)
     node_ids = np.unique(np.concatenate([rec.pose_i, rec.pose_j, rec.lm_pose]))
     if shared_ids and np.isin(rec.lm_id, node_ids).any():
         k = int(np.flatnonzero(np.isin(rec.lm_id, node_ids))[0])

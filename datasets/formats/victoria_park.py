@@ -55,6 +55,8 @@ def read(path: str | Path, variant: str = "isam", name: str = "victoria_park") -
     """The file as a :class:`Sequence` with :class:`Increments` motion and ``t`` = pose index."""
     convention = _convention(variant)
     rec = isam.read_records(path, allowed=("ODOMETRY", "LANDMARK"))
+    if rec.pose_i.size == 0:
+        raise DataFormatError(rec.path, None, "ODOMETRY records (the pose chain)", "none")
     chain_ok = rec.pose_i[1:] == rec.pose_j[:-1]
     if not chain_ok.all():
         k = int(np.flatnonzero(~chain_ok)[0]) + 1
@@ -73,14 +75,15 @@ def read(path: str | Path, variant: str = "isam", name: str = "victoria_park") -
         k = int(np.flatnonzero(np.diff(index) < 0)[0]) + 1
         raise DataFormatError(rec.path, int(rec.lm_line[k]), "LANDMARK lines in pose order", str(rec.lm_pose[k]))
 
-    odo_cov = np.linalg.inv(isam.information(rec.pose_noise, 3, convention))
-    lm_cov = np.linalg.inv(isam.information(rec.lm_noise, 2, convention))
+    odo_info, lm_info = isam.noise_information(rec, convention)
+    odo_cov, lm_cov = np.linalg.inv(odo_info), np.linalg.inv(lm_info)
     motion = Increments(t=np.arange(1, pose_ids.size, dtype=float), delta=rec.pose_z, cov=odo_cov)
     rng = np.hypot(rec.lm_z[:, 0], rec.lm_z[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):  # a point at the sensor has no bearing: NaN, kept
+        J = np.stack([np.stack([rec.lm_z[:, 0] / rng, rec.lm_z[:, 1] / rng], -1),
+                      np.stack([-rec.lm_z[:, 1] / rng**2, rec.lm_z[:, 0] / rng**2], -1)], -2)
     bearing = np.arctan2(rec.lm_z[:, 1], rec.lm_z[:, 0])
     rb = RangeBearing(t=index.astype(float), range=rng, bearing=bearing, landmark_id=rec.lm_id)
-    J = np.stack([np.stack([rec.lm_z[:, 0] / rng, rec.lm_z[:, 1] / rng], -1),
-                  np.stack([-rec.lm_z[:, 1] / rng**2, rec.lm_z[:, 0] / rng**2], -1)], -2)
     rb_cov = J @ lm_cov @ np.swapaxes(J, -1, -2)
     sigma2 = float(np.median(lm_cov[:, 0, 0])) if len(lm_cov) else 0.0
     r_med = float(np.median(rng)) if rng.size else 1.0

@@ -83,3 +83,13 @@ def test_broken_odometry_chain_is_reported(tmp_path):
     with pytest.raises(DataFormatError) as err:
         vp.read(f)
     assert err.value.line == 3 and "previous pose 1" in str(err.value)
+
+
+@pytest.mark.parametrize("variant, noise, fragment", [("isam", "1 0 0", "positive-definite landmark"),
+                                                      ("gtsam", "0.4 1 0.4", "positive-definite landmark")])
+def test_singular_noise_is_reported(tmp_path, variant, noise, fragment):
+    f = tmp_path / "vp.txt"
+    f.write_text(f"ODOMETRY 0 1 1 0 0 1 0 0 1 0 1\nLANDMARK 1 2 3 4 {noise}\n")
+    with pytest.raises(DataFormatError) as err:
+        vp.read(f, variant)
+    assert err.value.line == 2 and fragment in str(err.value)
