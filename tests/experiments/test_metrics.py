@@ -185,8 +185,8 @@ def test_chi2_bands_and_monte_carlo_average():
         np.testing.assert_allclose(chi2_band(dof, runs, 0.99), chi2.ppf([0.005, 0.995], runs * dof) / runs, rtol=1e-10)
     rng = np.random.default_rng(9)
     lo, hi = chi2_band(3, runs=50)  # N ε̄ ~ χ²(150): the empirical quantiles of averages of 50 χ²(3)
-    averages = rng.chisquare(3, (200_000, 50)).mean(axis=1)
-    np.testing.assert_allclose(np.quantile(averages, [0.025, 0.975]), [lo, hi], rtol=5e-3)
+    averages = rng.chisquare(3, (100_000, 50)).mean(axis=1)
+    np.testing.assert_allclose(np.quantile(averages, [0.025, 0.975]), [lo, hi], rtol=1e-2)
     t = np.arange(500) * 0.1
     runs = [(t, rng.chisquare(3, t.size)) for _ in range(50)]
     mc = monte_carlo(runs, 3)
@@ -323,8 +323,8 @@ def test_peak_memory_is_the_cell_process_own():
 
     from experiments.metrics.cost import peak_rss_mb
 
-    ballast = np.ones(400 * 2**20 // 8)  # 400 MiB, touched
-    assert peak_rss_mb() > 400
+    ballast = np.ones(300 * 2**20 // 8)  # 300 MiB, touched
+    assert peak_rss_mb() > 300
     out = subprocess.run([sys.executable, "-c", "from experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
-    assert 5 < float(out.stdout) < 300
+    assert 5 < float(out.stdout) < 200
     del ballast
