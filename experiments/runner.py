@@ -40,6 +40,10 @@ from .results import MANIFEST, SUMMARY, atomic_write_text, cell_dir, read_json, 
 __all__ = ["Cell", "plan", "run_experiment", "run_from_cli", "package_version"]
 
 
+class SchedulerUnreachable(RuntimeError):
+    """``--scheduler`` names an address where no Dask scheduler answers."""
+
+
 @dataclass(frozen=True)
 class Cell:
     id: str
@@ -148,7 +152,11 @@ def _execute(specs: list[dict], timeout: float | None, jobs: int, scheduler: str
     if scheduler:
         from distributed import Client, as_completed
 
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except OSError as exc:
+            raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        with client:
             futures = client.map(run_cell, specs, [timeout] * len(specs), pure=False)
             for future in as_completed(futures):
                 result = future.result()
@@ -357,7 +365,10 @@ def print_grid(config: ExperimentConfig, out: Path, force: bool, console) -> int
 
 
 def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool) -> int:
-    """``slamarena run``: validate, then run (or list) the grid. Exit codes: 0 ok, 1 failed cells, 2 bad config."""
+    """``slamarena run``: validate, then run (or list) the grid.
+
+    Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config or unreachable scheduler.
+    """
     from rich.console import Console
 
     console = Console(stderr=True)
@@ -369,4 +380,8 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     target = cfg.output_dir(out)
     if dry_run:
         return print_grid(cfg, target, force, Console())
-    return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console)
+    try:
+        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console)
+    except SchedulerUnreachable as exc:
+        console.print(f"[red]{exc}[/red]", highlight=False)
+        return 2
