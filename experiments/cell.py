@@ -88,7 +88,7 @@ def execute(spec: dict) -> dict:
     from .config import method_table
     from .metrics import METRICS, CellData, evaluate, reference_of
     from .metrics.cost import peak_rss_mb
-    from .results import load_npz, read_json, save_npz, write_json, write_trajectory_tum
+    from .results import read_json, save_npz, write_json, write_trajectory_tum
 
     started = _now()
     cell = Path(spec["dir"])
