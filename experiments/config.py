@@ -13,6 +13,7 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
     estimators:
       - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
         params: {motion_model: arc}   # constructor keywords, checked by constructing the class
+        datasets: [lm50]              # optional: only these dataset labels (default: every dataset)
     metrics:                          # metric name → parameters (experiments.metrics.METRICS)
       ate: {align: se2}
       nees: {}
@@ -133,6 +134,7 @@ class EstimatorSpec(BaseModel):
     name: str
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
+    datasets: list[str] | None = Field(None, description="dataset labels this method runs on (default: all)")
 
     @model_validator(mode="after")
     def _registered(self):
@@ -237,6 +239,11 @@ class ExperimentConfig(BaseModel):
             dup = sorted({x for x in labels if labels.count(x) > 1})
             if dup:
                 raise ValueError(f"{kind} labels must be unique; give entries a distinct 'label': {', '.join(dup)}")
+        labels = self.dataset_labels()
+        for k, es in enumerate(self.estimators):
+            unknown = sorted(set(es.datasets or []) - set(labels))
+            if unknown:
+                raise ValueError(f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
         enabled = {k for k, v in self.metrics if v is not None}
         for k, table in enumerate(self.tables):
             missing = sorted({c.split(".")[0] for c in table.columns} - enabled)

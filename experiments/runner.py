@@ -3,7 +3,8 @@
 ``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force] [--dry-run]``
 
 1. The config is validated (:mod:`experiments.config`) before anything runs.
-2. The grid datasets × methods × seeds is expanded into cells. A simulator gets the cell's
+2. The grid datasets × methods × seeds is expanded into cells (a method with a ``datasets:``
+   list only on those). A simulator gets the cell's
    seed; a real dataset is the same for every seed, so a method that takes no ``seed`` runs
    once on it (the first seed) instead of repeating an identical computation.
 3. Each cell has a cache key: the SHA-256 of the dataset spec (name, parameters, the seed of
@@ -106,6 +107,8 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
     for i, ds in enumerate(config.datasets):
         checksums = dataset_checksums(ds.name)
         for j, es in enumerate(config.estimators):
+            if es.datasets is not None and ds_labels[i] not in es.datasets:
+                continue
             takes_seed = es.takes_seed()
             for seed in seeds if (ds.is_simulator or takes_seed) else seeds[:1]:
                 key = _digest({

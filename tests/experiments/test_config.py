@@ -58,6 +58,7 @@ def test_good_config_and_derived_values(tmp_path):
         (("[ate.rmse, cost.wall]", "[ate.rmse, ate.nope]"), "tables.0.columns", "unknown column 'ate.nope'"),
         (("[ate.rmse, cost.wall]", "[ate.rmse, rpe.trans_rmse]"), "", "not enabled under metrics: rpe"),
         (("figures: [errors]", "figures: [heatmap]"), "figures.0", "Input should be"),
+        (("{motion_model: euler}", "{motion_model: euler}\n    datasets: [utias_6_robot1]"), "", "estimators.0.datasets names unknown dataset labels"),
         (("metrics: [ate, cost]", "metrics: {ate: {}, cost: {}, relations: {file: /no/such.relations}}"), "metrics.relations.file", "does not exist"),
         (("name: tiny", "name: my experiment"), "name", "plain directory name"),
     ],

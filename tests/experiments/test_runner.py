@@ -191,6 +191,14 @@ def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
     assert manifest["cells"]["cached"] == len(finished)
 
 
+def test_methods_restricted_to_datasets(tmp_path):
+    text = TINY.replace("datasets:\n", "datasets:\n  - name: sim:localization\n    params: {duration: 5.0}\n").replace(
+        "  - name: dead_reckoning\n", "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: dr_euler\n    params: {motion_model: euler}\n    datasets: [sim_landmarks]\n")
+    cfg, _ = _config(tmp_path, text)
+    grid = {c.id for c in plan(cfg, tmp_path / "o")}
+    assert grid == {f"{d}/{m}/{s}" for d in ("sim_localization", "sim_landmarks") for m in ("dead_reckoning",) for s in (0, 1)} | {f"sim_landmarks/dr_euler/{s}" for s in (0, 1)}
+
+
 def test_dry_run_lists_the_grid(tmp_path, capsys):
     from experiments.runner import run_from_cli
 
