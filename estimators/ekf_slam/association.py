@@ -4,11 +4,12 @@ Both work on the current estimate ``x`` (N,), ``P`` (N, N) with the layout
 ``[x, y, θ, m0x, m0y, …]`` and an observation set ``z`` (M, 2) = (range, bearing).
 
 Individual compatibility (vectorised over all M × n pairs). For landmark i the Jacobian
-``H_i = [H_x,i  H_m,i]`` (2 × 5) does not depend on the observation, so ``S_i`` is computed
-once per landmark from the robot block, the robot-landmark cross-covariance and the landmark
-block — batched 2 × 2 algebra, O(n)::
+``H_i = [H_x,i  H_m,i]`` (2 × 5) does not depend on the observation, so ``H_i P H_iᵀ`` is
+computed once per landmark from the robot block, the robot-landmark cross-covariance and the
+landmark block — batched 2 × 2 algebra, O(n) — and the observation's noise R_j (2 × 2; it may
+depend on the observation, e.g. Cartesian sensor noise) is added per pair::
 
-    S_i  = H_x P_rr H_xᵀ + H_x P_ri H_mᵀ + (H_x P_ri H_mᵀ)ᵀ + H_m P_ii H_mᵀ + R      (n, 2, 2)
+    S_ji = H_x P_rr H_xᵀ + H_x P_ri H_mᵀ + (H_x P_ri H_mᵀ)ᵀ + H_m P_ii H_mᵀ + R_j    (M, n, 2, 2)
     ν_ji = z_j − h(x_r, m_i)   (bearing wrapped)                                    (M, n, 2)
     d²_ji = ν_jiᵀ S_i⁻¹ ν_ji   (closed-form 2 × 2 inverse)                           (M, n)
 
@@ -19,7 +20,7 @@ separate new-landmark gate ``χ²₂(new_confidence)``; in between it is rejecte
 JCBB (Neira & Tardós 2001): branch and bound over hypotheses that pair each observation
 with an individually compatible landmark or with nothing, requiring the whole hypothesis to be
 jointly compatible, ``ν_Jᵀ S_J⁻¹ ν_J < χ²_{2k}(confidence)`` with
-``S_J = H_J P_sub H_Jᵀ + I_k ⊗ R`` over the robot and the candidate landmarks (``P_sub`` is
+``S_J = H_J P_sub H_Jᵀ + blockdiag(R_j)`` over the robot and the candidate landmarks (``P_sub`` is
 the small dense block of those states), and keeping the hypothesis with the most pairings
 (ties: the smaller joint NIS). Unpaired observations then go through the new-landmark gate.
 """
@@ -28,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import block_diag
 from scipy.special import gammaincinv
 
 from datasets.geometry import wrap_angle
@@ -55,8 +57,8 @@ class Association:
     d2: np.ndarray
 
 
-def _innovation_cov(x: np.ndarray, P: np.ndarray, R: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Predicted observations (k, 2) and innovation covariances S (k, 2, 2) of landmark slots (k,), O(k)."""
+def _innovation_cov(x: np.ndarray, P: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Predicted observations (k, 2) and H P Hᵀ (k, 2, 2) of landmark slots (k,), O(k)."""
     xr = x[:3]
     base = 3 + 2 * slots
     L = np.column_stack([x[base], x[base + 1]])
@@ -65,41 +67,40 @@ def _innovation_cov(x: np.ndarray, P: np.ndarray, R: np.ndarray, slots: np.ndarr
     rows = base[:, None, None] + np.arange(2)[None, :, None]
     Pii = P[rows, rows.transpose(0, 2, 1)]                                        # (k, 2, 2)
     cross = Hx @ Pri @ Hm.transpose(0, 2, 1)
-    S = Hx @ P[:3, :3] @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1) + R
-    det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
-    bad = ~((det > 0) & (S[:, 0, 0] > 0))
-    if bad.any():
-        raise CovarianceError(f"innovation covariance of landmark slot {int(slots[np.flatnonzero(bad)[0]])} is not positive definite")
-    return observe(xr, L), S
+    return observe(xr, L), Hx @ P[:3, :3] @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1)
 
 
 def _mahalanobis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """ν_jiᵀ S_i⁻¹ ν_ji with the closed-form 2 × 2 inverse; ν (..., k, 2), S (k, 2, 2)."""
-    a, b, c, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1]
+    """νᵀ S⁻¹ ν with the closed-form 2 × 2 inverse, broadcast over leading axes; checks S is PD."""
+    a, b, c, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 0], S[..., 1, 1]
+    det = a * d - b * c
+    if not np.all((det > 0) & (a > 0)):
+        raise CovarianceError("an innovation covariance is not positive definite")
     n0, n1 = nu[..., 0], nu[..., 1]
-    return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / (a * d - b * c)
+    return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
 
 
 def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Innovations ν (M, n, 2), innovation covariances S (n, 2, 2) and Mahalanobis d² (M, n)."""
+    """Innovations ν (M, n, 2), covariances S (M, n, 2, 2) and Mahalanobis d² (M, n); R (M, 2, 2) per observation."""
     n = (x.shape[0] - 3) // 2
     M = z.shape[0]
     if n == 0:
-        return np.zeros((M, 0, 2)), np.zeros((0, 2, 2)), np.zeros((M, 0))
-    zhat, S = _innovation_cov(x, P, R, np.arange(n))
+        return np.zeros((M, 0, 2)), np.zeros((M, 0, 2, 2)), np.zeros((M, 0))
+    zhat, HPHt = _innovation_cov(x, P, np.arange(n))
+    S = HPHt[None] + R[:, None]
     nu = z[:, None, :] - zhat[None, :, :]
     nu[..., 1] = wrap_angle(nu[..., 1])
     return nu, S, _mahalanobis(nu, S)
 
 
 def pair_d2(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, slots: np.ndarray) -> np.ndarray:
-    """Mahalanobis d² (k,) of observation z[j] (k, 2) against landmark slots[j] (k,)."""
+    """Mahalanobis d² (k,) of observation z[j] (k, 2) with noise R[j] (k, 2, 2) against landmark slots[j]."""
     if slots.size == 0:
         return np.zeros(0)
-    zhat, S = _innovation_cov(x, P, R, slots)
+    zhat, HPHt = _innovation_cov(x, P, slots)
     nu = z - zhat
     nu[:, 1] = wrap_angle(nu[:, 1])
-    return _mahalanobis(nu, S)
+    return _mahalanobis(nu, HPHt + R)
 
 
 def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:
@@ -148,7 +149,7 @@ def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndar
     def joint_nis(pairs: list[tuple[int, int]]) -> float:
         H = np.vstack([rows(j, s) for j, s in pairs])
         v = np.concatenate([nu[j, s] for j, s in pairs])
-        S = H @ C @ H.T + np.kron(np.eye(len(pairs)), R)
+        S = H @ C @ H.T + block_diag(*(R[j] for j, _ in pairs))
         return float(v @ np.linalg.solve(S, v))
 
     best: dict = {"pairs": [], "nis": np.inf}

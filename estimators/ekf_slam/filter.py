@@ -83,6 +83,7 @@ indefinite S, the observation skipped).
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from datasets.geometry import accumulate, wrap_angle
 
@@ -109,6 +110,7 @@ _CHOICES = {
     "association": ("nn", "jcbb"),
     "jacobians": ("standard", "fej", "ideal"),
     "on_indefinite": ("raise", "record"),
+    "range_bearing_noise": ("polar", "cartesian"),
 }
 
 
@@ -146,6 +148,9 @@ class EKFSLAM:
                           else the sequence's Noise.increment_cov)
         range_bearing_cov R, 2 variances or 2×2 (default: sequence noise, else
                           DEFAULT_RANGE_BEARING_COV)
+        range_bearing_noise "polar" (default: R for every observation) | "cartesian" (the
+                          sensor noise is isotropic σ² I in Cartesian coordinates, as Victoria
+                          Park states it: R_j = diag(σ², σ²/r_j²), σ² = R[0, 0], r_j the range)
         update            "sequential" (default) | "batch"
         covariance_update "standard" (default) | "joseph"
         init              "jacobian" (default) | "initP"; init_cov (float, m², default 1.0)
@@ -169,11 +174,11 @@ class EKFSLAM:
                  covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
                  association: str = "nn", use_ids: bool = True, match_confidence: float = 0.95,
                  new_confidence: float = 0.99999, jcbb_confidence: float = 0.95, known_confidence: float | None = None,
-                 jacobians: str = "standard",
+                 jacobians: str = "standard", range_bearing_noise: str = "polar",
                  initial_pose=None, initial_cov=None, on_indefinite: str = "raise", capacity: int = 64):
         self.params = dict(motion_model=motion_model, motion_noise=motion_noise, update=update,
                            covariance_update=covariance_update, init=init, association=association,
-                           jacobians=jacobians, on_indefinite=on_indefinite)
+                           jacobians=jacobians, on_indefinite=on_indefinite, range_bearing_noise=range_bearing_noise)
         for key, value in self.params.items():
             if value not in _CHOICES[key]:
                 raise ValueError(f"{key} must be one of {_CHOICES[key]}, got {value!r}")
@@ -353,29 +358,39 @@ class EKFSLAM:
             return
         given = z[:, 2].astype(np.int64)
         ids = given if self.use_ids else np.full(len(z), -1)
-        decision, slot, d2 = self._associate(z[:, :2], ids)
+        Rz = self.observation_cov(z)
+        decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
         self.assoc_log.extend(zip(decision.tolist(), [-1] * len(z), d2.tolist(), given.tolist()))
         log0 = len(self.assoc_log) - len(z)
         pending = np.flatnonzero(decision != assoc.REJECTED)
         if self.params["update"] == "batch":
             matched = pending[decision[pending] == assoc.MATCHED]
             if matched.size:
-                self._update_batch(slot[matched], z[matched, :2])
+                self._update_batch(slot[matched], z[matched, :2], Rz[matched])
             pending = pending[decision[pending] != assoc.MATCHED]
         for j in pending:
             if decision[j] == assoc.MATCHED:
-                self._update_one(int(slot[j]), z[j, :2])
+                self._update_one(int(slot[j]), z[j, :2], Rz[j])
             elif ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
                 slot[j] = self._slot[int(ids[j])]
                 self.assoc_log[log0 + j] = (assoc.MATCHED, -1, np.nan, int(given[j]))
-                self._update_one(int(slot[j]), z[j, :2])
+                self._update_one(int(slot[j]), z[j, :2], Rz[j])
             else:
-                slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None)
+                slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None, Rz[j])
         for j in range(len(z)):
             dec, _, dist, gid = self.assoc_log[log0 + j]
             self.assoc_log[log0 + j] = (dec, self._ids[slot[j]] if slot[j] >= 0 else -1, dist, gid)
 
-    def _associate(self, z: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def observation_cov(self, z: np.ndarray) -> np.ndarray:
+        """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
+        if self.params["range_bearing_noise"] == "polar":
+            return np.broadcast_to(self.R, (len(z), 2, 2))
+        Rz = np.zeros((len(z), 2, 2))
+        Rz[:, 0, 0] = self.R[0, 0]
+        Rz[:, 1, 1] = self.R[0, 0] / np.maximum(z[:, 0], 1e-9) ** 2
+        return Rz
+
+    def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)
         decision = np.full(M, assoc.NEW, dtype=np.int8)
         slot = np.full(M, -1)
@@ -387,15 +402,15 @@ class EKFSLAM:
                 decision[j], slot[j] = assoc.MATCHED, s
         if self.gate_known is not None:
             labelled = np.flatnonzero(slot >= 0)
-            d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, self.R, z[labelled], slot[labelled])
+            d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, Rz[labelled], z[labelled], slot[labelled])
             outlier = labelled[d2[labelled] > self.gate_known]
             decision[outlier], slot[outlier] = assoc.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
             x, P = self._s.x, self._s.P
-            nu, _, dist = assoc.compatibility(x, P, self.R, z[unknown])
+            nu, _, dist = assoc.compatibility(x, P, Rz[unknown], z[unknown])
             if self.params["association"] == "jcbb":
-                a = assoc.jcbb(x, P, self.R, z[unknown], dist, nu, self.gate_match, self.gate_new, self.jcbb_confidence)
+                a = assoc.jcbb(x, P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.jcbb_confidence)
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
@@ -421,7 +436,7 @@ class EKFSLAM:
     def _landmarks(self) -> np.ndarray:
         return self._s.x[3:].reshape(-1, 2)
 
-    def _update_one(self, slot: int, z: np.ndarray) -> None:
+    def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> None:
         """One observation of landmark ``slot``: H has the five non-zero columns idx."""
         x, P = self._s.x, self._s.P
         s = 3 + 2 * slot
@@ -429,12 +444,12 @@ class EKFSLAM:
         Hx, Hm = self._jacobians_at(np.array([slot]))
         H = np.concatenate([Hx[0], Hm[0]], axis=1)                     # (2, 5)
         PHt = P[:, idx] @ H.T                                          # (N, 2)
-        S = H @ PHt[idx] + self.R                                      # (2, 2)
+        S = H @ PHt[idx] + R                                           # (2, 2)
         nu = z - observe(x[:3], x[s:s + 2])
         nu[1] = wrap_angle(nu[1])
         self._correct(PHt, 0.5 * (S + S.T), nu)
 
-    def _update_batch(self, slots: np.ndarray, z: np.ndarray) -> None:
+    def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> None:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
         x, P = self._s.x, self._s.P
         m = slots.size
@@ -444,7 +459,7 @@ class EKFSLAM:
         N = x.shape[0]
         PHt = np.einsum("nmk,mjk->nmj", P[:, idx].reshape(N, m, 5), Hs).reshape(N, 2 * m)               # (N, 2m)
         S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
-        S = 0.5 * (S + S.T) + np.kron(np.eye(m), self.R)
+        S = 0.5 * (S + S.T) + block_diag(*R)
         nu = z - observe(x[:3], self._landmarks()[slots])
         nu[:, 1] = wrap_angle(nu[:, 1])
         self._correct(PHt, S, nu.ravel())
@@ -479,7 +494,7 @@ class EKFSLAM:
         self._check()
 
     # ------------------------------------------------------------------ new landmarks
-    def _add_landmark(self, z: np.ndarray, landmark_id: int | None) -> int:
+    def _add_landmark(self, z: np.ndarray, landmark_id: int | None, R: np.ndarray) -> int:
         if landmark_id is None:
             landmark_id = self._next_id
             self._next_id += 1
@@ -497,7 +512,7 @@ class EKFSLAM:
         if self.params["init"] == "jacobian":
             P[new, :N] = Gx @ P[:3, :N]
             P[:N, new] = P[new, :N].T
-            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ self.R @ Gz.T
+            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
             P[new, new] = 0.5 * (Pnn + Pnn.T)
         else:
             P[new, new] = self.init_cov * np.eye(2)

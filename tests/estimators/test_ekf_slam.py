@@ -238,3 +238,14 @@ def test_step_interface_defaults_and_noise_from_sequence():
     ekf.reset(seq)
     np.testing.assert_array_equal(ekf.M, np.diag([0.2, 0.3]))
     np.testing.assert_array_equal(ekf.R, np.diag([0.4, 0.5]))
+
+
+def test_cartesian_sensor_noise_maps_to_range_dependent_bearing_noise():
+    """range_bearing_noise="cartesian": R_j = diag(σ², σ²/r²), so a landmark seen from a certain pose gets σ² I."""
+    ekf = EKFSLAM(range_bearing_cov=[0.4, 0.0025], range_bearing_noise="cartesian")
+    z = np.array([[5.0, 0.3, 0], [20.0, -1.0, 1]])
+    Rz = ekf.observation_cov(z)
+    np.testing.assert_allclose(Rz[:, 1, 1], [0.4 / 25.0, 0.4 / 400.0])
+    ekf.update(z)
+    np.testing.assert_allclose(ekf.P[3:5, 3:5], 0.4 * np.eye(2), atol=1e-12)
+    np.testing.assert_allclose(ekf.P[5:7, 5:7], 0.4 * np.eye(2), atol=1e-12)

@@ -16,15 +16,15 @@ def test_vectorised_compatibility_matches_dense_per_pair_computation():
     x = np.r_[0.3, -0.2, 0.5, rng.uniform(-6, 6, 2 * n)]
     A = rng.normal(size=(x.size, x.size))
     P = A @ A.T / x.size
-    R = np.diag([0.04, 0.003])
     z = np.column_stack([rng.uniform(1, 8, M), rng.uniform(-3, 3, M)])
+    R = np.array([np.diag([0.04, 0.003 * (j + 1)]) for j in range(M)])  # per-observation noise
     nu, S, d2 = assoc.compatibility(x, P, R, z)
     for i in range(n):
         H = np.zeros((2, x.size))
         H[:, :3], H[:, 3 + 2 * i: 5 + 2 * i] = observation_jacobians(x[:3], x[3 + 2 * i: 5 + 2 * i])
-        S_dense = H @ P @ H.T + R
-        np.testing.assert_allclose(S[i], S_dense, rtol=1e-12)
         for j in range(M):
+            S_dense = H @ P @ H.T + R[j]
+            np.testing.assert_allclose(S[j, i], S_dense, rtol=1e-12)
             v = z[j] - observe(x[:3], x[3 + 2 * i: 5 + 2 * i])
             v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
             np.testing.assert_allclose(d2[j, i], v @ np.linalg.solve(S_dense, v), rtol=1e-9)
