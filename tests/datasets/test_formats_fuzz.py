@@ -30,7 +30,21 @@ def record_line(draw):
     return sep.join([tag, *fields])
 
 
-FILES = st.lists(record_line(), max_size=12).map(lambda lines: "\n".join(lines) + "\n")
+#: field counts of well-formed records (ids first), so that the fuzzer also reaches the semantic checks
+FIELDS = {"VERTEX_SE2": (1, 3), "EDGE_SE2": (2, 9), "VERTEX_XY": (1, 2), "EDGE_SE2_XY": (2, 5), "VERTEX2": (1, 3),
+          "EDGE2": (2, 9), "EQUIV": (2, 0), "BR": (2, 4), "ODOMETRY": (2, 9), "LANDMARK": (2, 5),
+          "VERTEX_SE3:QUAT": (1, 7), "EDGE_SE3:QUAT": (2, 28), "ODOM": (0, 9), "FIX": (1, 0)}
+
+
+@st.composite
+def well_formed_line(draw):
+    tag = draw(st.sampled_from(sorted(FIELDS)))
+    ids, rest = FIELDS[tag]
+    fields = [str(draw(st.integers(0, 3))) for _ in range(ids)] + draw(st.lists(NUMBERS.filter(bool), min_size=rest, max_size=rest))
+    return " ".join([tag, *fields])
+
+
+FILES = st.lists(st.one_of(record_line(), well_formed_line()), max_size=12).map(lambda lines: "\n".join(lines) + "\n")
 FUZZ = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
@@ -45,6 +59,7 @@ READERS = {
     "toro": lambda p: toro.read(p),
     "isam": lambda p: isam.read(p),
     "victoria_park": lambda p: victoria_park.read(p),
+    "victoria_park_gtsam": lambda p: victoria_park.read(p, "gtsam"),
     "carmen": lambda p: carmen.read(p),
     "carmen_corrected": lambda p: carmen.read(p, corrected=True),
     "relations": lambda p: relations.read(p),
