@@ -14,8 +14,9 @@ For each scan k of ``sequence.scans`` (robot pose ``x_k = (x, y, θ)``, world fr
    ``x_k = matcher.match(map, s, x̂_k).pose``. Grid matchers (gauss_newton, correlative,
    branch_and_bound) match against the grid pyramid, point matchers (kiss_icp,
    open3d_icp) against the end points of the last ``reference_scans`` map-update scans.
-4. Map update: the first usable scan, then whenever the pose moved more than
-   ``update_distance`` [m] or turned more than ``update_angle`` [rad] since the last update.
+4. Map update: each of the first ``initial_updates`` usable scans, then whenever the pose
+   moved more than ``update_distance`` [m] or turned more than ``update_angle`` [rad] since
+   the last update.
 
 Result: :class:`~datasets.estimate.Estimate` with one pose per scan at the scan stamps,
 ``step_time`` the wall time of each scan's steps 1–4; ``diagnostics``: ``bad_beams``,
@@ -45,7 +46,12 @@ class GridSLAM:
 
     matcher: a name of :data:`mapping.scan_matching.MATCHERS`; matcher_params: its keywords.
     resolution [m], levels: the map pyramid. update_distance [m], update_angle [rad]: map
-    update thresholds (Hector's 0.4 m, 0.9 rad). p_hit, p_miss, clamp: the cell model.
+    update thresholds (Hector's 0.4 m, 0.9 rad). p_hit, p_miss, clamp, hit_guard: the cell
+    model (hit_guard g > 0: cells within g cells of a hit are not cleared by the same scan,
+    see :mod:`mapping.occupancy_grid`). initial_updates: the map is updated at every one of
+    the first scans until it holds this many (a one-scan map is sparse at grazing angles and
+    the Gauss-Newton match against it can jump by a cell; the notes' "10–20 scans before
+    scan matching").
     clear_range [m]: how far a no-return reading clears space (5 m, Cartographer's
     missing_data_ray_length: no-returns of real lasers also come from glass and dark
     surfaces, and long clearing rays erase walls they pass). max_usable_range [m]: longer
@@ -60,16 +66,18 @@ class GridSLAM:
         matcher_params: dict | None = None,
         use_odometry: bool = True,
         resolution: float = 0.05,
-        levels: int = 2,
+        levels: int = 3,
         update_distance: float = 0.4,
         update_angle: float = 0.9,
         p_hit: float = 0.7,
         p_miss: float = 0.4,
         clamp: list | tuple | None = (0.12, 0.97),
+        hit_guard: int = 0,
         clear_range: float = 5.0,
         max_usable_range: float | None = None,
         min_beams: int = 10,
         reference_scans: int = 10,
+        initial_updates: int = 10,
     ):
         if matcher not in MATCHERS:
             raise ValueError(f"unknown matcher {matcher!r}; known: {', '.join(MATCHERS)}")
@@ -81,10 +89,14 @@ class GridSLAM:
         self.matcher_params = dict(matcher_params or {})
         self.matcher = make_matcher(matcher, **self.matcher_params)
         self.use_odometry = bool(use_odometry)
-        self.grid_params = dict(resolution=float(resolution), levels=int(levels), p_hit=p_hit, p_miss=p_miss, clamp=None if clamp is None else tuple(clamp))
+        self.grid_params = dict(resolution=float(resolution), levels=int(levels), p_hit=p_hit, p_miss=p_miss,
+                                clamp=None if clamp is None else tuple(clamp), hit_guard=int(hit_guard))
         self.update_distance, self.update_angle = float(update_distance), float(update_angle)
         self.clear_range, self.max_usable_range = float(clear_range), max_usable_range
         self.min_beams, self.reference_scans = int(min_beams), int(reference_scans)
+        if initial_updates < 0:
+            raise ValueError("initial_updates must be ≥ 0")
+        self.initial_updates = int(initial_updates)
         self.maps: MapPyramid | None = None
 
     @property
@@ -94,7 +106,7 @@ class GridSLAM:
     def params(self) -> dict:
         return {"matcher": self.matcher_name, "matcher_params": self.matcher_params, "use_odometry": self.use_odometry,
                 **self.grid_params, "update_distance": self.update_distance, "update_angle": self.update_angle,
-                "clear_range": self.clear_range, "max_usable_range": self.max_usable_range, "min_beams": self.min_beams,
+                "clear_range": self.clear_range, "initial_updates": self.initial_updates, "max_usable_range": self.max_usable_range, "min_beams": self.min_beams,
                 "reference_scans": self.reference_scans}
 
     def run(self, sequence: Sequence, progress=None) -> Estimate:
@@ -118,6 +130,7 @@ class GridSLAM:
         start = scans.pose[0] if scans.pose is not None and np.all(np.isfinite(scans.pose[0])) else sequence.start_pose
         pose = np.asarray(start, dtype=float).copy()
         last_update = None
+        n_updates = 0
         keyframes: list[np.ndarray] = []
         for k in range(K):
             t0 = time.perf_counter()
@@ -138,12 +151,13 @@ class GridSLAM:
                     pose = res.pose
                     diag["matched"][k] = True
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
-                if last_update is None or np.hypot(*(pose[:2] - last_update[:2])) > self.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > self.update_angle:
+                if last_update is None or n_updates < self.initial_updates or np.hypot(*(pose[:2] - last_update[:2])) > self.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > self.update_angle:
                     mapped = ~bad & ((r < limit) | no_return)
                     self.maps.integrate(r[mapped], scans.angles[mapped], pose, scans.mount, max_range=limit, clear_range=self.clear_range)
                     if self.matcher.kind == "points":
                         keyframes = (keyframes + [transform_points(pose, pts)])[-self.reference_scans :]
                     last_update = pose.copy()
+                    n_updates += 1
                     diag["map_updated"][k] = True
             poses[k] = pose
             step_time[k] = time.perf_counter() - t0

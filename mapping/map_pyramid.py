@@ -1,7 +1,8 @@
 """A multi-resolution stack of occupancy grids, all updated from the same scans (Hector SLAM).
 
 Level k has resolution ``resolution · 2^k``; level 0 is the finest. Each level is an
-independent :class:`~mapping.occupancy_grid.OccupancyGrid` with the same cell model, so
+independent :class:`~mapping.occupancy_grid.OccupancyGrid` with the same cell model (origin
+shifted by half a cell so that cell centres lie on multiples of the level's resolution), so
 the coarse levels are true coarse maps (not blurred copies of the fine one): a scan
 matched on level k sees smooth, wide basins, the fine level gives accuracy.
 """
@@ -22,7 +23,8 @@ class MapPyramid:
         for k in range(levels):
             res = resolution * 2**k
             n = max(int(np.ceil(size / res)), 1)
-            self.levels.append(OccupancyGrid(resolution=res, width=n, height=n, origin=(-0.5 * n * res, -0.5 * n * res), **grid_params))
+            corner = -(n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
+            self.levels.append(OccupancyGrid(resolution=res, width=n, height=n, origin=(corner, corner), **grid_params))
         self.version = 0
 
     @property

@@ -13,7 +13,10 @@ Per scan a cell is updated at most once: the free cells and the hit cells of all
 deduplicated, and a cell that one beam passes and another ends in counts as a hit.
 Readings at or beyond ``max_range`` are "no return": they clear the cells up to
 ``min(range, clear_range)`` but mark no hit. NaN, inf, zero and negative readings are
-rejected (and counted by the caller). ``l`` is clamped to ``[l_min, l_max]`` (configurable,
+rejected (and counted by the caller). With ``hit_guard = g > 0`` the cells within ``g`` cells
+(Chebyshev) of a hit of the same scan are not cleared either: rays that graze a wall cross
+its cells just before their own end points, and between the (sparse, at grazing angles) hits
+they would otherwise erase the wall. ``l`` is clamped to ``[l_min, l_max]`` (configurable,
 ``None`` disables) so a cell can change its mind after the world changes.
 
 Thresholds: ``p < 0.25`` free, ``p > 0.65`` occupied, otherwise unknown. ROS int8 grid:
@@ -84,6 +87,7 @@ class OccupancyGrid:
         occupied_threshold: float = 0.65,
         clamp: tuple[float, float] | None = (0.12, 0.97),
         grow: bool = True,
+        hit_guard: int = 0,
         dtype=np.float32,
     ):
         for name, p in (("p_hit", p_hit), ("p_miss", p_miss), ("p_prior", p_prior)):
@@ -103,7 +107,10 @@ class OccupancyGrid:
         self.l_hit, self.l_miss, self.l0 = float(logit(p_hit)), float(logit(p_miss)), float(logit(p_prior))
         self.free_threshold, self.occupied_threshold = float(free_threshold), float(occupied_threshold)
         self.l_min, self.l_max = (float(logit(clamp[0])), float(logit(clamp[1]))) if clamp is not None else (-np.inf, np.inf)
+        if hit_guard < 0:
+            raise ValueError("hit_guard must be ≥ 0")
         self.grow = grow
+        self.hit_guard = int(hit_guard)
         self.log_odds = np.full((int(height), int(width)), self.l0, dtype=dtype)
         self.version = 0
         self.cell_updates = 0
@@ -174,7 +181,11 @@ class OccupancyGrid:
         flat = y * self.shape[1] + x
         hits = np.unique(flat[is_hit & inside])
         free = np.unique(flat[~is_hit & inside])
-        free = free[~np.isin(free, hits, assume_unique=True)]
+        guarded = hits
+        if self.hit_guard:
+            g = np.arange(-self.hit_guard, self.hit_guard + 1)
+            guarded = np.unique((hits[:, None] + (g[:, None] * self.shape[1] + g[None, :]).ravel()[None, :]).ravel())
+        free = free[~np.isin(free, guarded)]
         return ScanCells(free, hits)
 
     def apply(self, cells: ScanCells) -> int:

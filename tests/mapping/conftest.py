@@ -12,7 +12,7 @@ WALLS = np.array([
     [-6, -5, 6, -5], [6, -5, 6, 1], [6, 1, 1, 1], [1, 1, 1, 5], [1, 5, -6, 5], [-6, 5, -6, -5],
     [-3, -2, -2, -2], [-2, -2, -2, -1], [-2, -1, -3, -1], [-3, -1, -3, -2],
     [3.5, -1.0, 4.2, -0.3], [4.2, -0.3, 3.0, -0.2], [3.0, -0.2, 3.5, -1.0],
-], dtype=float) + np.array([0.013, 0.031, 0.013, 0.031])  # walls off the cell boundaries
+], dtype=float)  # walls on round coordinates: through cell centres of the maps
 
 
 def raycast(pose, angles, walls=WALLS, max_range=20.0):

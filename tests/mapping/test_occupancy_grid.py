@@ -151,3 +151,16 @@ def test_bad_parameters_rejected():
         OccupancyGrid(free_threshold=0.7, occupied_threshold=0.6)
     with pytest.raises(ValueError):
         OccupancyGrid(resolution=0)
+
+
+def test_hit_guard_keeps_cells_next_to_hits_from_being_cleared():
+    # beam 0 ends at (1.0, 0.0); beam 1 passes just beside it to (1.5, 0.1), crossing cell (1.0, 0.1)
+    ranges = [1.0, np.hypot(1.5, 0.1)]
+    angles = [0.0, np.arctan2(0.1, 1.5)]
+    plain, guarded = grid(), grid(hit_guard=1)
+    for g in (plain, guarded):
+        g.integrate(ranges, angles, [0.0, 0.0, 0.0], max_range=10.0)
+    assert cell_p(plain, 1.0, 0.1) == pytest.approx(0.4, abs=1e-6)
+    assert cell_p(guarded, 1.0, 0.1) == pytest.approx(0.5)
+    assert cell_p(guarded, 0.5, 0.0) == pytest.approx(0.4, abs=1e-6)  # away from hits: cleared as before
+    assert cell_p(guarded, 1.0, 0.0) == pytest.approx(0.7, abs=1e-6)

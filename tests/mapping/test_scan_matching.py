@@ -101,7 +101,7 @@ def test_notes_update_rule_walks_away_from_the_map(room_map):
         for _ in range(5):
             pose = step(pose, notes)
         err[notes] = np.hypot(*(pose[:2] - truth[:2]))
-    assert err[False] < 0.02 and err[True] > 0.036
+    assert err[False] < 0.025 and err[True] > 0.1  # start: 0.036 m
 
 
 # --------------------------------------------------------------------------- recover offsets
