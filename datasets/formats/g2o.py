@@ -124,7 +124,9 @@ def _fmt(a: np.ndarray) -> list[str]:
 def write(path: str | Path, graph: PoseGraph) -> None:
     """Write a 2D graph in g2o (VERTEX_SE2 for the initial poses, VERTEX_XY, EDGE_SE2, EDGE_SE2_XY).
 
-    Numbers are written with 17 significant digits, so :func:`read` returns the same values.
+    Numbers are written with 17 significant digits, so :func:`read` returns the same values. A graph
+    without initial poses (``poses=None``) gets VERTEX lines from its odometry chain. g2o has one id
+    space: landmark ids that collide with pose ids are refused.
     """
     if graph.dim != 2:
         raise ValueError("g2o.write writes 2D graphs only")
