@@ -49,9 +49,11 @@ def run(
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
 ):
     """Run an experiment: every method on every dataset and seed; write tables and figures."""
+    from paper_figures.make import make_all
+
     from .runner import run_from_cli
 
-    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run))
+    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all))
 
 
 @app.command()

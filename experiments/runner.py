@@ -19,7 +19,8 @@
    not stop the others; its error and traceback go to ``summary.csv`` and the console, and
    the exit code is 1.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
-   (``paper_figures``) and ``manifest.json`` are written (see :mod:`experiments.results`).
+   (drawn by the ``make_figures`` callable the CLI hands in: ``paper_figures.make.make_all``)
+   and ``manifest.json`` are written (see :mod:`experiments.results`).
 """
 from __future__ import annotations
 
@@ -34,11 +35,15 @@ import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Callable
 
 from .config import ConfigError, ExperimentConfig, load_config
 from .results import MANIFEST, SUMMARY, atomic_write_text, cell_dir, read_json, write_json
 
 __all__ = ["Cell", "plan", "run_experiment", "run_from_cli", "package_version"]
+
+#: draws the figures of a results directory: ``(out, only=names, verbose=bool) -> (files, errors)``
+FigureMaker = Callable[..., tuple[list, dict]]
 
 
 class SchedulerUnreachable(RuntimeError):
@@ -289,8 +294,13 @@ def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float
 
 
 # ---------------------------------------------------------------------------- entry points
-def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None, figures: bool = True) -> int:
-    """Run (or resume) an experiment into ``out``; returns the exit code (0: every cell ok)."""
+def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None, make_figures: FigureMaker | None = None) -> int:
+    """Run (or resume) an experiment into ``out``; returns the exit code (0: every cell ok).
+
+    ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's
+    figures at the end; the CLI passes :func:`paper_figures.make.make_all` (figures are the
+    layer above this one, so they are handed in rather than imported).
+    """
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
@@ -338,10 +348,8 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
 
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
     figure_files, figure_errors = [], {}
-    if figures and config.figures:
-        from paper_figures.make import make_all  # the CLI's delegate reaches the top layer, as `slamarena figures` does
-
-        figure_files, figure_errors = make_all(out, only=config.figures, verbose=False)
+    if make_figures is not None and config.figures:
+        figure_files, figure_errors = make_figures(out, only=config.figures, verbose=False)
     elapsed = time.perf_counter() - t_start
     manifest.update(finished=_now(), duration_s=elapsed, failed=sorted(failures), tables=[str(p.relative_to(out)) for p in written], figures=[str(Path(p).relative_to(out)) for p in figure_files], figure_errors=figure_errors)
     write_json(out / MANIFEST, manifest)
@@ -367,7 +375,7 @@ def print_grid(config: ExperimentConfig, out: Path, force: bool, console) -> int
     return 0
 
 
-def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool) -> int:
+def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None) -> int:
     """``slamarena run``: validate, then run (or list) the grid.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config or unreachable scheduler.
@@ -384,7 +392,7 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     if dry_run:
         return print_grid(cfg, target, force, Console())
     try:
-        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console)
+        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures)
     except SchedulerUnreachable as exc:
         console.print(f"[red]{exc}[/red]", highlight=False)
         return 2
