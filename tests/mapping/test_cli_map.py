@@ -1,0 +1,60 @@
+"""``slamarena map``: a hand-written CARMEN log through the whole command, outputs read back."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import make_sequence
+
+from datasets.formats import relations as relations_format
+from datasets.formats import tum
+from datasets.geometry import between
+from experiments.cli_map import map_command
+from mapping.occupancy_grid import load_map_server
+
+
+@pytest.fixture(scope="module")
+def carmen_log(tmp_path_factory):
+    seq = make_sequence(n=50, seed=5)
+    sc = seq.scans
+    path = tmp_path_factory.mktemp("log") / "room.clf"
+    t0 = 1000.0
+    with open(path, "w") as fh:
+        fh.write("# hand-made log of the test room\n")
+        for k in range(len(sc.t)):
+            r = " ".join(f"{v:.3f}" for v in sc.ranges[k])
+            x, y, th = sc.pose[k]
+            fh.write(f"FLASER {sc.ranges.shape[1]} {r} {x:.6f} {y:.6f} {th:.6f} {x:.6f} {y:.6f} {th:.6f} {t0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n")
+    return path, seq, t0
+
+
+def test_map_command_writes_trajectory_map_and_summary(carmen_log, tmp_path):
+    path, seq, t0 = carmen_log
+    truth = seq.ground_truth.poses
+    rel = relations_format.Relations(t1=t0 + seq.scans.t[:-5], t2=t0 + seq.scans.t[5:],
+                                     motion=np.column_stack([between(truth[:-5], truth[5:])[:, :2], np.zeros((len(truth) - 5, 3)), between(truth[:-5], truth[5:])[:, 2]]))
+    relations_format.write(tmp_path / "room.relations", rel)
+    out = tmp_path / "out"
+    assert map_command(str(path), matcher="gauss_newton", out=out, relations=tmp_path / "room.relations") == 0
+    for name in ("trajectory.tum", "estimate.npz", "map.png", "map.pgm", "map.yaml", "summary.json"):
+        assert (out / name).stat().st_size > 0, name
+    traj = tum.read_trajectory(out / "trajectory.tum")
+    assert len(traj) == len(seq.scans.t)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scans"] == len(seq.scans.t) and summary["real_time_factor"] > 0
+    r = summary["relations"]
+    assert r["used"] == len(truth) - 5 and r["trans_mean"] < 0.03 and r["rot_mean"] < 0.01
+    ros, res, _ = load_map_server(out / "map.yaml")
+    assert res == 0.05 and (ros == 100).sum() > 100
+
+
+def test_map_command_rejects_bad_input_before_work(carmen_log, tmp_path):
+    path, _, _ = carmen_log
+    assert map_command(str(path), matcher="ndt", out=tmp_path) == 2
+    assert map_command(str(path), relations=tmp_path / "missing.relations", out=tmp_path) == 2
+    assert map_command(str(tmp_path / "no_such.clf"), out=tmp_path) == 1
+    bad = tmp_path / "bad.clf"
+    bad.write_text("FLASER 3 1.0 1.0\n")
+    assert map_command(str(bad), out=tmp_path) == 1
+    assert not (tmp_path / "summary.json").exists()
