@@ -50,6 +50,12 @@ NIS = yᵀ S⁻¹ y (filterpy's ``y`` and ``SI`` of the update) is compared with
 the measurement dimension at ``gate_confidence`` (per sensor; 1.0 disables the gate). A rejected
 update is undone (x, P are the prior again) and counted per sensor and reason: ``nonfinite`` (NaN/inf value or stamp),
 ``gate``, ``too_old`` (older than the history), ``unknown_landmark`` (no such id in the map).
+A gate alone can lock a filter out for good: once the prediction has drifted beyond its own
+covariance (wheel slip, a wrong noise model) every fix is "an outlier". After ``max_rejections``
+consecutive gated-out measurements of one sensor (default 5; 0 disables) the filter treats
+itself, not the sensor, as wrong: it scales P by α = NIS/χ²-threshold (> 1: the inflation that
+makes S as large as the innovation says it is) and applies the measurement (counted in
+``recoveries_<sensor>``).
 Non-finite motion input is rejected and counted (``motion``/``nonfinite``); Δt ≤ 0 raises ``ValueError``.
 
 Time, multi-rate input and delayed measurements
@@ -182,6 +188,7 @@ class _Snapshot:
     x: np.ndarray
     P: np.ndarray
     records: list
+    streak: dict
 
 
 class EKFLocalizer:
@@ -204,6 +211,7 @@ class EKFLocalizer:
         R_landmark=(0.01, 0.0025),
         gate_confidence: float | dict = 0.999,
         history_length: float = 1.0,
+        max_rejections: int = 5,
         initial_cov=(1e-4, 1e-4, 1e-4),
         heading_convention: str = "enu",
         magnetic_declination: float = 0.0,
@@ -231,6 +239,9 @@ class EKFLocalizer:
         self.gate = self._gates(gate_confidence)
         self.gate_confidence = gate_confidence
         self.history_length = float(history_length)
+        if int(max_rejections) != max_rejections or max_rejections < 0:
+            raise ValueError(f"max_rejections must be an integer >= 0, got {max_rejections!r}")
+        self.max_rejections = int(max_rejections)
         self.initial_cov = _matrix(initial_cov, 3, "initial_cov")
         self.heading_convention = heading_convention
         self.magnetic_declination = float(magnetic_declination)
@@ -270,6 +281,8 @@ class EKFLocalizer:
         self._records: list | None = None  # records of the step in progress (None: outside a timed step)
         self._final_rejected: dict[str, dict[str, int]] = {s: {} for s in ("motion", *SENSORS)}
         self._final_nis: dict[str, list[tuple[float, float, bool]]] = {s: [] for s in SENSORS}
+        self._final_recovered: dict[str, int] = {s: 0 for s in SENSORS}
+        self._streak: dict[str, int] = {s: 0 for s in SENSORS}  # consecutive gate rejections per sensor
         if t is not None:
             self._push(self._t, "start", None)
 
@@ -361,12 +374,20 @@ class EKFLocalizer:
         prior = kf.x, kf.P  # filterpy's update rebinds x and P to new arrays: the prior stays intact
         kf.update(z, HJ, hx, R=R, args=args, hx_args=args, residual=residual)
         nis = float(kf.y @ kf.SI @ kf.y)  # filterpy's innovation y and S⁻¹ of this update
-        accepted = nis <= self.gate[sensor]
-        self._note(("nis", sensor, np.nan if self._t is None else self._t, nis, accepted))
-        if not accepted:
+        gate = self.gate[sensor]
+        accepted = nis <= gate
+        diverged = not accepted and 0 < self.max_rejections <= self._streak[sensor]
+        self._note(("nis", sensor, np.nan if self._t is None else self._t, nis, accepted or diverged))
+        if diverged:  # the sensor has been refused too often in a row: the filter, not the sensor, is off
+            kf.x, kf.P = prior[0], prior[1] * (nis / gate)
+            kf.update(z, HJ, hx, R=R, args=args, hx_args=args, residual=residual)
+            self._note(("recover", sensor))
+        elif not accepted:
             kf.x, kf.P = prior
+            self._streak[sensor] += 1
             self._reject(sensor, "gate")
             return False
+        self._streak[sensor] = 0
         kf.x[2] = wrap_angle(kf.x[2])
         return True
 
@@ -383,11 +404,22 @@ class EKFLocalizer:
         if record[0] == "reject":
             counts = self._final_rejected[record[1]]
             counts[record[2]] = counts.get(record[2], 0) + 1
+        elif record[0] == "recover":
+            self._final_recovered[record[1]] += 1
         else:
             self._final_nis[record[1]].append(record[2:])
 
     def _all_records(self):
         yield from (r for s in self._history for r in s.records)
+
+    @property
+    def recoveries(self) -> dict[str, int]:
+        """Divergence recoveries per sensor (see "Gating" in the module docstring)."""
+        out = dict(self._final_recovered)
+        for r in self._all_records():
+            if r[0] == "recover":
+                out[r[1]] += 1
+        return out
 
     @property
     def rejected(self) -> dict[str, dict[str, int]]:
@@ -471,7 +503,7 @@ class EKFLocalizer:
 
     def _push(self, t: float, kind: str, value) -> None:
         records, self._records = self._records or [], None
-        self._history.append(_Snapshot(t, kind, value, self.x, self.P, records))
+        self._history.append(_Snapshot(t, kind, value, self.x, self.P, records, dict(self._streak)))
         self._history_t.append(t)
         cutoff = t - self.history_length
         keep_from = bisect_right(self._history_t, cutoff) - 1  # newest snapshot at or before the cutoff: the anchor
@@ -494,6 +526,7 @@ class EKFLocalizer:
         del self._history_t[k + 1 :]
         self._kf.x = anchor.x.copy()
         self._kf.P = anchor.P.copy()
+        self._streak = dict(anchor.streak)
         self._t = anchor.t
         self._step(t, kind, value)
         for s in later:
@@ -579,7 +612,7 @@ class EKFLocalizer:
             pose_cov=covs[:k],
             step_time=step_time[:k],
             diagnostics=self.diagnostics(),
-            meta={"sequence": sequence.name, "params": self.params(), "rejected": self.rejected},
+            meta={"sequence": sequence.name, "params": self.params(), "rejected": self.rejected, "recoveries": self.recoveries},
         )
 
     def diagnostics(self) -> dict[str, np.ndarray]:
@@ -603,6 +636,8 @@ class EKFLocalizer:
         for sensor, counts in self.rejected.items():
             for reason, n in counts.items():
                 out[f"rejected_{sensor}_{reason}"] = np.array(n)
+        for sensor, n in self.recoveries.items():
+            out[f"recoveries_{sensor}"] = np.array(n)
         return out
 
     def params(self) -> dict:
@@ -618,6 +653,7 @@ class EKFLocalizer:
             "R_landmark": self.R_landmark.tolist(),
             "gate_confidence": self.gate_confidence,
             "history_length": self.history_length,
+            "max_rejections": self.max_rejections,
             "heading_convention": self.heading_convention,
             "use_sequence_noise": self.use_sequence_noise,
         }

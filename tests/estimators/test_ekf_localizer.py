@@ -195,8 +195,10 @@ def test_compass_heading_converts_to_enu_yaw():
     err_good = np.abs(wrap_angle(good.poses[-1, 2] - seq.ground_truth.poses[-1, 2]))
     err_bad = np.abs(wrap_angle(bad.poses[-1, 2] - seq.ground_truth.poses[-1, 2]))
     assert err_good < 0.05 < 0.5 < err_bad
-    gated = _true_noise_filter().run(compass)  # with the gate, the misread heading is refused, not fused
+    gated = _true_noise_filter(max_rejections=0).run(compass)  # a pure gate refuses the misread heading
     assert gated.meta["rejected"]["imu"]["gate"] > 0.9 * len(seq.heading)
+    # the lockout guard cannot tell a wrong sensor from a wrong filter: it lets the misread heading in
+    assert _true_noise_filter().run(compass).meta["recoveries"]["imu"] > 0
 
 
 # ---------------------------------------------------------------- bad input
@@ -401,3 +403,21 @@ def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     d = ate(dead, ref, ATEParams(align="none"))[0]["rmse"]
     assert a < 0.3 and a < 0.5 * d
     assert est.diagnostics["nis_landmark"].size > 100
+
+
+def test_gate_lockout_is_detected_and_recovered():
+    """The wheels slip (the input says 25% more speed than the robot makes, 5–15 s): the prediction
+    leaves its own covariance, every fix looks like an outlier, and a plain gate locks the filter out
+    for good. After max_rejections refusals in a row the filter inflates P and takes the fix."""
+    seq = _scenario(seed=10, duration=25.0)
+    v = seq.motion.v.copy()
+    slipping = (seq.motion.t >= 5.0) & (seq.motion.t < 15.0)
+    v[slipping] *= 1.25
+    slipped = Sequence(**{**seq.__dict__, "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt)})
+    locked = _true_noise_filter(max_rejections=0).run(slipped)
+    guarded = _true_noise_filter().run(slipped)
+    err = lambda est: np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
+    after = guarded.t > 16.0
+    assert err(locked)[after].min() > 1.0 and locked.meta["recoveries"]["gps"] == 0
+    assert err(guarded)[after].max() < 0.03 and guarded.meta["recoveries"]["gps"] > 0
+    assert int(guarded.diagnostics["recoveries_gps"]) == guarded.meta["recoveries"]["gps"]
