@@ -133,8 +133,8 @@ class _Correlative:
     def _score(P, ix, iy, a, b):
         """Scores (M,) of offsets (a, b) (M,) for points with cells ix, iy (N,)."""
         h, w = P.shape
-        xs = np.clip(ix[None, :] + a[:, None], 0, w - 1)
-        ys = np.clip(iy[None, :] + b[:, None], 0, h - 1)
+        xs = np.minimum(np.maximum(ix[None, :] + a[:, None], 0), w - 1)
+        ys = np.minimum(np.maximum(iy[None, :] + b[:, None], 0), h - 1)
         return P[ys, xs].sum(axis=1)
 
     def _response(self, P, ix, iy, ks, w_a, w_b, centre=(0, 0)):
@@ -199,10 +199,14 @@ class BranchAndBoundMatcher(_Correlative):
 
         top = np.arange(-w, w + 1, 2**depth)
         A, B = (v.ravel() for v in np.meshgrid(top, top))
-        nodes = []  # (bound, k, a, b) at the top level
-        for k in range(offsets.size):
-            bounds = self._score(pyramid[depth], ix[k], iy[k], A, B)
-            nodes += [(float(s), k, int(x), int(y)) for s, x, y in zip(bounds, A, B)]
+        P = pyramid[depth]
+        h, w_ = P.shape
+        # top-level bounds of all angles × offsets in one gather: (K, M)
+        xs = np.minimum(np.maximum(ix[:, None, :] + A[None, :, None], 0), w_ - 1)
+        ys = np.minimum(np.maximum(iy[:, None, :] + B[None, :, None], 0), h - 1)
+        bounds = P[ys, xs].sum(axis=2)
+        kk, mm = np.meshgrid(np.arange(offsets.size), np.arange(A.size), indexing="ij")
+        nodes = list(zip(bounds.ravel().tolist(), kk.ravel().tolist(), A[mm.ravel()].tolist(), B[mm.ravel()].tolist()))
         best = [-np.inf, 0, 0, 0]
         evaluated = len(nodes)
 

@@ -1,0 +1,137 @@
+"""The accuracy study of research/mapping.md (slow; ``pytest -m slow tests/mapping/test_mapping_study.py -s``).
+
+* ``sim:laser`` (seeds 0–4): ATE after SE(2) alignment against the ground truth, and the map
+  against the true walls moved by the same alignment (IoU, precision/recall within one cell),
+  for GridSLAM with each matcher.
+* Every staged raw CARMEN log (intel, fr079, aces, mit-csail, fr-clinic) with the Gauss-Newton
+  pipeline: time and real-time factor; where a SLAM-corrected version of the log exists,
+  relative-pose agreement with it (a reference comparison — the corrected poses are another
+  SLAM system's output, not ground truth): the corrected log's scans are found in the raw log
+  by their identical readings, and the relations (i, i+1) and (i, i+10) between corrected
+  scans are scored with the relation metric of experiments.metrics.
+
+Writes ``results/mapping_study/{sim,carmen}.json`` and the map images there; asserts only
+loose sanity bounds (the numbers are the product).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from datasets.geometry import between, inverse
+from mapping.evaluation import occupancy_agreement, true_occupancy_on
+from mapping.grid_slam import GridSLAM
+
+OUT = Path("results/mapping_study")
+RAW_TO_CORRECTED = {"intel": "intel", "fr079": "freiburg-079", "aces": "aces", "mit-csail": "csail", "fr-clinic": None}
+SIM_MATCHERS = {
+    "gauss_newton": {},
+    "gauss_newton (pure Hector)": {"matcher_params": {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0}},
+    "gauss_newton (hector_gradient_bug)": {"matcher_params": {"hector_gradient_bug": True}},
+    "branch_and_bound": {"matcher": "branch_and_bound"},
+    "kiss_icp": {"matcher": "kiss_icp"},
+    "open3d_icp (generalized)": {"matcher": "open3d_icp", "matcher_params": {"method": "generalized"}},
+}
+
+
+def _aligned(est, seq):
+    from experiments.metrics.alignment import fit_alignment
+    from experiments.metrics.reference import associate, reference_of
+    from experiments.metrics.trajectory import ATEParams, ate
+
+    stats, _ = ate(est, reference_of(seq), ATEParams())
+    match = associate(reference_of(seq), est.t, 0.1)
+    A = fit_alignment(est.poses[match.index, :2], match.gt[:, :2], "se2")
+    return stats, inverse(np.array([*A.translation, A.angle]))
+
+
+@pytest.mark.slow
+def test_sim_laser_study():
+    from datasets.sim.laser import simulate
+
+    OUT.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for label, kw in SIM_MATCHERS.items():
+        rows = []
+        for seed in range(5):
+            seq = simulate(seed=seed)
+            slam = GridSLAM(**kw)
+            est = slam.run(seq)
+            stats, truth_in_map = _aligned(est, seq)
+            agreement = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))
+            rows.append({"seed": seed, "ate_rmse": stats["rmse"], "ate_max": stats["max"], "heading_rmse": stats["heading_rmse"],
+                         "iou": agreement["iou"], "precision": agreement["precision"], "recall": agreement["recall"],
+                         "ms_per_scan": 1e3 * float(np.mean(est.step_time))})
+            if seed == 0:
+                slam.map.save_png(OUT / f"sim_{label.split()[0]}{'_' + label.split('(')[1][:-1].replace(' ', '_') if '(' in label else ''}.png")
+        results[label] = rows
+        print(label, {k: round(float(np.median([r[k] for r in rows])), 4) for k in rows[0] if k != "seed"})
+    odo = []
+    for seed in range(5):
+        from datasets.estimate import Estimate
+
+        seq = simulate(seed=seed)
+        odo.append(_aligned(Estimate("odometry", seq.scans.t, seq.scans.pose), seq)[0]["rmse"])
+    results["odometry"] = [{"seed": s, "ate_rmse": v} for s, v in enumerate(odo)]
+    print("odometry ATE", np.round(odo, 3))
+    (OUT / "sim.json").write_text(json.dumps(results, indent=2))
+    assert np.median([r["ate_rmse"] for r in results["gauss_newton"]]) < 0.03
+
+
+def _match_scans(raw, corrected):
+    """Index of each corrected scan in the raw log (identical readings), −1 if absent."""
+    key = lambda r: [row.tobytes() for row in np.round(np.asarray(r, float) * 100).astype(np.int32)]
+    where = {}
+    for k, b in enumerate(key(raw.ranges)):
+        where.setdefault(b, k)
+    return np.array([where.get(b, -1) for b in key(corrected.ranges)])
+
+
+@pytest.mark.slow
+@pytest.mark.realdata
+@pytest.mark.parametrize("raw_name", list(RAW_TO_CORRECTED))
+def test_carmen_study(raw_name):
+    import time
+
+    import datasets
+    from datasets.errors import DatasetNotFoundError
+    from experiments.metrics.relations import RelationsParams, relation_error
+
+    try:
+        seq = datasets.load(f"carmen:{raw_name}")
+    except DatasetNotFoundError as exc:
+        pytest.skip(str(exc))
+    OUT.mkdir(parents=True, exist_ok=True)
+    slam = GridSLAM()
+    t = time.perf_counter()
+    est = slam.run(seq)
+    wall = time.perf_counter() - t
+    slam.map.save_png(OUT / f"carmen_{raw_name}.png")
+    duration = float(seq.scans.t[-1] - seq.scans.t[0])
+    row = {"log": raw_name, "scans": len(seq.scans), "duration_s": duration, "wall_s": wall, "real_time_factor": duration / wall,
+           "bad_beams": est.meta["bad_beams"], "scans_not_matched": est.meta["scans_not_matched"], "map_updates": est.meta["map_updates"],
+           "map_shape": est.meta["map_shape"]}
+    odometry = type(est)("odometry", seq.scans.t, seq.scans.pose)
+    corrected_name = RAW_TO_CORRECTED[raw_name]
+    if corrected_name is not None:
+        ref = datasets.load(f"carmen-corrected:{corrected_name}").scans
+        idx = _match_scans(seq.scans, ref)
+        found = idx >= 0
+        row["corrected_scans"], row["corrected_scans_found"] = int(len(idx)), int(found.sum())
+        for gap in (1, 10):
+            i = np.flatnonzero(found[:-gap] & found[gap:])
+            t_i, t_j = seq.scans.t[idx[i]], seq.scans.t[idx[i + gap]]
+            delta = between(ref.pose[i], ref.pose[i + gap])
+            for label, e in (("slam", est), ("odometry", odometry)):
+                stats, _ = relation_error(e, t_i, t_j, delta, RelationsParams(tolerance=1e-6))
+                row[f"relations_{gap}_{label}"] = stats
+        print(raw_name, {k: (round(v["trans_mean"], 4), round(v["rot_mean"], 4)) for k, v in row.items() if k.startswith("relations")})
+    print(raw_name, {k: v for k, v in row.items() if not k.startswith("relations")})
+    path = OUT / "carmen.json"
+    table = json.loads(path.read_text()) if path.exists() else {}
+    table[raw_name] = row
+    path.write_text(json.dumps(table, indent=2))
+    assert row["real_time_factor"] > 1
