@@ -115,7 +115,6 @@ class GridSLAM:
         if scans is None or len(scans) == 0:
             raise ValueError(f"GridSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         K, B = scans.ranges.shape
-        self.maps = MapPyramid(**self.grid_params, size=2.0 * min(scans.max_range, self.clear_range, 50.0))
         odom = scans.pose if (self.use_odometry and scans.pose is not None) else None
         c, s = np.cos(scans.angles), np.sin(scans.angles)
         limit = scans.max_range if self.max_usable_range is None else min(scans.max_range, self.max_usable_range)
@@ -129,6 +128,7 @@ class GridSLAM:
         }
         start = scans.pose[0] if scans.pose is not None and np.all(np.isfinite(scans.pose[0])) else sequence.start_pose
         pose = np.asarray(start, dtype=float).copy()
+        self.maps = MapPyramid(**self.grid_params, size=2.0 * min(scans.max_range, self.clear_range, 50.0), centre=pose[:2])
         last_update = None
         n_updates = 0
         keyframes: list[np.ndarray] = []

@@ -16,15 +16,16 @@ __all__ = ["MapPyramid"]
 
 
 class MapPyramid:
-    def __init__(self, resolution: float = 0.05, levels: int = 3, size: float = 20.0, **grid_params):
+    def __init__(self, resolution: float = 0.05, levels: int = 3, size: float = 20.0, centre=(0.0, 0.0), **grid_params):
+        """``size`` [m]: the initial square around ``centre`` (grids grow as scans reach beyond)."""
         if levels < 1:
             raise ValueError("levels must be ≥ 1")
         self.levels: list[OccupancyGrid] = []
         for k in range(levels):
             res = resolution * 2**k
             n = max(int(np.ceil(size / res)), 1)
-            corner = -(n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
-            self.levels.append(OccupancyGrid(resolution=res, width=n, height=n, origin=(corner, corner), **grid_params))
+            corner = np.round(np.asarray(centre, dtype=float) / res) * res - (n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
+            self.levels.append(OccupancyGrid(resolution=res, width=n, height=n, origin=tuple(corner), **grid_params))
         self.version = 0
 
     @property
