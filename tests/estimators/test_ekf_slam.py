@@ -146,7 +146,7 @@ def test_storage_grows_by_doubling_and_state_views_are_read_only():
 @pytest.mark.parametrize("jacobians", ["standard", "fej", "ideal"])
 def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
     """Pose errors within the 99.7 % χ²₃ bound at ≥ 95 % of steps; landmarks within their χ²₂ gate; NIS ≈ 2."""
-    seq = datasets.load("sim:landmarks", seed=0)
+    seq = datasets.load("sim:landmarks", n_landmarks=30, seed=0)
     est = EKFSLAM(jacobians=jacobians).run(seq)
     gt = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, est.t)
     d = est.poses - gt

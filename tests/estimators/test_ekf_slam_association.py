@@ -33,7 +33,7 @@ def test_vectorised_compatibility_matches_dense_per_pair_computation():
 @pytest.mark.parametrize("method", ["nn", "jcbb"])
 def test_unknown_association_recovers_the_landmarks_of_a_separated_map(method):
     """Ids withheld on a 7 m lattice: one landmark per true landmark, every match consistent with the truth."""
-    seq = datasets.load("sim:landmarks", n_landmarks=40, layout="grid", density=0.03, seed=0)
+    seq = datasets.load("sim:landmarks", n_landmarks=25, layout="grid", density=0.03, seed=0)
     est = EKFSLAM(use_ids=False, association=method).run(seq)
     d = est.diagnostics
     dec, lm, given = d["assoc_decision"], d["assoc_landmark"], d["assoc_given_id"]
