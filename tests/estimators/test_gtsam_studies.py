@@ -95,40 +95,45 @@ def test_mrclam_dataset6_study():
         raw = ate(est, ref, ATEParams(align="none"))[0]
         aligned = ate(est, ref)[0]
         lm_raw = landmark_error(est, ref, MapParams(align="none"))[0]
+        lm_aligned = landmark_error(est, ref, MapParams(align="se2"))[0]
         consistency = nees(est, ref, NEESParams())[0]
-        assert raw["rmse"] < 0.5 and lm_raw["rmse"] < 0.5
         rows.append([robot, len(est.t), int(len(seq.range_bearing)), f"{raw['rmse']:.3f}", f"{aligned['rmse']:.3f}",
-                     f"{lm_raw['rmse']:.3f}", f"{lm_raw['max']:.3f}", f"{consistency['mean']:.1f}", est.diagnostics["iterations"],
+                     f"{lm_raw['rmse']:.3f}", f"{lm_aligned['rmse']:.3f}", f"{consistency['mean']:.1f}", est.diagnostics["iterations"],
                      f"{elapsed:.1f}"])
     _write("mrclam6", ["robot", "poses", "observations", "ATE RMSE [m] (start-anchored)", "ATE RMSE [m] (SE(2)-aligned)",
-                       "landmark RMSE [m]", "landmark max [m]", "mean NEES (3 if consistent)", "iterations", "time [s]"], rows,
+                       "landmark RMSE [m] (start-anchored)", "landmark RMSE [m] (trajectory SE(2)-aligned)", "mean NEES (3 if consistent)",
+                       "iterations", "time [s]"], rows,
            "Batch smoother, Huber kernel (k = 1.345 σ) on the observations, pose keys at every observation set and every 1 s, "
            f"noise {MRCLAM_NOISE} (identified against Vicon, see the module docstring); start pose = Vicon at the first "
-           "odometry stamp; landmark error against the surveyed map without alignment.")
+           "odometry stamp; landmark error against the surveyed map, as estimated (start-anchored) and after the SE(2) "
+           "alignment that best fits the trajectory to Vicon.")
+    assert all(float(r[4]) < 0.3 and float(r[5]) < 1.0 for r in rows)
 
 
 def test_victoria_park_study():
+    """Batch LM from dead reckoning against iSAM2 (one pose per odometry increment, as in the published graph)."""
     if not _available("victoria_park"):
         pytest.skip("victoria_park not staged")
     seq = datasets.load("victoria_park")
     tic = time.perf_counter()
-    batch = BatchSmoother(covariances=False).run(seq)
+    batch = BatchSmoother(covariances=False, max_interval=1.0, max_iterations=300).run(seq)
     t_batch = time.perf_counter() - tic
     tic = time.perf_counter()
-    inc = ISAM2Smoother(covariances=False).run(seq)
+    inc = ISAM2Smoother(covariances=False, max_interval=1.0).run(seq)
     t_inc = time.perf_counter() - tic
     diff = np.abs(inc.poses[:, :2] - batch.poses[:, :2]).max()
     assert batch.diagnostics["final_error"] < batch.diagnostics["initial_error"]
-    assert diff < 1e-3
+    assert inc.diagnostics["final_error"] <= batch.diagnostics["final_error"] * (1 + 1e-6)
     rows = [
-        ["batch (LM)", len(batch.t), len(batch.landmarks), f"{batch.diagnostics['initial_error']:.5g}", f"{batch.diagnostics['final_error']:.6g}",
-         batch.diagnostics["iterations"], f"{t_batch:.1f}", "—", "—"],
-        ["iSAM2", len(inc.t), len(inc.landmarks), "—", f"{inc.diagnostics['final_error']:.6g}", inc.diagnostics["final_updates_used"],
-         f"{t_inc:.1f}", f"{1e3 * inc.step_time.mean():.2f} / {1e3 * inc.step_time.max():.1f}", f"{diff:.2g}"],
+        ["batch (LM from dead reckoning)", len(batch.t), len(batch.landmarks), f"{batch.diagnostics['initial_error']:.5g}",
+         f"{batch.diagnostics['final_error']:.6g}", batch.diagnostics["iterations"], f"{t_batch:.1f}", "—"],
+        ["iSAM2 (+ final updates)", len(inc.t), len(inc.landmarks), "—", f"{inc.diagnostics['final_error']:.6g}",
+         inc.diagnostics["final_updates_used"], f"{t_inc:.1f}", f"{1e3 * inc.step_time.mean():.2f} / {1e3 * inc.step_time.max():.1f}"],
     ]
     _write("victoria_park", ["method", "poses", "landmarks", "initial error", "final error", "iterations / final updates", "time [s]",
-                             "step time mean / max [ms]", "max |iSAM2 − batch| [m]"], rows,
-           "Known association (the file's landmark ids), the file's stated noise; no ground truth.")
+                             "step time mean / max [ms]"], rows,
+           f"Known association (the file's landmark ids), the file's stated noise; no ground truth. Largest position difference "
+           f"between the two answers: {diff:.3g} m.")
 
 
 def test_landmark_smoother_monte_carlo_study():
@@ -151,3 +156,52 @@ def test_landmark_smoother_monte_carlo_study():
     assert mc["in_band"] > 0.8
     _write("landmark_nees", ["runs", "mean NEES (all steps)", "fraction of steps in the band", "95 % band of the run average",
                              "mean final-pose NEES", "mean landmark RMSE [m]"], rows)
+
+
+def test_sim_landmarks_comparison_study():
+    """5 seeds of sim:landmarks (defaults: 50 landmarks, one lap): dead reckoning, EKF-SLAM, the iSAM2 online
+    estimates (filter-like) and the smoothed answer (batch = iSAM2 final)."""
+    import dataclasses
+
+    from datasets.sim.landmarks import simulate
+    from estimators import create
+
+    results: dict[str, list] = {}
+    for seed in range(5):
+        seq = simulate(seed=seed)
+        ref = reference_of(seq)
+        for name in ("dead_reckoning", "ekf_slam", "gtsam_isam2", "gtsam_batch"):
+            est = create(name).run(seq)
+            results.setdefault(name, []).append((ate(est, ref, ATEParams(align="none"))[0]["rmse"], nees(est, ref)[0]["mean"]))
+            if name == "gtsam_isam2":
+                online = dataclasses.replace(est, poses=est.diagnostics["online_poses"], pose_cov=None)
+                results.setdefault("gtsam_isam2 (online estimates)", []).append((ate(online, ref, ATEParams(align="none"))[0]["rmse"], np.nan))
+    rows = [[name, f"{np.mean([r[0] for r in v]):.3f}", "—" if np.isnan(v[0][1]) else f"{np.mean([r[1] for r in v]):.2f}"] for name, v in results.items()]
+    assert np.mean([r[0] for r in results["gtsam_batch"]]) < np.mean([r[0] for r in results["ekf_slam"]])
+    _write("sim_landmarks", ["method", "ATE RMSE [m] (start-anchored), mean of 5 seeds", "mean NEES"], rows)
+
+
+def test_fixed_lag_study():
+    """5 seeds of sim:localization (60 s): the EKF localizer with the sequence's noise and the fixed-lag smoother."""
+    from datasets.sim.localization import simulate
+    from estimators.ekf_localizer import EKFLocalizer
+    from estimators.gtsam_smoother import FixedLagLocalizer
+
+    methods = {
+        "ekf_localizer (sequence noise, Q = 0)": lambda: EKFLocalizer(Q=(0.0, 0.0, 0.0), use_sequence_noise=True, gate_confidence=1.0),
+        "gtsam_fixed_lag online": lambda: FixedLagLocalizer(output="online"),
+        "gtsam_fixed_lag smoothed, lag 0.5 s": lambda: FixedLagLocalizer(lag=0.5),
+        "gtsam_fixed_lag smoothed, lag 2 s": lambda: FixedLagLocalizer(lag=2.0),
+    }
+    results: dict[str, list] = {name: [] for name in methods}
+    for seed in range(5):
+        seq = simulate(duration=60.0, seed=seed)
+        ref = reference_of(seq)
+        for name, make in methods.items():
+            est = make().run(seq)
+            results[name].append((ate(est, ref, ATEParams(align="none"))[0]["rmse"], nees(est, ref)[0]["mean"],
+                                  np.median(est.step_time) if est.step_time is not None else np.nan))
+    rows = [[name, f"{1e3 * np.mean([r[0] for r in v]):.2f}", f"{np.mean([r[1] for r in v]):.2f}", f"{1e3 * np.mean([r[2] for r in v]):.2f}"]
+            for name, v in results.items()]
+    assert np.mean([r[0] for r in results["gtsam_fixed_lag smoothed, lag 2 s"]]) < np.mean([r[0] for r in results["gtsam_fixed_lag online"]])
+    _write("fixed_lag", ["method", "ATE RMSE [mm], mean of 5 seeds", "mean NEES", "median step time [ms]"], rows)
