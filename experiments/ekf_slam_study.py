@@ -1,6 +1,7 @@
 """EKF-SLAM studies behind research/ekf_slam.md: Monte Carlo consistency and real data.
 
     python -m experiments.ekf_slam_study consistency [--seeds 30] [--laps 2] [--figure PATH]
+                                                     [--sim JSON] [--variants standard FEJ ideal]
     python -m experiments.ekf_slam_study realdata
 
 ``consistency``: robot-pose NEES over time of the standard, FEJ and ideal EKF (and the
@@ -17,6 +18,7 @@ withheld (nearest neighbour and JCBB) against the run with ids.
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 import numpy as np
@@ -41,22 +43,24 @@ VARIANTS = {
 MRCLAM_NOISE = dict(twist_cov=[0.1**2, 0.3**2], range_bearing_cov=[0.15**2, 0.02**2])
 
 
-def _nees_run(variant: str, seed: int, laps: int) -> tuple[np.ndarray, np.ndarray]:
-    seq = datasets.load("sim:landmarks", seed=seed, laps=laps)
+def _nees_run(variant: str, seed: int, laps: int, sim: dict) -> tuple[np.ndarray, np.ndarray]:
+    seq = datasets.load("sim:landmarks", seed=seed, laps=laps, **sim)
     est = EKFSLAM(**VARIANTS[variant]).run(seq)
     _, series = nees(est, reference_of(seq))
     return series["t"], series["nees"]
 
 
-def consistency(seeds: int = 30, laps: int = 2, figure: str | None = None, jobs: int = 2) -> dict:
+def consistency(seeds: int = 30, laps: int = 2, figure: str | None = None, jobs: int = 2,
+                sim: dict | None = None, variants: list[str] | None = None) -> dict:
     from joblib import Parallel, delayed
 
     start = time.time()
+    sim = sim or {}
     results = {}
-    for variant in VARIANTS:
-        runs = Parallel(n_jobs=jobs)(delayed(_nees_run)(variant, s, laps) for s in range(seeds))
+    for variant in variants or list(VARIANTS):
+        runs = Parallel(n_jobs=jobs)(delayed(_nees_run)(variant, s, laps, sim) for s in range(seeds))
         results[variant] = monte_carlo(runs, dof=3)
-    print(f"sim:landmarks, {laps} laps, {seeds} seeds ({time.time() - start:.0f} s)")
+    print(f"sim:landmarks {sim}, {laps} laps, {seeds} seeds ({time.time() - start:.0f} s)")
     print(f"{'variant':18s} {'mean ANEES':>10s} {'ANEES 1st lap':>13s} {'ANEES last 10%':>14s} {'in 95% band':>11s}   band [lo, hi]")
     for variant, mc in results.items():
         t, m = mc["t"], mc["mean"]
@@ -65,11 +69,11 @@ def consistency(seeds: int = 30, laps: int = 2, figure: str | None = None, jobs:
         print(f"{variant:18s} {m.mean():10.2f} {first.mean():13.2f} {last.mean():14.2f} {mc['in_band']:11.2f}   "
               f"[{mc['lo'][0]:.2f}, {mc['hi'][0]:.2f}]")
     if figure:
-        _plot(results, seeds, laps, figure)
+        _plot(results, seeds, laps, figure, sim)
     return results
 
 
-def _plot(results: dict, seeds: int, laps: int, path: str) -> None:
+def _plot(results: dict, seeds: int, laps: int, path: str, sim: dict) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -84,7 +88,8 @@ def _plot(results: dict, seeds: int, laps: int, path: str) -> None:
     ax.set_yscale("log")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("average robot-pose NEES (dof 3)")
-    ax.set_title(f"EKF-SLAM consistency, sim:landmarks ({laps} laps), {seeds} Monte Carlo runs", fontsize=9)
+    extra = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in sim.items())
+    ax.set_title(f"EKF-SLAM consistency, sim:landmarks ({laps} laps{', ' + extra if extra else ''}), {seeds} Monte Carlo runs", fontsize=8)
     ax.legend(fontsize=7, loc="upper left", ncol=3)
     fig.tight_layout()
     fig.savefig(path)
@@ -156,10 +161,12 @@ def main() -> None:
     c.add_argument("--laps", type=int, default=2)
     c.add_argument("--figure", default=None)
     c.add_argument("--jobs", type=int, default=2)
+    c.add_argument("--sim", default="{}", help="simulator parameters as JSON, e.g. '{\"sigma_omega\": 0.1}'")
+    c.add_argument("--variants", nargs="*", default=None, choices=list(VARIANTS))
     sub.add_parser("realdata")
     args = parser.parse_args()
     if args.command == "consistency":
-        consistency(args.seeds, args.laps, args.figure, args.jobs)
+        consistency(args.seeds, args.laps, args.figure, args.jobs, json.loads(args.sim), args.variants)
     else:
         realdata()
 

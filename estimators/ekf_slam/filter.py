@@ -144,8 +144,8 @@ class EKFSLAM:
         twist_cov         M, 2 variances or 2×2 [(m/s)², (rad/s)²] (default: sequence noise,
                           else DEFAULT_TWIST_COV)
         Cx                3 variances or 3×3 per second (required with motion_noise="additive")
-        increment_cov     3×3 covariance of an odometry increment (default: Increments.cov,
-                          else the sequence's Noise.increment_cov)
+        increment_cov     3 variances or 3×3 covariance of an odometry increment (overrides
+                          Increments.cov; default: Increments.cov, else Noise.increment_cov)
         range_bearing_cov R, 2 variances or 2×2 (default: sequence noise, else
                           DEFAULT_RANGE_BEARING_COV)
         range_bearing_noise "polar" (default: R for every observation) | "cartesian" (the

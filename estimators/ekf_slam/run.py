@@ -6,7 +6,8 @@ Motion and range-bearing events are processed (other streams are not used by EKF
   :class:`Twist` input piecewise with :func:`estimators.stepping.twist_pieces`; rows with a
   non-finite velocity are skipped and counted (``rejected_motion``);
 * an :class:`Increments` event applies its row (the motion since the previous stamp;
-  covariance from ``Increments.cov``, else ``Noise.increment_cov``);
+  covariance: the ``increment_cov`` parameter if given, else ``Increments.cov``, else
+  ``Noise.increment_cov``);
 * a range-bearing event applies its whole observation set with :meth:`EKFSLAM.update`.
 
 The motion between two observation sets is applied as one chain
@@ -80,7 +81,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             rejected_motion += int((~ok).sum())
             rows = rows[ok]
             truth = interpolate_poses(gt.t, gt.poses, np.clip(motion.t[rows], gt.t[0], gt.t[-1])) if ideal and rows.size else None
-            cov = None if motion.cov is None else motion.cov[rows]
+            cov = None if motion.cov is None or ekf.params["increment_cov"] is not None else motion.cov[rows]
             done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth) if rows.size else None
             ends = motion.t[rows]
         before_pose, before_cov = (poses[-1], covs[-1]) if poses else (ekf.x[:3].copy(), ekf.P[:3, :3].copy())
