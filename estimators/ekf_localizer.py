@@ -17,7 +17,10 @@ The motion model is "compose with a body-frame increment" (:mod:`estimators.mode
 
 filterpy's ``predict()`` is linear (x = F x + B u). This module keeps its covariance step and
 overrides the extension point ``predict_x`` with the nonlinear model (``u`` is the increment δ),
-with ``F`` set to the Jacobian and ``Q`` to the noise of this Δt before each call.
+with ``F`` set to the Jacobian and ``Q`` to the noise of this Δt before each call. Because δ does
+not depend on x, F = ∂(x ⊕ δ)/∂x and V = ∂(x ⊕ δ)/∂δ · ∂δ/∂u come from
+:func:`estimators.models.compose_jacobians` (equal to the model's G, V — tested against finite
+differences), and δ, ∂δ/∂u of every Twist row are computed once, vectorised, in :meth:`run`.
 
 Process noise Q(Δt) — the unit the notes leave unstated
 -------------------------------------------------------
@@ -71,7 +74,8 @@ whole history is rejected (``too_old``). :meth:`EKFLocalizer.run` walks ``Sequen
 through the same machinery and records one pose and covariance per event.
 
 Defaults (the notes): EULER, Q = diag(0.01, 0.01, 0.01) per 0.02 s step, R_gps = diag(1e-4, 1e-4),
-R_imu = 1e-3, gate confidence 0.999, history 1 s. ``use_sequence_noise=True`` replaces R_gps, R_imu,
+R_imu = 1e-3; and (not in the notes) R_landmark = diag(0.1², 0.05²), gate confidence 0.999,
+max_rejections 5, history 1 s, initial_cov = diag(1e-4, 1e-4, 1e-4), heading in ENU. ``use_sequence_noise=True`` replaces R_gps, R_imu,
 R_landmark and twist_cov by the noise the sequence states (e.g. a simulator's true noise).
 
 Diagnostics of :meth:`run`: ``nis_<sensor>``, ``nis_<sensor>_t``, ``nis_<sensor>_accepted`` and
