@@ -75,7 +75,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             truth = interpolate_poses(gt.t, gt.poses, np.clip(starts, gt.t[0], gt.t[-1])) if ideal and ok.any() else None
             done = ekf.predict_twists(v[ok], w[ok], dts[ok], true_poses=truth) if ok.any() else None
             ends = ends[ok]
-        else:
+        elif isinstance(motion, Increments):
             rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
             ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
             rejected_motion += int((~ok).sum())
@@ -84,6 +84,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             cov = None if motion.cov is None or ekf.params["increment_cov"] is not None else motion.cov[rows]
             done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth) if rows.size else None
             ends = motion.t[rows]
+        else:  # no motion input: the robot stands still
+            done, ends = None, np.zeros(0)
         before_pose, before_cov = (poses[-1], covs[-1]) if poses else (ekf.x[:3].copy(), ekf.P[:3, :3].copy())
         now = time.perf_counter()
         for event in chain:  # poses at the motion events, from the chain

@@ -249,3 +249,12 @@ def test_cartesian_sensor_noise_maps_to_range_dependent_bearing_noise():
     ekf.update(z)
     np.testing.assert_allclose(ekf.P[3:5, 3:5], 0.4 * np.eye(2), atol=1e-12)
     np.testing.assert_allclose(ekf.P[5:7, 5:7], 0.4 * np.eye(2), atol=1e-12)
+
+
+def test_run_without_motion_input_maps_from_a_standing_robot():
+    seq = Sequence(name="still", range_bearing=RangeBearing(t=[0.0, 1.0, 1.0, 2.0], range=[5.0, 5.1, 3.0, 4.9],
+                                                            bearing=[0.1, 0.1, -1.0, 0.12], landmark_id=[0, 0, 1, 0]))
+    est = EKFSLAM().run(seq)
+    np.testing.assert_array_equal(est.t, [0.0, 1.0, 2.0])
+    np.testing.assert_array_equal(est.landmark_ids, [0, 1])
+    assert est.diagnostics["nis"].size == 2 and np.all(est.poses == 0.0)
