@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.geometry import accumulate, between, compose
+from datasets.geometry import accumulate, between
 from datasets.sequence import Scans, Sequence, Trajectory
 
 # an L-shaped 12 × 10 m room with two pillars: segments (x0, y0, x1, y1)
