@@ -28,6 +28,10 @@ every candidate below it, so a depth-first search from the top level that visits
 best-first and prunes nodes whose bound does not beat the best leaf found returns the same
 optimum as the exhaustive search. Its covariance comes from the exhaustive response in a
 small window (``± covariance_cells`` cells and angle steps) around the optimum.
+
+Both return a lattice pose (whole cells, whole angle steps). ``refine=True`` polishes it with
+the Gauss-Newton matcher on the map pyramid, as Cartographer follows its branch and bound with
+its Ceres matcher: the wide, global search picks the basin, Gauss-Newton the sub-cell optimum.
 """
 from __future__ import annotations
 
@@ -71,6 +75,7 @@ class _Correlative:
         p_floor: float = 0.01,
         level: int = 0,
         covariance_cells: int = 2,
+        refine: bool = False,
     ):
         if linear_window < 0 or angular_window < 0 or sigma <= 0 or not 0 < p_floor < 1 or level < 0 or covariance_cells < 1:
             raise ValueError("correlative matcher: windows ≥ 0, sigma > 0, 0 < p_floor < 1, level ≥ 0, covariance_cells ≥ 1")
@@ -78,6 +83,7 @@ class _Correlative:
             raise ValueError("angular_step must be > 0")
         self.linear_window, self.angular_window, self.angular_step = float(linear_window), float(angular_window), angular_step
         self.sigma, self.p_floor, self.level, self.covariance_cells = float(sigma), float(p_floor), int(level), int(covariance_cells)
+        self.refine = bool(refine)
         self._cache_key = None
         self._cache: dict = {}
 
@@ -156,10 +162,16 @@ class _Correlative:
         cov = (wts.ravel()[:, None] * d).T @ d + np.diag([res**2, res**2, dth**2]) / 12.0
         return cov
 
-    def _result(self, grid, S_best, n, guess, a, b, th, cov, evaluated):
+    def _result(self, maps, pts, grid, S_best, n, guess, a, b, th, cov, evaluated):
         pose = np.array([guess[0] + a * grid.resolution, guess[1] + b * grid.resolution, guess[2] + th])
+        info = {"candidates_scored": int(evaluated)}
+        if self.refine:
+            from .gauss_newton import GaussNewtonMatcher
+
+            info["lattice_pose"] = pose.copy()
+            pose = GaussNewtonMatcher().match(maps, pts, pose).pose
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        return MatchResult(pose=pose, cov=cov, score=float(S_best / max(n, 1)), iterations=int(evaluated), info={"candidates_scored": int(evaluated)})
+        return MatchResult(pose=pose, cov=cov, score=float(S_best / max(n, 1)), iterations=int(evaluated), info=info)
 
 
 class CorrelativeMatcher(_Correlative):
@@ -178,7 +190,7 @@ class CorrelativeMatcher(_Correlative):
         S, a, b = self._response(G, ix, iy, range(offsets.size), w, w)
         k, j, i = np.unravel_index(int(np.argmax(S)), S.shape)
         cov = self._moments(S, a, b, offsets, grid.resolution, dth, guess)
-        return self._result(grid, S[k, j, i], len(pts), guess, a[i], b[j], offsets[k], cov, S.size)
+        return self._result(maps, pts, grid, S[k, j, i], len(pts), guess, a[i], b[j], offsets[k], cov, S.size)
 
 
 class BranchAndBoundMatcher(_Correlative):
@@ -233,4 +245,4 @@ class BranchAndBoundMatcher(_Correlative):
         ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
         S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))
         cov = self._moments(S, ga, gb, offsets[list(ks)], grid.resolution, dth, guess)
-        return self._result(grid, S_best, len(pts), guess, a, b, offsets[k], cov, evaluated)
+        return self._result(maps, pts, grid, S_best, len(pts), guess, a, b, offsets[k], cov, evaluated)

@@ -223,3 +223,17 @@ def test_registry_and_bad_parameters():
         make_matcher("correlative", sigma=0)
     with pytest.raises(ValueError):
         make_matcher("open3d_icp", method="colored")
+
+
+def test_refined_correlative_match_leaves_the_lattice(room_map):
+    truth = np.array([0.5, -3.2, 0.1])
+    pts, _ = scan_points(truth, angles=np.linspace(-np.pi / 2, np.pi / 2, 181))
+    guess = truth + np.array([0.12, -0.08, 0.05])
+    coarse = make_matcher("branch_and_bound").match(room_map, pts, guess)
+    fine = make_matcher("branch_and_bound", refine=True).match(room_map, pts, guess)
+    assert np.allclose(fine.info["lattice_pose"], coarse.pose)
+    assert np.allclose(fine.pose, make_matcher("gauss_newton").match(room_map, pts, coarse.pose).pose)
+    steps = (fine.pose[:2] - guess[:2]) / 0.05
+    assert np.abs(steps - np.round(steps)).max() > 0.05  # off the lattice of whole cells
+    e = between(truth, fine.pose)
+    assert np.hypot(e[0], e[1]) < 0.03 and abs(e[2]) < 0.01
