@@ -89,7 +89,7 @@ def _plot(results: dict, seeds: int, laps: int, path: str, sim: dict) -> None:
     ax.set_xlabel("time [s]")
     ax.set_ylabel("average robot-pose NEES (dof 3)")
     extra = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in sim.items())
-    ax.set_title(f"EKF-SLAM consistency, sim:landmarks ({laps} laps{', ' + extra if extra else ''}), {seeds} Monte Carlo runs", fontsize=8)
+    ax.set_title(f"EKF-SLAM consistency, {seeds} Monte Carlo runs of sim:landmarks, {laps} laps" + (f"\n{extra}" if extra else ""), fontsize=8)
     ax.legend(fontsize=7, loc="upper left", ncol=3)
     fig.tight_layout()
     fig.savefig(path)
