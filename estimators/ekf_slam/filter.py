@@ -23,6 +23,11 @@ Prediction (touches the robot block and the robot-landmark cross-covariances: O(
     Q = Cx · dt (additive robot-block noise, Cx a 3×3 covariance per second)
 
 This equals the dense ``P ← G_N P G_Nᵀ + F_xᵀ Q F_x`` with ``G_N = I_N + F_xᵀ (G − I₃) F_x``.
+All motion here composes a body increment, ``G = I + [[0, 0, −D_y], [0, 0, D_x], 0]`` with D
+the world-frame displacement, so a chain of K predictions (:meth:`EKFSLAM.predict_twists`,
+:meth:`EKFSLAM.predict_increments`; ``run`` applies the motion between two observation sets
+as one chain) needs the 3×3 recursion per piece but ``P_rm ← Φ P_rm`` only once, with
+``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]``.
 
 Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+1]``,
 ``s = 3 + 2i``): H (2×N) has only the five columns ``idx`` non-zero,
@@ -313,6 +318,8 @@ class EKFSLAM:
         Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
         """
         x, P = self._s.x, self._s.P
+        if len(delta) == 0:
+            return np.zeros((0, 3)), np.zeros((0, 3, 3))
         poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
         if self.params["jacobians"] == "ideal":
             lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
