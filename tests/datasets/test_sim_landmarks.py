@@ -11,17 +11,7 @@ import datasets
 from datasets.geometry import wrap_angle
 from datasets.sim.landmarks import LAYOUTS, route_distance, simulate
 from estimators.models import MOTION_MODELS, observe
-
-
-def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:
-    """Sample mean ≈ 0 (|mean| within the normal quantile) and variance inside the χ² interval."""
-    e = np.asarray(residuals, dtype=float)
-    n = e.size
-    z = stats.norm.ppf(1 - p / 2)
-    assert abs(e.mean()) <= z * sigma / math.sqrt(n), (e.mean(), sigma, n)
-    lo, hi = stats.chi2.ppf([p / 2, 1 - p / 2], n - 1) / (n - 1)
-    ratio = e.var(ddof=1) / sigma**2
-    assert lo <= ratio <= hi, (ratio, lo, hi)
+from checks import assert_gaussian
 
 
 def true_controls(seq) -> tuple[np.ndarray, np.ndarray]:

@@ -10,6 +10,7 @@ from scipy import stats
 import datasets
 from datasets.geometry import accumulate, between, compose, transform_points
 from datasets.sim.laser import WORLDS, World, raycast, route_controls, segments, simulate, true_occupancy
+from checks import assert_gaussian
 
 BOX = World(
     name="box",
@@ -27,15 +28,6 @@ def box_ranges(pose: np.ndarray, angles: np.ndarray) -> np.ndarray:
         tx = np.where(c > 0, (5.0 - pose[0]) / c, np.where(c < 0, (-5.0 - pose[0]) / c, np.inf))
         ty = np.where(s > 0, (5.0 - pose[1]) / s, np.where(s < 0, (-5.0 - pose[1]) / s, np.inf))
     return np.minimum(tx, ty)
-
-
-def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:
-    """Sample mean ≈ 0 (|mean| within the normal quantile) and variance inside the χ² interval."""
-    e = np.asarray(residuals, dtype=float)
-    n = e.size
-    assert abs(e.mean()) <= stats.norm.ppf(1 - p / 2) * sigma / math.sqrt(n), (e.mean(), sigma, n)
-    lo, hi = stats.chi2.ppf([p / 2, 1 - p / 2], n - 1) / (n - 1)
-    assert lo <= e.var(ddof=1) / sigma**2 <= hi
 
 
 @pytest.mark.parametrize("mount", [(0.0, 0.0, 0.0), (0.3, 0.1, 0.2)])
