@@ -7,7 +7,12 @@ directory or ``None``) and ``quick`` (bool) and returns a process exit code.
 """
 from __future__ import annotations
 
+import csv
 import importlib
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 BENCHMARKS: dict[str, str] = {
@@ -29,3 +34,35 @@ def run_benchmark(name: str, out: Path | None = None, quick: bool = False) -> in
         return 2
     module, _, attr = BENCHMARKS[name].partition(":")
     return int(getattr(importlib.import_module(module), attr)(out=out, quick=quick) or 0)
+
+
+def loglog_slope(rows: list[dict], key: str, lo: float, hi: float, size: str = "n") -> float:
+    """Fitted exponent k of ``row[key] ∝ row[size]^k`` over the rows with ``lo <= size <= hi``."""
+    import numpy as np
+
+    pts = [(r[size], r[key]) for r in rows if lo <= r[size] <= hi and r.get(key)]
+    return float(np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)[0])
+
+
+def measure_single_threaded(module: str, **kwargs) -> dict:
+    """Run ``module``'s ``measure(**kwargs)`` in a child process whose BLAS uses one thread.
+
+    The module prints ``json.dumps(measure(**json.loads(argv[1])))`` as its last line when run
+    with ``python -m``; one thread keeps per-step CPU times comparable on a shared machine.
+    """
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, "-m", module, json.dumps(kwargs)], env=env, capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def write_rows(rows: list[dict], out: Path | None, name: str) -> Path | None:
+    """Write benchmark rows (dicts; a key missing in a row is left empty) to ``out/name`` as CSV; nothing when ``out`` is None."""
+    if out is None:
+        return None
+    path = Path(out) / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path

@@ -16,8 +16,6 @@ idle BLAS threads spinning on a busy machine do not pollute the CPU times.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -27,6 +25,7 @@ import numpy as np
 from estimators.ekf_slam import EKFSLAM
 from estimators.ekf_slam.reference import ReferenceEKFSLAM
 from estimators.models import observe
+from experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
 
 OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
@@ -85,21 +84,6 @@ def measure(n: int, repeats: int, with_reference: bool, seed: int = 0) -> dict:
     return row
 
 
-def slope(rows: list[dict], key: str, lo: int, hi: int) -> float:
-    pts = [(r["n"], r[key]) for r in rows if lo <= r["n"] <= hi and r.get(key)]
-    n, t = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-    return float(np.polyfit(n, t, 1)[0])
-
-
-def _single_threaded(n: int, repeats: int, with_reference: bool) -> dict:
-    """``measure`` in a child process whose BLAS runs one thread."""
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    args = json.dumps({"n": n, "repeats": repeats, "with_reference": with_reference})
-    done = subprocess.run([sys.executable, "-m", "experiments.benchmarks.ekf_slam", args], env=env,
-                          capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -110,11 +94,11 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console = Console()
     rows = []
     for n in sizes:
-        rows.append(_single_threaded(n, repeats, with_reference=n <= ref_max))
+        rows.append(measure_single_threaded("experiments.benchmarks.ekf_slam", n=n, repeats=repeats, with_reference=n <= ref_max))
         console.log(f"n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in rows[-1].items()))
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
-    exponents = {key: slope(rows, key, fit_lo, fit_hi) for key in ("sequential", "batch")}
-    ref_exp = slope(rows, "reference", 100 if quick else 200, ref_max)
+    exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("sequential", "batch")}
+    ref_exp = loglog_slope(rows, "reference", 100 if quick else 200, ref_max)
 
     table = Table(title=f"EKF-SLAM CPU time per step (predict + {OBSERVATIONS} observations), least of {repeats}")
     for col in ("n", "N", "sequential [ms]", "batch [ms]", "reference [ms]", "reference / sequential"):
@@ -129,13 +113,9 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     at = next((r for r in rows if r["n"] == ref_max), None)
     if at is not None:
         console.print(f"speed-up over the literal reference at n = {ref_max}: {at['reference'] / at['sequential']:.0f}× (aim ≥ 50× at n = 800)")
-    if out is not None:
-        import pandas as pd
-
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        pd.DataFrame(rows).to_csv(out / "ekf_slam_scaling.csv", index=False)
-        console.print(f"wrote {out / 'ekf_slam_scaling.csv'}")
+    written = write_rows(rows, out, "ekf_slam_scaling.csv")
+    if written is not None:
+        console.print(f"wrote {written}")
     return 0
 
 

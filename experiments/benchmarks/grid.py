@@ -22,6 +22,7 @@ import numpy as np
 from datasets.geometry import compose, transform_points
 from mapping.occupancy_grid import OccupancyGrid
 from mapping.raytrace import bresenham
+from experiments.benchmarks import loglog_slope, write_rows
 
 
 def integrate_literal(grid: OccupancyGrid, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range=np.inf, clear_range=None) -> int:
@@ -119,7 +120,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         n = sum(g.integrate(np.minimum(scans.ranges[k], c + 0.5 if c < scans.max_range else scans.ranges[k]), scans.angles, scans.pose[k], scans.mount, min(scans.max_range, c), c) for k in idx)
         times.append((time.perf_counter() - t) / len(idx))
         cells.append(n / len(idx))
-    slope = float(np.polyfit(np.log(cells), np.log(times), 1)[0])
+    slope = loglog_slope([{"cells": c, "time": t} for c, t in zip(cells, times)], "time", 0, np.inf, size="cells")
     console.print("cells per scan: " + ", ".join(f"{c:,.0f}" for c in cells) + f"; time per scan ∝ cells^{slope:.2f}")
 
     # 3. memory of a 2000 × 2000 grid
@@ -129,11 +130,8 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console.print(f"2000 × 2000 grid: log-odds float32 {big.nbytes() / 1e6:.1f} MB + int8 ROS grid {ros.nbytes / 1e6:.1f} MB "
                   f"= {(big.nbytes() + ros.nbytes) / 1e6:.1f} MB; the notes' ~36 MB = 9 B/cell (float64 log-odds + int8 grid: {notes / 1e6:.0f} MB); "
                   f"ratio {notes / (big.nbytes() + ros.nbytes):.2f}")
-    if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        rows = ["quantity,value", f"vectorised_ms_per_scan,{1e3 * per_scan_fast:.4f}", f"literal_ms_per_scan,{1e3 * per_scan_slow:.4f}",
-                f"cell_updates_per_s,{rate:.1f}", f"speedup,{per_scan_slow / per_scan_fast:.3f}", f"identical,{same}",
-                f"scaling_exponent,{slope:.3f}", f"grid_2000_MB,{(big.nbytes() + ros.nbytes) / 1e6:.3f}", f"notes_MB,{notes / 1e6:.3f}"]
-        (out / "grid.csv").write_text("\n".join(rows) + "\n")
+    summary = {"vectorised_ms_per_scan": 1e3 * per_scan_fast, "literal_ms_per_scan": 1e3 * per_scan_slow, "cell_updates_per_s": rate,
+               "speedup": per_scan_slow / per_scan_fast, "identical": same, "scaling_exponent": slope,
+               "grid_2000_MB": (big.nbytes() + ros.nbytes) / 1e6, "notes_MB": notes / 1e6}
+    write_rows([{"quantity": k, "value": v} for k, v in summary.items()], out, "grid.csv")
     return 0 if same else 1

@@ -20,12 +20,12 @@ how that grows with n (the EKF's per-step cost is O(n²), slope ≈ 2).
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+
+from experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
 
 OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
@@ -69,18 +69,6 @@ def measure(n: int, steps: int, seed: int = 0) -> dict:
             "p90": float(np.percentile(per_step, 90)), "first": float(est.step_time[0])}
 
 
-def slope(rows: list[dict], key: str, lo: int, hi: int) -> float:
-    pts = [(r["n"], r[key]) for r in rows if lo <= r["n"] <= hi]
-    return float(np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)[0])
-
-
-def _single_threaded(n: int, steps: int) -> dict:
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    done = subprocess.run([sys.executable, "-m", "experiments.benchmarks.isam2", json.dumps({"n": n, "steps": steps})],
-                          env=env, capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -90,10 +78,10 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console = Console()
     rows = []
     for n in sizes:
-        rows.append(_single_threaded(n, steps))
+        rows.append(measure_single_threaded("experiments.benchmarks.isam2", n=n, steps=steps))
         console.log(f"n = {n}: mean {1e3 * rows[-1]['mean']:.2f} ms/step, median {1e3 * rows[-1]['median']:.2f}")
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
-    exponents = {key: slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}
+    exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}
     table = Table(title=f"iSAM2 CPU time per step (1 pose + {OBSERVATIONS} observations) over {rows[0]['steps']} steps")
     for col in ("n", "mean [ms]", "median [ms]", "p90 [ms]", f"mean vs n = {sizes[0]}", "first update (maps all n) [ms]"):
         table.add_column(col, justify="right")
@@ -103,13 +91,9 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console.print(table)
     console.print(f"log-log exponent of the step time over n ∈ [{fit_lo}, {fit_hi}]: mean {exponents['mean']:.2f}, "
                   f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)")
-    if out is not None:
-        import pandas as pd
-
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        pd.DataFrame(rows).to_csv(out / "isam2_scaling.csv", index=False)
-        console.print(f"wrote {out / 'isam2_scaling.csv'}")
+    written = write_rows(rows, out, "isam2_scaling.csv")
+    if written is not None:
+        console.print(f"wrote {written}")
     return 0
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 from datasets import load
 from datasets.catalogue import CATALOGUE
 from datasets.formats._text import read_bytes
+from experiments.benchmarks import write_rows
 
 
 def _best(fn, repeats: int) -> float:
@@ -54,8 +55,5 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     for label, b, p, r in rows:
         table.add_row(label, f"{b:.3f}", f"{p:.3f}", f"{r:.2f}")
     Console().print(table)
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        lines = ["dataset,baseline_s,parse_s,ratio"] + [f"{l},{b:.6f},{p:.6f},{r:.4f}" for l, b, p, r in rows]
-        (out / "readers.csv").write_text("\n".join(lines) + "\n")
+    write_rows([{"dataset": l, "baseline_s": b, "parse_s": p, "ratio": r} for l, b, p, r in rows], out, "readers.csv")
     return 0

@@ -25,6 +25,7 @@ import numpy as np
 from datasets.geometry import between, transform_points
 from mapping.map_pyramid import MapPyramid
 from mapping.scan_matching import make_matcher
+from experiments.benchmarks import write_rows
 
 MATCHERS = [  # (label, registry name, parameters)
     ("gauss_newton", "gauss_newton", {}),
@@ -119,13 +120,9 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console.print(f"GridSLAM (gauss_newton) on carmen:intel: {p['scans']} scans, {p['duration_s']:.0f} s of log in {p['wall_s']:.1f} s → "
                   f"{p['real_time_factor']:.1f}× faster than real time (aim ≥ 20); {p['ms_per_scan_median']:.2f} ms/scan median, "
                   f"{p['ms_per_scan_p99']:.1f} ms p99; {p['map_updates']} map updates take {100 * p['map_update_share']:.0f} % of the time")
-    if out is not None:
+    if write_rows(rows, out, "scan_matching.csv") is not None:
         import json
 
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        keys = list(rows[0])
-        (out / "scan_matching.csv").write_text("\n".join([",".join(keys)] + [",".join(str(r[k]) for k in keys) for r in rows]) + "\n")
-        (out / "intel_pipeline.json").write_text(json.dumps(p, indent=2))
+        (Path(out) / "intel_pipeline.json").write_text(json.dumps(p, indent=2))
         slam.map.save_png(out / "intel_map.png")
     return 0
