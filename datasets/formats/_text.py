@@ -212,6 +212,17 @@ def bodies_of(lines: list[str], rows: np.ndarray, skip: int = 1) -> list[str]:
     return [parts[skip] if len(parts := lines[r].split(None, skip)) > skip else "" for r in rows]
 
 
+def record_values(lines: Lines, rows: np.ndarray, ncols: int, what: str) -> np.ndarray:
+    """The ``ncols`` numbers after the tag of each line ``rows`` (0-based), all finite.
+
+    A wrong field count, a non-numeric field or a non-finite number raises
+    :class:`DataFormatError` naming the first offending line.
+    """
+    values = fixed(lines.path, bodies_of(lines, rows), rows + 1, ncols, what)
+    check_finite(lines.path, values, rows + 1, what)
+    return values
+
+
 def upper_triangle(values: np.ndarray, n: int) -> np.ndarray:
     """Symmetric ``(K, n, n)`` matrices from row-major upper triangles ``(K, n(n+1)/2)``."""
     rows, cols = np.triu_indices(n)

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import check_finite, fixed, read_lines, tags, upper_triangle
+from ._text import read_lines, record_values, tags, upper_triangle
 from . import isam
 
 __all__ = ["read", "write", "load", "RECORDS_2D", "RECORDS_3D"]
@@ -64,9 +64,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     table = {}
     for record, ncols in known.items():
         rows = np.flatnonzero(tag == record)
-        bodies = [parts[1] if len(parts := lines[r].split(None, 1)) > 1 else "" for r in rows]
-        values = fixed(lines.path, bodies, rows + 1, ncols, f"a {record} record")
-        check_finite(lines.path, values, rows + 1, f"a {record} record")
+        values = record_values(lines, rows, ncols, f"a {record} record")
         table[record] = (values, rows)
     meta = {"format": "g2o", "file": lines.path, "noise_convention": "information"}
     fixed_ids = _ids(lines.path, *table["FIX"], 0)

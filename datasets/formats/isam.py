@@ -26,7 +26,7 @@ from ..errors import DataFormatError
 from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
-from ._text import check_finite, fixed, read_lines, tags, upper_triangle, upper_triangular
+from ._text import read_lines, record_values, tags, upper_triangle, upper_triangular
 
 __all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load"]
 
@@ -64,12 +64,8 @@ def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE
         raise DataFormatError(lines.path, k + 1, f"a record of type {' / '.join(allowed)}", lines[k][:80])
     pose_rows = np.flatnonzero(np.isin(tag, POSE_TAGS))
     lm_rows = np.flatnonzero(tag == "LANDMARK")
-    p = fixed(lines.path, [lines[r].split(None, 1)[1] if " " in lines[r].strip() else "" for r in pose_rows], pose_rows + 1, 11,
-              "a pose constraint (i j dx dy dtheta + 6 noise values)")
-    q = fixed(lines.path, [lines[r].split(None, 1)[1] if " " in lines[r].strip() else "" for r in lm_rows], lm_rows + 1, 7,
-              "a LANDMARK record (p l dx dy + 3 noise values)")
-    check_finite(lines.path, p, pose_rows + 1, "a pose constraint")
-    check_finite(lines.path, q, lm_rows + 1, "a LANDMARK record")
+    p = record_values(lines, pose_rows, 11, "a pose constraint (i j dx dy dtheta + 6 noise values)")
+    q = record_values(lines, lm_rows, 7, "a LANDMARK record (p l dx dy + 3 noise values)")
     for arr, rows, cols in ((p, pose_rows, (0, 1)), (q, lm_rows, (0, 1))):
         ids = arr[:, cols]
         bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))

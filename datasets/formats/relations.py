@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFormatError
-from ._text import fixed, read_lines, tags
+from ._text import bodies_of, fixed, read_lines, tags
 
 __all__ = ["Relations", "read", "write"]
 
@@ -52,8 +52,7 @@ def read(path: str | Path) -> Relations:
     if rows.size and first_numeric.any() and not first_numeric.all():
         k = int(rows[np.flatnonzero(~first_numeric)[0]])
         raise DataFormatError(lines.path, k + 1, "a relation: t1 t2 x y z roll pitch yaw", lines[k][:80])
-    bodies = [(parts[1] if len(parts := lines[r].split(None, 1)) > 1 else "") if skip else lines[r] for r in rows]
-    v = fixed(lines.path, bodies, rows + 1, 8, "a relation (t1 t2 x y z roll pitch yaw)")
+    v = fixed(lines.path, bodies_of(lines, rows, 1 if skip else 0), rows + 1, 8, "a relation (t1 t2 x y z roll pitch yaw)")
     return Relations(t1=v[:, 0], t2=v[:, 1], motion=v[:, 2:8])
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import check_finite, fixed, read_lines, tags
+from ._text import read_lines, record_values, tags
 
 __all__ = ["read", "load", "toro_information", "RECORDS"]
 
@@ -46,9 +46,7 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
     table = {}
     for record, ncols in RECORDS.items():
         rows = np.flatnonzero(tag == record)
-        bodies = [parts[1] if len(parts := lines[r].split(None, 1)) > 1 else "" for r in rows]
-        values = fixed(lines.path, bodies, rows + 1, ncols, f"a {record} record")
-        check_finite(lines.path, values, rows + 1, f"a {record} record")
+        values = record_values(lines, rows, ncols, f"a {record} record")
         ids = values[:, :2] if record != "VERTEX2" else values[:, :1]
         bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
         if bad.size:
