@@ -54,6 +54,13 @@ def sanitize(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9.+-]+", "_", name).strip("_")
 
 
+def require_plain(name: str | None, what: str, kind: str = "directory") -> str | None:
+    """``name`` unchanged if it is usable as a file or directory name as it is, else a ValueError."""
+    if name is not None and sanitize(name) != name:
+        raise ValueError(f"{what} {name!r} must be a plain {kind} name, e.g. {sanitize(name)!r}")
+    return name
+
+
 def method_table() -> dict[str, str]:
     """Every runnable method: ``estimators.REGISTRY`` merged with ``mapping.REGISTRY``."""
     from estimators import REGISTRY as ESTIMATORS
@@ -124,8 +131,7 @@ class DatasetSpec(BaseModel):
         else:
             known = sorted(SIMULATORS) + sorted(CATALOGUE)
             raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
-        if self.label is not None and sanitize(self.label) != self.label:
-            raise ValueError(f"label {self.label!r} must be a plain directory name, e.g. {sanitize(self.label)!r}")
+        require_plain(self.label, "label")
         return self
 
 
@@ -150,8 +156,7 @@ class EstimatorSpec(BaseModel):
             cls(**self.params)
         except Exception as exc:  # the constructor's own validation of values
             raise ValueError(f"method {self.name!r} rejects params {self.params}: {type(exc).__name__}: {exc}") from None
-        if self.label is not None and sanitize(self.label) != self.label:
-            raise ValueError(f"label {self.label!r} must be a plain directory name, e.g. {sanitize(self.label)!r}")
+        require_plain(self.label, "label")
         return self
 
     def takes_seed(self) -> bool:
@@ -189,9 +194,7 @@ class TableSpec(BaseModel):
     @field_validator("name")
     @classmethod
     def _plain(cls, name):
-        if sanitize(name) != name:
-            raise ValueError(f"table name {name!r} must be a plain file name, e.g. {sanitize(name)!r}")
-        return name
+        return require_plain(name, "table name", kind="file")
 
 
 class ExperimentConfig(BaseModel):
@@ -229,9 +232,7 @@ class ExperimentConfig(BaseModel):
     @field_validator("name")
     @classmethod
     def _plain(cls, name):
-        if sanitize(name) != name:
-            raise ValueError(f"experiment name {name!r} must be a plain directory name, e.g. {sanitize(name)!r}")
-        return name
+        return require_plain(name, "experiment name")
 
     @model_validator(mode="after")
     def _consistent(self):
