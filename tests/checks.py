@@ -1,11 +1,24 @@
-"""Statistical assertions shared by the tests (import as ``from checks import ...``; pytest puts
-``tests/`` on the path for its conftest)."""
+"""Helpers shared by the tests: locating staged datasets and statistical assertions.
+
+Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy import stats
+
+from datasets.dataroot import data_roots
+
+
+def staged(relative: str) -> Path:
+    """Path of a staged dataset file under the data root; skips the test when it is absent."""
+    for root in data_roots():
+        if (root / relative).exists():
+            return root / relative
+    pytest.skip(f"dataset file {relative} is not under any data root (set SLAMARENA_DATA)")
 
 
 def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:
@@ -18,3 +31,20 @@ def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> Non
     lo, hi = stats.chi2.ppf([p / 2, 1 - p / 2], n - 1) / (n - 1)
     ratio = e.var(ddof=1) / sigma**2
     assert lo <= ratio <= hi, (ratio, lo, hi)
+
+
+def assert_dead_reckoning_consistent(sequences, p: float = 1e-3) -> None:
+    """Dead reckoning with a sequence's stated noise is consistent: the final-pose NEES averaged
+    over the (independent, seeded) sequences lies inside the two-sided χ² band at level ``p``."""
+    from datasets.geometry import wrap_angle
+    from estimators.dead_reckoning import DeadReckoning
+
+    nees = []
+    for s in sequences:
+        e = DeadReckoning().run(s)
+        d = e.poses[-1] - s.ground_truth.poses[-1]
+        d[2] = wrap_angle(d[2])
+        nees.append(d @ np.linalg.solve(e.pose_cov[-1], d))
+    runs = len(nees)
+    lo, hi = stats.chi2.ppf([p, 1 - p], 3 * runs) / runs
+    assert lo <= np.mean(nees) <= hi, (np.mean(nees), lo, hi)

@@ -11,7 +11,7 @@ import pytest
 
 from datasets import catalogue, fetch, load
 from datasets.formats import isam
-from tests.conftest import staged
+from checks import staged
 
 
 def _serve_staged(url: str, output_file, pooch_obj=None):

@@ -10,7 +10,7 @@ import pytest
 from datasets import DataFormatError, Increments, load
 from datasets.formats import carmen
 from datasets.geometry import accumulate
-from tests.conftest import staged
+from checks import staged
 
 pytestmark = pytest.mark.realdata
 

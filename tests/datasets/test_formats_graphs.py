@@ -7,7 +7,7 @@ import pytest
 from datasets import DataFormatError, load
 from datasets.formats import g2o, isam, toro
 from datasets.geometry import compose
-from tests.conftest import staged
+from checks import staged
 
 pytestmark = pytest.mark.realdata
 

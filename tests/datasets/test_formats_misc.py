@@ -6,7 +6,7 @@ import pytest
 
 from datasets import DataFormatError
 from datasets.formats import kitti, ply, relations, tum
-from tests.conftest import staged
+from checks import staged
 
 
 def test_relations_round_trip_and_tagged_lines(tmp_path, rng):

@@ -8,7 +8,7 @@ import pytest
 
 from datasets import DataFormatError, load
 from datasets.formats import mrclam
-from tests.conftest import staged
+from checks import staged
 
 pytestmark = pytest.mark.realdata
 

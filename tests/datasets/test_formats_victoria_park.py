@@ -6,7 +6,7 @@ import pytest
 
 from datasets import DataFormatError, Increments, load
 from datasets.formats import victoria_park as vp
-from tests.conftest import staged
+from checks import staged
 
 pytestmark = pytest.mark.realdata
 

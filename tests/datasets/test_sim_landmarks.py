@@ -5,13 +5,12 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 import datasets
 from datasets.geometry import wrap_angle
 from datasets.sim.landmarks import LAYOUTS, route_distance, simulate
 from estimators.models import MOTION_MODELS, observe
-from checks import assert_gaussian
+from checks import assert_dead_reckoning_consistent, assert_gaussian
 
 
 def true_controls(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -74,17 +73,7 @@ def test_truth_follows_piecewise_constant_true_controls(seq):
 
 def test_stated_control_noise_makes_dead_reckoning_consistent():
     """Monte Carlo NEES of the final pose of dead reckoning with Noise.twist_cov: inside the χ² band."""
-    from estimators.dead_reckoning import DeadReckoning
-
-    nees = []
-    for seed in range(30):
-        s = simulate(seed=seed, n_landmarks=10)
-        e = DeadReckoning().run(s)
-        d = e.poses[-1] - s.ground_truth.poses[-1]
-        d[2] = wrap_angle(d[2])
-        nees.append(d @ np.linalg.solve(e.pose_cov[-1], d))
-    lo, hi = stats.chi2.ppf([1e-3, 1 - 1e-3], 3 * 30) / 30
-    assert lo <= np.mean(nees) <= hi, np.mean(nees)
+    assert_dead_reckoning_consistent(simulate(seed=seed, n_landmarks=10) for seed in range(30))
 
 
 @pytest.mark.parametrize("model", sorted(MOTION_MODELS))

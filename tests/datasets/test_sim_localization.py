@@ -11,7 +11,7 @@ import datasets
 from datasets.geometry import interpolate_poses, wrap_angle
 from datasets.sim.localization import first_order_response, simulate
 from estimators.models import ARC
-from checks import assert_gaussian
+from checks import assert_dead_reckoning_consistent, assert_gaussian
 
 
 def row_twist(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -109,17 +109,7 @@ def test_white_actuator_noise_gives_the_stated_cmd_vel_covariance():
 
 def test_stated_noise_makes_dead_reckoning_consistent():
     """Monte Carlo NEES of the final pose of dead reckoning with Noise.twist_cov: inside the χ² band."""
-    from estimators.dead_reckoning import DeadReckoning
-
-    nees = []
-    for seed in range(30):
-        s = simulate(seed=seed, duration=15.0, motion_source="odometry")
-        e = DeadReckoning().run(s)
-        d = e.poses[-1] - s.ground_truth.poses[-1]
-        d[2] = wrap_angle(d[2])
-        nees.append(d @ np.linalg.solve(e.pose_cov[-1], d))
-    lo, hi = stats.chi2.ppf([1e-3, 1 - 1e-3], 3 * 30) / 30
-    assert lo <= np.mean(nees) <= hi, np.mean(nees)
+    assert_dead_reckoning_consistent(simulate(seed=seed, duration=15.0, motion_source="odometry") for seed in range(30))
 
 
 def test_noiseless_odometry_reproduces_the_truth():

@@ -384,7 +384,7 @@ def test_input_older_than_the_history_is_rejected_and_counted():
 def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
     dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
-    from tests.conftest import staged
+    from checks import staged
     from experiments.metrics.reference import reference_of
     from experiments.metrics.trajectory import ATEParams, ate
 

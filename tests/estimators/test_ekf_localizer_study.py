@@ -192,7 +192,7 @@ def test_study_mrclam():
     """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
     against dead reckoning of the same odometry (the filter with no measurements). The dataset states
     no noise; ``MRCLAM_FILTER`` and its derivation are in research/ekf_localizer.md."""
-    from tests.conftest import staged
+    from checks import staged
 
     staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
     rows, out = [], {}

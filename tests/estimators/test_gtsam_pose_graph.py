@@ -13,7 +13,7 @@ from datasets.sim.landmarks import simulate  # noqa: E402
 from estimators.gtsam_smoother import BatchSmoother, PoseGraphOptimizer  # noqa: E402
 from estimators.gtsam_smoother.graph import X  # noqa: E402
 from estimators.gtsam_smoother.pose_graph import build_pose_graph  # noqa: E402
-from tests.conftest import staged  # noqa: E402
+from checks import staged  # noqa: E402
 
 
 def _angle_aware_diff(a, b):
