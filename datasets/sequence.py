@@ -12,6 +12,7 @@ Streams
 ``Increments``    motion input as body-frame pose increments ``(dx, dy, dtheta)`` from the
                   previous stamp to ``t`` (odometry), optional per-increment covariance.
 ``RangeBearing``  landmark observations ``(range, bearing, landmark_id)``; ``id = -1`` unknown.
+``BeaconRanges``  range-only measurements to radio beacons ``(range, beacon_id)``.
 ``Gps``           absolute position ``(x, y)``.
 ``Heading``       absolute yaw (an IMU with magnetometer): ``yaw``.
 ``Scans``         2D laser scans ``ranges[S, B]`` with beam angles, max range, mounting pose
@@ -33,6 +34,7 @@ __all__ = [
     "Twist",
     "Increments",
     "RangeBearing",
+    "BeaconRanges",
     "Gps",
     "Heading",
     "Scans",
@@ -191,6 +193,32 @@ class RangeBearing(_Stream):
 
 
 @dataclass(frozen=True)
+class BeaconRanges(_Stream):
+    """Range-only measurements to beacons at known or unknown positions (no bearing).
+
+    Units: range [m] from the sensor to the beacon, beacon_id ≥ 0 (the dataset's beacon
+    numbering; true positions, where known, are ``Sequence.landmarks`` under the same ids).
+    Rows sharing a stamp form one measurement set.
+    """
+
+    t: np.ndarray
+    range: np.ndarray
+    beacon_id: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "t", _f64(self.t))
+        object.__setattr__(self, "range", _f64(self.range))
+        object.__setattr__(self, "beacon_id", np.ascontiguousarray(self.beacon_id, dtype=np.int64))
+        _check_time("BeaconRanges", self.t)
+        _check_len("BeaconRanges", self.t, range=self.range, beacon_id=self.beacon_id)
+        if np.any(self.beacon_id < 0):
+            raise ValueError("BeaconRanges.beacon_id must be >= 0")
+
+    def _measurement_arrays(self):
+        return {"range": self.range}
+
+
+@dataclass(frozen=True)
 class Gps(_Stream):
     """Absolute position fixes ``xy`` (K, 2) in the world frame [m]."""
 
@@ -330,7 +358,7 @@ class Noise:
                 object.__setattr__(self, f.name, _f64(value))
 
 
-STREAMS = ("motion", "range_bearing", "gps", "heading", "scans")
+STREAMS = ("motion", "range_bearing", "beacon_ranges", "gps", "heading", "scans")
 
 
 class Event(NamedTuple):
@@ -354,6 +382,7 @@ class Sequence:
     name: str
     motion: Twist | Increments | None = None
     range_bearing: RangeBearing | None = None
+    beacon_ranges: BeaconRanges | None = None
     gps: Gps | None = None
     heading: Heading | None = None
     scans: Scans | None = None
@@ -366,7 +395,7 @@ class Sequence:
     def __post_init__(self):
         if self.motion is not None and not isinstance(self.motion, (Twist, Increments)):
             raise TypeError("Sequence.motion must be Twist or Increments")
-        for stream, cls in (("range_bearing", RangeBearing), ("gps", Gps), ("heading", Heading), ("scans", Scans)):
+        for stream, cls in (("range_bearing", RangeBearing), ("beacon_ranges", BeaconRanges), ("gps", Gps), ("heading", Heading), ("scans", Scans)):
             value = getattr(self, stream)
             if value is not None and not isinstance(value, cls):
                 raise TypeError(f"Sequence.{stream} must be {cls.__name__}")
@@ -403,8 +432,8 @@ class Sequence:
     def event_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The time-ordered merge of all input streams as arrays ``(t, stream_code, start, stop)``.
 
-        ``stream_code`` indexes :data:`STREAMS`. Range-bearing rows with one stamp are one
-        event. At equal times the order is the order of :data:`STREAMS` (motion first, so a
+        ``stream_code`` indexes :data:`STREAMS`. Range-bearing (and beacon-range) rows with one
+        stamp are one event. At equal times the order is the order of :data:`STREAMS` (motion first, so a
         filter predicts to the stamp, then applies the measurements), stable within a stream.
         """
         ts, codes, starts, stops = [], [], [], []
@@ -413,7 +442,7 @@ class Sequence:
             if stream is None or not len(stream):
                 continue
             t = stream.t
-            if name == "range_bearing":
+            if name in ("range_bearing", "beacon_ranges"):
                 first = np.flatnonzero(np.r_[True, t[1:] != t[:-1]])
                 last = np.r_[first[1:], len(t)]
             else:
@@ -454,6 +483,8 @@ class Sequence:
                 entry["known_ids"] = int(np.unique(ids[ids >= 0]).size)
                 entry["unknown_id_rows"] = int((ids < 0).sum())
                 entry["observation_sets"] = int(np.unique(stream.t).size)
+            if name == "beacon_ranges":
+                entry["beacons"] = int(np.unique(stream.beacon_id).size)
             if name == "scans":
                 entry["beams"] = int(stream.ranges.shape[1])
                 entry["max_range"] = stream.max_range

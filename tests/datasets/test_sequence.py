@@ -8,6 +8,7 @@ import pytest
 
 from datasets.sequence import (
     STREAMS,
+    BeaconRanges,
     Gps,
     Heading,
     Increments,
@@ -38,6 +39,8 @@ def twist(t=(0.0, 0.1, 0.2), v=(1.0, 1.0, 1.0), w=(0.0, 0.1, 0.2), dt=(0.1, 0.1,
         (lambda: Increments(t=[0.0, 1.0], delta=np.zeros((2, 3)), cov=np.zeros((1, 3, 3))), "cov has 1 rows"),
         (lambda: RangeBearing(t=[1.0, 0.5], range=[1, 1], bearing=[0, 0], landmark_id=[0, 1]), "not monotonic"),
         (lambda: RangeBearing(t=[0.0], range=[1, 2], bearing=[0], landmark_id=[0]), "range has 2 rows"),
+        (lambda: BeaconRanges(t=[0.0, 1.0], range=[1.0], beacon_id=[0, 1]), "range has 1 rows"),
+        (lambda: BeaconRanges(t=[0.0], range=[1.0], beacon_id=[-1]), "beacon_id must be >= 0"),
         (lambda: Gps(t=[0.0, 1.0], xy=np.zeros((3, 2))), "xy has 3 rows"),
         (lambda: Heading(t=[[0.0, 1.0]], yaw=[0.0, 0.0]), "must be 1-D"),
         (lambda: Trajectory(t=[0.0, 1.0], poses=[[0, 0, 0], [np.nan, 0, 0]]), "poses has non-finite"),
@@ -60,6 +63,8 @@ def test_wrong_stream_types_raise():
         Sequence("s", motion=Gps(t=[0.0], xy=[[0.0, 0.0]]))
     with pytest.raises(TypeError, match="range_bearing"):
         Sequence("s", range_bearing=twist())
+    with pytest.raises(TypeError, match="beacon_ranges"):
+        Sequence("s", beacon_ranges=Gps(t=[0.0], xy=[[0.0, 0.0]]))
 
 
 def test_measurements_may_be_nonfinite_and_are_counted():
@@ -86,6 +91,7 @@ def seq():
         "toy",
         motion=twist(t=(0.0, 0.1, 0.2)),
         range_bearing=RangeBearing(t=[0.1, 0.1, 0.1, 0.2, 0.25], range=[1, 2, 3, 4, 5], bearing=[0] * 5, landmark_id=[0, 1, -1, 2, 0]),
+        beacon_ranges=BeaconRanges(t=[0.1, 0.2, 0.2], range=[3.0, 4.0, np.nan], beacon_id=[5, 5, 6]),
         gps=Gps(t=[0.0, 0.2], xy=np.zeros((2, 2))),
         heading=Heading(t=[0.1, 0.15], yaw=[0.0, 0.0]),
         scans=Scans(t=[0.2], ranges=np.ones((1, 4)), angles=np.linspace(-1, 1, 4), max_range=30.0),
@@ -104,10 +110,12 @@ def test_events_are_time_ordered_motion_first_and_observation_sets_grouped(seq):
         (0.0, "gps", 0, 1),
         (0.1, "motion", 1, 2),
         (0.1, "range_bearing", 0, 3),
+        (0.1, "beacon_ranges", 0, 1),
         (0.1, "heading", 0, 1),
         (0.15, "heading", 1, 2),
         (0.2, "motion", 2, 3),
         (0.2, "range_bearing", 3, 4),
+        (0.2, "beacon_ranges", 1, 3),
         (0.2, "gps", 1, 2),
         (0.2, "scans", 0, 1),
         (0.25, "range_bearing", 4, 5),
@@ -128,6 +136,7 @@ def test_summary_contents(seq):
     assert s["motion"] == {"kind": "Twist", "count": 3, "rate_hz": pytest.approx(10.0), "nonfinite_rows": 0}
     rb = s["range_bearing"]
     assert (rb["count"], rb["known_ids"], rb["unknown_id_rows"], rb["observation_sets"]) == (5, 3, 1, 3)
+    assert s["beacon_ranges"] == {"kind": "BeaconRanges", "count": 3, "rate_hz": pytest.approx(20.0), "nonfinite_rows": 1, "beacons": 2}
     assert s["scans"]["beams"] == 4 and s["scans"]["max_range"] == 30.0 and "rate_hz" not in s["scans"]
     assert s["ground_truth"] == {"count": 2, "t0": 0.0, "t1": 0.3}
     assert s["landmarks"] == 3
