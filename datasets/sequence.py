@@ -260,6 +260,21 @@ class Scans(_Stream):
     readings ``>= max_range`` are "no return"; mount (3,) sensor pose in the robot frame;
     pose (S, 3) the robot pose the log attached to each scan (odometry, or the corrected
     pose of a corrected log), optional.
+
+    Interlaced scanners (several beam layouts with one angular step in one stream, e.g.
+    fr-clinic's SICK at 1° steps starting at −90°, −89.75°, −89.5°, −89.25°):
+
+    angle_offset (S,) [rad], optional: beam b of scan s points at ``angles[b] + angle_offset[s]``
+        (None: 0 for every scan). Finite.
+    beam_count (S,) int, optional: scan s has the beams ``0 … beam_count[s] − 1``; the rest
+        of its row is padding, not a reading (None: every scan has B beams). Padding is
+        stored as NaN (set on construction), so a consumer that ignored ``beam_count`` would
+        reject it rather than map it; :meth:`nonfinite_count` (and the summary's data-quality
+        numbers) count only real beams.
+
+    Consumers take a scan's beams from :meth:`beams` (``ranges, angles`` of its real beams)
+    instead of pairing ``ranges[k]`` with ``angles``; the two agree whenever both optional
+    fields are None. Both are per row: :meth:`select` keeps them with their scans.
     """
 
     t: np.ndarray
@@ -268,6 +283,8 @@ class Scans(_Stream):
     max_range: float = 80.0
     mount: np.ndarray = field(default_factory=lambda: np.zeros(3), metadata={"per_row": False})
     pose: np.ndarray | None = None
+    angle_offset: np.ndarray | None = None
+    beam_count: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "t", _f64(self.t))
@@ -284,6 +301,40 @@ class Scans(_Stream):
         if self.pose is not None:
             object.__setattr__(self, "pose", _f64(self.pose).reshape(-1, 3))
             _check_len("Scans", self.t, pose=self.pose)
+        S, B = self.ranges.shape
+        if self.angle_offset is not None:
+            offset = _f64(self.angle_offset)
+            if offset.shape != (S,):
+                raise ValueError(f"Scans.angle_offset must be ({S},), got {offset.shape}")
+            _check_finite("Scans", angle_offset=offset)
+            object.__setattr__(self, "angle_offset", offset)
+        if self.beam_count is not None:
+            count = np.asarray(self.beam_count)
+            if count.shape != (S,):
+                raise ValueError(f"Scans.beam_count must be ({S},), got {count.shape}")
+            if count.size and (not np.all(np.isfinite(count)) or np.any(count != np.round(count)) or count.min() < 0 or count.max() > B):
+                raise ValueError(f"Scans.beam_count must be integers in [0, {B}]")
+            object.__setattr__(self, "beam_count", np.ascontiguousarray(count, dtype=np.int64))
+            padding = self._padding()
+            if not np.all(np.isnan(self.ranges[padding])):
+                object.__setattr__(self, "ranges", np.where(padding, np.nan, self.ranges).astype(self.ranges.dtype))
+
+    def _padding(self) -> np.ndarray:
+        """(S, B) True where a row holds padding, not a beam (all False without ``beam_count``)."""
+        S, B = self.ranges.shape
+        if self.beam_count is None:
+            return np.zeros((S, B), dtype=bool)
+        return np.arange(B)[None, :] >= self.beam_count[:, None]
+
+    def beams(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Scan ``k``'s real beams: ranges (n,) float64 [m] and their angles (n,) in the sensor frame [rad]."""
+        n = self.ranges.shape[1] if self.beam_count is None else int(self.beam_count[k])
+        angles = self.angles[:n] if self.angle_offset is None else self.angles[:n] + self.angle_offset[k]
+        return self.ranges[k, :n].astype(np.float64), angles
+
+    def nonfinite_count(self) -> int:
+        """Number of scans with a non-finite reading among their real beams (padding is not a reading)."""
+        return int((~np.isfinite(self.ranges) & ~self._padding()).any(axis=1).sum())
 
     def _measurement_arrays(self):
         return {"ranges": self.ranges}
