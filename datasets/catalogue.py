@@ -71,6 +71,8 @@ _CARLONE3D = "L. Carlone, R. Tron, K. Daniilidis, F. Dellaert, \"Initialization 
 _GTSAM = "F. Dellaert and contributors, GTSAM (Georgia Tech), examples/Data"
 _LAGO = "L. Carlone et al., \"A fast and accurate approximation for planar pose graph optimization\", IJRR 2014"
 _RADISH = "A. Howard, N. Roy, \"The Robotics Data Set Repository (Radish)\", 2003"
+_PLAZA = ("J. Djugash, S. Singh, G. Kantor, W. Zhang, \"Range-only SLAM for robots operating cooperatively with sensor "
+          "networks\", ICRA 2006; GTSAM copies: B. Boots, G. Gordon, \"A spectral learning approach to range-only SLAM\", ICML 2013")
 _KUEMMERLE = ("R. Kuemmerle et al., \"On measuring the accuracy of SLAM algorithms\", Autonomous Robots 27(4):387-407, 2009")
 
 
@@ -90,6 +92,17 @@ def _mrclam() -> dict[str, CatalogueEntry]:
                 name=name, kind="landmarks (range-bearing, velocity odometry, real indoor)",
                 ground_truth="Vicon poses + surveyed landmarks" if dataset == 6 else "surveyed landmarks only",
                 files=tuple(files), roles=tuple(roles), reader="datasets.formats.mrclam:read", citation=_MRCLAM)
+    return out
+
+
+def _plaza() -> dict[str, CatalogueEntry]:
+    out = {}
+    for run in ("Plaza1", "Plaza2"):
+        d = f"plaza_range_only/{run}"
+        out[f"plaza:{run}"] = CatalogueEntry(
+            name=f"plaza:{run}", kind="range-only (beacon ranges + odometry increments, real outdoor)",
+            ground_truth="GPS-based poses + surveyed beacons", files=(f"{d}_DR.txt", f"{d}_TD.txt", f"{d}_.mat"),
+            roles=("odometry", "ranges", "truth"), reader="datasets.formats.plaza:read", citation=_PLAZA)
     return out
 
 
@@ -185,6 +198,7 @@ CATALOGUE: dict[str, CatalogueEntry] = {
         name="victoria_park", kind="landmarks (odometry increments + tree observations, real outdoor)",
         ground_truth="none", files=("victoria_park/victoria_park_gtsam.txt", "victoria_park/victoriaPark_isam.txt"),
         roles=("gtsam", "isam"), reader="datasets.formats.victoria_park:load", citation=_VICTORIA),
+    **_plaza(),
     **_graphs(),
     **_carmen(),
 }

@@ -4,6 +4,7 @@ Names (exact forms)::
 
     utias:<dataset>/robot<k>      e.g. utias:6/robot1        UTIAS MRCLAM
     victoria_park                                            Victoria Park trees
+    plaza:<run>                   e.g. plaza:Plaza1          CMU Plaza range-only
     g2o:<name>   isam:<name>                                 pose graphs
     carmen:<name>   carmen-corrected:<name>                  laser logs
     sim:landmarks   sim:localization   sim:laser             simulators (seeded)

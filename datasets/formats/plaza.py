@@ -1,0 +1,122 @@
+"""CMU Plaza range-only datasets (Djugash et al., ICRA 2006; the copies shipped with GTSAM).
+
+A run ``PlazaN`` has three files:
+
+``PlazaN_DR.txt``  ``t  Δd  Δθ`` (tab-separated) — odometry: distance travelled and heading change
+                   from the previous stamp to ``t``. Integrated as "move Δd along the old heading,
+                   then turn Δθ", i.e. the body-frame increment ``(Δd, 0, Δθ)`` of :class:`Increments`
+                   (x ⊕ (Δd, 0, Δθ)); this reproduces the ground-truth path of Plaza1 to 1.6 m mean
+                   over 1.86 km.
+``PlazaN_TD.txt``  ``t  robot_id  beacon_id  range`` — radio ranges [m] to four fixed beacons
+                   → :class:`BeaconRanges`.
+``PlazaN_.mat``    MATLAB v5 (read by :mod:`datasets.formats.matlab`): ``GT`` ``(t, x, y, θ)`` ground-truth
+                   poses, ``TL`` ``(beacon_id, x, y)`` true beacon positions; also ``DR``/``TD`` (the same
+                   numbers as the text files) and ``DRp`` (GTSAM's dead-reckoned path).
+
+What the reader does about the files' quirks (each counted in ``meta``):
+
+- **Out-of-order ranges.** Plaza1_TD.txt jumps back in time twice (lines 1989 and 2867, by 64 s
+  and 50 s): two stretches of 120 and 97 measurements were logged after later ones. They agree
+  with the ground truth as well as their neighbours do, so they are genuine: the rows are
+  sorted by time (stable) and ``meta["range_rows_out_of_order"]`` counts the rows that came
+  after a later stamp. ``strict_time=True`` raises :class:`DataFormatError` at the first one.
+- **Ground-truth heading of Plaza2 points backwards.** In Plaza2 the robot moves along
+  θ_GT + π (99.8 % of moving steps), while every odometry distance is positive; GTSAM's own
+  ``DRp`` starts at θ_GT + π. The reader measures this per run — the median angle between
+  the ground-truth heading and the direction of travel — and, when it is near π, rotates the
+  ground-truth headings by π (``meta["ground_truth_heading"]`` says whether it did and why;
+  ``align_heading=False`` keeps the file's values).
+- The odometry of Plaza1 is unusually good: its Δθ equal the ground-truth heading changes
+  exactly (correlation 1.0), so its heading is not independent of the ground truth.
+- The ranges carry a bias: measured minus true distance has median +2.8 m (both runs, every
+  beacon) and a spread of ≈ 1.1–1.6 m. The files state no noise, so :class:`Noise` stays empty;
+  the numbers are in research/data.md.
+
+``initial_pose`` is the first ground-truth pose (at the stamp before the first odometry row:
+``GT[k+1].t == DR[k].t`` exactly); ``landmarks`` holds the beacons under their ids.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..geometry import wrap_angle
+from ..sequence import BeaconRanges, Increments, LandmarkMap, Noise, Sequence, Trajectory
+from ._text import check_monotonic, numeric_table
+from .matlab import read_mat
+
+__all__ = ["read_run", "read", "heading_offset"]
+
+#: a ground-truth step shorter than this [m] says nothing about the direction of travel
+_MOVING = 0.05
+
+
+def heading_offset(t: np.ndarray, poses: np.ndarray) -> tuple[float, float]:
+    """Median angle from the heading to the direction of travel over moving steps, and the
+    fraction of those steps within 0.5 rad of that median."""
+    step = np.diff(poses[:, :2], axis=0)
+    moving = np.hypot(step[:, 0], step[:, 1]) > _MOVING
+    if not moving.any():
+        return 0.0, 1.0
+    angle = wrap_angle(np.arctan2(step[moving, 1], step[moving, 0]) - poses[:-1, 2][moving])
+    median = float(np.angle(np.median(np.cos(angle)) + 1j * np.median(np.sin(angle))))
+    return median, float(np.mean(np.abs(wrap_angle(angle - median)) < 0.5))
+
+
+def _ranges(path: Path, strict_time: bool) -> tuple[BeaconRanges, dict]:
+    rows, lines = numeric_table(path, 4, "a range row (t robot_id beacon_id range)")
+    t = rows[:, 0]
+    if strict_time:
+        check_monotonic(str(path), t, lines, "range measurements")
+    late = t < np.maximum.accumulate(t)
+    order = np.argsort(t, kind="stable")
+    ids = rows[:, 2]
+    if np.any(ids != np.round(ids)) or np.any(ids < 0):
+        k = int(np.flatnonzero((ids != np.round(ids)) | (ids < 0))[0])
+        raise DataFormatError(path, int(lines[k]), "a non-negative integer beacon id", str(ids[k]))
+    stream = BeaconRanges(t=t[order], range=rows[order, 3], beacon_id=ids[order].astype(np.int64))
+    meta = {"range_rows": int(len(rows)), "range_rows_out_of_order": int(late.sum()),
+            "robot_ids": np.unique(rows[:, 1]).astype(int).tolist()}
+    return stream, meta
+
+
+def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None = None, name: str = "plaza",
+             strict_time: bool = False, align_heading: bool = True) -> Sequence:
+    """One Plaza run from its files (see the module docstring); ``truth`` is the ``.mat`` file."""
+    odo, odo_lines = numeric_table(odometry, 3, "an odometry row (t delta_distance delta_heading)")
+    check_monotonic(str(odometry), odo[:, 0], odo_lines, "odometry")
+    delta = np.column_stack([odo[:, 1], np.zeros(len(odo)), odo[:, 2]])
+    beacon_ranges, meta = _ranges(Path(ranges), strict_time)
+    meta = {"dataset": "CMU Plaza (range-only)", "files": [str(p) for p in (odometry, ranges, truth) if p is not None],
+            "odometry_rows": int(len(odo)), **meta, "noise": "not stated by the dataset", "time": "seconds (dataset clock)"}
+
+    ground_truth = landmarks = initial = None
+    if truth is not None:
+        mat = read_mat(truth, ("GT", "TL"))
+        gt, tl = mat["GT"], mat["TL"]
+        if gt.ndim != 2 or gt.shape[1] != 4 or tl.ndim != 2 or tl.shape[1] != 3:
+            raise DataFormatError(truth, None, "GT (N, 4) and TL (L, 3)", f"GT {gt.shape}, TL {tl.shape}")
+        check_monotonic(str(truth), gt[:, 0], np.arange(1, len(gt) + 1), "GT rows")
+        poses = gt[:, 1:4].copy()
+        offset, agreement = heading_offset(gt[:, 0], poses)
+        flip = align_heading and abs(offset) > np.pi / 2
+        if flip:
+            poses[:, 2] = wrap_angle(poses[:, 2] + np.pi)
+        meta["ground_truth_heading"] = {
+            "travel_minus_heading_median_rad": offset, "steps_agreeing": agreement, "rotated_by_pi": bool(flip),
+            "note": "GT heading points against the direction of travel; rotated by pi" if flip else "GT heading as in the file"}
+        ground_truth = Trajectory(t=gt[:, 0], poses=poses)
+        landmarks = LandmarkMap(ids=tl[:, 0].astype(np.int64), xy=tl[:, 1:3])
+        initial = ground_truth.poses[0]
+        meta["ground_truth_kind"] = "GPS-based reference of the authors (poses) + surveyed beacons"
+        unknown = np.setdiff1d(np.unique(beacon_ranges.beacon_id), landmarks.ids)
+        meta["ranges_to_unknown_beacons"] = int(np.isin(beacon_ranges.beacon_id, unknown).sum())
+    return Sequence(name=name, motion=Increments(t=odo[:, 0], delta=delta), beacon_ranges=beacon_ranges,
+                    ground_truth=ground_truth, landmarks=landmarks, initial_pose=initial, noise=Noise(), meta=meta)
+
+
+def read(paths: dict, name: str, **params) -> Sequence:
+    """Catalogue reader: ``paths`` has roles odometry, ranges and (optional) truth."""
+    return read_run(paths["odometry"], paths["ranges"], paths.get("truth"), name=name, **params)
