@@ -45,6 +45,9 @@ IMU    z = θ           h = H_imu x,  H_imu = [[0, 0, 1]]              (1, 3),  
 Range-bearing to a KNOWN landmark m = (mx, my):
        z = (r, b)      h = observe(x, m),  H = ∂h/∂x (2, 3) (:func:`estimators.models.observation_jacobians`),
                        R_landmark (2, 2); bearing residual wrapped
+Range to a KNOWN beacon b = (bx, by) (range-only radio beacons, e.g. CMU Plaza):
+       z = r           h = ‖b − p‖ + β,  H = [−(bx − x)/d, −(by − y)/d, 0] (1, 3) with d = ‖b − p‖,
+                       R_beacon (1, 1); β = ``beacon_bias`` a constant range offset [m] (default 0)
     y = z ⊖ h(x⁻),  S = H P⁻ Hᵀ + R,  K = P⁻ Hᵀ S⁻¹,  x = x⁻ + K y,  P = (I − KH) P⁻ (I − KH)ᵀ + K R Kᵀ (Joseph, filterpy)
 
 Gating and bad input
@@ -52,7 +55,7 @@ Gating and bad input
 NIS = yᵀ S⁻¹ y (filterpy's ``y`` and ``SI`` of the update) is compared with the χ² quantile of
 the measurement dimension at ``gate_confidence`` (per sensor; 1.0 disables the gate). A rejected
 update is undone (x, P are the prior again) and counted per sensor and reason: ``nonfinite`` (NaN/inf value or stamp),
-``gate``, ``too_old`` (older than the history), ``unknown_landmark`` (no such id in the map).
+``gate``, ``too_old`` (older than the history), ``unknown_landmark`` / ``unknown_beacon`` (no such id in the map).
 A gate alone can lock a filter out for good: once the prediction has drifted beyond its own
 covariance (wheel slip, a wrong noise model) every fix is "an outlier". After ``max_rejections``
 consecutive gated-out measurements of one sensor (default 5; 0 disables) the filter treats
@@ -65,7 +68,7 @@ Time, multi-rate input and delayed measurements
 -----------------------------------------------
 :meth:`EKFLocalizer.process` takes inputs with their own stamps in any arrival order:
 ``("twist", (v, ω, dt))``, ``("increment", (dx, dy, dθ))``, ``("gps", (x, y))``, ``("imu", yaw)``,
-``("landmark", (range, bearing, mx, my))`` (or an (M, 4) array). Between events the filter is
+``("landmark", (range, bearing, mx, my))`` (or an (M, 4) array), ``("beacon", (range, bx, by))`` (or (M, 3)). Between events the filter is
 propagated with the commands in force (:func:`estimators.stepping.twist_pieces`). After each
 input a snapshot (t, kind, value, x, P) joins a history covering ``history_length`` seconds. An
 input older than the filter's time restores the last snapshot at or before its stamp and replays
@@ -74,12 +77,12 @@ whole history is rejected (``too_old``). :meth:`EKFLocalizer.run` walks ``Sequen
 through the same machinery and records one pose and covariance per event.
 
 Defaults (the notes): EULER, Q = diag(0.01, 0.01, 0.01) per 0.02 s step, R_gps = diag(1e-4, 1e-4),
-R_imu = 1e-3; and (not in the notes) R_landmark = diag(0.1², 0.05²), gate confidence 0.999,
+R_imu = 1e-3; and (not in the notes) R_landmark = diag(0.1², 0.05²), R_beacon = 1 m², gate confidence 0.999,
 max_rejections 5, history 1 s, initial_cov = diag(1e-4, 1e-4, 1e-4), heading in ENU. ``use_sequence_noise=True`` replaces R_gps, R_imu,
 R_landmark and twist_cov by the noise the sequence states (e.g. a simulator's true noise).
 
 Diagnostics of :meth:`run`: ``nis_<sensor>``, ``nis_<sensor>_t``, ``nis_<sensor>_accepted`` and
-``nis_dim_<sensor>`` for sensor in gps, imu, landmark (NIS of every measurement that reached the
+``nis_dim_<sensor>`` for sensor in gps, imu, landmark, beacon (NIS of every measurement that reached the
 gate, as finally processed: a replay replaces the records of the steps it redoes), and ``rejected_<sensor>_<reason>``
 counts; ``meta["rejected"]`` holds the same counts as a nested dict. ``nis``, ``nis_dof`` and
 ``nis_t`` merge all sensors in time order (the names :mod:`experiments.metrics` reads).
@@ -103,11 +106,11 @@ from estimators.stepping import twist_pieces
 __all__ = ["EKFLocalizer", "compass_to_yaw", "KINDS", "SENSORS"]
 
 #: input kinds of :meth:`EKFLocalizer.process` → the sensor they are counted under
-KINDS: dict[str, str] = {"twist": "motion", "increment": "motion", "gps": "gps", "imu": "imu", "landmark": "landmark"}
+KINDS: dict[str, str] = {"twist": "motion", "increment": "motion", "gps": "gps", "imu": "imu", "landmark": "landmark", "beacon": "beacon"}
 #: measurement sensors and their dimension
-SENSORS: dict[str, int] = {"gps": 2, "imu": 1, "landmark": 2}
+SENSORS: dict[str, int] = {"gps": 2, "imu": 1, "landmark": 2, "beacon": 1}
 #: Sequence stream name → input kind (the motion stream maps by its type)
-_STREAM_KIND = {"gps": "gps", "heading": "imu", "range_bearing": "landmark"}
+_STREAM_KIND = {"gps": "gps", "heading": "imu", "range_bearing": "landmark", "beacon_ranges": "beacon"}
 Q_UNITS = ("per_step", "per_second")
 HEADING_CONVENTIONS = ("enu", "compass")
 
@@ -180,6 +183,17 @@ def _H_landmark(x, m):
     return observation_jacobians(x, m)[0]
 
 
+def _h_beacon(x, b, bias):
+    return np.array([np.hypot(b[0] - x[0], b[1] - x[1]) + bias])
+
+
+def _H_beacon(x, b, bias):
+    d = np.hypot(b[0] - x[0], b[1] - x[1])
+    if d == 0.0:  # on top of the beacon: the range says nothing about the direction
+        return np.zeros((1, 3))
+    return np.array([[-(b[0] - x[0]) / d, -(b[1] - x[1]) / d, 0.0]])
+
+
 @dataclass
 class _Snapshot:
     """The filter right after input (t, kind, value) was applied, with the diagnostic records
@@ -196,7 +210,7 @@ class _Snapshot:
 
 
 class EKFLocalizer:
-    """EKF localization with cmd_vel/odometry prediction, GPS, IMU yaw and known-landmark updates.
+    """EKF localization with cmd_vel/odometry prediction, GPS, IMU yaw, known-landmark and known-beacon updates.
 
     All parameters are plain types so an experiment config can construct it; every one has the
     default of the design notes or a documented choice (see the module docstring).
@@ -213,6 +227,8 @@ class EKFLocalizer:
         R_gps=(1e-4, 1e-4),
         R_imu: float = 1e-3,
         R_landmark=(0.01, 0.0025),
+        R_beacon: float = 1.0,
+        beacon_bias: float = 0.0,
         gate_confidence: float | dict = 0.999,
         history_length: float = 1.0,
         max_rejections: int = 5,
@@ -240,6 +256,10 @@ class EKFLocalizer:
         self.R_gps = _matrix(R_gps, 2, "R_gps")
         self.R_imu = _matrix(R_imu, 1, "R_imu")
         self.R_landmark = _matrix(R_landmark, 2, "R_landmark")
+        self.R_beacon = _matrix(R_beacon, 1, "R_beacon")
+        if not np.isfinite(beacon_bias):
+            raise ValueError(f"beacon_bias must be a finite number of metres, got {beacon_bias!r}")
+        self.beacon_bias = float(beacon_bias)
         self.gate = self._gates(gate_confidence)
         self.gate_confidence = gate_confidence
         self.history_length = float(history_length)
@@ -369,6 +389,14 @@ class EKFLocalizer:
             raise ValueError(f"update_landmark: landmark position must be finite, got {m}")
         z = np.array([range, bearing], dtype=float)
         return self._update("landmark", z, _h_landmark, _H_landmark, self.R_landmark, _residual_range_bearing, (m,))
+
+    def update_beacon(self, range, beacon_xy) -> bool:
+        """Range [m] to the known beacon at ``beacon_xy`` (range-only; ``beacon_bias`` is added to h)."""
+        b = np.asarray(beacon_xy, dtype=float).reshape(2)
+        if not np.all(np.isfinite(b)):
+            raise ValueError(f"update_beacon: beacon position must be finite, got {b}")
+        z = np.array([range], dtype=float)
+        return self._update("beacon", z, _h_beacon, _H_beacon, self.R_beacon, _residual_gps, (b, self.beacon_bias))
 
     def _update(self, sensor, z, hx, HJ, R, residual, args=()) -> bool:
         if not np.all(np.isfinite(z)):
@@ -500,6 +528,9 @@ class EKFLocalizer:
         elif kind == "landmark":
             for r, b, mx, my in np.asarray(value, dtype=float).reshape(-1, 4):
                 self.update_landmark(r, b, (mx, my))
+        elif kind == "beacon":
+            for r, bx, by in np.asarray(value, dtype=float).reshape(-1, 3):
+                self.update_beacon(r, (bx, by))
         elif kind == "increment":
             delta, cov = value if isinstance(value, tuple) else (value, None)
             self.predict_increment(delta, cov)
@@ -571,21 +602,28 @@ class EKFLocalizer:
             return "gps", sequence.gps.xy[start]
         if stream == "heading":
             return "imu", sequence.heading.yaw[start]
+        if stream == "beacon_ranges":
+            br = sequence.beacon_ranges
+            rows, xy = self._known(sequence, br.beacon_id[start:stop], "beacon")
+            return "beacon", np.column_stack([br.range[start:stop][rows], xy])
         rb = sequence.range_bearing
-        ids = rb.landmark_id[start:stop]
+        rows, xy = self._known(sequence, rb.landmark_id[start:stop], "landmark")
+        return "landmark", np.column_stack([rb.range[start:stop][rows], rb.bearing[start:stop][rows], xy])
+
+    def _known(self, sequence: Sequence, ids: np.ndarray, sensor: str) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of ``ids`` in ``sequence.landmarks`` and their positions; the others are counted."""
         lm = sequence.landmarks
         known = np.isin(ids, lm.ids) if lm is not None else np.zeros(ids.shape, dtype=bool)
         for _ in range(int((~known).sum())):
-            self._reject("landmark", "unknown_landmark")
+            self._reject(sensor, f"unknown_{sensor}")
         rows = np.flatnonzero(known)
-        xy = np.array([lm.position(i) for i in ids[rows]]).reshape(-1, 2)
-        return "landmark", np.column_stack([rb.range[start:stop][rows], rb.bearing[start:stop][rows], xy])
+        return rows, np.array([lm.position(i) for i in ids[rows]]).reshape(-1, 2)
 
     def run(self, sequence: Sequence) -> Estimate:
         """Localize along ``sequence``: one pose and covariance per event of ``sequence.events()``.
 
-        Uses the motion stream (Twist or Increments), GPS, heading and range-bearing rows whose
-        landmark id is in ``sequence.landmarks``; scans are ignored. Starts at
+        Uses the motion stream (Twist or Increments), GPS, heading, and the range-bearing and
+        beacon-range rows whose id is in ``sequence.landmarks``; scans are ignored. Starts at
         ``sequence.start_pose`` with ``initial_cov``.
         """
         self._configure_noise(sequence)
@@ -655,6 +693,8 @@ class EKFLocalizer:
             "R_gps": self.R_gps.tolist(),
             "R_imu": self.R_imu.tolist(),
             "R_landmark": self.R_landmark.tolist(),
+            "R_beacon": self.R_beacon.tolist(),
+            "beacon_bias": self.beacon_bias,
             "gate_confidence": self.gate_confidence,
             "history_length": self.history_length,
             "max_rejections": self.max_rejections,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from datasets.geometry import wrap_angle
-from datasets.sequence import Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
 from estimators import create
 from estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
 from estimators.models import ARC, EULER, MOTION_MODELS, observation_jacobians, observe
@@ -291,6 +291,69 @@ def test_landmark_localization_beats_dead_reckoning():
     assert err.max() < 0.15 and dead_err.max() > 3 * err.max()
     nis = est.diagnostics["nis_landmark"]
     assert abs(nis.mean() - 2.0) < 0.4
+
+
+# ---------------------------------------------------------------- range-only beacons
+def _with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0, seed: int = 0) -> Sequence:
+    """``seq`` with its range-bearing rows turned into range-only rows (true range + bias + N(0, σ²))."""
+    rb = seq.range_bearing
+    truth = _truth_at(seq, rb.t)
+    xy = seq.landmarks.xy[rb.landmark_id]
+    r = np.hypot(xy[:, 0] - truth[:, 0], xy[:, 1] - truth[:, 1]) + bias + sigma * np.random.default_rng(seed).standard_normal(len(rb))
+    return Sequence(**{**seq.__dict__, "gps": None, "heading": None, "range_bearing": None,
+                       "beacon_ranges": BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id)})
+
+
+def test_beacon_jacobian_matches_finite_differences():
+    from estimators.ekf_localizer import _H_beacon, _h_beacon
+
+    x, b = np.array([1.0, -0.5, 2.8]), np.array([4.0, 3.0])
+    np.testing.assert_allclose(_H_beacon(x, b, 0.7), _fd_jacobian(lambda s: _h_beacon(s, b, 0.7), x), atol=1e-8)
+    assert np.array_equal(_H_beacon(np.array([4.0, 3.0, 0.0]), b, 0.0), np.zeros((1, 3)))
+
+
+def test_beacon_update_is_the_ekf_update_with_the_bias_in_h():
+    x0, P0 = np.array([1.0, 2.0, 0.4]), np.diag([0.04, 0.09, 0.01])
+    b, z, R, bias = np.array([5.0, 4.0]), 7.3, 0.25, 2.5
+    f = EKFLocalizer(R_beacon=R, beacon_bias=bias, gate_confidence=1.0)
+    f.reset(x0, P0)
+    assert f.update_beacon(z, b)
+    d = b - x0[:2]
+    H = np.array([[-d[0], -d[1], 0.0]]) / np.linalg.norm(d)
+    S = H @ P0 @ H.T + R
+    K = P0 @ H.T / S
+    np.testing.assert_allclose(f.x, x0 + (K * (z - np.linalg.norm(d) - bias)).ravel(), atol=1e-12)
+    np.testing.assert_allclose(f.P, (np.eye(3) - K @ H) @ P0, atol=1e-12)
+
+
+@pytest.mark.parametrize("bias", [0.0, 2.0])
+def test_range_only_localization_beats_dead_reckoning_and_is_consistent(bias):
+    lms = np.array([[5.0, 5.0], [-3.0, 4.0], [10.0, -2.0], [0.0, 12.0], [15.0, 8.0]])
+    sigma = 0.1
+    seq = _with_beacon_ranges(_scenario(seed=5, duration=60.0, sigma_v=0.2, sigma_omega=0.1, landmarks=lms), sigma, bias)
+    est = _true_noise_filter(R_beacon=sigma**2, beacon_bias=bias).run(seq)
+    err = np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
+    dead = EKFLocalizer(Q=0.0).run(Sequence(**{**seq.__dict__, "beacon_ranges": None}))
+    dead_err = np.linalg.norm(dead.poses[:, :2] - _truth_at(seq, dead.t)[:, :2], axis=1)
+    assert err.max() < 0.25 and dead_err.max() > 3 * err.max()
+    nis = est.diagnostics["nis_beacon"]
+    assert nis.size == len(seq.beacon_ranges) and int(est.diagnostics["nis_dim_beacon"]) == 1
+    assert abs(nis.mean() - 1.0) < 0.2
+    if bias:  # the same data with the bias left out of the model: visibly worse and inconsistent
+        unbiased = _true_noise_filter(R_beacon=sigma**2).run(seq)
+        assert unbiased.diagnostics["nis_beacon"].mean() > 3 or unbiased.meta["rejected"]["beacon"].get("gate", 0) > 0.1 * nis.size
+
+
+def test_unknown_beacons_and_nonfinite_ranges_are_counted():
+    seq = _with_beacon_ranges(_scenario(seed=3, duration=2.0, landmarks=np.array([[5.0, 5.0], [-3.0, 4.0]])), 0.1)
+    br = seq.beacon_ranges
+    ids, r = br.beacon_id.copy(), br.range.copy()
+    ids[::3] = 99
+    r[1] = np.nan
+    est = _true_noise_filter(R_beacon=0.01).run(Sequence(**{**seq.__dict__, "beacon_ranges": BeaconRanges(t=br.t, range=r, beacon_id=ids)}))
+    assert est.meta["rejected"]["beacon"]["unknown_beacon"] == int(np.sum(ids == 99))
+    assert est.meta["rejected"]["beacon"]["nonfinite"] == 1
+    assert np.all(np.isfinite(est.poses))
 
 
 # ---------------------------------------------------------------- gating, outages
