@@ -20,10 +20,20 @@ The :class:`Sequence` of a **raw** log:
   ROBOTLASER1: ``between(robot pose, laser pose)``; the median over scans, the spread is in
   ``meta["mount_spread"]``). Beam angles: FLASER covers 180° from −90°, ``n`` even → step π/n
   (180 → 1°, 360 → 0.5°), ``n`` odd → step π/(n−1) (181, 361: both ends included); ROBOTLASER1
-  states ``start + k·res``. One Scans stream has one beam layout: scans of other layouts are
-  dropped and counted (``meta["dropped_scans_other_layout"]``; choose with ``beams=``).
+  states ``start + k·res``.
   ``max_range``: readings ``>= max_range`` are "no return" (the per-dataset sentinel, e.g. 81.83 m
   for Intel; when not given: ROBOTLASER1's stated max range, else the largest reading of the log).
+- Beam layouts (``meta["beam_layouts"]``: beams, start, step, scans, chosen, angle_offset). The
+  most common layout is kept together with the layouts that **interlace** with it: the same step,
+  a start less than one step away and at most one beam more or fewer (fr-clinic's SICK runs
+  interlaced: 1748 scans of 181 beams from −90° and 1709 / 1725 / 1735 scans of 180 beams from
+  −89.75° / −89.5° / −89.25°, all at 1° steps). Such a stream (``meta["interlaced"]``) has
+  ``angles = base + k·step`` from the smallest start ``base``, B = the largest beam count, and
+  per scan ``angle_offset = start − base`` and ``beam_count`` (rows padded with NaN; see
+  :class:`Scans`). ``beams=n`` keeps the single most common layout with n beams and
+  ``interlaced=False`` the single most common layout (one layout, no offsets). Layouts with
+  another step or field of view are never mixed into one stream: their scans are dropped and
+  counted (``meta["dropped_scans_other_layout"]``).
 - ``motion``: :class:`Increments` ``between(pose_{k−1}, pose_k)`` of consecutive ODOM poses at the
   ODOM stamps (logs without ODOM: of the scans' odometry poses at the scan stamps).
 - ``initial_pose``: the first odometry pose, so dead reckoning reproduces the odometry frame.
@@ -54,17 +64,21 @@ from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 from ._text import Lines, check_monotonic, fixed, numbers, read_lines, tags
 
-__all__ = ["read", "load", "beam_angles", "JITTER_S"]
+__all__ = ["read", "load", "beam_angles", "beam_step", "JITTER_S"]
 
 #: largest backward step of ipc timestamps treated as clock jitter (clamped), seconds
 JITTER_S = 1.0
 _NAME = re.compile(r"^[A-Z][A-Z0-9_\-]*$")
 
 
+def beam_step(n: int) -> float:
+    """FLASER angular step: 180° in n beams; even n → π/n, odd n → π/(n−1) (both ends included)."""
+    return np.pi / n if n % 2 == 0 else np.pi / max(n - 1, 1)
+
+
 def beam_angles(n: int) -> np.ndarray:
-    """FLASER beam angles: 180° from −90°; even n → step π/n, odd n → step π/(n−1)."""
-    step = np.pi / n if n % 2 == 0 else np.pi / max(n - 1, 1)
-    return -np.pi / 2 + step * np.arange(n)
+    """FLASER beam angles: 180° from −90° in steps of :func:`beam_step`."""
+    return -np.pi / 2 + beam_step(n) * np.arange(n)
 
 
 def _heads(lines: Lines, rows: np.ndarray) -> list[str]:
@@ -140,8 +154,15 @@ def _params(lines: Lines, rows: np.ndarray) -> dict:
     return out
 
 
+def _interlaced_with(chosen: int, n: np.ndarray, start: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Layouts that interlace with layout ``chosen``: the same angular step, a start less than one
+    step away, and at most one beam more or fewer (the same field of view within one step)."""
+    tol = 1e-6
+    return (np.abs(step - step[chosen]) <= tol) & (np.abs(start - start[chosen]) < step[chosen] - tol) & (np.abs(n - n[chosen]) <= 1)
+
+
 def read(path: str | Path, max_range: float | None = None, corrected: bool = False, beams: int | None = None,
-         strict_time: bool = False, name: str | None = None) -> Sequence:
+         interlaced: bool = True, strict_time: bool = False, name: str | None = None) -> Sequence:
     """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
     lines = read_lines(path)
     tag = tags(lines)
@@ -173,21 +194,36 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
     zero_odom_count = int((odo_ts == 0).sum())
     odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
 
-    # --- one beam layout per Scans stream
+    # --- beam layouts: the most common one (or ``beams=``), plus its interlaced partners
     key = np.column_stack([n, *(np.round(a, 6) for a in layout)]) if layout else n[:, None]
     layouts, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     inverse = inverse.ravel()
+    n_l = layouts[:, 0].astype(np.int64)
+    start_l = np.full(len(n_l), -np.pi / 2) if layout is None else layouts[:, 1]
+    step_l = np.array([beam_step(int(b)) for b in n_l]) if layout is None else layouts[:, 2]
     if beams is None:
         chosen = int(np.argmax(counts))
     else:
-        matches = np.flatnonzero(layouts[:, 0] == beams)
+        matches = np.flatnonzero(n_l == beams)
         if not matches.size:
-            raise ValueError(f"{lines.path}: no scans with {beams} beams (layouts: {layouts[:, 0].astype(int).tolist()})")
+            raise ValueError(f"{lines.path}: no scans with {beams} beams (layouts: {n_l.tolist()})")
         chosen = int(matches[np.argmax(counts[matches])])
-    keep = inverse == chosen
-    B = int(layouts[chosen, 0])
-    angles = beam_angles(B) if layout is None else layouts[chosen, 1] + layouts[chosen, 2] * np.arange(B)
-    ranges = values[first[keep][:, None] + np.arange(B)].astype(np.float32)
+    members = np.zeros(len(layouts), dtype=bool)
+    members[chosen] = True
+    if interlaced and beams is None:
+        members |= _interlaced_with(chosen, n_l, start_l, step_l)
+    keep = members[inverse]
+    B = int(n_l[members].max())
+    base = float(start_l[members].min())
+    angles = base + step_l[chosen] * np.arange(B)
+    kept_n = n[keep]
+    beam = np.arange(B)[None, :] < kept_n[:, None]
+    ranges = np.where(beam, values[np.where(beam, first[keep][:, None] + np.arange(B), 0)], np.nan).astype(np.float32)
+    offset_l = start_l - base
+    angle_offset = beam_count = None
+    if members.sum() > 1:
+        angle_offset = offset_l[inverse[keep]]
+        beam_count = kept_n
 
     # --- time (per stream: running maximum over jitter; else the scan index)
     meta: dict = {}
@@ -234,11 +270,12 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
         meta["ground_truth_kind"] = "none"
 
     if max_range is None:
-        max_range = float(np.max(stated_max[keep])) if stated_max is not None else float(values[first[keep][:, None] + np.arange(B)].max())
+        max_range = float(np.max(stated_max[keep])) if stated_max is not None else float(np.nanmax(ranges))
         meta["max_range_source"] = "ROBOTLASER1 max_range" if stated_max is not None else "largest reading of the log"
     else:
         meta["max_range_source"] = "given (the dataset's no-return sentinel)"
-    scans = Scans(t=scan_t, ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=robot_pose[keep])
+    scans = Scans(t=scan_t, ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=robot_pose[keep],
+                  angle_offset=angle_offset, beam_count=beam_count)
     ignored = {str(t): int((tag == t).sum()) for t in present if t not in ("ODOM", "FLASER", "ROBOTLASER1", "PARAM")}
     meta.update({
         "format": "CARMEN log", "file": lines.path, "corrected": corrected,
@@ -248,9 +285,10 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
         "echo_odom_matching_scan_pose": echo_matches,
         "zero_time_odom": zero_odom_count,
         "dropped_scans_other_layout": int((~keep).sum()),
-        "beam_layouts": [{"beams": int(layouts[k, 0]), "start": float(angles[0] if layout is None else layouts[k, 1]),
-                          "step": float(np.diff(beam_angles(int(layouts[k, 0])))[0] if layout is None else layouts[k, 2]),
-                          "scans": int(counts[k]), "chosen": k == chosen} for k in range(len(layouts))],
+        "interlaced": bool(members.sum() > 1),
+        "beam_layouts": [{"beams": int(n_l[k]), "start": float(start_l[k]), "step": float(step_l[k]), "scans": int(counts[k]),
+                          "chosen": bool(members[k]), "angle_offset": float(offset_l[k]) if members[k] else None}
+                         for k in range(len(layouts))],
         "no_return_readings": int((ranges >= max_range).sum()),
         "mount_spread": float(np.abs(mounts - mount).max()) if mounts.size else 0.0,
         "ignored_messages": ignored,
@@ -264,5 +302,5 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
 
 
 def load(paths: dict, name: str, **params) -> Sequence:
-    """Catalogue reader: role ``log``; ``max_range``, ``corrected``, ``beams`` from the entry/params."""
+    """Catalogue reader: role ``log``; ``max_range``, ``corrected``, ``beams``, ``interlaced`` from the entry/params."""
     return read(paths["log"], name=name, **params)

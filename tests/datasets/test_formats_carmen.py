@@ -72,20 +72,11 @@ def test_mit_csail_without_odom_uses_scan_odometry():
     assert np.allclose(s.scans.pose[0], [576.536523, 0.106594, -2.255213])
 
 
-def test_fr_clinic_robotlaser_layouts():
-    s = load("carmen:fr-clinic")
-    layouts = s.meta["beam_layouts"]
-    assert sum(l["scans"] for l in layouts) == 6917 and len(layouts) == 4  # 181 beams + 3 interlaced 180-beam starts
-    assert len(s.scans) == 1748 and s.meta["dropped_scans_other_layout"] == 5169
-    assert np.allclose(s.scans.mount, [0.22, 0, 0], atol=1e-6) and s.scans.max_range == 80.0
-    starts = sorted(round(l["start"], 6) for l in layouts if l["beams"] == 180)
-    assert starts == [-1.566433, -1.56207, -1.557706]  # -89.75°, -89.5°, -89.25°: an interlaced scanner
-
-
 def test_beam_layout_selection(tmp_path):
     text = GOOD + "FLASER 3 1 2 3 2 0 0 2 0 0 1.4 host 0\n"
     s = carmen.read(_log(tmp_path, text))
-    assert len(s.scans) == 2 and s.meta["dropped_scans_other_layout"] == 1
+    assert len(s.scans) == 2 and s.meta["dropped_scans_other_layout"] == 1  # 3 beams at 90°: another step, not interlaced
+    assert not s.meta["interlaced"] and s.scans.angle_offset is None and s.scans.beam_count is None
     s3 = carmen.read(_log(tmp_path, text), beams=3)
     assert len(s3.scans) == 1 and np.allclose(s3.scans.angles, [-np.pi / 2, 0, np.pi / 2])
 
