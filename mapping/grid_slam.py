@@ -2,10 +2,12 @@
 
 For each scan k of ``sequence.scans`` (robot pose ``x_k = (x, y, θ)``, world frame):
 
-1. Beams. A reading is *bad* when it is NaN, ±inf, zero or negative (rejected, counted per
-   scan in ``diagnostics["bad_beams"]``); *no return* when ``≥ max_range`` (clears space
-   only); *usable* otherwise (and below ``max_usable_range`` when set). End points of usable
-   beams in the robot frame: ``s_i = mount ⊕ (r_i cos α_i, r_i sin α_i)``.
+1. Beams. Scan k's beams and angles come from ``Scans.beams(k)`` (interlaced logs: each scan's
+   own angle offset and beam count; the padding of shorter scans is not a beam). A reading is
+   *bad* when it is NaN, ±inf, zero or negative (rejected, counted per scan in
+   ``diagnostics["bad_beams"]``); *no return* when ``≥ max_range`` (clears space only);
+   *usable* otherwise (and below ``max_usable_range`` when set). End points of usable beams in
+   the robot frame: ``s_i = mount ⊕ (r_i cos α_i, r_i sin α_i)``.
 2. Guess. With odometry (``use_odometry`` and ``Scans.pose`` present):
    ``x̂_k = x_{k−1} ⊕ (⊖o_{k−1} ⊕ o_k)`` (the odometry increment applied to the previous
    estimate); without: ``x̂_k = x_{k−1}``.
@@ -116,7 +118,6 @@ class GridSLAM:
             raise ValueError(f"GridSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         K, B = scans.ranges.shape
         odom = scans.pose if (self.use_odometry and scans.pose is not None) else None
-        c, s = np.cos(scans.angles), np.sin(scans.angles)
         limit = scans.max_range if self.max_usable_range is None else min(scans.max_range, self.max_usable_range)
 
         poses = np.zeros((K, 3))
@@ -132,9 +133,11 @@ class GridSLAM:
         last_update = None
         n_updates = 0
         keyframes: list[np.ndarray] = []
+        n_beams = np.zeros(K, np.int64)
         for k in range(K):
             t0 = time.perf_counter()
-            r = scans.ranges[k].astype(np.float64)
+            r, a = scans.beams(k)
+            n_beams[k] = r.size
             finite = np.isfinite(r)
             bad = ~finite | (np.where(finite, r, 1.0) <= 0)
             no_return = ~bad & (r >= scans.max_range)
@@ -144,7 +147,7 @@ class GridSLAM:
             if k > 0 and odom is not None and np.all(np.isfinite(odom[k - 1 : k + 1])):
                 pose = compose(pose, between(odom[k - 1], odom[k]))
             if usable.sum() >= self.min_beams:
-                pts = transform_points(scans.mount, np.column_stack([r[usable] * c[usable], r[usable] * s[usable]]))
+                pts = transform_points(scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
                 if last_update is not None:
                     reference = self.maps if self.matcher.kind == "grid" else np.concatenate(keyframes)
                     res = self.matcher.match(reference, pts, pose)
@@ -153,7 +156,7 @@ class GridSLAM:
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
                 if last_update is None or n_updates < self.initial_updates or np.hypot(*(pose[:2] - last_update[:2])) > self.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > self.update_angle:
                     mapped = ~bad & ((r < limit) | no_return)
-                    self.maps.integrate(r[mapped], scans.angles[mapped], pose, scans.mount, max_range=limit, clear_range=self.clear_range)
+                    self.maps.integrate(r[mapped], a[mapped], pose, scans.mount, max_range=limit, clear_range=self.clear_range)
                     if self.matcher.kind == "points":
                         keyframes = (keyframes + [transform_points(pose, pts)])[-self.reference_scans :]
                     last_update = pose.copy()
@@ -171,8 +174,8 @@ class GridSLAM:
             "bad_beams": int(diag["bad_beams"].sum()),
             "scans_with_bad_beams": int((diag["bad_beams"] > 0).sum()),
             "scans_not_matched": int((~diag["matched"]).sum()),
-            "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == B).sum()),
-            "scans_all_bad": int((diag["bad_beams"] == B).sum()),
+            "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == n_beams).sum()),
+            "scans_all_bad": int((diag["bad_beams"] == n_beams).sum()),
             "map_updates": int(diag["map_updated"].sum()),
             "map_shape": list(self.map.shape),
             "map_origin": self.map.origin.tolist(),

@@ -90,16 +90,16 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     # 1. vectorised vs literal on the same scans
     fast, slow = _grid_for(scans, poses, cap), _grid_for(scans, poses, cap)
     t = time.perf_counter()
-    n_fast = sum(fast.integrate(scans.ranges[k], scans.angles, scans.pose[k], scans.mount, scans.max_range, cap) for k in idx)
+    n_fast = sum(fast.integrate(*scans.beams(k), scans.pose[k], scans.mount, scans.max_range, cap) for k in idx)
     t_fast = time.perf_counter() - t
     sub = idx[: max(K // 10, 5)]
     t = time.perf_counter()
     for k in sub:
-        integrate_literal(slow, scans.ranges[k], scans.angles, scans.pose[k], scans.mount, scans.max_range, cap)
+        integrate_literal(slow, *scans.beams(k), scans.pose[k], scans.mount, scans.max_range, cap)
     t_slow = time.perf_counter() - t
     check = _grid_for(scans, poses, cap)
     for k in sub:
-        check.integrate(scans.ranges[k], scans.angles, scans.pose[k], scans.mount, scans.max_range, cap)
+        check.integrate(*scans.beams(k), scans.pose[k], scans.mount, scans.max_range, cap)
     same = bool(np.array_equal(check.log_odds, slow.log_odds))
     per_scan_fast, per_scan_slow = t_fast / len(idx), t_slow / len(sub)
     table = Table(title=f"grid updates on {name} ({len(idx)} scans, {scans.ranges.shape[1]} beams, 0.05 m, no-return cleared to {cap} m)")
@@ -117,7 +117,10 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     for c in caps:
         g = _grid_for(scans, poses, c)
         t = time.perf_counter()
-        n = sum(g.integrate(np.minimum(scans.ranges[k], c + 0.5 if c < scans.max_range else scans.ranges[k]), scans.angles, scans.pose[k], scans.mount, min(scans.max_range, c), c) for k in idx)
+        n = 0
+        for k in idx:
+            r, a = scans.beams(k)
+            n += g.integrate(np.minimum(r, c + 0.5) if c < scans.max_range else r, a, scans.pose[k], scans.mount, min(scans.max_range, c), c)
         times.append((time.perf_counter() - t) / len(idx))
         cells.append(n / len(idx))
     slope = loglog_slope([{"cells": c, "time": t} for c, t in zip(cells, times)], "time", 0, np.inf, size="cells")

@@ -41,9 +41,9 @@ MATCHERS = [  # (label, registry name, parameters)
 
 
 def _points(sc, k):
-    r = sc.ranges[k].astype(float)
+    r, a = sc.beams(k)
     ok = np.isfinite(r) & (r > 0) & (r < sc.max_range)
-    return transform_points(sc.mount, np.column_stack([r[ok] * np.cos(sc.angles[ok]), r[ok] * np.sin(sc.angles[ok])]))
+    return transform_points(sc.mount, np.column_stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])]))
 
 
 def matcher_table(sc, ks, seed: int = 0) -> list[dict]:
@@ -58,7 +58,7 @@ def matcher_table(sc, ks, seed: int = 0) -> list[dict]:
             if m.kind == "grid":
                 ref = MapPyramid(resolution=0.05, levels=2, size=40.0)
                 for j in before:
-                    ref.integrate(sc.ranges[j], sc.angles, sc.pose[j], sc.mount, max_range=sc.max_range, clear_range=5.0)
+                    ref.integrate(*sc.beams(j), sc.pose[j], sc.mount, max_range=sc.max_range, clear_range=5.0)
             else:
                 ref = np.concatenate([transform_points(sc.pose[j], _points(sc, j)) for j in before])
             pts = _points(sc, k)

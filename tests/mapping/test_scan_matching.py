@@ -162,15 +162,13 @@ def test_matchers_recover_offsets_on_sim_laser():
     ks = np.arange(20, len(sc.t), 60)
     maps = MapPyramid(resolution=0.05, levels=2, size=40.0)
     for k in range(0, len(sc.t), 10):
-        maps.integrate(sc.ranges[k], sc.angles, truth[k], sc.mount, max_range=sc.max_range)
+        maps.integrate(*sc.beams(k), truth[k], sc.mount, max_range=sc.max_range)
     rng = np.random.default_rng(1)
     for name, params in [("gauss_newton", {}), ("branch_and_bound", {})]:
         m = make_matcher(name, **params)
         errs = []
         for k in ks:
-            ok = sc.ranges[k] < sc.max_range
-            pts = transform_points(sc.mount, np.column_stack([sc.ranges[k][ok] * np.cos(sc.angles[ok]), sc.ranges[k][ok] * np.sin(sc.angles[ok])]))
-            res = m.match(maps, pts, truth[k] + rng.uniform(-1, 1, 3) * [0.1, 0.1, 0.04])
+            res = m.match(maps, _points(sc, k), truth[k] + rng.uniform(-1, 1, 3) * [0.1, 0.1, 0.04])
             e = between(truth[k], res.pose)
             errs.append([np.hypot(e[0], e[1]), abs(e[2])])
         errs = np.array(errs)
@@ -196,7 +194,7 @@ def test_matchers_on_consecutive_corrected_intel_scans():
             if m.kind == "grid":
                 ref = MapPyramid(resolution=0.05, levels=2, size=40.0)
                 for j in range(k - 3, k + 1):
-                    ref.integrate(sc.ranges[j], sc.angles, sc.pose[j], sc.mount, max_range=sc.max_range, clear_range=5.0)
+                    ref.integrate(*sc.beams(j), sc.pose[j], sc.mount, max_range=sc.max_range, clear_range=5.0)
             else:
                 ref = np.concatenate([transform_points(sc.pose[j], pts[i]) for i, j in enumerate(range(k - 3, k + 1))])
             res = m.match(ref, pts[-1], sc.pose[k + 1] + offset)
@@ -208,9 +206,9 @@ def test_matchers_on_consecutive_corrected_intel_scans():
 
 
 def _points(sc, k):
-    r = sc.ranges[k].astype(float)
+    r, a = sc.beams(k)
     ok = (r > 0) & (r < sc.max_range)
-    return transform_points(sc.mount, np.column_stack([r[ok] * np.cos(sc.angles[ok]), r[ok] * np.sin(sc.angles[ok])]))
+    return transform_points(sc.mount, np.column_stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])]))
 
 
 def test_registry_and_bad_parameters():
