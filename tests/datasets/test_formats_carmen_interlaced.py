@@ -154,3 +154,37 @@ def test_interlaced_layouts_merge_and_incompatible_ones_are_dropped(tmp_path):
                     (6, -0.6, 0.4): False, (4, -0.2, 0.4): False}
     single = carmen.read(path, interlaced=False)
     assert len(single.scans) == 2 and single.scans.angle_offset is None and np.allclose(single.scans.t, [1, 3])
+
+
+@pytest.mark.realdata
+def test_fr_clinic_offsets_are_the_ones_the_scans_show(clinic):
+    """Consecutive scans (0.2 m apart by odometry) of layouts ½° or ¾° apart: the extra rotation
+    of scan j that best overlays it on scan k is ≈ 0 with the stated offsets, and ≈ the offset
+    difference when both scans are read at the base angles (offsets ignored)."""
+    from scipy.spatial import cKDTree
+
+    from datasets.geometry import between, compose, transform_points
+
+    sc = clinic.scans
+    diff = np.degrees(sc.angle_offset[1:] - sc.angle_offset[:-1])
+    pairs = np.flatnonzero(np.abs(diff) > 0.4)[:100]
+    candidates = np.radians(np.arange(-1.2, 1.2001, 0.05))
+    best = {"honoured": [], "ignored": []}
+    for k in pairs:
+        (ra, aa), (rb, ab) = sc.beams(k), sc.beams(k + 1)
+        a_ok, b_ok = ra < 15, rb < 15
+        rel = between(compose(sc.pose[k], sc.mount), compose(sc.pose[k + 1], sc.mount))
+        for label, shift_a, shift_b in (("honoured", 0.0, 0.0), ("ignored", sc.angle_offset[k], sc.angle_offset[k + 1])):
+            tree = cKDTree(np.column_stack([ra[a_ok] * np.cos(aa[a_ok] - shift_a), ra[a_ok] * np.sin(aa[a_ok] - shift_a)]))
+            cost = []
+            for c in candidates:
+                a = ab[b_ok] - shift_b + c
+                d, _ = tree.query(transform_points(rel, np.column_stack([rb[b_ok] * np.cos(a), rb[b_ok] * np.sin(a)])))
+                cost.append(np.mean(np.minimum(d, 0.3) ** 2))
+            best[label].append(np.degrees(candidates[int(np.argmin(cost))]))
+    honoured, ignored, stated = np.array(best["honoured"]), np.array(best["ignored"]), diff[pairs]
+    for sign in (-1, 1):
+        group = np.sign(stated) == sign
+        assert abs(np.median(honoured[group])) < 0.15, (sign, np.median(honoured[group]))
+        assert abs(np.median(ignored[group] - stated[group])) < 0.15, (sign, np.median(ignored[group] - stated[group]))
+        assert abs(np.median(ignored[group])) > 0.4
