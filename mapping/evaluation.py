@@ -16,12 +16,27 @@ grid's lattice after moving them by the SE(2) pose ``truth_in_map`` (the ground-
 seen from the map frame, e.g. the inverse of the trajectory alignment): a SLAM map is only
 defined up to its starting frame, and a one-cell offset of the whole map would otherwise
 count as a wrong map.
+
+Without ground truth (real logs such as fr-clinic) three self-consistency numbers:
+
+``map_sharpness(grid)``: over the observed cells (``|l − l0| > 0``) the fraction decided
+(free or occupied) and the mean ``|2p − 1|`` (0 for an undecided map, 1 for a binary one);
+blurred walls and pose jitter leave cells undecided.
+
+``hits_on_occupied(grid, scans, poses, index)``: the fraction of the usable end points of scans
+``index`` (placed at ``poses``) that fall within ``tol`` cells of an occupied cell of the final map.
+
+``wall_direction_spread(scans, poses, index)``: for a rectilinear building. For each scan the
+dominant wall direction modulo 90° in the world, ``φ_k = ¼ arg Σ_i L_i e^{4 i θ_i}`` over the
+segments between neighbouring end points (length ``L_i`` in (2 cm, 30 cm), direction ``θ_i``);
+the RMS deviation of ``φ_k`` from their circular mean [rad]. Heading drift turns the walls, so
+it grows with the drift; it is blind to drift by whole multiples of 90° and to translation.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["occupancy_agreement", "true_occupancy_on"]
+__all__ = ["occupancy_agreement", "true_occupancy_on", "map_sharpness", "hits_on_occupied", "wall_direction_spread"]
 
 
 def _dilate(mask: np.ndarray, tol: int) -> np.ndarray:
@@ -63,3 +78,52 @@ def true_occupancy_on(grid, world="loop", truth_in_map=(0.0, 0.0, 0.0)) -> np.nd
     moved_world = laser.World(name=f"{w.name} (moved)", walls=walls, route=w.route, corner_radius=w.corner_radius, description=w.description)
     occupied, _ = laser.true_occupancy(grid.resolution, moved_world, origin=grid.origin, shape=grid.shape)
     return occupied
+
+
+def map_sharpness(grid) -> dict:
+    """Observed, occupied and free cells, the decided fraction and mean ``|2p − 1|`` of the observed cells."""
+    p = grid.probability()
+    known = np.abs(grid.log_odds - grid.l0) > 1e-6
+    occupied, free = p > grid.occupied_threshold, p < grid.free_threshold
+    n = int(known.sum())
+    return {"known_cells": n, "occupied_cells": int(occupied.sum()), "free_cells": int(free.sum()),
+            "decided_fraction": float((occupied | free).sum() / n) if n else float("nan"),
+            "sharpness": float(np.mean(np.abs(2.0 * p[known] - 1.0))) if n else float("nan")}
+
+
+def _end_points(scans, pose, k, max_range):
+    from datasets.geometry import compose, transform_points
+
+    r, a = scans.beams(k)
+    ok = np.isfinite(r) & (r > 0) & (r < max_range)
+    return ok, transform_points(compose(np.asarray(pose, dtype=float), scans.mount), np.column_stack([r * np.cos(a), r * np.sin(a)]))
+
+
+def hits_on_occupied(grid, scans, poses, index, tol: int = 1) -> float:
+    """Fraction of the usable end points of scans ``index`` at ``poses`` (one per index) within ``tol`` cells of an occupied cell."""
+    near = _dilate(grid.probability() > grid.occupied_threshold, tol)
+    hits = total = 0
+    for k, pose in zip(index, poses):
+        ok, pts = _end_points(scans, pose, k, scans.max_range)
+        ij = grid.world_to_grid(pts[ok])
+        inside = grid.contains(ij)
+        hits += int(near[ij[inside, 1], ij[inside, 0]].sum())
+        total += int(ok.sum())
+    return hits / total if total else float("nan")
+
+
+def wall_direction_spread(scans, poses, index, max_range: float = 15.0) -> tuple[float, np.ndarray]:
+    """RMS deviation [rad] of the scans' dominant wall directions mod 90° from their circular mean, and the directions (NaN: too few segments)."""
+    phi = np.full(len(index), np.nan)
+    for i, (k, pose) in enumerate(zip(index, poses)):
+        ok, pts = _end_points(scans, pose, k, max_range)
+        d = np.diff(pts, axis=0)
+        length = np.hypot(d[:, 0], d[:, 1])
+        seg = ok[1:] & ok[:-1] & (length > 0.02) & (length < 0.3)
+        if seg.sum() >= 20:
+            phi[i] = np.angle(np.sum(length[seg] * np.exp(4j * np.arctan2(d[seg, 1], d[seg, 0])))) / 4
+    z = np.exp(4j * phi[np.isfinite(phi)])
+    if not z.size:
+        return float("nan"), phi
+    deviation = np.angle(z * np.conj(z.mean()) / abs(z.mean())) / 4
+    return float(np.sqrt(np.mean(deviation**2))), phi
