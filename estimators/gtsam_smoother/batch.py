@@ -1,6 +1,8 @@
 """Batch landmark-SLAM smoother: the whole graph of :mod:`.landmark` optimised at once.
 
-Initial values: the dead-reckoned poses, each landmark from its first observation. Optimiser:
+Initial values: the dead-reckoned poses, each landmark from its first observation; beacons
+(range-only) at their surveyed position when anchored, else trilaterated from the dead-reckoned
+poses (range-only SLAM: the answer depends on that start; ``diagnostics["beacons_anchored"]``). Optimiser:
 Levenberg-Marquardt (default), Gauss-Newton or Dogleg. Covariances from ``gtsam.Marginals``
 (body frame → world frame for poses).
 
@@ -20,7 +22,8 @@ import numpy as np
 from datasets.estimate import Estimate
 from datasets.sequence import Sequence
 
-from .graph import OPTIMIZERS, L, X, check_choice, landmark_step_factors, observation_noise, optimize, point_covariances, points_of, poses_of, world_pose_covariances
+from .graph import (OPTIMIZERS, L, X, check_choice, landmark_step_factors, observation_noise, optimize, point_covariances, points_of,
+                    poses_of, range_noise, world_pose_covariances)
 from .landmark import LandmarkSmootherConfig
 from .problem import LandmarkProblem
 
@@ -43,18 +46,27 @@ class BatchSmoother(LandmarkSmootherConfig):
     def graph(self, problem: LandmarkProblem) -> gtsam.NonlinearFactorGraph:
         graph = gtsam.NonlinearFactorGraph()
         obs_noise = observation_noise(problem.R, self.robust, self.robust_k)
-        for k, rows in enumerate(problem.observation_slices()):
-            graph.push_back(landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows))
+        rng_noise = range_noise(problem.R_range, self.robust, self.robust_k)
+        for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
+            graph.push_back(landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows, rng_noise, range_rows))
+        for j in self.anchored_beacons(problem):
+            graph.add(self.beacon_prior(problem, j))
         return graph
 
-    @staticmethod
-    def initial_values(problem: LandmarkProblem) -> gtsam.Values:
+    def initial_values(self, problem: LandmarkProblem) -> gtsam.Values:
         values = gtsam.Values()
         poses = problem.dead_reckoning()
         for k, p in enumerate(poses):
             values.insert(X(k), gtsam.Pose2(*p))
+        anchored = self.anchored_beacons(problem)
+        beacon_ids, beacon_xy = problem.trilaterate(poses)
+        for j, m in zip(beacon_ids, beacon_xy):
+            values.insert(L(j), gtsam.Point2(*(problem.map_position(j) if j in anchored else m)))
         for j, m in zip(*problem.first_sightings(poses)):
-            values.insert(L(j), gtsam.Point2(*m))
+            if values.exists(L(j)):
+                values.update(L(j), gtsam.Point2(*m))
+            else:
+                values.insert(L(j), gtsam.Point2(*m))
         return values
 
     def run(self, sequence: Sequence) -> Estimate:
@@ -63,7 +75,7 @@ class BatchSmoother(LandmarkSmootherConfig):
         result = optimize(graph, self.initial_values(problem), optimizer=self.optimizer, max_iterations=self.max_iterations,
                           relative_error_tol=self.relative_error_tol, absolute_error_tol=self.absolute_error_tol)
         pose_keys = [X(k) for k in range(problem.n_poses)]
-        ids = np.unique(problem.obs_id)
+        ids = problem.landmark_ids
         landmark_keys = [L(j) for j in ids]
         poses = poses_of(result.values, pose_keys)
         landmarks = points_of(result.values, landmark_keys)
@@ -79,6 +91,7 @@ class BatchSmoother(LandmarkSmootherConfig):
             "iterations": result.iterations,
             "time_optimize": result.time_s,
             "time_marginals": time.perf_counter() - tic,
+            "beacons_anchored": int(self.anchored_beacons(problem).size),
             **problem.counts,
         }
         return Estimate(

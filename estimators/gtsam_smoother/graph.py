@@ -1,12 +1,14 @@
 """GTSAM building blocks shared by the smoothers: keys, noise models, factors, optimisers, marginals.
 
-Keys: pose k is ``x_k`` (``gtsam.symbol('x', k)``), landmark j is ``l_j``.
+Keys: pose k is ``x_k`` (``gtsam.symbol('x', k)``), landmark or beacon j is ``l_j``.
 
 Noise models: ``Gaussian.Covariance(Σ)`` optionally wrapped in ``Robust`` with a Huber or Cauchy
 m-estimator of width ``k`` (in units of the whitened error, i.e. standard deviations).
 
 ``BearingRangeFactor2D`` orders its measurement as (bearing, range); the datasets state the
-observation noise in (range, bearing) order, so :func:`observation_noise` swaps it.
+observation noise in (range, bearing) order, so :func:`observation_noise` swaps it. Beacon ranges
+are ``RangeFactor2D`` (‖l_j − p_k‖ = z − β); a beacon whose position is known is anchored by a
+``PriorFactorPoint2``.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ from .noise import body_to_world
 from .problem import LandmarkProblem
 
 __all__ = [
-    "X", "L", "ROBUST", "OPTIMIZERS", "noise_model", "information_model", "robustify", "observation_noise", "landmark_step_factors",
+    "X", "L", "ROBUST", "OPTIMIZERS", "noise_model", "information_model", "robustify", "observation_noise", "range_noise", "landmark_step_factors",
     "optimize", "OptimizeResult", "poses_of", "points_of", "check_choice",
 ]
 
@@ -65,8 +67,15 @@ def observation_noise(R: np.ndarray, robust: str = "none", k: float = 1.345):
     return noise_model(_SWAP @ R @ _SWAP, robust, k)
 
 
-def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, obs_noise, rows: slice) -> gtsam.NonlinearFactorGraph:
-    """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k, and pose k's observations."""
+def range_noise(variance: float, robust: str = "none", k: float = 1.345):
+    """Noise of a ``RangeFactor2D``: one range of the given variance [m²]."""
+    return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), robust, k)
+
+
+def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, obs_noise, rows: slice,
+                          rng_noise=None, range_rows: slice = slice(0, 0)) -> gtsam.NonlinearFactorGraph:
+    """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k, pose k's observations
+    and its beacon ranges."""
     graph = gtsam.NonlinearFactorGraph()
     if k == 0:
         graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*problem.start), noise_model(prior_cov)))
@@ -74,6 +83,8 @@ def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarra
         graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(problem.cov[k - 1])))
     for j, r, b in zip(problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows]):
         graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r), obs_noise))
+    for j, r in zip(problem.rng_id[range_rows], problem.rng_range[range_rows]):
+        graph.add(gtsam.RangeFactor2D(X(k), L(j), float(r), rng_noise))
     return graph
 
 

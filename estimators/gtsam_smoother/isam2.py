@@ -1,8 +1,11 @@
 """Incremental landmark-SLAM smoother: the graph of :mod:`.landmark` grown one pose at a time with iSAM2.
 
 Step k (one ``ISAM2.update`` per pose key): the between factor x_{k−1} → x_k (the prior at k = 0)
-and pose k's bearing-range factors; new values: x_k = x̂_{k−1} ⊕ δ_k from the current estimate,
-each new landmark from its first observation seen from that predicted pose. iSAM2 relinearises
+and pose k's bearing-range and beacon-range factors; new values: x_k = x̂_{k−1} ⊕ δ_k from the
+current estimate, each new landmark from its first observation seen from that predicted pose, each
+new beacon at its surveyed position with its prior (a single range cannot place a beacon: range-only
+SLAM with free beacons needs delayed initialisation, which this smoother does not do — it raises
+and points to the batch smoother). iSAM2 relinearises
 variables whose update exceeds ``relinearize_threshold`` every ``relinearize_skip`` updates.
 
 After the last step the relinearisation threshold, the skip and the wildfire threshold are set to
@@ -32,7 +35,8 @@ from datasets.geometry import compose
 from datasets.sequence import Sequence
 from estimators.models import inverse_observe
 
-from .graph import L, X, check_choice, landmark_step_factors, observation_noise, point_covariances, points_of, poses_of, world_pose_covariances
+from .graph import (L, X, check_choice, landmark_step_factors, observation_noise, point_covariances, points_of, poses_of, range_noise,
+                    world_pose_covariances)
 from .landmark import LandmarkSmootherConfig
 
 __all__ = ["ISAM2Smoother"]
@@ -67,17 +71,23 @@ class ISAM2Smoother(LandmarkSmootherConfig):
 
     def run(self, sequence: Sequence) -> Estimate:
         problem = self.problem(sequence)
+        anchored = set(self.anchored_beacons(problem).tolist())
+        free = sorted(set(problem.rng_id.tolist()) - anchored - set(problem.obs_id.tolist()))
+        if free:
+            raise ValueError(f"{sequence.name}: beacons {free} have ranges but no surveyed position (or beacon_prior_sigma is None); "
+                             "iSAM2 cannot initialise a beacon from one range — use gtsam_batch for range-only SLAM")
         K = problem.n_poses
         isam = self.isam()
         obs_noise = observation_noise(problem.R, self.robust, self.robust_k)
+        rng_noise = range_noise(problem.R_range, self.robust, self.robust_k)
         known: set[int] = set()
         online = np.empty((K, 3))
         step_time = np.empty(K)
         relinearized = np.zeros(K, dtype=np.int64)
         clock = _CLOCKS[self.step_clock]
-        for k, rows in enumerate(problem.observation_slices()):
+        for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
             tic = clock()
-            factors = landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows)
+            factors = landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows, rng_noise, range_rows)
             values = gtsam.Values()
             x = problem.start if k == 0 else compose(online[k - 1], problem.delta[k - 1])
             values.insert(X(k), gtsam.Pose2(*x))
@@ -85,6 +95,11 @@ class ISAM2Smoother(LandmarkSmootherConfig):
                 if j not in known:
                     known.add(int(j))
                     values.insert(L(j), gtsam.Point2(*inverse_observe(x, (r, b))))
+            for j in problem.rng_id[range_rows]:
+                if j not in known:
+                    known.add(int(j))
+                    values.insert(L(j), gtsam.Point2(*problem.map_position(j)))
+                    factors.add(self.beacon_prior(problem, j))
             result = isam.update(factors, values)
             p = isam.calculateEstimatePose2(X(k))
             online[k] = (p.x(), p.y(), p.theta())
@@ -92,7 +107,7 @@ class ISAM2Smoother(LandmarkSmootherConfig):
             relinearized[k] = result.getVariablesRelinearized()
 
         pose_keys = [X(k) for k in range(K)]
-        ids = np.unique(problem.obs_id)
+        ids = problem.landmark_ids
         landmark_keys = [L(j) for j in ids]
         estimate = isam.calculateEstimate()
         # final updates: relinearise every variable at each one and re-solve all of them (no wildfire cut-off)

@@ -12,9 +12,13 @@ Relative motion (pose k−1 → k)
 Observations
     ``obs_pose`` (N,) pose index, ``obs_id`` (N,), ``obs_range``, ``obs_bearing`` (N,), noise
     ``R = Noise.range_bearing_cov`` (2, 2) in (range, bearing) order.
+Beacon ranges (range-only, ``Sequence.beacon_ranges``)
+    ``rng_pose`` (M,), ``rng_id`` (M,), ``rng_range`` (M,) with the range offset β already
+    removed (z − β), variance ``R_range``. Beacons share the landmark id space (one
+    ``LandmarkMap`` holds both); ``map_ids``/``map_xy`` are the sequence's known positions.
 
-Rejected and counted (``counts``): non-finite motion rows, non-finite observations, and
-observations without a landmark id (this smoother uses known association only).
+Rejected and counted (``counts``): non-finite motion rows, non-finite observations and ranges,
+and observations without a landmark id (this smoother uses known association only).
 """
 from __future__ import annotations
 
@@ -46,6 +50,12 @@ class LandmarkProblem:
     obs_range: np.ndarray
     obs_bearing: np.ndarray
     R: np.ndarray
+    rng_pose: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    rng_id: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    rng_range: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    R_range: float = 1.0
+    map_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    map_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     counts: dict = field(default_factory=dict)
 
     @property
@@ -58,14 +68,53 @@ class LandmarkProblem:
 
     def observation_slices(self) -> list[slice]:
         """Rows of the observations of each pose (observations are sorted by pose)."""
-        bounds = np.searchsorted(self.obs_pose, np.arange(self.n_poses + 1))
-        return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        return _slices(self.obs_pose, self.n_poses)
+
+    def range_slices(self) -> list[slice]:
+        """Rows of the beacon ranges of each pose (sorted by pose)."""
+        return _slices(self.rng_pose, self.n_poses)
+
+    @property
+    def landmark_ids(self) -> np.ndarray:
+        """Every landmark or beacon the problem observes, sorted."""
+        return np.union1d(self.obs_id, self.rng_id)
+
+    def known_positions(self, ids: np.ndarray) -> np.ndarray:
+        """Mask of ``ids`` whose position the sequence's map gives."""
+        return np.isin(ids, self.map_ids)
+
+    def map_position(self, j: int) -> np.ndarray:
+        return self.map_xy[np.flatnonzero(self.map_ids == j)[0]]
+
+    def trilaterate(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Beacon ids (B,) and positions (B, 2) from their ranges seen at ``poses`` (linear least squares).
+
+        ‖p_i − b‖² = r_i² for every range i of a beacon; subtracting the mean equation removes
+        ‖b‖²:  2 (p_i − p̄)ᵀ b = ‖p_i‖² − mean‖p‖² − (r_i² − mean r²)  — one 2×2 solve per beacon.
+        A beacon seen only from (nearly) collinear positions is ambiguous by a reflection about
+        that line; the least-squares solve then returns its minimum-norm point.
+        """
+        ids = np.unique(self.rng_id)
+        xy = np.zeros((ids.size, 2))
+        for n, j in enumerate(ids):
+            rows = self.rng_id == j
+            p = poses[self.rng_pose[rows], :2]
+            r2 = self.rng_range[rows] ** 2
+            q = np.sum(p**2, axis=1)
+            A = 2.0 * (p - p.mean(axis=0))
+            xy[n] = np.linalg.lstsq(A, (q - q.mean()) - (r2 - r2.mean()), rcond=None)[0]
+        return ids, xy
 
     def first_sightings(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Landmark ids (L,) and initial positions (L, 2) from each landmark's first observation."""
         ids, first = np.unique(self.obs_id, return_index=True)
         z = np.column_stack([self.obs_range[first], self.obs_bearing[first]])
         return ids, inverse_observe(poses[self.obs_pose[first]], z)
+
+
+def _slices(pose_of_row: np.ndarray, n_poses: int) -> list[slice]:
+    bounds = np.searchsorted(pose_of_row, np.arange(n_poses + 1))
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def check_covariance(name: str, C, shape: tuple[int, ...]) -> np.ndarray:
@@ -209,10 +258,14 @@ def build_problem(
     twist_cov=None,
     increment_cov=None,
     range_bearing_cov=None,
+    beacon_range_var: float = 1.0,
+    beacon_bias: float = 0.0,
 ) -> LandmarkProblem:
-    """Pose keys, relative motions with their covariances, and known-id observations of ``sequence``.
+    """Pose keys, relative motions with their covariances, known-id observations and beacon ranges.
 
-    ``twist_cov``, ``increment_cov``, ``range_bearing_cov`` override the sequence's stated noise.
+    ``twist_cov``, ``increment_cov``, ``range_bearing_cov`` override the sequence's stated noise;
+    beacon ranges have variance ``beacon_range_var`` [m²] and offset ``beacon_bias`` [m] (no
+    dataset states them).
     """
     counts: dict = {}
     R = range_bearing_cov if range_bearing_cov is not None else sequence.noise.range_bearing_cov
@@ -229,7 +282,17 @@ def build_problem(
     else:
         R = np.eye(2) if R is None else check_covariance("range_bearing_cov", R, (2, 2))
         rb = None
-    chain = motion_chain(sequence, np.zeros(0) if rb is None else rb.t, motion_model=motion_model, max_interval=max_interval,
+    br = sequence.beacon_ranges
+    if br is not None and len(br):
+        if not (np.isfinite(beacon_range_var) and beacon_range_var > 0) or not np.isfinite(beacon_bias):
+            raise ValueError("beacon_range_var must be > 0 and beacon_bias finite")
+        finite = np.isfinite(br.range)
+        counts["rejected_nonfinite_ranges"] = int((~finite).sum())
+        br = br.select(finite)
+    else:
+        br = None
+    stamps = np.concatenate([np.zeros(0) if rb is None else rb.t, np.zeros(0) if br is None else br.t])
+    chain = motion_chain(sequence, stamps, motion_model=motion_model, max_interval=max_interval,
                          regularisation=regularisation, twist_cov=twist_cov, increment_cov=increment_cov)
     counts.update(chain.counts)
     if rb is not None:
@@ -240,6 +303,17 @@ def build_problem(
         obs = (obs_pose[order], rb.landmark_id[inside][order], rb.range[inside][order], rb.bearing[inside][order])
     else:
         obs = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+    ranges: dict = {}
+    if br is not None:
+        br_t, inside = chain.inside(br.t)
+        counts["skipped_ranges_outside_motion"] = int((~inside).sum())
+        rng_pose = chain.index(br_t[inside])
+        order = np.argsort(rng_pose, kind="stable")
+        ranges = dict(rng_pose=rng_pose[order], rng_id=br.beacon_id[inside][order],
+                      rng_range=br.range[inside][order] - float(beacon_bias), R_range=float(beacon_range_var))
+    lm = sequence.landmarks
+    if lm is not None:
+        ranges.update(map_ids=lm.ids, map_xy=lm.xy)
     return LandmarkProblem(
         t=chain.t,
         start=chain.start,
@@ -251,4 +325,5 @@ def build_problem(
         obs_bearing=obs[3],
         R=R,
         counts=counts,
+        **ranges,
     )
