@@ -3,14 +3,39 @@
 Every text reader of :mod:`datasets.formats` works the same way:
 
 1. :func:`read_lines` reads the whole (optionally ``.gz``/``.bz2``-compressed) file and splits it
-   into lines once;
+   into lines once (:func:`numeric_table` skips even that and works on the raw bytes);
 2. :func:`tags` takes the first token of every line (one cheap string operation per line);
-3. per record type, :func:`numbers` converts the numeric bodies of all its lines in ONE call to
-   numpy's C parser and counts the tokens of every line from the raw bytes, so that a wrong field
-   count or a non-numeric field is detected in bulk and then reported with the first offending
-   line number (a slow per-line search runs only on that error path).
+3. per record type, :func:`numbers` converts the numeric bodies of all its lines in bulk and counts
+   the tokens of every line from the raw bytes, so that a wrong field count or a non-numeric field
+   is detected in bulk and then reported with the first offending line number (a slow per-line
+   search runs only on that error path).
 
 Python work per line is a few string operations; nothing runs per number.
+
+**How numbers are converted, and why the result is exact.** Tokens are found on the bytes
+(C ``isspace`` separates them, as in numpy's parser). Each token of the form
+``[+-] digits [. digits]`` with 1–16 characters after the sign is converted with integer
+arithmetic on the 16 bytes that end at its last character, read as one 128-bit little-endian
+number (two ``uint64`` words; a block of tokens at a time, a few dozen array operations per block):
+
+- ``v = bytes xor '0'``, masked to the characters after the sign: digits become 0…9, ``.``
+  becomes 0x1E, the bytes in front become leading zeros;
+- the dot's byte is flagged exactly by ``~((v xor 0x1E) + 0x7F) & 0x80`` (all bytes < 0x80);
+  the popcount of ``flag − 1`` (a 128-bit subtraction) gives the position of the lowest dot;
+- the bytes below that dot move up one byte: the dot is gone, the digits are right-aligned and the
+  ``k`` bytes above the dot are the fractional digits (a second dot would remain, and fail below);
+- the token is accepted only if every byte is now a digit (``(y + 0x76 | y) & 0x80 == 0``, with
+  no byte ≥ 0x80 before) and the mantissa fits; a final dot (``5.``) is left to the fallback;
+- the digits give the integer mantissa ``m`` by three multiply–shift–mask steps per word
+  (8 digits each) and ``m = hi·10⁸ + lo``.
+
+The value is ``m / 10^k`` (``m / −10^k`` after a minus sign). With ``m < 2⁵³`` both operands are
+exact doubles (``k ≤ 15 ≤ 22``) and IEEE division rounds correctly, so the quotient is the double
+nearest to the decimal number: the value ``strtod`` — and numpy's parser — returns (Clinger's fast
+path; ``-0`` gives ``-0.0``). Every other token (more digits, exponents, ``nan``/``inf``, anything
+malformed) goes through :func:`numpy.fromstring` as before, and a token that fails there is
+reported by the same error path as before. ``tests/datasets/test_text.py`` compares both paths bit
+for bit on the staged MRCLAM and Intel files and against ``float()`` on generated decimals.
 """
 from __future__ import annotations
 
@@ -75,27 +100,123 @@ _SPACE = np.zeros(256, dtype=bool)
 _SPACE[[9, 10, 11, 12, 13, 32]] = True  # C isspace(), as numpy's parser
 
 
-def _token_counts(blob: bytes, n_lines: int) -> np.ndarray:
-    """Whitespace-separated tokens per line of ``blob`` (lines joined by ``\\n``), vectorised."""
-    if n_lines == 0:
-        return np.zeros(0, dtype=np.int64)
-    b = np.frombuffer(blob, dtype=np.uint8)
-    space = _SPACE[b]
-    starts = ~space
-    starts[1:] &= space[:-1]
-    first_token = np.flatnonzero(starts)
-    bounds = np.concatenate([[0], np.flatnonzero(b == 10) + 1, [b.size]])[: n_lines + 1]
-    return np.diff(np.searchsorted(first_token, bounds))
+def _token_bounds(b: np.ndarray, scratch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) byte offsets of the whitespace-separated tokens of ``b``.
+
+    ``scratch``: a boolean array of ``b``'s size to work in (large temporaries cost page faults).
+    """
+    if b.size == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    token = np.greater(b, 32)
+    below = [np.count_nonzero(np.less(b, c, out=scratch)) for c in (9, 14, 32)]
+    if below[2] - below[1] + below[0]:
+        token = ~_SPACE[b]  # control characters other than \t\n\v\f\r belong to tokens
+    edges = np.flatnonzero(np.not_equal(token[1:], token[:-1], out=scratch[1:])) + 1
+    if token[0]:
+        edges = np.concatenate([[0], edges])
+    if token[-1]:
+        edges = np.concatenate([edges, [b.size]])
+    return edges[0::2], edges[1::2]
 
 
-def _parse_row(body: str) -> np.ndarray | None:
-    """One record through numpy's parser; ``None`` if it is not all numbers."""
+def _line_ends(b: np.ndarray, scratch: np.ndarray) -> np.ndarray:
+    """Offsets of the ``\\n`` bytes of ``b``."""
+    return np.flatnonzero(np.equal(b, 10, out=scratch))
+
+
+def _words(byte: int) -> np.uint64:
+    return np.uint64(byte * 0x0101010101010101)
+
+
+_ZEROS, _DOT, _LOW7, _HIGH, _ABOVE_NINE = _words(0x30), _words(0x2E ^ 0x30), _words(0x7F), _words(0x80), _words(0x76)
+_M8, _M16 = np.uint64(0x00FF00FF00FF00FF), np.uint64(0x0000FFFF0000FFFF)
+
+
+def _top(n: int) -> list[int]:
+    """The two little-endian words of a 16-byte mask of the last ``n`` bytes."""
+    mask = (1 << 128) - (1 << 8 * (16 - n))
+    return [mask & (2**64 - 1), mask >> 64]
+
+
+#: _LAST[n]: mask of the last n bytes of a 16-byte window (16-byte items), n = 0..16
+_LAST = np.array([_top(n) for n in range(17)], dtype="<u8").view("V16").ravel()
+#: for q = 1 + position of the dot in the window (16: no dot, or a final dot): the bytes above it, kept in place
+_ABOVE = _LAST[[16 - q if q < 16 else 16 for q in range(17)]]
+#: divisor ±10^k of a token, indexed by q + 17·negative: k = 16 − q fractional digits (q = 16: none)
+_DIVISOR = np.array([10.0 ** (16 - q if q < 16 else 0) for q in range(17)])
+_DIVISOR = np.concatenate([_DIVISOR, -_DIVISOR])
+_BLOCK = 1 << 15  # tokens per block: the block's uint64 temporaries stay in cache
+
+
+def _digits_to_int(y: np.ndarray) -> np.ndarray:
+    """8 digit values per little-endian word (first digit in the lowest byte) → their integer."""
+    y = (y * np.uint64(10 << 8 | 1)) >> np.uint64(8) & _M8  # pairs: 10·d_i + d_i+1
+    y = (y * np.uint64(100 << 16 | 1)) >> np.uint64(16) & _M16  # quads
+    return (y * np.uint64(10000 << 32 | 1)) >> np.uint64(32)  # the 8 digits
+
+
+def _decimal_block(windows: np.ndarray, first: np.ndarray, length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values of plain decimal tokens and which tokens were plain decimals (module docstring).
+
+    ``windows``: the 16 bytes ending at each token's last byte (``V16`` items); ``first``: the
+    token's first byte; ``length``: its number of bytes.
+    """
+    negative = first == 45  # '-'
+    n = length - (negative | (first == 43))  # characters after the sign
+    v = windows.view("<u8").reshape(-1, 2) ^ _ZEROS
+    v &= _LAST[np.minimum(n, 16)].view("<u8").reshape(-1, 2)
+    dot = ~((v ^ _DOT) + _LOW7) & _HIGH  # 0x80 in the byte holding '.' (exact while all bytes < 0x80)
+    below = dot - np.uint64(1)  # as one 128-bit number (low word borrows): the bits below the lowest dot
+    below[:, 1] += dot[:, 0] != 0
+    bits = np.bitwise_count(below)
+    q = (bits[:, 0] + bits[:, 1] + 1) >> 3  # 1 + position of the lowest dot; 16: none
+    above = _ABOVE[q].view("<u8").reshape(-1, 2)
+    up = v << np.uint64(8)
+    up[:, 1] |= v[:, 0] >> np.uint64(56)
+    y = up ^ ((v ^ up) & above)  # the window without the dot's byte: digits right-aligned
+    bad = (y + _ABOVE_NINE) | y | v  # 0x80 set in a byte of y above 9, or a non-ASCII byte of v
+    ok = ((bad[:, 0] | bad[:, 1]) & _HIGH) == 0
+    ok &= (n - 1).view(np.uint64) < 16  # 1..16 characters after the sign
+    d = _digits_to_int(y)
+    m = d[:, 0] * np.uint64(10**8) + d[:, 1]
+    ok &= m < np.uint64(2**53)
+    return m.astype(np.float64) / _DIVISOR[q + 17 * negative], ok
+
+
+def _parse_row(body: str | bytes) -> np.ndarray | None:
+    """Numbers of a text through numpy's parser; ``None`` if it is not all numbers."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", DeprecationWarning)
             values = np.fromstring(body, sep=" ") if body.strip() else np.zeros(0)
     except (ValueError, DeprecationWarning):
         return None
+    return values
+
+
+def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray | None:
+    """The float64 value of every token ``blob[starts[i]:ends[i]]``; ``None`` if one is not a number.
+
+    Plain decimals go through :func:`_decimal_block`, every other token through numpy's parser.
+    """
+    head = np.full(32, 32, dtype=np.uint8)  # the first bytes, behind 16 spaces: windows of tokens ending early
+    head[16:16 + min(b.size, 16)] = b[:16]
+    windows = np.ndarray(shape=(max(b.size - 15, 0),), dtype="V16", buffer=blob, strides=(1,))
+    early = np.ndarray(shape=(17,), dtype="V16", buffer=head, strides=(1,))
+    values = np.empty(starts.size)
+    ok = np.empty(starts.size, dtype=bool)
+    for a in range(0, starts.size, _BLOCK):
+        s, e = starts[a:a + _BLOCK], ends[a:a + _BLOCK]
+        x = windows[np.maximum(e - 16, 0)] if windows.size else early[e]
+        if e[0] < 16 <= b.size:
+            x[e < 16] = early[e[e < 16]]
+        values[a:a + _BLOCK], ok[a:a + _BLOCK] = _decimal_block(x, b[s], e - s)
+    other = np.flatnonzero(~ok)
+    if other.size:
+        rest = _parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())]))
+        if rest is None or rest.size != other.size:
+            return None
+        values[other] = rest
     return values
 
 
@@ -118,21 +239,19 @@ def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, v
     (optional) checks the field counts first, so that a truncated line is reported as such
     (``expected`` says what was expected); a non-numeric field raises at its line.
     """
-    text = "\n".join(bodies)
-    counts = _token_counts(text.encode("latin-1"), len(bodies))
+    blob = "\n".join(bodies).encode("latin-1")
+    b = np.frombuffer(blob, dtype=np.uint8)
+    scratch = np.empty(b.size, dtype=bool)
+    starts, ends = _token_bounds(b, scratch)
+    bounds = np.concatenate([[0], _line_ends(b, scratch) + 1, [b.size]])[: len(bodies) + 1]
+    counts = np.diff(np.searchsorted(starts, bounds))
     if valid is not None:
         bad = np.flatnonzero(~valid(counts))
         if bad.size:
             k = int(bad[0])
             raise DataFormatError(path, int(line_numbers[k]), expected, f"{counts[k]} fields: {bodies[k][:80].strip()}")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", DeprecationWarning)
-            values = np.fromstring(text, sep=" ") if counts.sum() else np.zeros(0)
-        ok = values.size == counts.sum()
-    except (ValueError, DeprecationWarning):
-        ok = False
-    if not ok:
+    values = _parse_tokens(blob, b, starts, ends)
+    if values is None:
         row, token = _first_bad_token(bodies, counts)
         raise DataFormatError(path, int(line_numbers[row]), f"numeric fields in {what}", token)
     return values, counts
@@ -149,24 +268,22 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
 
     Returns the ``(N, ncols)`` values and the 1-based line number of each row. No Python code
     runs per line: line bounds, token counts and comment lines are found with numpy on the raw
-    bytes, and the data lines go through numpy's parser in one call.
+    bytes, and the tokens of the data lines are converted in bulk.
     """
     blob = read_bytes(path)
     b = np.frombuffer(blob, dtype=np.uint8)
-    space = _SPACE[b]
-    starts = ~space
-    starts[1:] &= space[:-1]
-    first_token = np.flatnonzero(starts)
-    newlines = np.flatnonzero(b == 10)
+    scratch = np.empty(b.size, dtype=bool)
+    starts, ends = _token_bounds(b, scratch)
+    newlines = _line_ends(b, scratch)
     line_start = np.concatenate([[0], newlines + 1])
     line_end = np.concatenate([newlines, [b.size]])
     if blob.endswith(b"\n"):
         line_start, line_end = line_start[:-1], line_end[:-1]
-    first = np.searchsorted(first_token, line_start)
-    counts = np.searchsorted(first_token, line_end) - first
+    first = np.searchsorted(starts, line_start)
+    counts = np.diff(np.append(first, starts.size))  # no token lies between a line's end and the next line
     has = counts > 0
     lead = np.zeros(line_start.size, dtype=np.uint8)
-    lead[has] = b[first_token[first[has]]]
+    lead[has] = b[starts[first[has]]]
     data = has & (lead != ord(comment))
     rows = np.flatnonzero(data)
     bad = np.flatnonzero(data & (counts != ncols))
@@ -174,11 +291,11 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
         k = int(bad[0])
         got = blob[line_start[k]:line_end[k]].decode("latin-1")
         raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
-    # contiguous runs of data lines, joined without the comment lines between them
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], data.astype(np.int8), [0]])))
-    text = b"\n".join(blob[line_start[a]:line_end[z - 1]] for a, z in zip(edges[::2], edges[1::2])).decode("latin-1")
-    values = _parse_row(text) if rows.size else np.zeros(0)
-    if values is None or values.size != rows.size * ncols:
+    if rows.size < has.sum():  # drop the tokens of comment lines
+        keep = np.repeat(data[has], counts[has])
+        starts, ends = starts[keep], ends[keep]
+    values = _parse_tokens(blob, b, starts, ends)
+    if values is None:
         bodies = [blob[line_start[r]:line_end[r]].decode("latin-1") for r in rows]
         row, token = _first_bad_token(bodies, counts[rows])
         raise DataFormatError(path, int(rows[row]) + 1, f"numeric fields in {what}", token)
