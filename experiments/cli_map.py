@@ -8,7 +8,8 @@ of a CARMEN log (``.clf``/``.log``, optionally ``.gz``/``.bz2``). Writes into ``
     map.png             the finest grid, 1 − p in grey (white free, black occupied)
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
     summary.json        timing (total, per scan, real-time factor), counts of bad beams and
-                        unmatched scans, map size; the relation error when ``--relations`` is given
+                        unmatched scans, map size, beam layouts (interlaced logs: one stream,
+                        several angle offsets); the relation error when ``--relations`` is given
 """
 from __future__ import annotations
 
@@ -80,6 +81,7 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     duration = float(sequence.scans.t[-1] - sequence.scans.t[0])
     summary = {
         "log": log, "matcher": matcher, "scans": K, "log_duration_s": duration, "wall_s": wall,
+        "beam_layouts": 1 if sequence.scans.angle_offset is None else int(np.unique(sequence.scans.angle_offset).size),
         "scan_steps_s": float(estimate.step_time.sum()),
         "per_scan_ms": {"mean": 1e3 * float(np.mean(estimate.step_time)), "median": 1e3 * float(np.median(estimate.step_time)),
                         "max": 1e3 * float(np.max(estimate.step_time))},

@@ -47,6 +47,22 @@ def make_sequence(n=120, beams=181, sigma=0.01, odo_sigma=(0.02, 0.02, 0.01), se
     return Sequence(name="test:room", scans=scans, ground_truth=Trajectory(t=t, poses=truth), initial_pose=truth[0])
 
 
+def interlace(seq, layouts: int = 4, sigma: float = 0.01, seed: int = 0) -> Scans:
+    """The room drive re-scanned like fr-clinic: scan k starts ``(k mod 4)/4`` of a step later,
+    with one beam fewer unless it is the unshifted layout."""
+    rng = np.random.default_rng(seed)
+    sc, truth = seq.scans, seq.ground_truth.poses
+    K, B = sc.ranges.shape
+    q = np.arange(K) % layouts
+    offset = q * (sc.angles[1] - sc.angles[0]) / layouts
+    count = np.where(q == 0, B, B - 1)
+    ranges = np.full((K, B), np.nan)
+    for k in range(K):
+        r = raycast(truth[k], sc.angles[: count[k]] + offset[k], max_range=sc.max_range)
+        ranges[k, : count[k]] = np.where(r >= sc.max_range, sc.max_range, r + sigma * rng.standard_normal(r.size))
+    return Scans(t=sc.t, ranges=ranges, angles=sc.angles, max_range=sc.max_range, pose=sc.pose, angle_offset=offset, beam_count=count)
+
+
 @pytest.fixture(scope="session")
 def room_sequence():
     return make_sequence()

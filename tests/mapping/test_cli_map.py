@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import make_sequence
+from conftest import interlace, make_sequence
 
 from datasets.formats import relations as relations_format
 from datasets.formats import tum
@@ -58,3 +58,27 @@ def test_map_command_rejects_bad_input_before_work(carmen_log, tmp_path):
     bad.write_text("FLASER 3 1.0 1.0\n")
     assert map_command(str(bad), out=tmp_path) == 1
     assert not (tmp_path / "summary.json").exists()
+
+
+def test_map_command_on_an_interlaced_robotlaser_log(tmp_path):
+    """The room scanned like fr-clinic (four layouts ¼ step apart, 181/180 beams) as ROBOTLASER1
+    messages: read into one stream and mapped with each scan's own angles."""
+    seq = make_sequence(n=60, seed=6)
+    sc = interlace(seq)
+    path = tmp_path / "interlaced.clf"
+    with open(path, "w") as fh:
+        for k in range(len(sc)):
+            r, a = sc.beams(k)
+            x, y, th = sc.pose[k]
+            pose = f"{x:.6f} {y:.6f} {th:.6f}"
+            fh.write(f"ROBOTLASER1 0 {a[0]:.6f} 3.141593 {a[1] - a[0]:.6f} {sc.max_range:.1f} 0.01 0 {r.size} {' '.join(f'{v:.3f}' for v in r)} 0 "
+                     f"{pose} {pose} 0 0 0 0 0 {1000.0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n")
+    truth = seq.ground_truth.poses
+    rel = relations_format.Relations(t1=1000.0 + sc.t[:-1], t2=1000.0 + sc.t[1:],
+                                     motion=np.column_stack([between(truth[:-1], truth[1:])[:, :2], np.zeros((len(truth) - 1, 3)), between(truth[:-1], truth[1:])[:, 2]]))
+    relations_format.write(tmp_path / "room.relations", rel)
+    out = tmp_path / "out"
+    assert map_command(str(path), out=out, relations=tmp_path / "room.relations") == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scans"] == 60 and summary["beam_layouts"] == 4 and summary["bad_beams"] == 0
+    assert summary["relations"]["trans_mean"] < 0.02 and summary["relations"]["rot_mean"] < 0.004

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from conftest import make_sequence
 
-from mapping.evaluation import hits_on_occupied, map_sharpness, wall_direction_spread
+from mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
 from mapping.occupancy_grid import OccupancyGrid, logit
 
 
@@ -17,15 +17,39 @@ def test_map_sharpness_by_hand():
     assert np.isclose(s["decided_fraction"], 0.75) and np.isclose(s["sharpness"], (0.8 + 0.8 + 0.8 + 0.1) / 4, atol=1e-6)
 
 
-def test_wall_direction_spread_grows_with_heading_drift():
+def _line(g, start, angle, length):
+    s = np.linspace(0.0, length, int(length / (0.25 * g.resolution)))
+    xy = np.asarray(start) + s[:, None] * [np.cos(angle), np.sin(angle)]
+    ij = g.world_to_grid(xy)
+    g.log_odds[ij[:, 1], ij[:, 0]] = logit(0.9)
+
+
+def test_wall_orientation_concentration_by_hand():
+    g = OccupancyGrid(resolution=0.05, width=600, height=600)
+    _line(g, (-8.0, -6.0), 0.0, 12.0)
+    _line(g, (-6.0, -7.0), np.pi / 2, 12.0)
+    assert wall_orientation_concentration(g) > 0.93  # two perpendicular walls
+    tilted = OccupancyGrid(resolution=0.05, width=600, height=600)
+    _line(tilted, (-8.0, -6.0), np.radians(30.0), 12.0)
+    _line(tilted, (-6.0, 2.0), np.radians(120.0), 12.0)
+    assert wall_orientation_concentration(tilted) > 0.87  # the same, rotated (digital lines off the axes)
+    bent = OccupancyGrid(resolution=0.05, width=600, height=600)
+    _line(bent, (-8.0, -6.0), 0.0, 12.0)
+    _line(bent, (-8.0, 4.0), np.radians(22.5), 12.0)  # second wall 22.5° off: R = |1 + e^{iπ/2}| / 2
+    assert abs(wall_orientation_concentration(bent) - np.cos(np.pi / 4)) < 0.06
+
+
+def test_wall_orientation_concentration_drops_with_heading_drift():
     seq = make_sequence(n=60, sigma=0.0)
     scans, truth = seq.scans, seq.ground_truth.poses
-    index = np.arange(len(scans))
-    exact, phi = wall_direction_spread(scans, truth, index)
-    assert np.isfinite(phi).all() and exact < np.radians(0.5)  # the room's walls are axis-aligned (but one pillar)
-    drift = np.linspace(0.0, np.radians(10.0), len(scans))  # heading error growing to 10°
-    drifted, _ = wall_direction_spread(scans, truth + np.column_stack([0 * drift, 0 * drift, drift]), index)
-    assert abs(drifted - np.std(drift)) < np.radians(0.5), (np.degrees(drifted), np.degrees(np.std(drift)))
+    drift = np.column_stack([np.zeros((len(truth), 2)), np.linspace(0.0, np.radians(15.0), len(truth))])
+    R = []
+    for poses in (truth, truth + drift):
+        g = OccupancyGrid(resolution=0.05)
+        for k in range(len(scans)):
+            g.integrate(*scans.beams(k), poses[k], scans.mount, max_range=scans.max_range)
+        R.append(wall_orientation_concentration(g))
+    assert R[0] > 0.75 and R[1] < R[0] - 0.1, R
 
 
 def test_hits_on_occupied_drop_when_the_poses_are_wrong():

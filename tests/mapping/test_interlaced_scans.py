@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from conftest import WALLS, make_sequence, raycast
+from conftest import WALLS, interlace, make_sequence, raycast
 
 from datasets.geometry import wrap_angle
 from datasets.sequence import Scans
@@ -51,25 +51,9 @@ def test_a_scan_with_an_offset_lands_on_the_walls_it_saw():
     assert np.mean(_distance_to_walls(_hit_cells(ignored)) > 0.05) > 0.5
 
 
-def _interlaced(seq, layouts: int = 4, sigma: float = 0.01, seed: int = 0) -> Scans:
-    """The room drive re-scanned like fr-clinic: scan k starts ``(k mod 4)/4`` of a step later,
-    with one beam fewer unless it is the unshifted layout."""
-    rng = np.random.default_rng(seed)
-    sc, truth = seq.scans, seq.ground_truth.poses
-    K, B = sc.ranges.shape
-    q = np.arange(K) % layouts
-    offset = q * (sc.angles[1] - sc.angles[0]) / layouts
-    count = np.where(q == 0, B, B - 1)
-    ranges = np.full((K, B), np.nan)
-    for k in range(K):
-        r = raycast(truth[k], sc.angles[: count[k]] + offset[k], max_range=sc.max_range)
-        ranges[k, : count[k]] = np.where(r >= sc.max_range, sc.max_range, r + sigma * rng.standard_normal(r.size))
-    return Scans(t=sc.t, ranges=ranges, angles=sc.angles, max_range=sc.max_range, pose=sc.pose, angle_offset=offset, beam_count=count)
-
-
 def test_grid_slam_honours_per_scan_offsets():
     seq = make_sequence()  # 181 beams over 180°, 1° steps
-    scans = _interlaced(seq)
+    scans = interlace(seq)
     q = np.arange(len(scans)) % 4
     step = scans.angles[1] - scans.angles[0]
     runs = {}

@@ -135,3 +135,50 @@ def test_carmen_study(raw_name):
     table[raw_name] = row
     path.write_text(json.dumps(table, indent=2))
     assert row["real_time_factor"] > 1
+
+
+@pytest.mark.slow
+@pytest.mark.realdata
+@pytest.mark.parametrize("first", [500, 2000, None])
+def test_fr_clinic_interlaced_study(first):
+    """fr-clinic with all four interlaced layouts in one stream against its 181-beam layout alone,
+    over the same stretch of the log (the first ``first`` scans of the full stream; None: all).
+    No reference exists: map sharpness, matcher score, the end points of the shared 181-beam scans
+    on the final map, the wall-orientation concentration (rectilinear building: heading drift bends
+    the corridors), and the difference of the two trajectories at the shared scans."""
+    import datasets
+    from datasets.errors import DatasetNotFoundError
+    from mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
+
+    try:
+        everything = datasets.load("carmen:fr-clinic").scans
+        single = datasets.load("carmen:fr-clinic", interlaced=False).scans
+    except DatasetNotFoundError as exc:
+        pytest.skip(str(exc))
+    OUT.mkdir(parents=True, exist_ok=True)
+    stretch = everything.select(slice(0, first))
+    single = single.select(single.t <= stretch.t[-1])
+    shared = np.flatnonzero(stretch.beam_count == stretch.ranges.shape[1])  # the 181-beam scans: in both runs
+    assert np.array_equal(stretch.t[shared], single.t)
+    rows, shared_poses = {}, {}
+    for label, scans, common in (("all layouts", stretch, shared), ("181-beam layout only", single, np.arange(len(single)))):
+        from datasets.sequence import Sequence
+
+        slam = GridSLAM()
+        est = slam.run(Sequence(name=label, scans=scans))
+        rows[label] = {"scans": len(scans), "mean_score": float(np.nanmean(est.diagnostics["score"])), "map_updates": est.meta["map_updates"],
+                       **map_sharpness(slam.map), "shared_hits_on_occupied": hits_on_occupied(slam.map, scans, est.poses[common], common),
+                       "wall_orientation_concentration": wall_orientation_concentration(slam.map), "ms_per_scan": 1e3 * float(np.mean(est.step_time))}
+        shared_poses[label] = est.poses[common]
+        slam.map.save_png(OUT / f"fr-clinic_{first or 'all'}_{label.split()[0]}.png")
+        print(first, label, {k: round(v, 4) if isinstance(v, float) else v for k, v in rows[label].items()})
+    d = between(shared_poses["181-beam layout only"], shared_poses["all layouts"])
+    rows["difference at shared scans"] = {"trans_median": float(np.median(np.hypot(d[:, 0], d[:, 1]))), "trans_max": float(np.hypot(d[:, 0], d[:, 1]).max()),
+                                          "rot_median_deg": float(np.degrees(np.median(np.abs(d[:, 2])))), "rot_max_deg": float(np.degrees(np.abs(d[:, 2]).max()))}
+    rows["log_s"] = float(stretch.t[-1] - stretch.t[0])
+    print(first, rows["difference at shared scans"], rows["log_s"])
+    path = OUT / "fr_clinic_interlaced.json"
+    table = json.loads(path.read_text()) if path.exists() else {}
+    table[str(first or "all")] = rows
+    path.write_text(json.dumps(table, indent=2))
+    assert rows["all layouts"]["scans"] > 3 * rows["181-beam layout only"]["scans"]
