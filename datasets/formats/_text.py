@@ -20,12 +20,12 @@ number (two ``uint64`` words; a block of tokens at a time, a few dozen array ope
 
 - ``v = bytes xor '0'``, masked to the characters after the sign: digits become 0…9, ``.``
   becomes 0x1E, the bytes in front become leading zeros;
-- the dot's byte is flagged exactly by ``~((v xor 0x1E) + 0x7F) & 0x80`` (all bytes < 0x80);
-  the popcount of ``flag − 1`` (a 128-bit subtraction) gives the position of the lowest dot;
+- the bytes equal to 0x1E are flagged (a byte-wise comparison; the flag is the lowest bit of its
+  byte); the popcount of ``flags − 1`` (a 128-bit subtraction) gives the position of the lowest dot;
 - the bytes below that dot move up one byte: the dot is gone, the digits are right-aligned and the
   ``k`` bytes above the dot are the fractional digits (a second dot would remain, and fail below);
-- the token is accepted only if every byte is now a digit (``(y + 0x76 | y) & 0x80 == 0``, with
-  no byte ≥ 0x80 before) and the mantissa fits; a final dot (``5.``) is left to the fallback;
+- the token is accepted only if every byte is now a digit (``(y + 0x76 | y) & 0x80 == 0``) and
+  the mantissa fits; a final dot (``5.``) is left to the fallback;
 - the digits give the integer mantissa ``m`` by three multiply–shift–mask steps per word
   (8 digits each) and ``m = hi·10⁸ + lo``.
 
@@ -100,35 +100,28 @@ _SPACE = np.zeros(256, dtype=bool)
 _SPACE[[9, 10, 11, 12, 13, 32]] = True  # C isspace(), as numpy's parser
 
 
-def _token_bounds(b: np.ndarray, scratch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end (exclusive) byte offsets of the whitespace-separated tokens of ``b``.
+def _scan(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start and end (exclusive) offsets of the whitespace-separated tokens of ``b``, and of its ``\\n`` bytes.
 
-    ``scratch``: a boolean array of ``b``'s size to work in (large temporaries cost page faults).
+    One boolean work array serves every pass (fresh large temporaries cost a page fault per 4 KiB).
     """
-    if b.size == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    token = np.greater(b, 32)
-    below = [np.count_nonzero(np.less(b, c, out=scratch)) for c in (9, 14, 32)]
+    work = np.empty(2 * b.size + 3, dtype=bool)
+    token, scratch = work[:b.size + 2], work[b.size + 2:]  # token: b's bytes between two separators
+    token[0] = token[-1] = False
+    np.greater(b, 32, out=token[1:-1])
+    below = [np.count_nonzero(np.less(b, c, out=scratch[1:])) for c in (9, 14, 32)]
     if below[2] - below[1] + below[0]:
-        token = ~_SPACE[b]  # control characters other than \t\n\v\f\r belong to tokens
-    edges = np.flatnonzero(np.not_equal(token[1:], token[:-1], out=scratch[1:])) + 1
-    if token[0]:
-        edges = np.concatenate([[0], edges])
-    if token[-1]:
-        edges = np.concatenate([edges, [b.size]])
-    return edges[0::2], edges[1::2]
-
-
-def _line_ends(b: np.ndarray, scratch: np.ndarray) -> np.ndarray:
-    """Offsets of the ``\\n`` bytes of ``b``."""
-    return np.flatnonzero(np.equal(b, 10, out=scratch))
+        np.logical_not(_SPACE[b], out=token[1:-1])  # control characters other than \t\n\v\f\r belong to tokens
+    newlines = np.flatnonzero(np.equal(b, 10, out=scratch[1:]))
+    edges = np.flatnonzero(np.not_equal(token[1:], token[:-1], out=scratch))
+    return edges[0::2], edges[1::2], newlines
 
 
 def _words(byte: int) -> np.uint64:
     return np.uint64(byte * 0x0101010101010101)
 
 
-_ZEROS, _DOT, _LOW7, _HIGH, _ABOVE_NINE = _words(0x30), _words(0x2E ^ 0x30), _words(0x7F), _words(0x80), _words(0x76)
+_ZEROS, _HIGH, _ABOVE_NINE = _words(0x30), _words(0x80), _words(0x76)
 _M8, _M16 = np.uint64(0x00FF00FF00FF00FF), np.uint64(0x0000FFFF0000FFFF)
 
 
@@ -140,10 +133,10 @@ def _top(n: int) -> list[int]:
 
 #: _LAST[n]: mask of the last n bytes of a 16-byte window (16-byte items), n = 0..16
 _LAST = np.array([_top(n) for n in range(17)], dtype="<u8").view("V16").ravel()
-#: for q = 1 + position of the dot in the window (16: no dot, or a final dot): the bytes above it, kept in place
-_ABOVE = _LAST[[16 - q if q < 16 else 16 for q in range(17)]]
-#: divisor ±10^k of a token, indexed by q + 17·negative: k = 16 − q fractional digits (q = 16: none)
-_DIVISOR = np.array([10.0 ** (16 - q if q < 16 else 0) for q in range(17)])
+#: for q = 1 + position of the dot in the window (16: a final dot, 17: no dot): the bytes above it, kept in place
+_ABOVE = _LAST[[16 - q if q < 16 else 16 for q in range(18)]]
+#: divisor ±10^k of a token, indexed by q + 18·negative: k = 16 − q fractional digits (q ≥ 16: none)
+_DIVISOR = np.array([10.0 ** (16 - q if q < 16 else 0) for q in range(18)])
 _DIVISOR = np.concatenate([_DIVISOR, -_DIVISOR])
 _BLOCK = 1 << 15  # tokens per block: the block's uint64 temporaries stay in cache
 
@@ -165,22 +158,22 @@ def _decimal_block(windows: np.ndarray, first: np.ndarray, length: np.ndarray) -
     n = length - (negative | (first == 43))  # characters after the sign
     v = windows.view("<u8").reshape(-1, 2) ^ _ZEROS
     v &= _LAST[np.minimum(n, 16)].view("<u8").reshape(-1, 2)
-    dot = ~((v ^ _DOT) + _LOW7) & _HIGH  # 0x80 in the byte holding '.' (exact while all bytes < 0x80)
+    dot = (v.view(np.uint8) == 0x2E ^ 0x30).view("<u8")  # 1 in the lowest bit of each byte holding '.'
     below = dot - np.uint64(1)  # as one 128-bit number (low word borrows): the bits below the lowest dot
     below[:, 1] += dot[:, 0] != 0
     bits = np.bitwise_count(below)
-    q = (bits[:, 0] + bits[:, 1] + 1) >> 3  # 1 + position of the lowest dot; 16: none
+    q = (bits[:, 0] + bits[:, 1] + 8) >> 3  # 1 + position of the lowest dot; 17: none
     above = _ABOVE[q].view("<u8").reshape(-1, 2)
     up = v << np.uint64(8)
     up[:, 1] |= v[:, 0] >> np.uint64(56)
     y = up ^ ((v ^ up) & above)  # the window without the dot's byte: digits right-aligned
-    bad = (y + _ABOVE_NINE) | y | v  # 0x80 set in a byte of y above 9, or a non-ASCII byte of v
+    bad = (y + _ABOVE_NINE) | y  # 0x80 set in each byte of y that is not a digit
     ok = ((bad[:, 0] | bad[:, 1]) & _HIGH) == 0
     ok &= (n - 1).view(np.uint64) < 16  # 1..16 characters after the sign
     d = _digits_to_int(y)
     m = d[:, 0] * np.uint64(10**8) + d[:, 1]
     ok &= m < np.uint64(2**53)
-    return m.astype(np.float64) / _DIVISOR[q + 17 * negative], ok
+    return m.astype(np.float64) / _DIVISOR[q + 18 * negative], ok
 
 
 def _parse_row(body: str | bytes) -> np.ndarray | None:
@@ -207,12 +200,15 @@ def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarr
     ok = np.empty(starts.size, dtype=bool)
     for a in range(0, starts.size, _BLOCK):
         s, e = starts[a:a + _BLOCK], ends[a:a + _BLOCK]
-        x = windows[np.maximum(e - 16, 0)] if windows.size else early[e]
-        if e[0] < 16 <= b.size:
-            x[e < 16] = early[e[e < 16]]
+        if e[0] >= 16:
+            x = windows[e - 16]
+        else:  # tokens ending within the first 16 bytes: windows of the space-padded head
+            x = early[np.minimum(e, 16)]
+            late = e > 16
+            x[late] = windows[e[late] - 16]
         values[a:a + _BLOCK], ok[a:a + _BLOCK] = _decimal_block(x, b[s], e - s)
-    other = np.flatnonzero(~ok)
-    if other.size:
+    if not ok.all():
+        other = np.flatnonzero(~ok)
         rest = _parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())]))
         if rest is None or rest.size != other.size:
             return None
@@ -241,9 +237,8 @@ def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, v
     """
     blob = "\n".join(bodies).encode("latin-1")
     b = np.frombuffer(blob, dtype=np.uint8)
-    scratch = np.empty(b.size, dtype=bool)
-    starts, ends = _token_bounds(b, scratch)
-    bounds = np.concatenate([[0], _line_ends(b, scratch) + 1, [b.size]])[: len(bodies) + 1]
+    starts, ends, newlines = _scan(b)
+    bounds = np.concatenate([[0], newlines + 1, [b.size]])[: len(bodies) + 1]
     counts = np.diff(np.searchsorted(starts, bounds))
     if valid is not None:
         bad = np.flatnonzero(~valid(counts))
@@ -272,9 +267,7 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
     """
     blob = read_bytes(path)
     b = np.frombuffer(blob, dtype=np.uint8)
-    scratch = np.empty(b.size, dtype=bool)
-    starts, ends = _token_bounds(b, scratch)
-    newlines = _line_ends(b, scratch)
+    starts, ends, newlines = _scan(b)
     line_start = np.concatenate([[0], newlines + 1])
     line_end = np.concatenate([newlines, [b.size]])
     if blob.endswith(b"\n"):
@@ -291,7 +284,10 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
         k = int(bad[0])
         got = blob[line_start[k]:line_end[k]].decode("latin-1")
         raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
-    if rows.size < has.sum():  # drop the tokens of comment lines
+    k0 = first[rows[0]] if rows.size else 0
+    if rows.size and first[rows[-1]] - k0 == (rows.size - 1) * ncols:  # the data tokens are one run
+        starts, ends = starts[k0:k0 + rows.size * ncols], ends[k0:k0 + rows.size * ncols]
+    else:  # comment lines between data lines: drop their tokens
         keep = np.repeat(data[has], counts[has])
         starts, ends = starts[keep], ends[keep]
     values = _parse_tokens(blob, b, starts, ends)

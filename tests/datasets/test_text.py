@@ -51,7 +51,8 @@ def test_staged_files_bit_identical_to_numpy(relpath):
     """Every number of the real file: same bits as np.fromstring, and all via the fast path."""
     blob = _text.read_bytes(staged(relpath))
     b = np.frombuffer(blob, dtype=np.uint8)
-    starts, ends = _text._token_bounds(b, np.empty(b.size, dtype=bool))
+    starts, ends, newlines = _text._scan(b)
+    assert np.array_equal(newlines, np.flatnonzero(b == 10))
     tokens = blob.split()
     assert len(tokens) == starts.size and tokens[-1] == blob[starts[-1]:ends[-1]]
     numeric = np.isin(b[starts], np.frombuffer(b"+-.0123456789", dtype=np.uint8))  # not tags, host names, comments
