@@ -16,7 +16,8 @@ Streams
 ``Gps``           absolute position ``(x, y)``.
 ``Heading``       absolute yaw (an IMU with magnetometer): ``yaw``.
 ``Scans``         2D laser scans ``ranges[S, B]`` with beam angles, max range, mounting pose
-                  and the pose the log attached to each scan (odometry or corrected).
+                  and the pose the log attached to each scan (odometry or corrected);
+                  interlaced scanners: per-scan ``angle_offset`` and ``beam_count``.
 ``Trajectory``    time-stamped poses ``(x, y, theta)`` (ground truth, reference).
 ``LandmarkMap``   landmark ids and positions, optional std-devs (ground truth).
 ``Noise``         the dataset's stated noise, each field optional.
@@ -538,6 +539,8 @@ class Sequence:
                 entry["beacons"] = int(np.unique(stream.beacon_id).size)
             if name == "scans":
                 entry["beams"] = int(stream.ranges.shape[1])
+                if stream.angle_offset is not None:
+                    entry["interlaced_offsets"] = int(np.unique(stream.angle_offset).size)
                 entry["max_range"] = stream.max_range
             out[name] = entry
         out["ground_truth"] = None if self.ground_truth is None else {"count": len(self.ground_truth), "t0": float(self.ground_truth.t[0]) if len(self.ground_truth) else None, "t1": float(self.ground_truth.t[-1]) if len(self.ground_truth) else None}

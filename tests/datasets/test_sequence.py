@@ -138,6 +138,9 @@ def test_summary_contents(seq):
     assert (rb["count"], rb["known_ids"], rb["unknown_id_rows"], rb["observation_sets"]) == (5, 3, 1, 3)
     assert s["beacon_ranges"] == {"kind": "BeaconRanges", "count": 3, "rate_hz": pytest.approx(20.0), "nonfinite_rows": 1, "beacons": 2}
     assert s["scans"]["beams"] == 4 and s["scans"]["max_range"] == 30.0 and "rate_hz" not in s["scans"]
+    assert "interlaced_offsets" not in s["scans"]
+    interlaced = Scans(t=[0.0, 1.0, 2.0], ranges=np.ones((3, 4)), angles=np.linspace(-1, 1, 4), angle_offset=[0.0, 0.1, 0.0])
+    assert Sequence("i", scans=interlaced).summary()["scans"]["interlaced_offsets"] == 2
     assert s["ground_truth"] == {"count": 2, "t0": 0.0, "t1": 0.3}
     assert s["landmarks"] == 3
     assert s["noise"]["twist_cov"] == [[1.0, 0.0], [0.0, 1.0]] and s["noise"]["yaw_var"] == 0.5 and s["noise"]["gps_cov"] is None
