@@ -187,11 +187,16 @@ def _parse_row(body: str | bytes) -> np.ndarray | None:
     return values
 
 
-def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray | None:
+def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray, run: bool = False) -> np.ndarray | None:
     """The float64 value of every token ``blob[starts[i]:ends[i]]``; ``None`` if one is not a number.
 
     Plain decimals go through :func:`_decimal_block`, every other token through numpy's parser.
+    ``run``: the tokens are all the tokens of ``blob[starts[0]:ends[-1]]``, so that text that is
+    mostly not plain decimals (exponent notation, say) can go to numpy's parser as it stands.
     """
+    if starts.size == 0:
+        return np.zeros(0)
+    whole = blob[starts[0]:ends[-1]] if run else None
     head = np.full(32, 32, dtype=np.uint8)  # the first bytes, behind 16 spaces: windows of tokens ending early
     head[16:16 + min(b.size, 16)] = b[:16]
     windows = np.ndarray(shape=(max(b.size - 15, 0),), dtype="V16", buffer=blob, strides=(1,))
@@ -207,13 +212,19 @@ def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarr
             late = e > 16
             x[late] = windows[e[late] - 16]
         values[a:a + _BLOCK], ok[a:a + _BLOCK] = _decimal_block(x, b[s], e - s)
+        if whole is not None and 2 * np.count_nonzero(ok[:a + _BLOCK]) < ok[:a + _BLOCK].size:
+            return _exactly(_parse_row(whole), starts.size)  # mostly other numbers
     if not ok.all():
         other = np.flatnonzero(~ok)
-        rest = _parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())]))
-        if rest is None or rest.size != other.size:
+        rest = _exactly(_parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())])), other.size)
+        if rest is None:
             return None
         values[other] = rest
     return values
+
+
+def _exactly(values: np.ndarray | None, n: int) -> np.ndarray | None:
+    return values if values is not None and values.size == n else None
 
 
 def _first_bad_token(bodies: list[str], counts: np.ndarray) -> tuple[int, str]:
@@ -245,7 +256,7 @@ def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, v
         if bad.size:
             k = int(bad[0])
             raise DataFormatError(path, int(line_numbers[k]), expected, f"{counts[k]} fields: {bodies[k][:80].strip()}")
-    values = _parse_tokens(blob, b, starts, ends)
+    values = _parse_tokens(blob, b, starts, ends, run=True)
     if values is None:
         row, token = _first_bad_token(bodies, counts)
         raise DataFormatError(path, int(line_numbers[row]), f"numeric fields in {what}", token)
@@ -285,12 +296,13 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
         got = blob[line_start[k]:line_end[k]].decode("latin-1")
         raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
     k0 = first[rows[0]] if rows.size else 0
-    if rows.size and first[rows[-1]] - k0 == (rows.size - 1) * ncols:  # the data tokens are one run
+    run = rows.size > 0 and first[rows[-1]] - k0 == (rows.size - 1) * ncols  # the data tokens are one run
+    if run:
         starts, ends = starts[k0:k0 + rows.size * ncols], ends[k0:k0 + rows.size * ncols]
     else:  # comment lines between data lines: drop their tokens
         keep = np.repeat(data[has], counts[has])
         starts, ends = starts[keep], ends[keep]
-    values = _parse_tokens(blob, b, starts, ends)
+    values = _parse_tokens(blob, b, starts, ends, run)
     if values is None:
         bodies = [blob[line_start[r]:line_end[r]].decode("latin-1") for r in rows]
         row, token = _first_bad_token(bodies, counts[rows])

@@ -160,3 +160,19 @@ def test_non_numbers_still_reported_at_their_token(body, token):
 def test_form_feed_and_vertical_tab_separate_tokens():
     values, counts = _text.numbers("mem", ["1\x0b2\x0c3\r"], np.array([1]), "a row")
     assert values.tolist() == [1.0, 2.0, 3.0] and counts.tolist() == [3]
+
+
+@pytest.mark.parametrize("layout", ["header", "interleaved"])
+def test_table_of_other_notations_equals_numpy(tmp_path, layout):
+    """Exponent notation (as the Plaza files) and long mantissas go to numpy's parser, with or without comment lines between rows."""
+    rng = np.random.default_rng(3)
+    numbers = rng.normal(scale=1e3, size=(300, 3))
+    rows = [" ".join(f"{x:.16e}" if k % 3 else f"{x:.3f}" for k, x in enumerate(r)) for r in numbers]
+    if layout == "interleaved":
+        rows = [line for r in rows for line in (r, "# comment 1.5")]
+    path = tmp_path / "table.txt"
+    path.write_text("# header 2.5\n" + "\n".join(rows) + "\n")
+    values, lines = _text.numeric_table(path, 3, "a row")
+    expected = np.fromstring(" ".join(r for r in rows if not r.startswith("#")), sep=" ").reshape(-1, 3)
+    assert np.array_equal(bits(values), bits(expected))
+    assert lines[0] == 2 and lines[-1] == (600 if layout == "interleaved" else 301)
