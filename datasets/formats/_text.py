@@ -212,8 +212,8 @@ def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarr
             late = e > 16
             x[late] = windows[e[late] - 16]
         values[a:a + _BLOCK], ok[a:a + _BLOCK] = _decimal_block(x, b[s], e - s)
-        if whole is not None and 2 * np.count_nonzero(ok[:a + _BLOCK]) < ok[:a + _BLOCK].size:
-            return _exactly(_parse_row(whole), starts.size)  # mostly other numbers
+        if a == 0 and whole is not None and 2 * np.count_nonzero(ok[:_BLOCK]) < ok[:_BLOCK].size:
+            return _exactly(_parse_row(whole), starts.size)  # mostly other numbers (judged on the first block)
     if not ok.all():
         other = np.flatnonzero(~ok)
         rest = _exactly(_parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())])), other.size)
@@ -224,6 +224,7 @@ def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarr
 
 
 def _exactly(values: np.ndarray | None, n: int) -> np.ndarray | None:
+    """``values`` if numpy's parser read exactly ``n`` numbers, else ``None`` (the caller's error path)."""
     return values if values is not None and values.size == n else None
 
 
