@@ -3,6 +3,7 @@
 Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -11,6 +12,8 @@ import pytest
 from scipy import stats
 
 from datasets.dataroot import data_roots
+from datasets.geometry import interpolate_poses
+from datasets.sequence import BeaconRanges, Sequence
 
 
 def staged(relative: str) -> Path:
@@ -48,3 +51,13 @@ def assert_dead_reckoning_consistent(sequences, p: float = 1e-3) -> None:
     runs = len(nees)
     lo, hi = stats.chi2.ppf([p, 1 - p], 3 * runs) / runs
     assert lo <= np.mean(nees) <= hi, (np.mean(nees), lo, hi)
+
+
+def with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0, seed: int = 0) -> Sequence:
+    """``seq`` with its range-bearing rows turned into range-only rows to the same landmarks:
+    true range (ground truth interpolated at the stamp) + ``bias`` + N(0, ``sigma``²)."""
+    rb = seq.range_bearing
+    truth = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, rb.t)
+    xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, rb.landmark_id)]
+    r = np.hypot(*(xy - truth[:, :2]).T) + bias + sigma * np.random.default_rng(seed).standard_normal(len(rb))
+    return dataclasses.replace(seq, range_bearing=None, beacon_ranges=BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id))

@@ -11,6 +11,7 @@ import pytest
 
 from datasets.geometry import wrap_angle
 from datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from checks import with_beacon_ranges
 from estimators import create
 from estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
 from estimators.models import ARC, EULER, MOTION_MODELS, observation_jacobians, observe
@@ -294,14 +295,9 @@ def test_landmark_localization_beats_dead_reckoning():
 
 
 # ---------------------------------------------------------------- range-only beacons
-def _with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0, seed: int = 0) -> Sequence:
-    """``seq`` with its range-bearing rows turned into range-only rows (true range + bias + N(0, σ²))."""
-    rb = seq.range_bearing
-    truth = _truth_at(seq, rb.t)
-    xy = seq.landmarks.xy[rb.landmark_id]
-    r = np.hypot(xy[:, 0] - truth[:, 0], xy[:, 1] - truth[:, 1]) + bias + sigma * np.random.default_rng(seed).standard_normal(len(rb))
-    return Sequence(**{**seq.__dict__, "gps": None, "heading": None, "range_bearing": None,
-                       "beacon_ranges": BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id)})
+def _with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0) -> Sequence:
+    """``seq`` with range-only rows instead of range-bearing ones, and no GPS or IMU."""
+    return Sequence(**{**with_beacon_ranges(seq, sigma, bias).__dict__, "gps": None, "heading": None})
 
 
 def test_beacon_jacobian_matches_finite_differences():

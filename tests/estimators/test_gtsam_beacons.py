@@ -11,6 +11,7 @@ gtsam = pytest.importorskip("gtsam")
 
 from datasets.geometry import interpolate_poses  # noqa: E402
 from datasets.sequence import BeaconRanges  # noqa: E402
+from checks import with_beacon_ranges  # noqa: E402
 from datasets.sim.landmarks import simulate  # noqa: E402
 from estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
 from estimators.gtsam_smoother.problem import build_problem  # noqa: E402
@@ -18,18 +19,9 @@ from estimators.gtsam_smoother.problem import build_problem  # noqa: E402
 SIGMA, BIAS = 0.1, 1.5
 
 
-def _range_only(seq, sigma=SIGMA, bias=BIAS, seed=0):
-    """``seq`` with range-bearing rows replaced by ranges to the same landmarks (true range + bias + noise)."""
-    rb = seq.range_bearing
-    truth = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, rb.t)
-    xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, rb.landmark_id)]
-    r = np.hypot(*(xy - truth[:, :2]).T) + bias + sigma * np.random.default_rng(seed).standard_normal(len(rb))
-    return dataclasses.replace(seq, range_bearing=None, beacon_ranges=BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id))
-
-
 @pytest.fixture(scope="module")
 def seq():
-    return _range_only(simulate(seed=4, n_landmarks=12, laps=2, sigma_v=0.3, sigma_omega=0.15))
+    return with_beacon_ranges(simulate(seed=4, n_landmarks=12, laps=2, sigma_v=0.3, sigma_omega=0.15), SIGMA, BIAS)
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +70,7 @@ def test_range_only_slam_recovers_free_beacons(seq):
 
 
 def test_trilateration_is_exact_on_noise_free_ranges():
-    clean = _range_only(simulate(seed=5, n_landmarks=12, laps=1), sigma=0.0, bias=0.0)
+    clean = with_beacon_ranges(simulate(seed=5, n_landmarks=12, laps=1), sigma=0.0, bias=0.0)
     problem = build_problem(clean)
     truth = interpolate_poses(clean.ground_truth.t, clean.ground_truth.poses, np.minimum(problem.t, clean.ground_truth.t[-1]))
     ids, xy = problem.trilaterate(truth)
