@@ -8,6 +8,7 @@ from .errors import DataFormatError, DatasetNotFoundError
 from .posegraph import PoseGraph
 from .registry import available, load
 from .sequence import (
+    BeaconRanges,
     Event,
     Gps,
     Heading,
@@ -25,5 +26,5 @@ __all__ = [
     "load", "available", "set_data_root", "data_roots",
     "DataFormatError", "DatasetNotFoundError",
     "Sequence", "PoseGraph", "Event", "Estimate",
-    "Twist", "Increments", "RangeBearing", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
+    "Twist", "Increments", "RangeBearing", "BeaconRanges", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
 ]

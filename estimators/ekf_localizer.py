@@ -146,7 +146,7 @@ def _matrix(value, n: int, name: str) -> np.ndarray:
     return a
 
 
-def _residual_gps(z, h):
+def _residual_difference(z, h):
     return z - h
 
 
@@ -376,7 +376,7 @@ class EKFLocalizer:
     # ------------------------------------------------------------------ updates
     def update_gps(self, xy) -> bool:
         """GPS fix (x, y) [m]. Returns whether it was applied (False: non-finite or gated out)."""
-        return self._update("gps", np.asarray(xy, dtype=float).reshape(2), _h_gps, _H_gps, self.R_gps, _residual_gps)
+        return self._update("gps", np.asarray(xy, dtype=float).reshape(2), _h_gps, _H_gps, self.R_gps, _residual_difference)
 
     def update_imu(self, yaw) -> bool:
         """Absolute yaw θ [rad], counter-clockwise from east (see :func:`compass_to_yaw` for a compass)."""
@@ -396,7 +396,7 @@ class EKFLocalizer:
         if not np.all(np.isfinite(b)):
             raise ValueError(f"update_beacon: beacon position must be finite, got {b}")
         z = np.array([range], dtype=float)
-        return self._update("beacon", z, _h_beacon, _H_beacon, self.R_beacon, _residual_gps, (b, self.beacon_bias))
+        return self._update("beacon", z, _h_beacon, _H_beacon, self.R_beacon, _residual_difference, (b, self.beacon_bias))
 
     def _update(self, sensor, z, hx, HJ, R, residual, args=()) -> bool:
         if not np.all(np.isfinite(z)):

@@ -53,7 +53,7 @@ __all__ = ["read_run", "read", "heading_offset"]
 _MOVING = 0.05
 
 
-def heading_offset(t: np.ndarray, poses: np.ndarray) -> tuple[float, float]:
+def heading_offset(poses: np.ndarray) -> tuple[float, float]:
     """Median angle from the heading to the direction of travel over moving steps, and the
     fraction of those steps within 0.5 rad of that median."""
     step = np.diff(poses[:, :2], axis=0)
@@ -100,7 +100,7 @@ def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None 
             raise DataFormatError(truth, None, "GT (N, 4) and TL (L, 3)", f"GT {gt.shape}, TL {tl.shape}")
         check_monotonic(str(truth), gt[:, 0], np.arange(1, len(gt) + 1), "GT rows")
         poses = gt[:, 1:4].copy()
-        offset, agreement = heading_offset(gt[:, 0], poses)
+        offset, agreement = heading_offset(poses)
         flip = align_heading and abs(offset) > np.pi / 2
         if flip:
             poses[:, 2] = wrap_angle(poses[:, 2] + np.pi)

@@ -473,7 +473,7 @@ class EKFSLAM:
 
     def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> None:
         """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²)."""
-        x, P = self._s.x, self._s.P
+        x = self._s.x
         try:
             L = check_innovation_cov(S)
         except CovarianceError:

@@ -17,7 +17,6 @@ import time
 from dataclasses import dataclass
 
 import gtsam
-import numpy as np
 
 from datasets.estimate import Estimate
 from datasets.sequence import Sequence

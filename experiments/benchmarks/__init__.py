@@ -56,7 +56,8 @@ def measure_single_threaded(module: str, **kwargs) -> dict:
 
 
 def write_rows(rows: list[dict], out: Path | None, name: str) -> Path | None:
-    """Write benchmark rows (dicts; a key missing in a row is left empty) to ``out/name`` as CSV; nothing when ``out`` is None."""
+    """Write benchmark rows (dicts; a key missing in a row is left empty) to ``out/name`` as CSV and say
+    where; nothing when ``out`` is None."""
     if out is None:
         return None
     path = Path(out) / name
@@ -65,4 +66,5 @@ def write_rows(rows: list[dict], out: Path | None, name: str) -> Path | None:
         writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
         writer.writeheader()
         writer.writerows(rows)
+    print(f"wrote {path}")
     return path

@@ -113,9 +113,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     at = next((r for r in rows if r["n"] == ref_max), None)
     if at is not None:
         console.print(f"speed-up over the literal reference at n = {ref_max}: {at['reference'] / at['sequential']:.0f}× (aim ≥ 50× at n = 800)")
-    written = write_rows(rows, out, "ekf_slam_scaling.csv")
-    if written is not None:
-        console.print(f"wrote {written}")
+    write_rows(rows, out, "ekf_slam_scaling.csv")
     return 0
 
 

@@ -8,7 +8,7 @@ from datasets import DataFormatError, load
 from datasets.formats import plaza
 from datasets.formats.matlab import read_mat
 from datasets.geometry import compose, interpolate_poses, wrap_angle
-from checks import staged
+from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -21,14 +21,12 @@ BEACONS = {
 
 @pytest.fixture(scope="module")
 def plaza1():
-    staged("plaza_range_only/Plaza1_TD.txt")
-    return load("plaza:Plaza1")
+    return load_staged("plaza:Plaza1")
 
 
 @pytest.fixture(scope="module")
 def plaza2():
-    staged("plaza_range_only/Plaza2_TD.txt")
-    return load("plaza:Plaza2")
+    return load_staged("plaza:Plaza2")
 
 
 def test_plaza1_streams_first_and_last_rows(plaza1):
@@ -86,7 +84,7 @@ def test_plaza2_ground_truth_heading_is_turned_to_the_direction_of_travel(plaza1
     kept = load("plaza:Plaza2", align_heading=False)
     np.testing.assert_allclose(kept.ground_truth.poses[:, 2], wrap_angle(raw[:, 3]), atol=1e-12)
     # after the rotation the heading agrees with the direction of travel, as in Plaza1
-    offset, agreeing = plaza.heading_offset(plaza2.ground_truth.t, plaza2.ground_truth.poses)
+    offset, agreeing = plaza.heading_offset(plaza2.ground_truth.poses)
     assert abs(offset) < 0.05 and agreeing > 0.99
 
 
