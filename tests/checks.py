@@ -24,6 +24,15 @@ def staged(relative: str) -> Path:
     pytest.skip(f"dataset file {relative} is not under any data root (set SLAMARENA_DATA)")
 
 
+def load_staged(name: str, **params):
+    """``datasets.load(name, **params)`` of a catalogued real dataset; skips the test when its files are absent."""
+    from datasets.registry import load, resolve
+
+    if not resolve(name).present():
+        pytest.skip(f"dataset {name} is not under any data root (set SLAMARENA_DATA)")
+    return load(name, **params)
+
+
 def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:
     """Residuals look like N(0, σ²): |sample mean| within the normal quantile and the sample
     variance inside the two-sided χ² interval, both at false-alarm probability ``p``."""

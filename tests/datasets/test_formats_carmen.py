@@ -7,18 +7,17 @@ import gzip
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, Increments, load
+from datasets import DataFormatError, Increments
 from datasets.formats import carmen
 from datasets.geometry import accumulate
-from checks import staged
+from checks import load_staged
 
 pytestmark = pytest.mark.realdata
 
 
 @pytest.fixture(scope="module")
 def intel():
-    staged("radish_laser_logs/intel.clf.bz2")
-    return load("carmen:intel")
+    return load_staged("carmen:intel")
 
 
 def test_intel_counts_and_first_last_scan(intel):
@@ -57,7 +56,7 @@ def test_strict_time_rejects_stamps_going_back(tmp_path):
 
 
 def test_fr079_mount_offset_and_half_degree_beams():
-    s = load("carmen:fr079")
+    s = load_staged("carmen:fr079")
     assert len(s.scans) == 4934 and s.scans.ranges.shape[1] == 360
     assert np.allclose(s.scans.mount, [-0.04, 0.0, 0.0], atol=1e-3)  # PARAM robot_frontlaser_offset -0.04
     assert np.isclose(np.diff(s.scans.angles)[0], np.radians(0.5))
@@ -65,7 +64,7 @@ def test_fr079_mount_offset_and_half_degree_beams():
 
 
 def test_mit_csail_without_odom_uses_scan_odometry():
-    s = load("carmen:mit-csail")
+    s = load_staged("carmen:mit-csail")
     assert len(s.scans) == 1988 and s.scans.ranges.shape[1] == 361
     assert np.allclose(s.scans.angles[[0, 180, 360]], [-np.pi / 2, 0, np.pi / 2])
     assert len(s.motion) == 1987 and "no ODOM" in s.meta["motion_source"]
@@ -82,7 +81,7 @@ def test_beam_layout_selection(tmp_path):
 
 
 def test_corrected_intel():
-    s = load("carmen-corrected:intel")
+    s = load_staged("carmen-corrected:intel")
     assert len(s.scans) == 910 and s.meta["ground_truth_kind"] == "slam-reference"
     assert s.meta["skipped_echo_odom"] == 910 == s.meta["echo_odom_matching_scan_pose"]
     assert np.allclose(s.scans.pose[0], [0.600266, -0.0320327, -0.354665])
@@ -96,7 +95,7 @@ def test_corrected_intel():
     ("acapulco", 861, 181, "ipc"), ("seattle", 241, 361, "ipc"),
 ])
 def test_corrected_logs_with_bad_stamps(name, scans, beams, time_source):
-    s = load(f"carmen-corrected:{name}")
+    s = load_staged(f"carmen-corrected:{name}")
     assert s.scans.ranges.shape == (scans, beams) and s.meta["time_source"].startswith(time_source)
     assert len(s.motion) == scans - 1 and s.meta["skipped_echo_odom"] == scans
 

@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets import load
 from datasets.formats import carmen
 from datasets.sequence import Scans, Sequence
-from checks import staged
+from checks import load_staged, staged
 
 CLINIC = "radish_laser_logs/fr-clinic_robotlaser.clf.bz2"
 
@@ -70,8 +69,7 @@ def test_invalid_offsets_and_counts_are_rejected(kwargs, message):
 # --------------------------------------------------------------------------- fr-clinic (real log)
 @pytest.fixture(scope="module")
 def clinic():
-    staged(CLINIC)
-    return load("carmen:fr-clinic")
+    return load_staged("carmen:fr-clinic")
 
 
 @pytest.mark.realdata

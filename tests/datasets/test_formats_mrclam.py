@@ -6,17 +6,16 @@ import gzip
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, load
+from datasets import DataFormatError
 from datasets.formats import mrclam
-from checks import staged
+from checks import load_staged
 
 pytestmark = pytest.mark.realdata
 
 
 @pytest.fixture(scope="module")
 def d6r1():
-    staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
-    return load("utias:6/robot1")
+    return load_staged("utias:6/robot1")
 
 
 def test_dataset6_robot1_odometry_first_and_last(d6r1):
@@ -55,8 +54,7 @@ def test_dataset6_robot1_ground_truth_and_landmarks(d6r1):
 
 
 def test_dataset1_has_no_robot_ground_truth_and_counts_drops():
-    staged("utias_mrclam/MRCLAM_Dataset1/Robot3_Odometry.dat.gz")
-    s = load("utias:1/robot3")
+    s = load_staged("utias:1/robot3")
     assert s.ground_truth is None and s.initial_pose is None
     assert s.meta["measurement_rows"] == 8742
     assert (s.meta["landmark_observations"], s.meta["dropped_robot_observations"], s.meta["dropped_misread_barcodes"]) == (6771, 1969, 2)

@@ -14,7 +14,7 @@ from datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, Ra
 from checks import with_beacon_ranges
 from estimators import create
 from estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
-from estimators.models import ARC, EULER, MOTION_MODELS, observation_jacobians, observe
+from estimators.models import EULER, MOTION_MODELS, observation_jacobians, observe
 
 CMD_DT = 0.02
 TRUE_NOISE = dict(sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3)
@@ -443,14 +443,11 @@ def test_input_older_than_the_history_is_rejected_and_counted():
 def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
     dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
-    from checks import staged
+    from checks import load_staged
     from experiments.metrics.reference import reference_of
     from experiments.metrics.trajectory import ATEParams, ate
 
-    staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
-    import datasets
-
-    seq = datasets.load("utias:6/robot1")
+    seq = load_staged("utias:6/robot1")
     t_end = seq.motion.t[0] + 120.0
     seq = Sequence(**{**seq.__dict__, "motion": seq.motion.select(seq.motion.t < t_end),
                       "range_bearing": seq.range_bearing.select(seq.range_bearing.t < t_end)})
@@ -487,14 +484,11 @@ def test_plaza2_range_only_localization_needs_the_range_offset():
     """CMU Plaza2 (1.35 km): ranges to the four surveyed beacons bring dead reckoning's 31.6 m ATE
     below 1 m once the +2.8 m range offset is modelled; without it the gate refuses many ranges and
     the error is several metres (the numbers of research/ekf_localizer.md, `slamarena run plaza`)."""
-    from checks import staged
+    from checks import load_staged
     from experiments.metrics.reference import reference_of
     from experiments.metrics.trajectory import ATEParams, ate
 
-    staged("plaza_range_only/Plaza2_TD.txt")
-    import datasets
-
-    seq = datasets.load("plaza:Plaza2")
+    seq = load_staged("plaza:Plaza2")
     cfg = dict(R_beacon=2.25, increment_cov=(1e-4, 1e-4, 1e-5))
     biased = EKFLocalizer(**cfg, beacon_bias=2.8).run(seq)
     plain = EKFLocalizer(**cfg).run(seq)

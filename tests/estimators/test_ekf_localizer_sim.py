@@ -9,7 +9,6 @@ covariance they claim.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import datasets
 from datasets.sequence import Sequence

@@ -192,12 +192,11 @@ def test_study_mrclam():
     """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
     against dead reckoning of the same odometry (the filter with no measurements). The dataset states
     no noise; ``MRCLAM_FILTER`` and its derivation are in research/ekf_localizer.md."""
-    from checks import staged
+    from checks import load_staged
 
-    staged("utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
     rows, out = [], {}
     for robot in range(1, 6):
-        seq = datasets.load(f"utias:6/robot{robot}")
+        seq = load_staged(f"utias:6/robot{robot}")
         est = EKFLocalizer(**MRCLAM_FILTER).run(seq)
         dead = EKFLocalizer(**MRCLAM_FILTER).run(type(seq)(**{**seq.__dict__, "range_bearing": None}))
         s, d = _score(est, seq), _score(dead, seq)

@@ -97,14 +97,11 @@ def test_bad_beacon_config_is_rejected_before_work(params):
 @pytest.mark.realdata
 def test_plaza2_smoothing_against_surveyed_and_free_beacons():
     """CMU Plaza2: research/graph_slam.md's numbers (ATE 0.42 m anchored; free beacons 0.35 m after SE(2) alignment)."""
-    from checks import staged
+    from checks import load_staged
     from experiments.metrics.reference import reference_of
     from experiments.metrics.trajectory import ATEParams, ate
 
-    staged("plaza_range_only/Plaza2_TD.txt")
-    import datasets
-
-    seq = datasets.load("plaza:Plaza2")
+    seq = load_staged("plaza:Plaza2")
     common = dict(increment_cov=np.diag([1e-4, 1e-4, 1e-5]).tolist(), beacon_range_var=2.25, beacon_bias=2.8, covariances=False)
     ref = reference_of(seq)
     surveyed = ate(BatchSmoother(**common).run(seq), ref, ATEParams(align="none", max_gap=0.25))[0]["rmse"]
