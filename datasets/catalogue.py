@@ -6,9 +6,10 @@ passed as the keyword ``paths`` (a dict ``role → Path``).
 """
 from __future__ import annotations
 
-import importlib
 import importlib.util
 from dataclasses import dataclass, field
+
+from slamarena.targets import import_target
 
 from .dataroot import data_roots, find
 
@@ -34,9 +35,7 @@ class CatalogueEntry:
         return all(any((root / rel).exists() for root in data_roots()) for rel in self.files)
 
     def load(self, **params):
-        module, _, attr = self.reader.partition(":")
-        reader = getattr(importlib.import_module(module), attr)
-        return reader(paths=self.paths(), name=self.name, **{**self.arguments, **params})
+        return import_target(self.reader)(paths=self.paths(), name=self.name, **{**self.arguments, **params})
 
 
 class _VictoriaParkEntry(CatalogueEntry):
@@ -91,7 +90,7 @@ def _mrclam() -> dict[str, CatalogueEntry]:
             out[name] = CatalogueEntry(
                 name=name, kind="landmarks (range-bearing, velocity odometry, real indoor)",
                 ground_truth="Vicon poses + surveyed landmarks" if dataset == 6 else "surveyed landmarks only",
-                files=tuple(files), roles=tuple(roles), reader="datasets.formats.mrclam:read", citation=_MRCLAM)
+                files=tuple(files), roles=tuple(roles), reader="slamarena.datasets.formats.mrclam:read", citation=_MRCLAM)
     return out
 
 
@@ -102,7 +101,7 @@ def _plaza() -> dict[str, CatalogueEntry]:
         out[f"plaza:{run}"] = CatalogueEntry(
             name=f"plaza:{run}", kind="range-only (beacon ranges + odometry increments, real outdoor)",
             ground_truth="GPS-based poses + surveyed beacons", files=(f"{d}_DR.txt", f"{d}_TD.txt", f"{d}_.mat"),
-            roles=("odometry", "ranges", "truth"), reader="datasets.formats.plaza:read", citation=_PLAZA)
+            roles=("odometry", "ranges", "truth"), reader="slamarena.datasets.formats.plaza:read", citation=_PLAZA)
     return out
 
 
@@ -167,13 +166,13 @@ def _graphs() -> dict[str, CatalogueEntry]:
     out = {}
     for name, (rel, kind, truth, gt, cite) in _G2O.items():
         files, roles = ((rel, gt), ("graph", "ground_truth")) if gt else ((rel,), ("graph",))
-        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, files, "datasets.formats.g2o:load", roles, citation=cite)
+        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, files, "slamarena.datasets.formats.g2o:load", roles, citation=cite)
     for name, (rel, kind, truth) in _TORO.items():
-        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, (rel,), "datasets.formats.toro:load", ("graph",), citation=_GTSAM)
+        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, (rel,), "slamarena.datasets.formats.toro:load", ("graph",), citation=_GTSAM)
     for name, (rel, gt, kind, cite) in _ISAM_FILES.items():
         files, roles = ((rel, gt), ("graph", "ground_truth")) if gt else ((rel,), ("graph",))
         truth = "true poses" + (" and landmarks" if "Trees" in name else "") + " (noise-free file)" if gt else "none"
-        out[f"isam:{name}"] = CatalogueEntry(f"isam:{name}", kind, truth, files, "datasets.formats.isam:load", roles, citation=cite)
+        out[f"isam:{name}"] = CatalogueEntry(f"isam:{name}", kind, truth, files, "slamarena.datasets.formats.isam:load", roles, citation=cite)
     return out
 
 
@@ -182,12 +181,12 @@ def _carmen() -> dict[str, CatalogueEntry]:
     for name, (rel, max_range, owner) in _CARMEN_RAW.items():
         out[f"carmen:{name}"] = CatalogueEntry(
             f"carmen:{name}", "laser log 2D (scans + odometry), real", "none (relations files not staged)", (rel,),
-            "datasets.formats.carmen:load", ("log",), {"max_range": max_range}, f"{owner}; {_RADISH}; {_KUEMMERLE}")
+            "slamarena.datasets.formats.carmen:load", ("log",), {"max_range": max_range}, f"{owner}; {_RADISH}; {_KUEMMERLE}")
     for name, max_range in _CARMEN_CORRECTED.items():
         rel = f"carmen_corrected_logs/{name}-corrected.log.gz"
         out[f"carmen-corrected:{name}"] = CatalogueEntry(
             f"carmen-corrected:{name}", "laser log 2D with SLAM-corrected poses", "SLAM reference poses (not independent)",
-            (rel,), "datasets.formats.carmen:load", ("log",), {"max_range": max_range, "corrected": True},
+            (rel,), "slamarena.datasets.formats.carmen:load", ("log",), {"max_range": max_range, "corrected": True},
             f"{_RADISH}; data owners per log (via acschaefer/ple)")
     return out
 
@@ -197,7 +196,7 @@ CATALOGUE: dict[str, CatalogueEntry] = {
     "victoria_park": _VictoriaParkEntry(
         name="victoria_park", kind="landmarks (odometry increments + tree observations, real outdoor)",
         ground_truth="none", files=("victoria_park/victoria_park_gtsam.txt", "victoria_park/victoriaPark_isam.txt"),
-        roles=("gtsam", "isam"), reader="datasets.formats.victoria_park:load", citation=_VICTORIA),
+        roles=("gtsam", "isam"), reader="slamarena.datasets.formats.victoria_park:load", citation=_VICTORIA),
     **_plaza(),
     **_graphs(),
     **_carmen(),

@@ -4,7 +4,7 @@ Every file is pinned to the exact commit named in its ``SOURCE.md`` (raw.githubu
 and checked against the sha256 of the upstream content. Files that the stager gzip-compressed
 (``compressed=True`` below) are published uncompressed: the hash is that of the published file,
 and after verification the file is gzip-compressed into the cache at the path the catalogue
-expects. Downloads go to :func:`datasets.dataroot.cache_dir`, which is itself a data root.
+expects. Downloads go to :func:`slamarena.datasets.dataroot.cache_dir`, which is itself a data root.
 
 pooch is imported inside :func:`fetch` only (the data layer depends on numpy + stdlib).
 """

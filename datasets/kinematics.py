@@ -1,6 +1,6 @@
 """Planar kinematics of a velocity-driven robot: the body-frame increment of (v, ω) held for dt.
 
-Two models, the same as :mod:`estimators.models` (which adds their Jacobians and uses this
+Two models, the same as :mod:`slamarena.estimators.models` (which adds their Jacobians and uses this
 module for the motion itself, so simulators and estimators share one implementation)::
 
     euler: δ = (v dt, 0, ω dt)                       the notes' first-order step

@@ -12,7 +12,7 @@
     poses (N, 7) ``(x, y, z, qx, qy, qz, qw)``, z (E, 7), information (E, 6, 6) order (x y z rx ry rz).
 
 Ground truth, where a dataset has it: ``true_poses`` (N, 3) aligned with ``node_ids`` and
-``true_landmarks`` (a :class:`~datasets.sequence.LandmarkMap`).
+``true_landmarks`` (a :class:`~slamarena.datasets.sequence.LandmarkMap`).
 """
 from __future__ import annotations
 

@@ -9,16 +9,16 @@ Names (exact forms)::
     carmen:<name>   carmen-corrected:<name>                  laser logs
     sim:landmarks   sim:localization   sim:laser             simulators (seeded)
 
-``load(name, **params)`` returns a :class:`~datasets.sequence.Sequence` or a
-:class:`~datasets.posegraph.PoseGraph`. Loaders are imported on first use so that the CLI
+``load(name, **params)`` returns a :class:`~slamarena.datasets.sequence.Sequence` or a
+:class:`~slamarena.datasets.posegraph.PoseGraph`. Loaders are imported on first use so that the CLI
 starts fast. The catalogue of staged real datasets (names, files, kinds) lives in
-:mod:`datasets.catalogue`.
+:mod:`slamarena.datasets.catalogue`.
 """
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass
-from typing import Callable
+
+from slamarena.targets import import_target
 
 from .catalogue import CATALOGUE, CatalogueEntry
 
@@ -26,9 +26,9 @@ __all__ = ["load", "available", "SIMULATORS", "DatasetInfo", "resolve"]
 
 #: simulator name → "module:function"; each function takes keyword parameters (``seed`` among them)
 SIMULATORS: dict[str, str] = {
-    "sim:landmarks": "datasets.sim.landmarks:simulate",
-    "sim:localization": "datasets.sim.localization:simulate",
-    "sim:laser": "datasets.sim.laser:simulate",
+    "sim:landmarks": "slamarena.datasets.sim.landmarks:simulate",
+    "sim:localization": "slamarena.datasets.sim.localization:simulate",
+    "sim:laser": "slamarena.datasets.sim.laser:simulate",
 }
 
 
@@ -42,11 +42,6 @@ class DatasetInfo:
     citation: str
 
 
-def _import(target: str) -> Callable:
-    module, _, attr = target.partition(":")
-    return getattr(importlib.import_module(module), attr)
-
-
 def resolve(name: str) -> CatalogueEntry:
     """The catalogue entry of a real dataset name (``KeyError`` listing the valid names)."""
     if name in CATALOGUE:
@@ -57,7 +52,7 @@ def resolve(name: str) -> CatalogueEntry:
 def load(name: str, **params):
     """Load a registered dataset by name; simulators take their parameters as keywords."""
     if name in SIMULATORS:
-        return _import(SIMULATORS[name])(**params)
+        return import_target(SIMULATORS[name])(**params)
     entry = resolve(name)
     return entry.load(**params)
 

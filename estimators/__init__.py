@@ -6,20 +6,20 @@ and constructed with the config's parameters.
 """
 from __future__ import annotations
 
-import importlib
+from slamarena.targets import import_target
 
 from .base import Estimate, Estimator
 
 __all__ = ["REGISTRY", "create", "Estimate", "Estimator"]
 
 REGISTRY: dict[str, str] = {
-    "dead_reckoning": "estimators.dead_reckoning:DeadReckoning",
-    "ekf_slam": "estimators.ekf_slam:EKFSLAM",
-    "ekf_localizer": "estimators.ekf_localizer:EKFLocalizer",
-    "gtsam_batch": "estimators.gtsam_smoother:BatchSmoother",
-    "gtsam_isam2": "estimators.gtsam_smoother:ISAM2Smoother",
-    "gtsam_fixed_lag": "estimators.gtsam_smoother:FixedLagLocalizer",
-    "gtsam_pose_graph": "estimators.gtsam_smoother:PoseGraphOptimizer",
+    "dead_reckoning": "slamarena.estimators.dead_reckoning:DeadReckoning",
+    "ekf_slam": "slamarena.estimators.ekf_slam:EKFSLAM",
+    "ekf_localizer": "slamarena.estimators.ekf_localizer:EKFLocalizer",
+    "gtsam_batch": "slamarena.estimators.gtsam_smoother:BatchSmoother",
+    "gtsam_isam2": "slamarena.estimators.gtsam_smoother:ISAM2Smoother",
+    "gtsam_fixed_lag": "slamarena.estimators.gtsam_smoother:FixedLagLocalizer",
+    "gtsam_pose_graph": "slamarena.estimators.gtsam_smoother:PoseGraphOptimizer",
 }
 
 
@@ -27,5 +27,4 @@ def create(name: str, **params) -> Estimator:
     """Construct the registered method ``name`` with ``params``."""
     if name not in REGISTRY:
         raise KeyError(f"unknown estimator {name!r}; known: {', '.join(sorted(REGISTRY))}")
-    module, _, attr = REGISTRY[name].partition(":")
-    return getattr(importlib.import_module(module), attr)(**params)
+    return import_target(REGISTRY[name])(**params)

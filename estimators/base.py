@@ -1,14 +1,14 @@
 """The estimator protocol: ``run(sequence) -> Estimate``.
 
 Online filters also expose ``predict(...)`` and ``update(...)`` for interactive use.
-:class:`~datasets.estimate.Estimate` documents the result.
+:class:`~slamarena.datasets.estimate.Estimate` documents the result.
 """
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-from datasets.estimate import Estimate
-from datasets.sequence import Sequence
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.sequence import Sequence
 
 __all__ = ["Estimate", "Estimator"]
 

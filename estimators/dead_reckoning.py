@@ -27,8 +27,8 @@ Twist input (the usual case: each row ends where the next starts, or earlier —
 standing still): one pose at every row stamp ``t_k`` and one at the end of the last row,
 ``K + 1`` poses, the whole trajectory in one vectorised ``MotionModel.integrate`` call. If
 rows overlap (a row's ``dt`` reaches past the next stamp), the replay follows
-``estimators.stepping.twist_pieces`` between stamps, as a filter would. Increments input:
-one pose after each row at its stamp (``K`` poses), ``datasets.geometry.accumulate``.
+``slamarena.estimators.stepping.twist_pieces`` between stamps, as a filter would. Increments input:
+one pose after each row at its stamp (``K`` poses), ``slamarena.datasets.geometry.accumulate``.
 
 ``step_time`` is the wall time of the whole integration divided evenly over the poses (the
 work is one vectorised pass, so there is no per-pose time to measure).
@@ -39,9 +39,9 @@ import time
 
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import accumulate
-from datasets.sequence import Increments, Sequence, Twist
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import accumulate
+from slamarena.datasets.sequence import Increments, Sequence, Twist
 
 from .models import MOTION_MODELS, compose_jacobians
 from .stepping import twist_pieces

@@ -7,7 +7,7 @@ wrapped to (−π, π] after every step. P (3, 3) its covariance.
 
 Prediction (velocity input u = (v, ω) held for Δt, the TRUE time since the previous event)
 -----------------------------------------------------------------------------------------
-The motion model is "compose with a body-frame increment" (:mod:`estimators.models`)::
+The motion model is "compose with a body-frame increment" (:mod:`slamarena.estimators.models`)::
 
     δ = δ(u, Δt)                        (3,)   EULER (the notes): δ = (vΔt, 0, ωΔt); ARC optional
     x⁻ = x ⊕ δ                          (3,)   EULER: x + vΔt cosθ, y + vΔt sinθ, θ + ωΔt
@@ -19,7 +19,7 @@ filterpy's ``predict()`` is linear (x = F x + B u). This module keeps its covari
 overrides the extension point ``predict_x`` with the nonlinear model (``u`` is the increment δ),
 with ``F`` set to the Jacobian and ``Q`` to the noise of this Δt before each call. Because δ does
 not depend on x, F = ∂(x ⊕ δ)/∂x and V = ∂(x ⊕ δ)/∂δ · ∂δ/∂u come from
-:func:`estimators.models.compose_jacobians` (equal to the model's G, V — tested against finite
+:func:`slamarena.estimators.models.compose_jacobians` (equal to the model's G, V — tested against finite
 differences), and δ, ∂δ/∂u of every Twist row are computed once, vectorised, in :meth:`run`.
 
 Process noise Q(Δt) — the unit the notes leave unstated
@@ -36,14 +36,14 @@ Process noise Q(Δt) — the unit the notes leave unstated
   Over Δt it adds V M Vᵀ · τ/Δt: exactly V M Vᵀ for a whole command (Δt = τ), and for a piece of
   a command (an event splits it) the random-walk share, so the pieces add up to the whole.
 Odometry increments (``Increments`` input) predict with x⁻ = x ⊕ δ, F = ∂x⁻/∂x, Q = J_δ C J_δᵀ
-(:func:`estimators.models.compose_jacobians`), C from the row, the sequence or ``increment_cov``.
+(:func:`slamarena.estimators.models.compose_jacobians`), C from the row, the sequence or ``increment_cov``.
 
 Updates (filterpy ``update`` with a ``residual`` function; θ wrapped after each)
 ------------------------------------------------------------------------------
 GPS    z = (x, y)      h = H_gps x,  H_gps = [[1, 0, 0], [0, 1, 0]]  (2, 3),  R_gps (2, 2)
 IMU    z = θ           h = H_imu x,  H_imu = [[0, 0, 1]]              (1, 3),  R_imu (1, 1); residual wrapped
 Range-bearing to a KNOWN landmark m = (mx, my):
-       z = (r, b)      h = observe(x, m),  H = ∂h/∂x (2, 3) (:func:`estimators.models.observation_jacobians`),
+       z = (r, b)      h = observe(x, m),  H = ∂h/∂x (2, 3) (:func:`slamarena.estimators.models.observation_jacobians`),
                        R_landmark (2, 2); bearing residual wrapped
 Range to a KNOWN beacon b = (bx, by) (range-only radio beacons, e.g. CMU Plaza):
        z = r           h = ‖b − p‖ + β,  H = [−(bx − x)/d, −(by − y)/d, 0] (1, 3) with d = ‖b − p‖,
@@ -69,7 +69,7 @@ Time, multi-rate input and delayed measurements
 :meth:`EKFLocalizer.process` takes inputs with their own stamps in any arrival order:
 ``("twist", (v, ω, dt))``, ``("increment", (dx, dy, dθ))``, ``("gps", (x, y))``, ``("imu", yaw)``,
 ``("landmark", (range, bearing, mx, my))`` (or an (M, 4) array), ``("beacon", (range, bx, by))`` (or (M, 3)). Between events the filter is
-propagated with the commands in force (:func:`estimators.stepping.twist_pieces`). After each
+propagated with the commands in force (:func:`slamarena.estimators.stepping.twist_pieces`). After each
 input a snapshot (t, kind, value, x, P) joins a history covering ``history_length`` seconds. An
 input older than the filter's time restores the last snapshot at or before its stamp and replays
 the later inputs in time order (robot_localization's lagged-data smoothing); one older than the
@@ -85,7 +85,7 @@ Diagnostics of :meth:`run`: ``nis_<sensor>``, ``nis_<sensor>_t``, ``nis_<sensor>
 ``nis_dim_<sensor>`` for sensor in gps, imu, landmark, beacon (NIS of every measurement that reached the
 gate, as finally processed: a replay replaces the records of the steps it redoes), and ``rejected_<sensor>_<reason>``
 counts; ``meta["rejected"]`` holds the same counts as a nested dict. ``nis``, ``nis_dof`` and
-``nis_t`` merge all sensors in time order (the names :mod:`experiments.metrics` reads).
+``nis_t`` merge all sensors in time order (the names :mod:`slamarena.experiments.metrics` reads).
 """
 from __future__ import annotations
 
@@ -97,11 +97,11 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from scipy.stats import chi2
 
-from datasets.estimate import Estimate
-from datasets.geometry import compose, wrap_angle
-from datasets.sequence import Increments, Sequence, Twist
-from estimators.models import MOTION_MODELS, compose_jacobians, observation_jacobians, observe
-from estimators.stepping import twist_pieces
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.datasets.sequence import Increments, Sequence, Twist
+from slamarena.estimators.models import MOTION_MODELS, compose_jacobians, observation_jacobians, observe
+from slamarena.estimators.stepping import twist_pieces
 
 __all__ = ["EKFLocalizer", "compass_to_yaw", "KINDS", "SENSORS"]
 

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datasets import kinematics
-from datasets.geometry import compose, wrap_angle
+from slamarena.datasets import kinematics
+from slamarena.datasets.geometry import compose, wrap_angle
 
 __all__ = [
     "MotionModel",
@@ -77,7 +77,7 @@ class MotionModel:
     name: str
 
     def increment(self, v, omega, dt) -> np.ndarray:
-        """Body-frame pose increment δ(u, dt), shape ``(..., 3)`` (:mod:`datasets.kinematics`)."""
+        """Body-frame pose increment δ(u, dt), shape ``(..., 3)`` (:mod:`slamarena.datasets.kinematics`)."""
         return kinematics.increment(self.name, v, omega, dt)
 
     def predict(self, x, v, omega, dt) -> np.ndarray:

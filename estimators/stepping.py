@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from datasets.sequence import Twist
+from slamarena.datasets.sequence import Twist
 
 __all__ = ["twist_pieces"]
 

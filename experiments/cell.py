@@ -1,14 +1,14 @@
 """One cell of an experiment (dataset × method × seed), run in a fresh process of its own.
 
 ``run_cell(spec, timeout)`` — called by the runner's local thread pool or on a Dask worker —
-starts ``python -m experiments.cell SPEC.json`` and waits for it, killing it at the timeout.
+starts ``python -m slamarena.experiments.cell SPEC.json`` and waits for it, killing it at the timeout.
 A fresh process per cell isolates crashes of native libraries, makes the timeout a hard one
 (the process is killed) and makes ``ru_maxrss`` the peak memory of this cell alone.
 
 In the child (:func:`main`): load the dataset (a simulator gets the cell's seed as ``seed``;
 a real dataset is loaded as is), construct the method from the registry (``seed`` passed only
 if its constructor takes one), run it and time the run, then compute the metrics and write
-the cell's files (see :mod:`experiments.results`) — ``metrics.json`` last. If
+the cell's files (see :mod:`slamarena.experiments.results`) — ``metrics.json`` last. If
 ``estimate.npz`` already holds this cell's key (only the metric settings changed), the
 estimate is reused and only the metrics are recomputed (unless the spec says ``force``).
 """
@@ -41,7 +41,7 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
         spec_path = fh.name
     start = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env={**os.environ, **spec.get("env", {})})
+        proc = subprocess.run([sys.executable, "-m", "slamarena.experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env={**os.environ, **spec.get("env", {})})
     except subprocess.TimeoutExpired:
         return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
     finally:
@@ -79,11 +79,11 @@ def _truth_arrays(ref) -> dict:
 
 def execute(spec: dict) -> dict:
     """The work of one cell (in the child process); returns the ``metrics.json`` content."""
-    import importlib
     import inspect
 
-    import datasets
-    from datasets.estimate import Estimate
+    from slamarena import datasets
+    from slamarena.targets import import_target
+    from slamarena.datasets.estimate import Estimate
 
     from .config import method_table
     from .metrics import METRICS, CellData, evaluate, reference_of
@@ -104,8 +104,7 @@ def execute(spec: dict) -> dict:
         estimate = Estimate.load(estimate_file)
         wall = read_json(previous)["wall"]
     else:
-        module, _, attr = method_table()[es["name"]].partition(":")
-        cls = getattr(importlib.import_module(module), attr)
+        cls = import_target(method_table()[es["name"]])
         kwargs = dict(es["params"])
         if spec["seed_to_estimator"] and "seed" in inspect.signature(cls.__init__).parameters:
             kwargs["seed"] = seed

@@ -3,11 +3,11 @@
 Commands delegate to the modules that own the work, imported inside each command so that
 ``slamarena --help`` starts without loading numpy-heavy or GTSAM/Open3D code:
 
-    slamarena run [CONFIG]            experiments.runner
-    slamarena figures RESULTS_DIR     paper_figures.make
-    slamarena data list|info|fetch    experiments.cli_data
-    slamarena bench NAME              experiments.benchmarks (the BENCHMARKS table)
-    slamarena map LOG                 experiments.cli_map
+    slamarena run [CONFIG]            slamarena.experiments.runner
+    slamarena figures RESULTS_DIR     slamarena.paper_figures.make
+    slamarena data list|info|fetch    slamarena.experiments.cli_data
+    slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
+    slamarena map LOG                 slamarena.experiments.cli_map
 
 (``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
 """
@@ -34,7 +34,7 @@ def _main(
     data_root: Optional[Path] = typer.Option(None, "--data-root", help="Directory holding the datasets (before SLAMARENA_DATA and the defaults)."),
 ):
     if data_root is not None:
-        from datasets.dataroot import set_data_root
+        from slamarena.datasets.dataroot import set_data_root
 
         set_data_root(data_root)
 
@@ -49,7 +49,7 @@ def run(
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
 ):
     """Run an experiment: every method on every dataset and seed; write tables and figures."""
-    from paper_figures.make import make_all
+    from slamarena.paper_figures.make import make_all
 
     from .runner import run_from_cli
 
@@ -59,7 +59,7 @@ def run(
 @app.command()
 def figures(results_dir: Path = typer.Argument(..., exists=True, file_okay=False, help="A results/<experiment> directory.")):
     """Regenerate every figure of a results directory (PNG and PDF)."""
-    from paper_figures.make import make_all
+    from slamarena.paper_figures.make import make_all
 
     make_all(results_dir)
 

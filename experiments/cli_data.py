@@ -12,7 +12,7 @@ def list_datasets():
     from rich.console import Console
     from rich.table import Table
 
-    from datasets import available
+    from slamarena.datasets import available
 
     table = Table(title="slamarena datasets")
     for column in ("name", "kind", "ground truth", "present"):
@@ -30,7 +30,7 @@ def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/rob
     import numpy as np
     from rich.console import Console
 
-    from datasets import DatasetNotFoundError, load
+    from slamarena.datasets import DatasetNotFoundError, load
 
     console = Console()
     try:
@@ -52,7 +52,7 @@ def fetch(name: str = typer.Argument(..., help="A registry name (see `slamarena 
     """Download a dataset's files (pinned commit URLs, sha256-checked) into the cache data root."""
     from rich.console import Console
 
-    from datasets.fetch import FetchError, fetch as do_fetch
+    from slamarena.datasets.fetch import FetchError, fetch as do_fetch
 
     console = Console()
     try:

@@ -4,7 +4,7 @@ LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser
 of a CARMEN log (``.clf``/``.log``, optionally ``.gz``/``.bz2``). Writes into ``--out``:
 
     trajectory.tum      the estimated robot poses at the scan stamps (TUM, z = 0)
-    estimate.npz        the full :class:`~datasets.estimate.Estimate` (diagnostics included)
+    estimate.npz        the full :class:`~slamarena.datasets.estimate.Estimate` (diagnostics included)
     map.png             the finest grid, 1 − p in grey (white free, black occupied)
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
     summary.json        timing (total, per scan, real-time factor), counts of bad beams and
@@ -22,15 +22,15 @@ __all__ = ["map_command", "load_log"]
 
 def load_log(log: str):
     """A registry name, or a path to a CARMEN log, as a Sequence."""
-    import datasets
-    from datasets.catalogue import CATALOGUE
-    from datasets.registry import SIMULATORS
+    from slamarena import datasets
+    from slamarena.datasets.catalogue import CATALOGUE
+    from slamarena.datasets.registry import SIMULATORS
 
     if log in SIMULATORS or log in CATALOGUE:
         return datasets.load(log)
     path = Path(log)
     if path.is_file():
-        from datasets.formats.carmen import read
+        from slamarena.datasets.formats.carmen import read
 
         return read(path)
     raise FileNotFoundError(f"{log!r} is neither a dataset name (see `slamarena data list`) nor a file")
@@ -40,8 +40,8 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from datasets.errors import DataFormatError, DatasetNotFoundError
-    from mapping.scan_matching import MATCHERS
+    from slamarena.datasets.errors import DataFormatError, DatasetNotFoundError
+    from slamarena.mapping.scan_matching import MATCHERS
 
     console = Console()
     if matcher not in MATCHERS:
@@ -61,8 +61,8 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
 
     import numpy as np
 
-    from datasets.formats import tum
-    from mapping.grid_slam import GridSLAM
+    from slamarena.datasets.formats import tum
+    from slamarena.mapping.grid_slam import GridSLAM
 
     slam = GridSLAM(matcher=matcher)
     K = len(sequence.scans)
@@ -89,8 +89,8 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
         **{k: v for k, v in estimate.meta.items() if k != "params"}, "params": estimate.meta["params"],
     }
     if relations is not None:
-        from experiments.metrics.reference import MetricUnavailable
-        from experiments.metrics.relations import RelationsParams, relation_error_from_file
+        from slamarena.experiments.metrics.reference import MetricUnavailable
+        from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
 
         try:
             summary["relations"], _ = relation_error_from_file(estimate, sequence, RelationsParams(file=relations))

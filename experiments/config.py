@@ -7,14 +7,14 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
     seeds: 3                          # a count (0, 1, 2) or a list [0, 7, 42]
     timeout: 600                      # seconds per cell (null: none)
     datasets:
-      - name: sim:landmarks           # a registry name (datasets.load)
+      - name: sim:landmarks           # a registry name (slamarena.datasets.load)
         params: {n_landmarks: 50}     # keyword arguments; a simulator's seed is the cell's seed
         label: lm50                   # optional directory/table name (default: sanitised name)
     estimators:
       - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
         params: {motion_model: arc}   # constructor keywords, checked by constructing the class
         datasets: [lm50]              # optional: only these dataset labels (default: every dataset)
-    metrics:                          # metric name → parameters (experiments.metrics.METRICS)
+    metrics:                          # metric name → parameters (slamarena.experiments.metrics.METRICS)
       ate: {align: se2}
       nees: {}
     tables:
@@ -28,7 +28,6 @@ parameter the simulator/reader/estimator does not take or rejects — is a
 """
 from __future__ import annotations
 
-import importlib
 import inspect
 import re
 import typing
@@ -36,6 +35,8 @@ from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
+
+from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
@@ -62,16 +63,11 @@ def require_plain(name: str | None, what: str, kind: str = "directory") -> str |
 
 
 def method_table() -> dict[str, str]:
-    """Every runnable method: ``estimators.REGISTRY`` merged with ``mapping.REGISTRY``."""
-    from estimators import REGISTRY as ESTIMATORS
-    from mapping import REGISTRY as MAPPERS
+    """Every runnable method: ``slamarena.estimators.REGISTRY`` merged with ``slamarena.mapping.REGISTRY``."""
+    from slamarena.estimators import REGISTRY as ESTIMATORS
+    from slamarena.mapping import REGISTRY as MAPPERS
 
     return {**ESTIMATORS, **MAPPERS}
-
-
-def _import(target: str):
-    module, _, attr = target.partition(":")
-    return getattr(importlib.import_module(module), attr)
 
 
 def check_keywords(func, params: dict, what: str, reserved: tuple[str, ...] = ()) -> None:
@@ -106,25 +102,25 @@ class DatasetSpec(BaseModel):
 
     @property
     def is_simulator(self) -> bool:
-        from datasets.registry import SIMULATORS
+        from slamarena.datasets.registry import SIMULATORS
 
         return self.name in SIMULATORS
 
     @model_validator(mode="after")
     def _registered(self):
-        from datasets.catalogue import CATALOGUE
-        from datasets.registry import SIMULATORS
+        from slamarena.datasets.catalogue import CATALOGUE
+        from slamarena.datasets.registry import SIMULATORS
 
         if self.name in SIMULATORS:
             try:
-                simulate = _import(SIMULATORS[self.name])
+                simulate = import_target(SIMULATORS[self.name])
             except ImportError as exc:
                 raise ValueError(f"simulator {self.name!r} is registered but cannot be imported: {exc}") from None
             check_keywords(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
         elif self.name in CATALOGUE:
             entry = CATALOGUE[self.name]
             try:
-                reader = _import(entry.reader)
+                reader = import_target(entry.reader)
             except ImportError as exc:
                 raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
             check_keywords(reader, self.params, f"dataset {self.name!r}", reserved=("paths", "name"))
@@ -148,7 +144,7 @@ class EstimatorSpec(BaseModel):
         if self.name not in table:
             raise ValueError(f"unknown method {self.name!r}; registered: {', '.join(sorted(table))}")
         try:
-            cls = _import(table[self.name])
+            cls = import_target(table[self.name])
         except (ImportError, AttributeError) as exc:
             raise ValueError(f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}") from None
         check_keywords(cls.__init__, self.params, f"method {self.name!r}")
@@ -160,7 +156,7 @@ class EstimatorSpec(BaseModel):
         return self
 
     def takes_seed(self) -> bool:
-        cls = _import(method_table()[self.name])
+        cls = import_target(method_table()[self.name])
         return "seed" in inspect.signature(cls.__init__).parameters and "seed" not in self.params
 
 

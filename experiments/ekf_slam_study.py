@@ -1,18 +1,18 @@
 """EKF-SLAM studies behind research/ekf_slam.md: Monte Carlo consistency and real data.
 
-    python -m experiments.ekf_slam_study consistency [--seeds 30] [--laps 2] [--figure PATH]
+    python -m slamarena.experiments.ekf_slam_study consistency [--seeds 30] [--laps 2] [--figure PATH]
                                                      [--sim JSON] [--variants standard FEJ ideal]
-    python -m experiments.ekf_slam_study realdata
+    python -m slamarena.experiments.ekf_slam_study realdata
 
 ``consistency``: robot-pose NEES over time of the standard, FEJ and ideal EKF (and the
 standard EKF with the reference's zero-cross-covariance ``initP`` landmark initialisation) on
 ``sim:landmarks`` with the simulator's true noise, averaged over the seeds and compared with
 the two-sided 95 % χ² band of an N-run average (Bailey et al. 2006; Huang et al. 2008).
-Uses ``experiments.metrics.consistency`` (NEES, Monte Carlo average, band).
+Uses ``slamarena.experiments.metrics.consistency`` (NEES, Monte Carlo average, band).
 
 ``realdata``: UTIAS MRCLAM Dataset 6, every robot, known association (barcodes): ATE against
-Vicon (SE(2)-aligned, ``experiments.metrics.trajectory.ate``) and landmark-map error
-(``experiments.metrics.landmarks``) next to dead reckoning; Victoria Park with the ids
+Vicon (SE(2)-aligned, ``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error
+(``slamarena.experiments.metrics.landmarks``) next to dead reckoning; Victoria Park with the ids
 withheld (nearest neighbour and JCBB) against the run with ids.
 """
 from __future__ import annotations
@@ -23,13 +23,13 @@ import time
 
 import numpy as np
 
-import datasets
-from estimators.dead_reckoning import DeadReckoning
-from estimators.ekf_slam import EKFSLAM
-from experiments.metrics import MetricUnavailable, reference_of
-from experiments.metrics.consistency import monte_carlo, nees
-from experiments.metrics.landmarks import MapParams, landmark_error
-from experiments.metrics.trajectory import ate
+from slamarena import datasets
+from slamarena.estimators.dead_reckoning import DeadReckoning
+from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.experiments.metrics import MetricUnavailable, reference_of
+from slamarena.experiments.metrics.consistency import monte_carlo, nees
+from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
+from slamarena.experiments.metrics.trajectory import ate
 
 VARIANTS = {
     "standard": dict(jacobians="standard"),
@@ -123,7 +123,7 @@ def realdata() -> None:
     with_ids = EKFSLAM(range_bearing_noise="cartesian").run(seq)
     ref_traj = with_ids.poses
     print(f"with ids: {with_ids.meta['n_landmarks']} landmarks, NIS mean/dof {np.mean(with_ids.diagnostics['nis'] / with_ids.diagnostics['nis_dof']):.2f}")
-    from experiments.metrics.reference import Reference
+    from slamarena.experiments.metrics.reference import Reference
 
     ref = Reference(with_ids.t, ref_traj, with_ids.landmark_ids, with_ids.landmarks, None)
     for method, gates in (("nn", {}), ("jcbb", {}), ("nn", dict(new_confidence=0.96))):

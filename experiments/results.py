@@ -80,7 +80,7 @@ def load_npz(path: str | Path) -> dict[str, np.ndarray]:
 
 def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
     """The estimate as a TUM trajectory (``t x y z qx qy qz qw``, planar: z = 0, yaw quaternion)."""
-    from datasets.formats import tum
+    from slamarena.datasets.formats import tum
 
     buffer = io.StringIO()
     tum.write(buffer, t, poses)

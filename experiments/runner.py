@@ -2,25 +2,25 @@
 
 ``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force] [--dry-run]``
 
-1. The config is validated (:mod:`experiments.config`) before anything runs.
+1. The config is validated (:mod:`slamarena.experiments.config`) before anything runs.
 2. The grid datasets × methods × seeds is expanded into cells (a method with a ``datasets:``
    list only on those). A simulator gets the cell's
    seed; a real dataset is the same for every seed, so a method that takes no ``seed`` runs
    once on it (the first seed) instead of repeating an identical computation.
 3. Each cell has a cache key: the SHA-256 of the dataset spec (name, parameters, the seed of
-   a simulator), the SHA-256 of every file of a real dataset (``datasets.catalogue``), the
+   a simulator), the SHA-256 of every file of a real dataset (``slamarena.datasets.catalogue``), the
    method spec, the seed and the slamarena version. A cell whose ``metrics.json`` carries its
    key (and the key of the metric settings) is finished and skipped, so an interrupted run
    resumes where it stopped; ``--force`` recomputes.
-4. Pending cells run in their own processes (:func:`experiments.cell.run_cell`): locally on
+4. Pending cells run in their own processes (:func:`slamarena.experiments.cell.run_cell`): locally on
    ``--jobs`` joblib worker threads, each supervising one cell process (the threads only
    wait; the work, the timeout kill and the memory peak belong to the cell's own process),
    or on a Dask distributed cluster with ``--scheduler``. A failing or timed-out cell does
    not stop the others; its error and traceback go to ``summary.csv`` and the console, and
    the exit code is 1.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
-   (drawn by the ``make_figures`` callable the CLI hands in: ``paper_figures.make.make_all``)
-   and ``manifest.json`` are written (see :mod:`experiments.results`).
+   (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
+   and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`).
 """
 from __future__ import annotations
 
@@ -95,7 +95,7 @@ def _digest(obj) -> str:
 
 def dataset_checksums(name: str) -> dict[str, str]:
     """SHA-256 of each file of a real dataset (empty for simulators)."""
-    from datasets.catalogue import CATALOGUE
+    from slamarena.datasets.catalogue import CATALOGUE
 
     if name not in CATALOGUE:
         return {}
@@ -145,7 +145,7 @@ def _spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = False) 
 
 def _cell_env() -> dict:
     """Variables a cell process gets on top of its worker's environment: the data roots in use here."""
-    from datasets.dataroot import data_roots
+    from slamarena.datasets.dataroot import data_roots
 
     return {"SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots())}
 
@@ -238,7 +238,7 @@ def collect(config: ExperimentConfig, cells: list[Cell], failures: dict[str, dic
 
 def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
     """Per (dataset, method): NEES and NIS averaged over the seeds at shared stamps, with the
-    N-run χ² band (:func:`experiments.metrics.consistency.monte_carlo`); one row per statistic."""
+    N-run χ² band (:func:`slamarena.experiments.metrics.consistency.monte_carlo`); one row per statistic."""
     import numpy as np
     import pandas as pd
 
@@ -298,7 +298,7 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     """Run (or resume) an experiment into ``out``; returns the exit code (0: every cell ok).
 
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's
-    figures at the end; the CLI passes :func:`paper_figures.make.make_all` (figures are the
+    figures at the end; the CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the
     layer above this one, so they are handed in rather than imported).
     """
     from rich.console import Console

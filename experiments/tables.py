@@ -5,7 +5,7 @@ and ``<metric>.<output>`` columns). Each table groups the successful cells by (d
 method) and reports ``mean ± std`` over the seeds (``std`` with ``ddof=1``; a single run shows
 the mean alone) and ``n``, the number of seeds. In every column the best mean within each
 dataset is marked — bold in Markdown and LaTeX, a trailing ``*`` in CSV — where the metric
-says which direction is better (``experiments.metrics`` outputs: lower or higher).
+says which direction is better (``slamarena.experiments.metrics`` outputs: lower or higher).
 The CSV also carries the raw ``<column>_mean`` / ``<column>_std`` numbers.
 """
 from __future__ import annotations

@@ -6,5 +6,5 @@ each class implements ``run(sequence) -> Estimate`` like the estimators.
 from __future__ import annotations
 
 REGISTRY: dict[str, str] = {
-    "grid_slam": "mapping.grid_slam:GridSLAM",
+    "grid_slam": "slamarena.mapping.grid_slam:GridSLAM",
 }

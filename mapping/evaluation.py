@@ -69,8 +69,8 @@ def occupancy_agreement(grid, true_occupied: np.ndarray, tol: int = 1) -> dict:
 
 def true_occupancy_on(grid, world="loop", truth_in_map=(0.0, 0.0, 0.0)) -> np.ndarray:
     """Boolean occupancy (rows = y) of the ``sim:laser`` world moved into the map frame, on ``grid``'s lattice."""
-    from datasets.geometry import transform_points
-    from datasets.sim import laser
+    from slamarena.datasets.geometry import transform_points
+    from slamarena.datasets.sim import laser
 
     w = laser._world(world)
     seg = laser.segments(w).reshape(-1, 2, 2)
@@ -93,7 +93,7 @@ def map_sharpness(grid) -> dict:
 
 
 def _end_points(scans, pose, k, max_range):
-    from datasets.geometry import compose, transform_points
+    from slamarena.datasets.geometry import compose, transform_points
 
     r, a = scans.beams(k)
     ok = np.isfinite(r) & (r > 0) & (r < max_range)

@@ -20,12 +20,12 @@ For each scan k of ``sequence.scans`` (robot pose ``x_k = (x, y, θ)``, world fr
    moved more than ``update_distance`` [m] or turned more than ``update_angle`` [rad] since
    the last update.
 
-Result: :class:`~datasets.estimate.Estimate` with one pose per scan at the scan stamps,
+Result: :class:`~slamarena.datasets.estimate.Estimate` with one pose per scan at the scan stamps,
 ``step_time`` the wall time of each scan's steps 1–4; ``diagnostics``: ``bad_beams``,
 ``no_return_beams``, ``usable_beams``, ``matched``, ``map_updated``, ``score``,
 ``iterations``, ``match_cov`` (K, 3, 3; NaN where not matched: the matcher's covariance
 given the map, not a full SLAM covariance, hence not ``pose_cov``). After ``run`` the map is
-``self.maps`` (a :class:`~mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
+``self.maps`` (a :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
 """
 from __future__ import annotations
 
@@ -33,9 +33,9 @@ import time
 
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import between, compose, transform_points, wrap_angle
-from datasets.sequence import Sequence
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
+from slamarena.datasets.sequence import Sequence
 
 from .map_pyramid import MapPyramid
 from .scan_matching import MATCHERS, make_matcher
@@ -46,11 +46,11 @@ __all__ = ["GridSLAM"]
 class GridSLAM:
     """Scan-to-map SLAM; every parameter is a keyword with a default (see the module docstring).
 
-    matcher: a name of :data:`mapping.scan_matching.MATCHERS`; matcher_params: its keywords.
+    matcher: a name of :data:`slamarena.mapping.scan_matching.MATCHERS`; matcher_params: its keywords.
     resolution [m], levels: the map pyramid. update_distance [m], update_angle [rad]: map
     update thresholds (Hector's 0.4 m, 0.9 rad). p_hit, p_miss, clamp, hit_guard: the cell
     model (hit_guard g > 0: cells within g cells of a hit are not cleared by the same scan,
-    see :mod:`mapping.occupancy_grid`). initial_updates: the map is updated at every one of
+    see :mod:`slamarena.mapping.occupancy_grid`). initial_updates: the map is updated at every one of
     the first scans until it holds this many (a one-scan map is sparse at grazing angles and
     the Gauss-Newton match against it can jump by a cell; the notes' "10–20 scans before
     scan matching").

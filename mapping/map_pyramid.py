@@ -1,7 +1,7 @@
 """A multi-resolution stack of occupancy grids, all updated from the same scans (Hector SLAM).
 
 Level k has resolution ``resolution · 2^k``; level 0 is the finest. Each level is an
-independent :class:`~mapping.occupancy_grid.OccupancyGrid` with the same cell model (origin
+independent :class:`~slamarena.mapping.occupancy_grid.OccupancyGrid` with the same cell model (origin
 shifted by half a cell so that cell centres lie on multiples of the level's resolution), so
 the coarse levels are true coarse maps (not blurred copies of the fine one): a scan
 matched on level k sees smooth, wide basins, the fine level gives accuracy.

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from datasets.geometry import compose, transform_points
+from slamarena.datasets.geometry import compose, transform_points
 
 from .raytrace import bresenham
 

@@ -1,6 +1,6 @@
 """Regenerate every figure of a results directory: ``slamarena figures RESULTS_DIR``.
 
-``FIGURES`` maps the figure kinds an experiment config may list (``experiments.config.FIGURES``)
+``FIGURES`` maps the figure kinds an experiment config may list (``slamarena.experiments.config.FIGURES``)
 to the module function that draws them; each reads the results directory and writes PNG and
 PDF into ``<results>/figures``.
 """

@@ -2,7 +2,7 @@
 
 The pose NEES of the N seeds is averaged at the stamps they share; ``N ε̄`` is χ²(3N) for a
 consistent filter, so the two-sided 95 % band is ``[χ²_{3N}(0.025), χ²_{3N}(0.975)] / N``
-(:func:`experiments.metrics.consistency.monte_carlo`). The y axis is logarithmic: an
+(:func:`slamarena.experiments.metrics.consistency.monte_carlo`). The y axis is logarithmic: an
 inconsistent filter leaves the band by orders of magnitude.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ __all__ = ["plot"]
 
 
 def plot(results_dir: str | Path, out_dir: str | Path, probability: float = 0.95) -> list[Path]:
-    from experiments.metrics.consistency import monte_carlo
+    from slamarena.experiments.metrics.consistency import monte_carlo
 
     runs = [r for r in load_runs(results_dir) if "nees/nees" in r.series]
     if not runs:

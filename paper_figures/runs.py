@@ -1,4 +1,4 @@
-"""Reading an experiment's results directory (the layout of :mod:`experiments.results`)."""
+"""Reading an experiment's results directory (the layout of :mod:`slamarena.experiments.results`)."""
 from __future__ import annotations
 
 import json
@@ -42,7 +42,7 @@ class Run:
 
     @cached_property
     def estimate(self):
-        from datasets.estimate import Estimate
+        from slamarena.datasets.estimate import Estimate
 
         return Estimate.load(self.dir / "estimate.npz")
 

@@ -32,7 +32,7 @@ def _aligned_landmarks(run):
     est = run.estimate
     if est.landmarks is None or len(est.landmarks) == 0:
         return None, None
-    from experiments.metrics.alignment import Alignment
+    from slamarena.experiments.metrics.alignment import Alignment
 
     a = run.info.get("alignment") or {}
     A = Alignment(a.get("angle", 0.0), (a.get("tx", 0.0), a.get("ty", 0.0)), a.get("scale", 1.0))

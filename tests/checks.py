@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from datasets.dataroot import data_roots
-from datasets.geometry import interpolate_poses
-from datasets.sequence import BeaconRanges, Sequence
+from slamarena.datasets.dataroot import data_roots
+from slamarena.datasets.geometry import interpolate_poses
+from slamarena.datasets.sequence import BeaconRanges, Sequence
 
 
 def staged(relative: str) -> Path:
@@ -25,8 +25,8 @@ def staged(relative: str) -> Path:
 
 
 def load_staged(name: str, **params):
-    """``datasets.load(name, **params)`` of a catalogued real dataset; skips the test when its files are absent."""
-    from datasets.registry import load, resolve
+    """``slamarena.datasets.load(name, **params)`` of a catalogued real dataset; skips the test when its files are absent."""
+    from slamarena.datasets.registry import load, resolve
 
     if not resolve(name).present():
         pytest.skip(f"dataset {name} is not under any data root (set SLAMARENA_DATA)")
@@ -48,8 +48,8 @@ def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> Non
 def assert_dead_reckoning_consistent(sequences, p: float = 1e-3) -> None:
     """Dead reckoning with a sequence's stated noise is consistent: the final-pose NEES averaged
     over the (independent, seeded) sequences lies inside the two-sided χ² band at level ``p``."""
-    from datasets.geometry import wrap_angle
-    from estimators.dead_reckoning import DeadReckoning
+    from slamarena.datasets.geometry import wrap_angle
+    from slamarena.estimators.dead_reckoning import DeadReckoning
 
     nees = []
     for s in sequences:

@@ -1,6 +1,6 @@
 """Vectorised parsing of whitespace-separated text records, with exact error locations.
 
-Every text reader of :mod:`datasets.formats` works the same way:
+Every text reader of :mod:`slamarena.datasets.formats` works the same way:
 
 1. :func:`read_lines` reads the whole (optionally ``.gz``/``.bz2``-compressed) file and splits it
    into lines once (:func:`numeric_table` skips even that and works on the raw bytes);

@@ -18,7 +18,7 @@ matrices, which this reader covers. The format (MathWorks, "MAT-File Format", Le
 
 Read: real and complex numeric classes (double, single, int8 … uint64) and ``logical``, any
 number of dimensions, either byte order. Anything else (cell, struct, object, char, sparse, the
-HDF5-based v7.3 format) raises :class:`~datasets.errors.DataFormatError` when that variable is
+HDF5-based v7.3 format) raises :class:`~slamarena.datasets.errors.DataFormatError` when that variable is
 asked for; other variables in the file are skipped unread.
 """
 from __future__ import annotations

@@ -9,7 +9,7 @@ A run ``PlazaN`` has three files:
                    over 1.86 km.
 ``PlazaN_TD.txt``  ``t  robot_id  beacon_id  range`` — radio ranges [m] to four fixed beacons
                    → :class:`BeaconRanges`.
-``PlazaN_.mat``    MATLAB v5 (read by :mod:`datasets.formats.matlab`): ``GT`` ``(t, x, y, θ)`` ground-truth
+``PlazaN_.mat``    MATLAB v5 (read by :mod:`slamarena.datasets.formats.matlab`): ``GT`` ``(t, x, y, θ)`` ground-truth
                    poses, ``TL`` ``(beacon_id, x, y)`` true beacon positions; also ``DR``/``TD`` (the same
                    numbers as the text files) and ``DRp`` (GTSAM's dead-reckoned path).
 

@@ -12,7 +12,7 @@ The six noise numbers of ``EDGE2`` are the **information** matrix in TORO's orde
 of kind ``"bearing_range"`` with ``z = (bearing, range)`` and information
 diag(1/σ_bearing², 1/σ_range²). ``EQUIV`` pairs have no edge in :class:`PoseGraph`; they are kept
 in ``meta["equivalences"]`` (and counted). Files whose ``EDGE2`` noise follows the iSAM
-square-root convention (w20000) are read with :mod:`datasets.formats.isam` instead.
+square-root convention (w20000) are read with :mod:`slamarena.datasets.formats.isam` instead.
 """
 from __future__ import annotations
 

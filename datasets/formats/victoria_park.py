@@ -1,6 +1,6 @@
 """Victoria Park (Guivant & Nebot 2001; pre-processed by Ranganathan & Kaess for iSAM).
 
-The file is in the iSAM text format (:mod:`datasets.formats.isam`): 6968 ``ODOMETRY`` lines
+The file is in the iSAM text format (:mod:`slamarena.datasets.formats.isam`): 6968 ``ODOMETRY`` lines
 forming one chain of 6969 poses, and 3640 ``LANDMARK`` lines (151 trees) giving each tree as a
 Cartesian point ``(dx, dy)`` in the robot frame (x forward, y left). Poses and landmarks share
 one id space. Two copies exist and differ only in their noise columns:

@@ -24,7 +24,7 @@ twice. Straights run at ``speed``; a turn holds ``ω = (π/2) / (n_turn dt)`` wi
 ``v = ω r`` for an integer number of steps, so every turn is exactly π/2 and the loop closes
 exactly for either motion model (a rigid motion of rotation π composed with itself is the
 identity). The truth is ``x_{k+1} = x_k ⊕ δ(u_k, dt)`` with
-``datasets.kinematics`` with model ``motion_model`` (default ``"arc"``, the exact
+``slamarena.datasets.kinematics`` with model ``motion_model`` (default ``"arc"``, the exact
 constant-twist step). The estimator sees the noisy controls
 ``ũ_k = u_k + ε_k, ε_k ~ N(0, diag(σ_v², σ_ω²))``, one draw per row, held constant for the
 row's ``dt`` (``Noise.twist_cov`` is the covariance of a row's velocity error, not a

@@ -16,7 +16,7 @@ Motion and odometry
 The true controls drive the route at ``speed`` (each straight stretched to a whole number of
 odometry periods ``dt = 1/odom_rate``; each fillet a whole number of periods at
 ``ω = α/(n dt)``, ``v = |ω| r``), so the true path, integrated with the exact arc model
-(``datasets.kinematics``, model ``"arc"``), closes every lap. Ground truth: the true pose at every odometry
+(``slamarena.datasets.kinematics``, model ``"arc"``), closes every lap. Ground truth: the true pose at every odometry
 stamp ``t_k = t0 + k dt``, ``k = 0 … K`` (``t0`` included).
 
 Wheel odometry: ``Increments`` row k (stamp ``t_{k+1}``) is the body-frame motion from ``t_k``
@@ -173,7 +173,7 @@ def raycast(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, max_
 def true_occupancy(resolution: float, world: str | World = "loop", origin=None, shape=None, margin: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """The walls rasterised: a boolean grid ``occupied[iy, ix]`` and its ``origin`` (2,).
 
-    Conventions of :mod:`mapping.occupancy_grid`: ``origin`` is the lower-left corner of cell
+    Conventions of :mod:`slamarena.mapping.occupancy_grid`: ``origin`` is the lower-left corner of cell
     (0, 0), cell ``(ix, iy)`` covers ``origin + [i, i + 1)·resolution``. A cell is occupied when
     a wall segment meets its closed square (so a wall lying exactly on a cell border marks
     the cells on both sides). Default grid: the walls' bounding box plus ``margin``, with the

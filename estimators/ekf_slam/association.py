@@ -32,7 +32,7 @@ import numpy as np
 from scipy.linalg import block_diag
 from scipy.special import gammaincinv
 
-from datasets.geometry import wrap_angle
+from slamarena.datasets.geometry import wrap_angle
 
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError

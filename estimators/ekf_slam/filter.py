@@ -4,7 +4,7 @@ Model
 -----
 Robot pose ``x_r = (x, y, θ)``, control ``u = (v, ω)`` held for ``dt``, static point landmarks
 ``m_i = (m_ix, m_iy)``. Motion ``x_r' = f(x_r, u, dt)`` is the Euler or the exact arc model of
-:mod:`estimators.models` (``MOTION_MODELS``); odometry increments ``δ`` move the robot by
+:mod:`slamarena.estimators.models` (``MOTION_MODELS``); odometry increments ``δ`` move the robot by
 ``x_r' = x_r ⊕ δ``. Observations ``z = h(x_r, m_i) + η = [range, bearing] + η``,
 ``η ~ N(0, R)``.
 
@@ -90,7 +90,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import block_diag
 
-from datasets.geometry import accumulate, wrap_angle
+from slamarena.datasets.geometry import accumulate, wrap_angle
 
 from ..models import MOTION_MODELS, compose_jacobians, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
 from . import association as assoc
@@ -545,7 +545,7 @@ class EKFSLAM:
 
     # ------------------------------------------------------------------ runner
     def run(self, sequence):
-        """Walk ``sequence.events()`` and return an :class:`~datasets.estimate.Estimate` (see :mod:`.run`)."""
+        """Walk ``sequence.events()`` and return an :class:`~slamarena.datasets.estimate.Estimate` (see :mod:`.run`)."""
         from .run import run_sequence
 
         return run_sequence(self, sequence)

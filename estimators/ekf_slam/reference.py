@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from datasets.geometry import wrap_angle
+from slamarena.datasets.geometry import wrap_angle
 
 from ..models import MOTION_MODELS, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
 

@@ -3,7 +3,7 @@
 Motion and range-bearing events are processed (other streams are not used by EKF-SLAM):
 
 * before every event the filter is propagated from its current time to the event time —
-  :class:`Twist` input piecewise with :func:`estimators.stepping.twist_pieces`; rows with a
+  :class:`Twist` input piecewise with :func:`slamarena.estimators.stepping.twist_pieces`; rows with a
   non-finite velocity are skipped and counted (``rejected_motion``);
 * an :class:`Increments` event applies its row (the motion since the previous stamp;
   covariance: the ``increment_cov`` parameter if given, else ``Increments.cov``, else
@@ -34,9 +34,9 @@ import time
 
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import interpolate_poses
-from datasets.sequence import Increments, Sequence, Twist
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import interpolate_poses
+from slamarena.datasets.sequence import Increments, Sequence, Twist
 
 from ..stepping import twist_pieces
 

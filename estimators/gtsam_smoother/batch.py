@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import gtsam
 
-from datasets.estimate import Estimate
-from datasets.sequence import Sequence
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.sequence import Sequence
 
 from .graph import (OPTIMIZERS, L, X, check_choice, landmark_step_factors, observation_noise, optimize, point_covariances, points_of,
                     poses_of, range_noise, world_pose_covariances)

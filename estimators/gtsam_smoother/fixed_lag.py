@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 import gtsam
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import compose
-from datasets.sequence import Sequence
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import compose
+from slamarena.datasets.sequence import Sequence
 
 from .graph import ROBUST, X, check_choice, noise_model
 from .noise import body_to_world

@@ -30,10 +30,10 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import compose
-from datasets.sequence import Sequence
-from estimators.models import inverse_observe
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import compose
+from slamarena.datasets.sequence import Sequence
+from slamarena.estimators.models import inverse_observe
 
 from .graph import (L, X, check_choice, landmark_step_factors, observation_noise, point_covariances, points_of, poses_of, range_noise,
                     world_pose_covariances)

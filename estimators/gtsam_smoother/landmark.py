@@ -11,7 +11,7 @@ Graph (K poses x_0…x_{K−1} ∈ SE(2), L landmarks l_j ∈ R²)::
 with δ_k, P_δ from the filters' motion model and noise (:mod:`.problem`, :mod:`.noise`) so the
 graph and the EKF use the same noise. MAP estimate: ``argmin Σ ‖e‖²_Σ`` (robust kernels optional
 on the observation factors). Pose covariances are converted from GTSAM's body frame to the
-world (x, y, θ) frame of :class:`~datasets.estimate.Estimate`.
+world (x, y, θ) frame of :class:`~slamarena.datasets.estimate.Estimate`.
 
 Parameters common to both smoothers (keyword-only, with defaults):
     motion_model "arc"|"euler"; max_interval (s) or None: extra pose keys; regularisation: eigen-
@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from datasets.sequence import Sequence
+from slamarena.datasets.sequence import Sequence
 
 import gtsam
 

@@ -16,7 +16,7 @@ right of ``δ``, i.e. in the frame of the *end* pose ``b``. To first order
 Pose covariances
 ----------------
 The same relation holds for a pose ``x̂`` and its marginal: GTSAM reports ``Σ_body`` of ξ with
-``x = x̂ · Exp(ξ)``; the world-frame ``(x, y, θ)`` covariance of :class:`~datasets.estimate.Estimate`
+``x = x̂ · Exp(ξ)``; the world-frame ``(x, y, θ)`` covariance of :class:`~slamarena.datasets.estimate.Estimate`
 is ``J Σ_body Jᵀ`` with ``J = blockdiag(R(θ̂), 1)`` (:func:`body_to_world`).
 
 One twist piece has a rank-2 covariance (two noise inputs for three pose coordinates); an
@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from datasets.geometry import compose, rotation
-from estimators.models import MotionModel, compose_jacobians
+from slamarena.datasets.geometry import compose, rotation
+from slamarena.estimators.models import MotionModel, compose_jacobians
 
 __all__ = ["twist_relative", "increments_relative", "body_to_world", "world_to_body", "regularise"]
 

@@ -1,4 +1,4 @@
-"""Pose-graph optimisation of a :class:`~datasets.posegraph.PoseGraph` (g2o, TORO, iSAM files) with GTSAM.
+"""Pose-graph optimisation of a :class:`~slamarena.datasets.posegraph.PoseGraph` (g2o, TORO, iSAM files) with GTSAM.
 
 Graph (2D): nodes x_i ∈ SE(2) keyed by their file ids, one ``BetweenFactorPose2`` per edge with
 ``Gaussian.Information(Ω)`` — the file's information matrix in (x, y, θ) order, which is the
@@ -28,11 +28,11 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from datasets.estimate import Estimate
-from datasets.geometry import transform_points
-from datasets.posegraph import PoseGraph
-from datasets.sequence import Sequence
-from estimators.models import inverse_observe
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import transform_points
+from slamarena.datasets.posegraph import PoseGraph
+from slamarena.datasets.sequence import Sequence
+from slamarena.estimators.models import inverse_observe
 
 from .batch import BatchSmoother
 from .graph import OPTIMIZERS, ROBUST, L, X, check_choice, information_model, noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances

@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from datasets.geometry import accumulate
-from datasets.sequence import Increments, Sequence, Twist
-from estimators.models import MOTION_MODELS, inverse_observe
-from estimators.stepping import twist_pieces
+from slamarena.datasets.geometry import accumulate
+from slamarena.datasets.sequence import Increments, Sequence, Twist
+from slamarena.estimators.models import MOTION_MODELS, inverse_observe
+from slamarena.estimators.stepping import twist_pieces
 
 from .noise import increments_relative, regularise, twist_relative, world_to_body
 

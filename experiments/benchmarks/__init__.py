@@ -8,19 +8,20 @@ directory or ``None``) and ``quick`` (bool) and returns a process exit code.
 from __future__ import annotations
 
 import csv
-import importlib
 import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+from slamarena.targets import import_target
+
 BENCHMARKS: dict[str, str] = {
-    "readers": "experiments.benchmarks.readers:main",
-    "ekf-slam": "experiments.benchmarks.ekf_slam:main",
-    "isam2": "experiments.benchmarks.isam2:main",
-    "grid": "experiments.benchmarks.grid:main",
-    "scan-matching": "experiments.benchmarks.scan_matching:main",
+    "readers": "slamarena.experiments.benchmarks.readers:main",
+    "ekf-slam": "slamarena.experiments.benchmarks.ekf_slam:main",
+    "isam2": "slamarena.experiments.benchmarks.isam2:main",
+    "grid": "slamarena.experiments.benchmarks.grid:main",
+    "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
 }
 
 
@@ -32,8 +33,7 @@ def run_benchmark(name: str, out: Path | None = None, quick: bool = False) -> in
     if name not in BENCHMARKS:
         print(f"unknown benchmark {name!r}; known: {', '.join(BENCHMARKS)}")
         return 2
-    module, _, attr = BENCHMARKS[name].partition(":")
-    return int(getattr(importlib.import_module(module), attr)(out=out, quick=quick) or 0)
+    return int(import_target(BENCHMARKS[name])(out=out, quick=quick) or 0)
 
 
 def loglog_slope(rows: list[dict], key: str, lo: float, hi: float, size: str = "n") -> float:

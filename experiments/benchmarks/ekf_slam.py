@@ -4,7 +4,7 @@ For n = 25 … 1600 landmarks (N = 3 + 2n), a filter holding n mapped landmarks 
 one prediction plus an update with 10 observations of known landmarks. Reported, all from
 the same run: the least CPU time (``time.process_time``, all threads; the minimum over repeats
 is the estimate least disturbed by other processes on a shared machine) per step of the efficient filter (sequential and batched
-updates), of the literal dense reference (``estimators.ekf_slam.reference``; up to n = 800,
+updates), of the literal dense reference (``slamarena.estimators.ekf_slam.reference``; up to n = 800,
 since it costs O(N³) per observation), their ratio, and the log-log slope of the efficient
 filter's time over n ∈ [200, 1600] (the O(n²) claim: aim ≤ 2.2; at n = 800 the aim is ≥ 50×
 the reference).
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.ekf_slam import EKFSLAM
-from estimators.ekf_slam.reference import ReferenceEKFSLAM
-from estimators.models import observe
-from experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
+from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
+from slamarena.estimators.models import observe
+from slamarena.experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
 
 OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
@@ -94,7 +94,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console = Console()
     rows = []
     for n in sizes:
-        rows.append(measure_single_threaded("experiments.benchmarks.ekf_slam", n=n, repeats=repeats, with_reference=n <= ref_max))
+        rows.append(measure_single_threaded("slamarena.experiments.benchmarks.ekf_slam", n=n, repeats=repeats, with_reference=n <= ref_max))
         console.log(f"n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in rows[-1].items()))
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
     exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("sequential", "batch")}

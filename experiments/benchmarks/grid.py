@@ -1,7 +1,7 @@
 """``slamarena bench grid``: occupancy-grid update throughput and memory.
 
 1. Cell updates per second of the vectorised scan integration
-   (:meth:`mapping.occupancy_grid.OccupancyGrid.integrate`: Bresenham over all beams at once,
+   (:meth:`slamarena.mapping.occupancy_grid.OccupancyGrid.integrate`: Bresenham over all beams at once,
    deduplication, one log-odds update per cell) against :func:`integrate_literal`, the
    per-beam, per-cell Python loop of the textbook, on the same scans in the same run: the
    ratio, and a check that both produce the same grid.
@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from datasets.geometry import compose, transform_points
-from mapping.occupancy_grid import OccupancyGrid
-from mapping.raytrace import bresenham
-from experiments.benchmarks import loglog_slope, write_rows
+from slamarena.datasets.geometry import compose, transform_points
+from slamarena.mapping.occupancy_grid import OccupancyGrid
+from slamarena.mapping.raytrace import bresenham
+from slamarena.experiments.benchmarks import loglog_slope, write_rows
 
 
 def integrate_literal(grid: OccupancyGrid, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range=np.inf, clear_range=None) -> int:
@@ -58,8 +58,8 @@ def integrate_literal(grid: OccupancyGrid, ranges, angles, pose, mount=(0.0, 0.0
 
 
 def _scans():
-    import datasets
-    from datasets.errors import DatasetNotFoundError
+    from slamarena import datasets
+    from slamarena.datasets.errors import DatasetNotFoundError
 
     try:
         seq = datasets.load("carmen-corrected:intel")

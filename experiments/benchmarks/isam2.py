@@ -5,7 +5,7 @@ around the robot, all mapped from the start pose (the first update adds them, li
 benchmark's pre-mapped filter); then steps of one motion (v, ω) = (0.5, 0.05) for 0.1 s and an
 update with 10 observations of randomly chosen known landmarks, with the same noise
 (M = diag(0.1², 0.05²), R = diag(0.1², (1°)²)). The run goes through the estimator itself
-(:class:`estimators.gtsam_smoother.ISAM2Smoother` on a :class:`~datasets.sequence.Sequence`), so
+(:class:`slamarena.estimators.gtsam_smoother.ISAM2Smoother` on a :class:`~slamarena.datasets.sequence.Sequence`), so
 the time is the one it records per step (``Estimate.step_time``: the iSAM2 update plus reading
 the new pose), here as CPU time (``step_clock="cpu"``, like the EKF benchmark's ``process_time``);
 reported are the mean (which includes the periodic relinearisations, every
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
+from slamarena.experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
 
 OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
@@ -35,9 +35,9 @@ WARMUP = 10
 
 def scenario(n: int, steps: int, seed: int = 0):
     """The Sequence of the EKF-SLAM scaling benchmark: n landmarks mapped at t = 0, then ``steps`` steps."""
-    from datasets.geometry import accumulate
-    from datasets.sequence import LandmarkMap, Noise, RangeBearing, Sequence, Twist
-    from estimators.models import EULER, observe
+    from slamarena.datasets.geometry import accumulate
+    from slamarena.datasets.sequence import LandmarkMap, Noise, RangeBearing, Sequence, Twist
+    from slamarena.estimators.models import EULER, observe
 
     rng = np.random.default_rng(seed)
     radius = 5.0 + rng.uniform(0, 45.0, n)
@@ -61,7 +61,7 @@ def scenario(n: int, steps: int, seed: int = 0):
 
 
 def measure(n: int, steps: int, seed: int = 0) -> dict:
-    from estimators.gtsam_smoother import ISAM2Smoother
+    from slamarena.estimators.gtsam_smoother import ISAM2Smoother
 
     est = ISAM2Smoother(motion_model="euler", covariances=False, final_updates=0, step_clock="cpu").run(scenario(n, steps, seed))
     per_step = est.step_time[1 + WARMUP:]
@@ -78,7 +78,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console = Console()
     rows = []
     for n in sizes:
-        rows.append(measure_single_threaded("experiments.benchmarks.isam2", n=n, steps=steps))
+        rows.append(measure_single_threaded("slamarena.experiments.benchmarks.isam2", n=n, steps=steps))
         console.log(f"n = {n}: mean {1e3 * rows[-1]['mean']:.2f} ms/step, median {1e3 * rows[-1]['median']:.2f}")
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
     exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}

@@ -14,10 +14,10 @@ import os
 import time
 from pathlib import Path
 
-from datasets import load
-from datasets.catalogue import CATALOGUE
-from datasets.formats._text import read_bytes
-from experiments.benchmarks import write_rows
+from slamarena.datasets import load
+from slamarena.datasets.catalogue import CATALOGUE
+from slamarena.datasets.formats._text import read_bytes
+from slamarena.experiments.benchmarks import write_rows
 
 
 def _best_pair(reference, parse, repeats: int) -> tuple[float, float]:

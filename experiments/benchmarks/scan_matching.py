@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from datasets.geometry import between, transform_points
-from mapping.map_pyramid import MapPyramid
-from mapping.scan_matching import make_matcher
-from experiments.benchmarks import write_rows
+from slamarena.datasets.geometry import between, transform_points
+from slamarena.mapping.map_pyramid import MapPyramid
+from slamarena.mapping.scan_matching import make_matcher
+from slamarena.experiments.benchmarks import write_rows
 
 MATCHERS = [  # (label, registry name, parameters)
     ("gauss_newton", "gauss_newton", {}),
@@ -80,7 +80,7 @@ def matcher_table(sc, ks, seed: int = 0) -> list[dict]:
 
 
 def pipeline(seq, limit: int | None):
-    from mapping.grid_slam import GridSLAM
+    from slamarena.mapping.grid_slam import GridSLAM
 
     if limit is not None:
         seq = type(seq)(name=seq.name, scans=seq.scans.select(slice(0, limit)))
@@ -98,7 +98,7 @@ def pipeline(seq, limit: int | None):
 
 
 def main(out: Path | None = None, quick: bool = False) -> int:
-    import datasets
+    from slamarena import datasets
     from rich.console import Console
     from rich.table import Table
 

@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 from pydantic import BaseModel
 
-from datasets.estimate import Estimate
+from slamarena.datasets.estimate import Estimate
 
 from .consistency import NEES_OUTPUTS, NIS_OUTPUTS, NEESParams, NISParams, nees, nis
 from .cost import COST_OUTPUTS, CostParams, cost

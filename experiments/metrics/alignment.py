@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datasets.geometry import rotation, wrap_angle
+from slamarena.datasets.geometry import rotation, wrap_angle
 
 __all__ = ["ALIGNMENTS", "Alignment", "umeyama", "fit_alignment"]
 

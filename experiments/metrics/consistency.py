@@ -32,8 +32,8 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from datasets.estimate import Estimate
-from datasets.geometry import between, se2_log, wrap_angle
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between, se2_log, wrap_angle
 
 from .reference import MetricUnavailable, Reference, associate
 

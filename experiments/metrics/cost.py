@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-from datasets.estimate import Estimate
+from slamarena.datasets.estimate import Estimate
 
 __all__ = ["CostParams", "cost", "COST_OUTPUTS", "peak_rss_mb"]
 

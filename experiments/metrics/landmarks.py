@@ -22,7 +22,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from datasets.estimate import Estimate
+from slamarena.datasets.estimate import Estimate
 
 from .alignment import fit_alignment
 from .reference import MetricUnavailable, Reference, associate

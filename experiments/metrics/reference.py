@@ -1,7 +1,7 @@
 """Ground truth of a loaded dataset and its association with an estimate's times.
 
 The reference at an estimate time ``t`` is the SE(2) (constant-twist) interpolation
-(:func:`datasets.geometry.interpolate_poses`) between the ground-truth samples around ``t``.
+(:func:`slamarena.datasets.geometry.interpolate_poses`) between the ground-truth samples around ``t``.
 It is used when ``t`` coincides with a sample (within 1 µs) or both samples around it lie
 within ``max_gap`` seconds of ``t``; other estimates (outside the ground-truth span, or in a
 gap of the ground truth) are excluded and counted (``unmatched``).
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from datasets.geometry import interpolate_poses
+from slamarena.datasets.geometry import interpolate_poses
 
 __all__ = ["Reference", "reference_of", "associate", "Association", "MetricUnavailable"]
 

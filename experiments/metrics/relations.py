@@ -10,7 +10,7 @@ The error of one relation is ``ε_ij = δ*_ij⁻¹ δ_ij`` (``between(δ*, δ)``
     reported: mean ± std of trans and rot, and the mean squared errors (the paper's ε(δ))
 
 Relations whose stamps cannot be matched are dropped and counted. The relations come from
-``datasets.formats.relations`` (stamps of the original log, mapped to the
+``slamarena.datasets.formats.relations`` (stamps of the original log, mapped to the
 Sequence's scan times through ``meta["scan_ipc_timestamp"]`` where present), or are given as arrays
 ``(t_i, t_j, δ*)``.
 """
@@ -22,8 +22,8 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from datasets.estimate import Estimate
-from datasets.geometry import between, interpolate_poses
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between, interpolate_poses
 
 from .reference import MetricUnavailable
 
@@ -107,7 +107,7 @@ def _to_sequence_time(data, stamps: np.ndarray, tolerance: float) -> np.ndarray:
 
 def relation_error_from_file(estimate: Estimate, data, params: RelationsParams) -> tuple[dict, dict]:
     """Read the relations (``params.file`` or the dataset's ``meta['relations']``) and score them."""
-    from datasets.formats import relations as relations_format
+    from slamarena.datasets.formats import relations as relations_format
 
     path = params.file or (getattr(data, "meta", {}) or {}).get("relations")
     if path is None:

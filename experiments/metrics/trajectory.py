@@ -26,8 +26,8 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from datasets.estimate import Estimate
-from datasets.geometry import between
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between
 
 from .alignment import fit_alignment
 from .reference import MetricUnavailable, Reference, associate

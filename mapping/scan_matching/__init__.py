@@ -16,14 +16,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slamarena.targets import import_target
+
 __all__ = ["MATCHERS", "MatchResult", "make_matcher"]
 
 MATCHERS: dict[str, str] = {
-    "gauss_newton": "mapping.scan_matching.gauss_newton:GaussNewtonMatcher",
-    "correlative": "mapping.scan_matching.correlative:CorrelativeMatcher",
-    "branch_and_bound": "mapping.scan_matching.correlative:BranchAndBoundMatcher",
-    "kiss_icp": "mapping.scan_matching.icp:KissICPMatcher",
-    "open3d_icp": "mapping.scan_matching.icp:Open3DICPMatcher",
+    "gauss_newton": "slamarena.mapping.scan_matching.gauss_newton:GaussNewtonMatcher",
+    "correlative": "slamarena.mapping.scan_matching.correlative:CorrelativeMatcher",
+    "branch_and_bound": "slamarena.mapping.scan_matching.correlative:BranchAndBoundMatcher",
+    "kiss_icp": "slamarena.mapping.scan_matching.icp:KissICPMatcher",
+    "open3d_icp": "slamarena.mapping.scan_matching.icp:Open3DICPMatcher",
 }
 
 
@@ -40,9 +42,6 @@ class MatchResult:
 
 def make_matcher(name: str, **params):
     """Instantiate a registered matcher by name (``KeyError`` listing the names)."""
-    import importlib
-
     if name not in MATCHERS:
         raise KeyError(f"unknown matcher {name!r}; known: {', '.join(MATCHERS)}")
-    module, _, attr = MATCHERS[name].partition(":")
-    return getattr(importlib.import_module(module), attr)(**params)
+    return import_target(MATCHERS[name])(**params)

@@ -30,7 +30,7 @@ differences with the x fractions and the y differences with the y fractions,
 ``(1−f_x)(m10 − m00) + f_x (m11 − m01)`` and ``(1−f_y)(m01 − m00) + f_y (m11 − m10)``; the flag
 ``hector_gradient_bug=True`` reproduces it (research/mapping.md shows the difference).
 
-Multi-resolution: the match runs on each level of a :class:`~mapping.map_pyramid.MapPyramid`
+Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.map_pyramid.MapPyramid`
 from coarse to fine, each level starting from the previous result. Each level iterates
 at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
 and clamps every step to ``(max_step_translation · level resolution / finest resolution,

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from datasets import catalogue, fetch, load
-from datasets.formats import isam
+from slamarena.datasets import catalogue, fetch, load
+from slamarena.datasets.formats import isam
 from checks import staged
 
 

@@ -7,9 +7,9 @@ import gzip
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, Increments
-from datasets.formats import carmen
-from datasets.geometry import accumulate
+from slamarena.datasets import DataFormatError, Increments
+from slamarena.datasets.formats import carmen
+from slamarena.datasets.geometry import accumulate
 from checks import load_staged
 
 pytestmark = pytest.mark.realdata

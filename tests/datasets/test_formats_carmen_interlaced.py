@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.formats import carmen
-from datasets.sequence import Scans, Sequence
+from slamarena.datasets.formats import carmen
+from slamarena.datasets.sequence import Scans, Sequence
 from checks import load_staged, staged
 
 CLINIC = "radish_laser_logs/fr-clinic_robotlaser.clf.bz2"
@@ -161,7 +161,7 @@ def test_fr_clinic_offsets_are_the_ones_the_scans_show(clinic):
     difference when both scans are read at the base angles (offsets ignored)."""
     from scipy.spatial import cKDTree
 
-    from datasets.geometry import between, compose, transform_points
+    from slamarena.datasets.geometry import between, compose, transform_points
 
     sc = clinic.scans
     diff = np.degrees(sc.angle_offset[1:] - sc.angle_offset[:-1])

@@ -1,13 +1,12 @@
 """The catalogue of real datasets: names, files, readers, the not-found message, and the data CLI."""
 from __future__ import annotations
 
-import importlib
-
 import pytest
 
-import datasets
-from datasets import DatasetNotFoundError, catalogue, dataroot
-from datasets.registry import SIMULATORS
+from slamarena import datasets
+from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot
+from slamarena.datasets.registry import SIMULATORS
+from slamarena.targets import import_target
 
 EXPECTED = (
     [f"utias:{d}/robot{k}" for d in (1, 6) for k in range(1, 6)] + ["victoria_park"]
@@ -23,8 +22,7 @@ EXPECTED = (
 def test_every_registry_name_is_catalogued_with_a_resolvable_reader():
     assert set(EXPECTED) <= set(catalogue.CATALOGUE)
     for entry in catalogue.CATALOGUE.values():
-        module, _, attr = entry.reader.partition(":")
-        assert callable(getattr(importlib.import_module(module), attr))
+        assert callable(import_target(entry.reader))
         assert entry.citation and entry.kind and entry.ground_truth
     names = [info.name for info in datasets.available()]
     assert set(names) == set(catalogue.CATALOGUE) | set(SIMULATORS)
@@ -48,7 +46,7 @@ def test_missing_dataset_names_places_and_fetch_command(monkeypatch, tmp_path):
 def test_data_cli_list_and_info():
     from typer.testing import CliRunner
 
-    from experiments.cli import app
+    from slamarena.experiments.cli import app
 
     runner = CliRunner()
     listed = runner.invoke(app, ["data", "list"], env={"COLUMNS": "200"})

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from datasets import DataFormatError
-from datasets.formats import _text, carmen, g2o, isam, mrclam, ply, relations, toro, tum, victoria_park
+from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats import _text, carmen, g2o, isam, mrclam, ply, relations, toro, tum, victoria_park
 
 NUMBERS = st.one_of(
     st.integers(-3, 12).map(str),

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, load
-from datasets.formats import g2o, isam, toro
-from datasets.geometry import compose
+from slamarena.datasets import DataFormatError, load
+from slamarena.datasets.formats import g2o, isam, toro
+from slamarena.datasets.geometry import compose
 from checks import staged
 
 pytestmark = pytest.mark.realdata

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from datasets import DataFormatError
-from datasets.formats.matlab import read_mat
+from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats.matlab import read_mat
 from checks import staged
 
 ARRAYS = {

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets import DataFormatError
-from datasets.formats import kitti, ply, relations, tum
+from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats import kitti, ply, relations, tum
 from checks import staged
 
 

@@ -6,8 +6,8 @@ import gzip
 import numpy as np
 import pytest
 
-from datasets import DataFormatError
-from datasets.formats import mrclam
+from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats import mrclam
 from checks import load_staged
 
 pytestmark = pytest.mark.realdata

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, load
-from datasets.formats import plaza
-from datasets.formats.matlab import read_mat
-from datasets.geometry import compose, interpolate_poses, wrap_angle
+from slamarena.datasets import DataFormatError, load
+from slamarena.datasets.formats import plaza
+from slamarena.datasets.formats.matlab import read_mat
+from slamarena.datasets.geometry import compose, interpolate_poses, wrap_angle
 from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets import DataFormatError, Increments, load
-from datasets.formats import victoria_park as vp
+from slamarena.datasets import DataFormatError, Increments, load
+from slamarena.datasets.formats import victoria_park as vp
 from checks import staged
 
 pytestmark = pytest.mark.realdata
@@ -66,7 +66,7 @@ def test_pose_graph_view():
 
 def test_registry_default_is_gtsam_and_falls_back_to_the_gtsam_wheel(monkeypatch):
     pytest.importorskip("gtsam")
-    from datasets import catalogue
+    from slamarena.datasets import catalogue
 
     s = load("victoria_park")
     assert s.meta["variant"] == "gtsam"

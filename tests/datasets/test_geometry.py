@@ -1,4 +1,4 @@
-"""datasets.geometry — SE(2) group laws and conventions, as hypothesis property tests."""
+"""slamarena.datasets.geometry — SE(2) group laws and conventions, as hypothesis property tests."""
 from __future__ import annotations
 
 import math
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from datasets.geometry import (
+from slamarena.datasets.geometry import (
     accumulate,
     between,
     compose,

@@ -1,4 +1,4 @@
-"""datasets.sequence — validation on construction, the time-ordered merge, summary, Twist.from_stamps."""
+"""slamarena.datasets.sequence — validation on construction, the time-ordered merge, summary, Twist.from_stamps."""
 from __future__ import annotations
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from datasets.sequence import (
+from slamarena.datasets.sequence import (
     STREAMS,
     BeaconRanges,
     Gps,

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-import datasets
-from datasets.geometry import wrap_angle
-from datasets.sim.landmarks import LAYOUTS, route_distance, simulate
-from estimators.models import MOTION_MODELS, observe
+from slamarena import datasets
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.sim.landmarks import LAYOUTS, route_distance, simulate
+from slamarena.estimators.models import MOTION_MODELS, observe
 from checks import assert_dead_reckoning_consistent, assert_gaussian
 
 

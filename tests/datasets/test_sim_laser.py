@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-import datasets
-from datasets.geometry import accumulate, between, compose, transform_points
-from datasets.sim.laser import WORLDS, World, raycast, route_controls, segments, simulate, true_occupancy
+from slamarena import datasets
+from slamarena.datasets.geometry import accumulate, between, compose, transform_points
+from slamarena.datasets.sim.laser import WORLDS, World, raycast, route_controls, segments, simulate, true_occupancy
 from checks import assert_gaussian
 
 BOX = World(

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-import datasets
-from datasets.geometry import interpolate_poses, wrap_angle
-from datasets.sim.localization import first_order_response, simulate
-from estimators.models import ARC
+from slamarena import datasets
+from slamarena.datasets.geometry import interpolate_poses, wrap_angle
+from slamarena.datasets.sim.localization import first_order_response, simulate
+from slamarena.estimators.models import ARC
 from checks import assert_dead_reckoning_consistent, assert_gaussian
 
 

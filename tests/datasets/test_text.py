@@ -1,4 +1,4 @@
-"""The bulk number parser of datasets.formats._text: bit-identical to numpy's parser and to float().
+"""The bulk number parser of slamarena.datasets.formats._text: bit-identical to numpy's parser and to float().
 
 The fast path (integer arithmetic on 16-byte windows, :func:`_text._decimal_block`) must give the
 same float64 bits as ``strtod`` for every token it accepts, accept every plain decimal it is meant
@@ -16,8 +16,8 @@ from checks import staged
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from datasets import DataFormatError
-from datasets.formats import _text
+from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats import _text
 
 MRCLAM6 = "utias_mrclam/MRCLAM_Dataset6"
 STAGED = [f"{MRCLAM6}/Robot{k}_{kind}.dat.gz" for k in range(1, 6) for kind in ("Odometry", "Measurement", "Groundtruth")]

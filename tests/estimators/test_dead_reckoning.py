@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.geometry import compose, wrap_angle
-from datasets.sequence import Increments, Noise, Sequence, Trajectory, Twist
-from estimators.dead_reckoning import DeadReckoning, propagate_covariance
-from estimators.models import ARC, EULER, compose_jacobians
+from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.datasets.sequence import Increments, Noise, Sequence, Trajectory, Twist
+from slamarena.estimators.dead_reckoning import DeadReckoning, propagate_covariance
+from slamarena.estimators.models import ARC, EULER, compose_jacobians
 
 
 def _controls(K=200, dt=0.1, seed=0):
@@ -48,7 +48,7 @@ def test_gaps_are_standing_still_and_overlaps_follow_stepping():
     # the stamps with twist_pieces, as filters do
     seq = Sequence("overlap", motion=Twist(t=t, v=np.ones(10), omega=np.zeros(10), dt=np.full(10, 0.2)))
     est = DeadReckoning().run(seq)
-    from estimators.stepping import twist_pieces
+    from slamarena.estimators.stepping import twist_pieces
 
     expected = [0.0]
     ends = np.append(t[1:], t[-1] + 0.2)
@@ -132,7 +132,7 @@ def test_increment_covariance_uses_stream_or_stated_noise():
     est = DeadReckoning().run(seq)
     runs = 2000
     noisy = delta + rng.multivariate_normal(np.zeros(3), C, size=(runs, K))
-    from datasets.geometry import accumulate
+    from slamarena.datasets.geometry import accumulate
 
     finals = np.array([accumulate(np.zeros(3), d)[-1] for d in noisy])
     err = finals - est.poses[-1]

@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.geometry import wrap_angle
-from datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
 from checks import with_beacon_ranges
-from estimators import create
-from estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
-from estimators.models import EULER, MOTION_MODELS, observation_jacobians, observe
+from slamarena.estimators import create
+from slamarena.estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
+from slamarena.estimators.models import EULER, MOTION_MODELS, observation_jacobians, observe
 
 CMD_DT = 0.02
 TRUE_NOISE = dict(sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3)
@@ -301,7 +301,7 @@ def _with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0) -> Seque
 
 
 def test_beacon_jacobian_matches_finite_differences():
-    from estimators.ekf_localizer import _H_beacon, _h_beacon
+    from slamarena.estimators.ekf_localizer import _H_beacon, _h_beacon
 
     x, b = np.array([1.0, -0.5, 2.8]), np.array([4.0, 3.0])
     np.testing.assert_allclose(_H_beacon(x, b, 0.7), _fd_jacobian(lambda s: _h_beacon(s, b, 0.7), x), atol=1e-8)
@@ -444,8 +444,8 @@ def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
     dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
     from checks import load_staged
-    from experiments.metrics.reference import reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     seq = load_staged("utias:6/robot1")
     t_end = seq.motion.t[0] + 120.0
@@ -485,8 +485,8 @@ def test_plaza2_range_only_localization_needs_the_range_offset():
     below 1 m once the +2.8 m range offset is modelled; without it the gate refuses many ranges and
     the error is several metres (the numbers of research/ekf_localizer.md, `slamarena run plaza`)."""
     from checks import load_staged
-    from experiments.metrics.reference import reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     seq = load_staged("plaza:Plaza2")
     cfg = dict(R_beacon=2.25, increment_cov=(1e-4, 1e-4, 1e-5))

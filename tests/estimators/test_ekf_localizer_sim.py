@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-import datasets
-from datasets.sequence import Sequence
-from estimators.ekf_localizer import EKFLocalizer
-from experiments.metrics.consistency import chi2_band, monte_carlo, nees
-from experiments.metrics.reference import reference_of
+from slamarena import datasets
+from slamarena.datasets.sequence import Sequence
+from slamarena.estimators.ekf_localizer import EKFLocalizer
+from slamarena.experiments.metrics.consistency import chi2_band, monte_carlo, nees
+from slamarena.experiments.metrics.reference import reference_of
 
 P0 = np.array([1e-4, 1e-4, 1e-3])
 

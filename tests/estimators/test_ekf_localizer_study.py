@@ -11,18 +11,18 @@ and asserts the direction of the finding, so a change that overturns it fails::
     pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k mrclam
 
 Accuracy is ATE without alignment (GPS and the surveyed map fix the frame), from
-:mod:`experiments.metrics`; NEES is the single-run mean (3 when consistent).
+:mod:`slamarena.experiments.metrics`; NEES is the single-run mean (3 when consistent).
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-import datasets
-from estimators.ekf_localizer import EKFLocalizer
-from experiments.metrics.consistency import nees
-from experiments.metrics.reference import reference_of
-from experiments.metrics.trajectory import ATEParams, ate
+from slamarena import datasets
+from slamarena.estimators.ekf_localizer import EKFLocalizer
+from slamarena.experiments.metrics.consistency import nees
+from slamarena.experiments.metrics.reference import reference_of
+from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
 pytestmark = pytest.mark.slow
 
@@ -121,8 +121,8 @@ def test_study_consistency_by_source():
     """50-seed Monte Carlo (10 s, GPS 5 Hz, IMU 10 Hz, initial error drawn from P0) with the
     simulator's stated noise: wheel odometry (white encoder error) vs cmd_vel (actuator lag and
     Ornstein–Uhlenbeck noise: time-correlated, which a white Q cannot describe), EULER vs ARC."""
-    from datasets.sequence import Sequence
-    from experiments.metrics.consistency import monte_carlo
+    from slamarena.datasets.sequence import Sequence
+    from slamarena.experiments.metrics.consistency import monte_carlo
 
     P0 = np.array([1e-4, 1e-4, 1e-3])
     rows, out = [], {}
@@ -216,7 +216,7 @@ def test_study_mrclam():
 
 def _error_by_time_since_update(est, seq) -> tuple[float, float]:
     """Position RMSE within 1 s of an accepted landmark update, and more than 10 s after one."""
-    from experiments.metrics.reference import associate
+    from slamarena.experiments.metrics.reference import associate
 
     match = associate(reference_of(seq), est.t, 0.1)
     err = np.linalg.norm(est.poses[match.index, :2] - match.gt[:, :2], axis=1)

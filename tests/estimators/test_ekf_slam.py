@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import datasets
-from datasets.geometry import interpolate_poses, wrap_angle
-from datasets.sequence import Increments, Noise, RangeBearing, Sequence
-from estimators.ekf_slam import EKFSLAM, CovarianceError
-from estimators.ekf_slam.reference import ReferenceEKFSLAM
-from estimators.models import MOTION_MODELS, inverse_observe, observe
+from slamarena import datasets
+from slamarena.datasets.geometry import interpolate_poses, wrap_angle
+from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence
+from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError
+from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
+from slamarena.estimators.models import MOTION_MODELS, inverse_observe, observe
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,7 @@ def test_full_state_jacobians_match_finite_differences():
         num = np.column_stack([(f(x + e) - f(x - e)) / 2e-6 for e in 1e-6 * np.eye(x.size)])
         np.testing.assert_allclose(GN, num, atol=1e-7)
     # H of landmark 1 (state columns 0,1,2,5,6) from the filter's own update path
-    from estimators.models import observation_jacobians
+    from slamarena.estimators.models import observation_jacobians
 
     Hx, Hm = observation_jacobians(x[:3], x[5:7])
     H = np.zeros((2, x.size))

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import datasets
-from estimators.ekf_slam import EKFSLAM
-from estimators.ekf_slam import association as assoc
-from estimators.models import observation_jacobians, observe
+from slamarena import datasets
+from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.estimators.ekf_slam import association as assoc
+from slamarena.estimators.models import observation_jacobians, observe
 
 
 def test_vectorised_compatibility_matches_dense_per_pair_computation():

@@ -13,7 +13,7 @@ SIM = {"n_landmarks": 30, "sigma_omega": 0.1, "sigma_bearing": 0.0349}
 
 @pytest.mark.slow
 def test_fej_and_ideal_are_consistent_and_standard_is_not():
-    from experiments.ekf_slam_study import consistency
+    from slamarena.experiments.ekf_slam_study import consistency
 
     res = consistency(seeds=30, laps=4, sim=SIM, variants=["standard", "FEJ", "ideal"])
     for name in ("FEJ", "ideal"):

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-import datasets
-from datasets.geometry import wrap_angle
-from estimators.ekf_slam import EKFSLAM
-from estimators.models import ARC, EULER, inverse_observation_jacobians, inverse_observe, observe
+from slamarena import datasets
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.estimators.models import ARC, EULER, inverse_observation_jacobians, inverse_observe, observe
 
 P0 = np.array([[0.04, 0.01, 0.004], [0.01, 0.09, -0.006], [0.004, -0.006, 0.01]])
 X0 = np.array([1.0, 2.0, 0.6])
@@ -55,7 +55,7 @@ def test_E3_gain_uses_the_predicted_covariance_not_its_inverse():
     prior, x_prior = ekf.P.copy(), ekf.x.copy()
     z = np.array([4.2, 0.5])
     H = np.zeros((2, 5))
-    from estimators.models import observation_jacobians
+    from slamarena.estimators.models import observation_jacobians
 
     H[:, :3], H[:, 3:] = observation_jacobians(x_prior[:3], x_prior[3:])
     R = np.diag([0.01, 0.001])

@@ -9,12 +9,12 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-from datasets.geometry import interpolate_poses  # noqa: E402
-from datasets.sequence import BeaconRanges  # noqa: E402
+from slamarena.datasets.geometry import interpolate_poses  # noqa: E402
+from slamarena.datasets.sequence import BeaconRanges  # noqa: E402
 from checks import with_beacon_ranges  # noqa: E402
-from datasets.sim.landmarks import simulate  # noqa: E402
-from estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
-from estimators.gtsam_smoother.problem import build_problem  # noqa: E402
+from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
+from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
+from slamarena.estimators.gtsam_smoother.problem import build_problem  # noqa: E402
 
 SIGMA, BIAS = 0.1, 1.5
 
@@ -98,8 +98,8 @@ def test_bad_beacon_config_is_rejected_before_work(params):
 def test_plaza2_smoothing_against_surveyed_and_free_beacons():
     """CMU Plaza2: research/graph_slam.md's numbers (ATE 0.42 m anchored; free beacons 0.35 m after SE(2) alignment)."""
     from checks import load_staged
-    from experiments.metrics.reference import reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     seq = load_staged("plaza:Plaza2")
     common = dict(increment_cov=np.diag([1e-4, 1e-4, 1e-5]).tolist(), beacon_range_var=2.25, beacon_bias=2.8, covariances=False)

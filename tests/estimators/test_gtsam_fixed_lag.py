@@ -8,11 +8,11 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-from datasets.geometry import interpolate_poses, wrap_angle  # noqa: E402
-from datasets.sequence import Gps  # noqa: E402
-from datasets.sim.localization import simulate  # noqa: E402
-from estimators.ekf_localizer import EKFLocalizer  # noqa: E402
-from estimators.gtsam_smoother import FixedLagLocalizer  # noqa: E402
+from slamarena.datasets.geometry import interpolate_poses, wrap_angle  # noqa: E402
+from slamarena.datasets.sequence import Gps  # noqa: E402
+from slamarena.datasets.sim.localization import simulate  # noqa: E402
+from slamarena.estimators.ekf_localizer import EKFLocalizer  # noqa: E402
+from slamarena.estimators.gtsam_smoother import FixedLagLocalizer  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -6,10 +6,10 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-from datasets.geometry import compose, wrap_angle  # noqa: E402
-from estimators.gtsam_smoother.graph import X, observation_noise  # noqa: E402
-from estimators.gtsam_smoother.noise import body_to_world, increments_relative, regularise, twist_relative, world_to_body  # noqa: E402
-from estimators.models import ARC, EULER  # noqa: E402
+from slamarena.datasets.geometry import compose, wrap_angle  # noqa: E402
+from slamarena.estimators.gtsam_smoother.graph import X, observation_noise  # noqa: E402
+from slamarena.estimators.gtsam_smoother.noise import body_to_world, increments_relative, regularise, twist_relative, world_to_body  # noqa: E402
+from slamarena.estimators.models import ARC, EULER  # noqa: E402
 
 
 def _pose(p) -> np.ndarray:

@@ -6,13 +6,13 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-from datasets.formats import g2o  # noqa: E402
-from datasets.geometry import accumulate, between, compose, inverse, transform_points, wrap_angle  # noqa: E402
-from datasets.posegraph import PoseGraph  # noqa: E402
-from datasets.sim.landmarks import simulate  # noqa: E402
-from estimators.gtsam_smoother import BatchSmoother, PoseGraphOptimizer  # noqa: E402
-from estimators.gtsam_smoother.graph import X  # noqa: E402
-from estimators.gtsam_smoother.pose_graph import build_pose_graph  # noqa: E402
+from slamarena.datasets.formats import g2o  # noqa: E402
+from slamarena.datasets.geometry import accumulate, between, compose, inverse, transform_points, wrap_angle  # noqa: E402
+from slamarena.datasets.posegraph import PoseGraph  # noqa: E402
+from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
+from slamarena.estimators.gtsam_smoother import BatchSmoother, PoseGraphOptimizer  # noqa: E402
+from slamarena.estimators.gtsam_smoother.graph import X  # noqa: E402
+from slamarena.estimators.gtsam_smoother.pose_graph import build_pose_graph  # noqa: E402
 from checks import staged  # noqa: E402
 
 

@@ -9,14 +9,14 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-from datasets.geometry import compose, interpolate_poses, wrap_angle  # noqa: E402
-from datasets.sequence import Increments, RangeBearing  # noqa: E402
-from datasets.sim.landmarks import simulate  # noqa: E402
-from estimators import create  # noqa: E402
-from estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
-from estimators.gtsam_smoother.problem import build_problem  # noqa: E402
-from estimators.models import ARC  # noqa: E402
-from experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
+from slamarena.datasets.geometry import compose, interpolate_poses, wrap_angle  # noqa: E402
+from slamarena.datasets.sequence import Increments, RangeBearing  # noqa: E402
+from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
+from slamarena.estimators import create  # noqa: E402
+from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
+from slamarena.estimators.gtsam_smoother.problem import build_problem  # noqa: E402
+from slamarena.estimators.models import ARC  # noqa: E402
+from slamarena.experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
 
 SIM = dict(n_landmarks=30, laps=1)
 
@@ -165,7 +165,7 @@ def test_bad_config_is_rejected_before_work(params):
 
 
 def test_missing_noise_is_a_clear_error(seq):
-    from datasets.sequence import Noise
+    from slamarena.datasets.sequence import Noise
 
     with pytest.raises(ValueError, match="twist_cov"):
         BatchSmoother().run(dataclasses.replace(seq, noise=Noise(range_bearing_cov=seq.noise.range_bearing_cov)))

@@ -4,7 +4,7 @@ Run (each writes a Markdown table under ``results/gtsam_studies/`` and prints it
 
     pytest -m slow tests/estimators/test_gtsam_studies.py -s
 
-Metrics come from ``experiments.metrics`` (ATE, landmark-map error, NEES bands). The numbers are
+Metrics come from ``slamarena.experiments.metrics`` (ATE, landmark-map error, NEES bands). The numbers are
 quoted in ``research/graph_slam.md``.
 """
 from __future__ import annotations
@@ -17,12 +17,12 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
-import datasets  # noqa: E402
-from estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother, PoseGraphOptimizer  # noqa: E402
-from experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees  # noqa: E402
-from experiments.metrics.landmarks import MapParams, landmark_error  # noqa: E402
-from experiments.metrics.reference import reference_of  # noqa: E402
-from experiments.metrics.trajectory import ATEParams, ate  # noqa: E402
+from slamarena import datasets  # noqa: E402
+from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother, PoseGraphOptimizer  # noqa: E402
+from slamarena.experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees  # noqa: E402
+from slamarena.experiments.metrics.landmarks import MapParams, landmark_error  # noqa: E402
+from slamarena.experiments.metrics.reference import reference_of  # noqa: E402
+from slamarena.experiments.metrics.trajectory import ATEParams, ate  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
@@ -138,7 +138,7 @@ def test_victoria_park_study():
 
 def test_landmark_smoother_monte_carlo_study():
     """40 seeds of sim:landmarks (30 landmarks, one lap): NEES of the batch smoother and the iSAM2 online estimates."""
-    from datasets.sim.landmarks import simulate
+    from slamarena.datasets.sim.landmarks import simulate
 
     runs, finals, landmark = [], [], []
     for seed in range(40):
@@ -163,8 +163,8 @@ def test_sim_landmarks_comparison_study():
     estimates (filter-like) and the smoothed answer (batch = iSAM2 final)."""
     import dataclasses
 
-    from datasets.sim.landmarks import simulate
-    from estimators import create
+    from slamarena.datasets.sim.landmarks import simulate
+    from slamarena.estimators import create
 
     results: dict[str, list] = {}
     for seed in range(5):
@@ -183,9 +183,9 @@ def test_sim_landmarks_comparison_study():
 
 def test_fixed_lag_study():
     """5 seeds of sim:localization (60 s): the EKF localizer with the sequence's noise and the fixed-lag smoother."""
-    from datasets.sim.localization import simulate
-    from estimators.ekf_localizer import EKFLocalizer
-    from estimators.gtsam_smoother import FixedLagLocalizer
+    from slamarena.datasets.sim.localization import simulate
+    from slamarena.estimators.ekf_localizer import EKFLocalizer
+    from slamarena.estimators.gtsam_smoother import FixedLagLocalizer
 
     methods = {
         "ekf_localizer (sequence noise, Q = 0)": lambda: EKFLocalizer(Q=(0.0, 0.0, 0.0), use_sequence_noise=True, gate_confidence=1.0),

@@ -5,7 +5,7 @@ import textwrap
 
 import pytest
 
-from experiments.config import FIGURES, ConfigError, load_config, sanitize
+from slamarena.experiments.config import FIGURES, ConfigError, load_config, sanitize
 
 
 def _write(tmp_path, text):
@@ -96,7 +96,7 @@ def test_not_a_mapping_and_bad_yaml(tmp_path):
 
 
 def test_figure_kinds_match_paper_figures():
-    from paper_figures.make import FIGURES as IMPLEMENTED
+    from slamarena.paper_figures.make import FIGURES as IMPLEMENTED
 
     assert set(FIGURES) == set(IMPLEMENTED)
 
@@ -115,6 +115,6 @@ def test_every_shipped_config_is_valid():
     for p in shipped:
         import yaml
 
-        from experiments.config import ExperimentConfig
+        from slamarena.experiments.config import ExperimentConfig
 
         ExperimentConfig.model_validate(yaml.safe_load(p.read_text()))

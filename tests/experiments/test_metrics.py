@@ -4,22 +4,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.estimate import Estimate
-from datasets.geometry import compose, wrap_angle
-from datasets.sequence import LandmarkMap, RangeBearing, Sequence, Trajectory
-from experiments.metrics import METRICS, CellData, MetricUnavailable, evaluate, reference_of
-from experiments.metrics.alignment import Alignment, umeyama
-from experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees, nis
-from experiments.metrics.landmarks import MapParams, landmark_error
-from experiments.metrics.relations import RelationsParams, relation_error
-from experiments.metrics.trajectory import ATEParams, RPEParams, ate, rpe, rpe_pairs
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.datasets.sequence import LandmarkMap, RangeBearing, Sequence, Trajectory
+from slamarena.experiments.metrics import METRICS, CellData, MetricUnavailable, evaluate, reference_of
+from slamarena.experiments.metrics.alignment import Alignment, umeyama
+from slamarena.experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees, nis
+from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
+from slamarena.experiments.metrics.relations import RelationsParams, relation_error
+from slamarena.experiments.metrics.trajectory import ATEParams, RPEParams, ate, rpe, rpe_pairs
 
 
 def _truth(K=300, seed=0):
     rng = np.random.default_rng(seed)
     t = np.arange(K) * 0.1
     delta = np.column_stack([0.1 + 0.05 * rng.random(K - 1), 0.01 * rng.standard_normal(K - 1), 0.05 + 0.03 * rng.standard_normal(K - 1)])
-    from datasets.geometry import accumulate
+    from slamarena.datasets.geometry import accumulate
 
     return t, accumulate([0.0, 0.0, 0.2], delta)
 
@@ -142,7 +142,7 @@ def test_rpe_known_answer_drift():
     # a heading bias of b rad per frame gives a rotational RPE of exactly b·Δ for Δ frames
     t, gt = _truth()
     b = 0.002
-    from datasets.geometry import accumulate, between
+    from slamarena.datasets.geometry import accumulate, between
 
     d = between(gt[:-1], gt[1:]) + [0, 0, b]
     est = accumulate(gt[0], d)
@@ -166,7 +166,7 @@ def test_nees_consistent_and_inconsistent():
     over = Estimate("x", t, est, pose_cov=np.broadcast_to(P / 4, (len(t), 3, 3)))  # overconfident
     assert nees(over, _ref(t, gt))[0]["mean"] == pytest.approx(12.0, rel=0.1)
     # body frame: errors drawn in the tangent space at the estimate
-    from datasets.geometry import se2_exp
+    from slamarena.datasets.geometry import se2_exp
 
     xi = rng.standard_normal(gt.shape) @ L.T
     est_body = compose(gt, se2_exp(-xi))  # gt = est ⊕ Exp(ξ') with ξ' ≈ ξ for small ξ
@@ -241,7 +241,7 @@ def test_missed_counts_only_observed_landmarks():
 
 def test_relation_error_known_answer():
     t, gt = _truth()
-    from datasets.geometry import between
+    from slamarena.datasets.geometry import between
 
     i, j = np.arange(0, 280, 10), np.arange(20, 300, 10)
     reference = between(gt[i], gt[j])
@@ -255,7 +255,7 @@ def test_relation_error_known_answer():
     assert relation_error(Estimate("x", t, gt), t[i] + 0.03, t[j] + 0.03, reference)[0]["used"] == len(i)
     with pytest.raises(MetricUnavailable):
         relation_error(Estimate("x", t, gt), t[i] + 0.03, t[j] + 0.03, reference, RelationsParams(tolerance=0.01))
-    from datasets.geometry import interpolate_poses
+    from slamarena.datasets.geometry import interpolate_poses
 
     mid_i, mid_j = interpolate_poses(t, gt, t[i] + 0.05), interpolate_poses(t, gt, t[j] + 0.05)
     interp, _ = relation_error(Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(match="interpolate"))
@@ -278,9 +278,9 @@ def test_cost_and_evaluate_records_skipped_metrics():
 
 
 def test_relations_file_through_the_reader(tmp_path):
-    from datasets.formats import relations as fmt
-    from datasets.geometry import between
-    from experiments.metrics.relations import relation_error_from_file
+    from slamarena.datasets.formats import relations as fmt
+    from slamarena.datasets.geometry import between
+    from slamarena.experiments.metrics.relations import relation_error_from_file
 
     t, gt = _truth()
     i, j = np.arange(0, 250, 25), np.arange(25, 275, 25)
@@ -295,7 +295,7 @@ def test_relations_file_through_the_reader(tmp_path):
 
 
 def test_nis_monte_carlo_sums_innovations_per_stamp():
-    from experiments.metrics.consistency import nis_per_stamp
+    from slamarena.experiments.metrics.consistency import nis_per_stamp
 
     rng = np.random.default_rng(13)
     per_stamp = rng.integers(1, 4, 200)  # 1–3 range-bearing innovations (dof 2) per stamp, same in every run
@@ -321,10 +321,10 @@ def test_peak_memory_is_the_cell_process_own():
     import subprocess
     import sys
 
-    from experiments.metrics.cost import peak_rss_mb
+    from slamarena.experiments.metrics.cost import peak_rss_mb
 
     ballast = np.ones(300 * 2**20 // 8)  # 300 MiB, touched
     assert peak_rss_mb() > 300
-    out = subprocess.run([sys.executable, "-c", "from experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", "from slamarena.experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
     assert 5 < float(out.stdout) < 200
     del ballast

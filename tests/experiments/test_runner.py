@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 from rich.console import Console
 
-from experiments.config import load_config
-from experiments.runner import plan, run_experiment
+from slamarena.experiments.config import load_config
+from slamarena.experiments.runner import plan, run_experiment
 
 TINY = """
 name: tiny
@@ -77,16 +77,16 @@ def test_layout_and_contents(local_run):
     # the TUM file is what evo reads, and it is the estimate
     from evo.tools import file_interface
 
-    from datasets.estimate import Estimate
+    from slamarena.datasets.estimate import Estimate
 
     traj = file_interface.read_tum_trajectory_file(str(cell / "trajectory.tum"))
     est = Estimate.load(cell / "estimate.npz")
     np.testing.assert_allclose(traj.timestamps, est.t)
     np.testing.assert_allclose(traj.positions_xyz[:, :2], est.poses[:, :2], atol=1e-12)
     # and the metrics are those of the estimate against the simulator's truth for that seed
-    import datasets
-    from experiments.metrics.reference import reference_of
-    from experiments.metrics.trajectory import ate
+    from slamarena import datasets
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ate
 
     seq = datasets.load("sim:landmarks", n_landmarks=8, laps=1, seed=0)
     expected = ate(est, reference_of(seq))[0]["rmse"]
@@ -171,7 +171,7 @@ def test_dask_cluster_gives_the_local_results(local_run, tmp_path):
 def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
     _, path = _config(tmp_path, TINY.replace("seeds: 2", "seeds: 3"))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-c", "from experiments.cli import main; main()", "run", str(path), "--out", str(out), "--jobs", "1"]
+    cmd = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()", "run", str(path), "--out", str(out), "--jobs", "1"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(_stamps(out)) < 1:
@@ -200,7 +200,7 @@ def test_methods_restricted_to_datasets(tmp_path):
 
 
 def test_dry_run_lists_the_grid(tmp_path, capsys):
-    from experiments.runner import run_from_cli
+    from slamarena.experiments.runner import run_from_cli
 
     _, path = _config(tmp_path)
     assert run_from_cli(config=path, jobs=1, scheduler=None, out=tmp_path / "o", force=False, dry_run=True) == 0

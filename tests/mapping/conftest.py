@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.geometry import accumulate, between
-from datasets.sequence import Scans, Sequence, Trajectory
+from slamarena.datasets.geometry import accumulate, between
+from slamarena.datasets.sequence import Scans, Sequence, Trajectory
 
 # an L-shaped 12 × 10 m room with two pillars: segments (x0, y0, x1, y1)
 WALLS = np.array([

@@ -8,13 +8,13 @@ import pytest
 
 @lru_cache(maxsize=1)
 def _load(name):
-    import datasets
+    from slamarena import datasets
 
     return datasets.load(name)
 
 
 def corrected_intel():
-    from datasets.errors import DatasetNotFoundError
+    from slamarena.datasets.errors import DatasetNotFoundError
 
     try:
         return _load("carmen-corrected:intel").scans

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from conftest import interlace, make_sequence
 
-from datasets.formats import relations as relations_format
-from datasets.formats import tum
-from datasets.geometry import between
-from experiments.cli_map import map_command
-from mapping.occupancy_grid import load_map_server
+from slamarena.datasets.formats import relations as relations_format
+from slamarena.datasets.formats import tum
+from slamarena.datasets.geometry import between
+from slamarena.experiments.cli_map import map_command
+from slamarena.mapping.occupancy_grid import load_map_server
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,12 @@
-"""Map-quality numbers for logs without ground truth (mapping.evaluation): hand-checked on a
+"""Map-quality numbers for logs without ground truth (slamarena.mapping.evaluation): hand-checked on a
 four-cell grid, and on the hand-made room against known pose errors."""
 from __future__ import annotations
 
 import numpy as np
 from conftest import make_sequence
 
-from mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
-from mapping.occupancy_grid import OccupancyGrid, logit
+from slamarena.mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
+from slamarena.mapping.occupancy_grid import OccupancyGrid, logit
 
 
 def test_map_sharpness_by_hand():

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from conftest import make_sequence
 
-from datasets.estimate import Estimate
-from datasets.sequence import Scans, Sequence
-from mapping.evaluation import occupancy_agreement
-from mapping.grid_slam import GridSLAM
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.sequence import Scans, Sequence
+from slamarena.mapping.evaluation import occupancy_agreement
+from slamarena.mapping.grid_slam import GridSLAM
 
 
 def rms_xy(est, truth):
@@ -19,8 +19,8 @@ def rms_xy(est, truth):
 
 def aligned_ate(est, seq):
     """Position RMSE after SE(2) alignment (a SLAM map and trajectory are defined up to their frame)."""
-    from experiments.metrics.reference import reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     return ate(est, reference_of(seq), ATEParams())[0]["rmse"]
 
@@ -46,13 +46,13 @@ def test_room_drive_beats_odometry(room_sequence, matcher, params, tol):
 
 def test_sim_laser_trajectory_and_map_against_the_truth():
     """ATE after SE(2) alignment, and the map against the true walls moved by the same alignment."""
-    pytest.importorskip("datasets.sim.laser")
-    from datasets.geometry import inverse
-    from datasets.sim.laser import simulate
-    from experiments.metrics.alignment import fit_alignment
-    from experiments.metrics.reference import associate, reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
-    from mapping.evaluation import true_occupancy_on
+    pytest.importorskip("slamarena.datasets.sim.laser")
+    from slamarena.datasets.geometry import inverse
+    from slamarena.datasets.sim.laser import simulate
+    from slamarena.experiments.metrics.alignment import fit_alignment
+    from slamarena.experiments.metrics.reference import associate, reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.mapping.evaluation import true_occupancy_on
 
     seq = simulate(seed=1)
     slam = GridSLAM()
@@ -126,7 +126,7 @@ def test_without_odometry_and_with_a_mounted_sensor():
     # re-simulate the scans from the mounted sensor
     from conftest import raycast
 
-    from datasets.geometry import compose
+    from slamarena.datasets.geometry import compose
 
     truth = seq.ground_truth.poses
     ranges = np.stack([raycast(compose(p, mount), seq.scans.angles) for p in truth])

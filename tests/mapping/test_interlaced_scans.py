@@ -13,10 +13,10 @@ import dataclasses
 import numpy as np
 from conftest import WALLS, interlace, make_sequence, raycast
 
-from datasets.geometry import wrap_angle
-from datasets.sequence import Scans
-from mapping.grid_slam import GridSLAM
-from mapping.occupancy_grid import OccupancyGrid
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.sequence import Scans
+from slamarena.mapping.grid_slam import GridSLAM
+from slamarena.mapping.occupancy_grid import OccupancyGrid
 
 
 def _distance_to_walls(xy: np.ndarray) -> np.ndarray:

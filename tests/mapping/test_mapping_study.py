@@ -8,7 +8,7 @@
   relative-pose agreement with it (a reference comparison — the corrected poses are another
   SLAM system's output, not ground truth): the corrected log's scans are found in the raw log
   by their identical readings, and the relations (i, i+1) and (i, i+10) between corrected
-  scans are scored with the relation metric of experiments.metrics.
+  scans are scored with the relation metric of slamarena.experiments.metrics.
 
 Writes ``results/mapping_study/{sim,carmen}.json`` and the map images there; asserts only
 loose sanity bounds (the numbers are the product).
@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from datasets.geometry import between, inverse
-from mapping.evaluation import occupancy_agreement, true_occupancy_on
-from mapping.grid_slam import GridSLAM
+from slamarena.datasets.geometry import between, inverse
+from slamarena.mapping.evaluation import occupancy_agreement, true_occupancy_on
+from slamarena.mapping.grid_slam import GridSLAM
 
 OUT = Path("results/mapping_study")
 RAW_TO_CORRECTED = {"intel": "intel", "fr079": "freiburg-079", "aces": "aces", "mit-csail": "csail", "fr-clinic": None}
@@ -38,9 +38,9 @@ SIM_MATCHERS = {
 
 
 def _aligned(est, seq):
-    from experiments.metrics.alignment import fit_alignment
-    from experiments.metrics.reference import associate, reference_of
-    from experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.experiments.metrics.alignment import fit_alignment
+    from slamarena.experiments.metrics.reference import associate, reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     stats, _ = ate(est, reference_of(seq), ATEParams())
     match = associate(reference_of(seq), est.t, 0.1)
@@ -50,7 +50,7 @@ def _aligned(est, seq):
 
 @pytest.mark.slow
 def test_sim_laser_study():
-    from datasets.sim.laser import simulate
+    from slamarena.datasets.sim.laser import simulate
 
     OUT.mkdir(parents=True, exist_ok=True)
     results = {}
@@ -71,7 +71,7 @@ def test_sim_laser_study():
         print(label, {k: round(float(np.median([r[k] for r in rows])), 4) for k in rows[0] if k != "seed"})
     odo = []
     for seed in range(5):
-        from datasets.estimate import Estimate
+        from slamarena.datasets.estimate import Estimate
 
         seq = simulate(seed=seed)
         odo.append(_aligned(Estimate("odometry", seq.scans.t, seq.scans.pose), seq)[0]["rmse"])
@@ -96,9 +96,9 @@ def _match_scans(raw, corrected):
 def test_carmen_study(raw_name):
     import time
 
-    import datasets
-    from datasets.errors import DatasetNotFoundError
-    from experiments.metrics.relations import RelationsParams, relation_error
+    from slamarena import datasets
+    from slamarena.datasets.errors import DatasetNotFoundError
+    from slamarena.experiments.metrics.relations import RelationsParams, relation_error
 
     try:
         seq = datasets.load(f"carmen:{raw_name}")
@@ -146,9 +146,9 @@ def test_fr_clinic_interlaced_study(first):
     No reference exists: map sharpness, matcher score, the end points of the shared 181-beam scans
     on the final map, the wall-orientation concentration (rectilinear building: heading drift bends
     the corridors), and the difference of the two trajectories at the shared scans."""
-    import datasets
-    from datasets.errors import DatasetNotFoundError
-    from mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
+    from slamarena import datasets
+    from slamarena.datasets.errors import DatasetNotFoundError
+    from slamarena.mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
 
     try:
         everything = datasets.load("carmen:fr-clinic").scans
@@ -162,7 +162,7 @@ def test_fr_clinic_interlaced_study(first):
     assert np.array_equal(stretch.t[shared], single.t)
     rows, shared_poses = {}, {}
     for label, scans, common in (("all layouts", stretch, shared), ("181-beam layout only", single, np.arange(len(single)))):
-        from datasets.sequence import Sequence
+        from slamarena.datasets.sequence import Sequence
 
         slam = GridSLAM()
         est = slam.run(Sequence(name=label, scans=scans))

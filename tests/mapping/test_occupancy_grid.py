@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mapping.occupancy_grid import OccupancyGrid, load_map_server, logit, probability
+from slamarena.mapping.occupancy_grid import OccupancyGrid, load_map_server, logit, probability
 
 RES = 0.1
 
@@ -167,7 +167,7 @@ def test_hit_guard_keeps_cells_next_to_hits_from_being_cleared():
 
 
 def test_vectorised_integration_equals_the_literal_loop():
-    from experiments.benchmarks.grid import integrate_literal
+    from slamarena.experiments.benchmarks.grid import integrate_literal
 
     rng = np.random.default_rng(7)
     angles = np.linspace(-2.0, 2.0, 150)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mapping.raytrace import bresenham
+from slamarena.mapping.raytrace import bresenham
 
 
 def bresenham_loop(x0, y0, x1, y1):

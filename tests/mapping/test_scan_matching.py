@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from conftest import WALLS, raycast
 
-from datasets.geometry import between, transform_points
-from mapping.map_pyramid import MapPyramid
-from mapping.scan_matching import MATCHERS, make_matcher
-from mapping.scan_matching.gauss_newton import interpolate
+from slamarena.datasets.geometry import between, transform_points
+from slamarena.mapping.map_pyramid import MapPyramid
+from slamarena.mapping.scan_matching import MATCHERS, make_matcher
+from slamarena.mapping.scan_matching.gauss_newton import interpolate
 
 ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
 ROOM_POSES = np.array([[-4.0, -3.5, 0.2], [-1.0, -3.0, 0.0], [2.0, -2.5, -0.3], [4.5, -3.0, 0.5], [-4.0, 2.5, -1.2]])
@@ -155,7 +155,7 @@ def test_covariance_is_long_along_a_corridor():
 
 # --------------------------------------------------------------------------- simulated and real scans
 def test_matchers_recover_offsets_on_sim_laser():
-    sim = pytest.importorskip("datasets.sim.laser")
+    sim = pytest.importorskip("slamarena.datasets.sim.laser")
     seq = sim.simulate(laps=1, seed=4)
     sc, gt = seq.scans, seq.ground_truth
     truth = gt.poses[np.searchsorted(gt.t, sc.t)]

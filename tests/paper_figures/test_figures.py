@@ -4,13 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from datasets.estimate import Estimate
-from datasets.geometry import wrap_angle
-from datasets.sequence import LandmarkMap, Sequence, Trajectory
-from experiments.metrics import METRICS, CellData, evaluate, reference_of
-from experiments.results import cell_dir, save_npz, write_json
-from paper_figures.scaling import find_sweeps, fit_slope
-from paper_figures.trajectories import CHI2_2_95, ellipse_points
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.sequence import LandmarkMap, Sequence, Trajectory
+from slamarena.experiments.metrics import METRICS, CellData, evaluate, reference_of
+from slamarena.experiments.results import cell_dir, save_npz, write_json
+from slamarena.paper_figures.scaling import find_sweeps, fit_slope
+from slamarena.paper_figures.trajectories import CHI2_2_95, ellipse_points
 
 
 def _fake_cell(out, label, params, method, seed, n_steps, noise, with_landmarks):
@@ -54,7 +54,7 @@ def sweep(tmp_path_factory):
 
 
 def test_every_figure_kind_is_drawn(results, sweep):
-    from paper_figures.make import make_all
+    from slamarena.paper_figures.make import make_all
 
     written, skipped = make_all(results, only=["trajectories", "errors", "nees"], verbose=False)
     assert skipped == {}
@@ -69,7 +69,7 @@ def test_every_figure_kind_is_drawn(results, sweep):
 
 
 def test_scaling_sweep_and_slope(sweep):
-    from paper_figures.runs import load_runs
+    from slamarena.paper_figures.runs import load_runs
 
     sweeps = find_sweeps(load_runs(sweep))
     # "world" differs from the lm* entries in two parameters: not part of the sweep
@@ -89,7 +89,7 @@ def test_ellipse_is_the_95_percent_contour():
 
 
 def test_nothing_to_draw_is_reported_not_raised(tmp_path):
-    from paper_figures.make import make_all
+    from slamarena.paper_figures.make import make_all
 
     written, skipped = make_all(tmp_path, verbose=False)
     assert written == [] and set(skipped) == {"trajectories", "errors", "nees", "scaling"}
