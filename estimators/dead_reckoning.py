@@ -3,7 +3,7 @@
 Model
 -----
 State ``x = (x, y, θ)`` (3,), covariance ``P`` (3, 3), world frame. Start: ``x_0 =
-sequence.start_pose`` and ``P_0 = initial_cov`` (default 0: the start pose is the frame).
+sequence.start_pose`` and ``P_0 = diag(initial_sigma²)`` (default 0: the start pose is the frame).
 
 Twist input ``u_k = (v_k, ω_k)`` held for ``dt_k`` (``Noise.twist_cov = Q`` (2, 2), the
 covariance of one row's velocity error)::
@@ -36,17 +36,20 @@ work is one vectorised pass, so there is no per-pose time to measure).
 from __future__ import annotations
 
 import time
+from typing import Literal
 
 import numpy as np
+from pydantic import NonNegativeFloat
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
+from slamarena.params import Field, Params
 
 from .models import MOTION_MODELS, compose_jacobians
 from .stepping import twist_pieces
 
-__all__ = ["DeadReckoning", "propagate_covariance"]
+__all__ = ["DeadReckoning", "DeadReckoningParams", "propagate_covariance"]
 
 
 def propagate_covariance(P0: np.ndarray, G: np.ndarray, M: np.ndarray) -> np.ndarray:
@@ -81,24 +84,24 @@ def propagate_covariance(P0: np.ndarray, G: np.ndarray, M: np.ndarray) -> np.nda
     return P
 
 
+class DeadReckoningParams(Params):
+    """Parameters of :class:`DeadReckoning`."""
+
+    motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")
+    propagate_covariance: bool = Field(True, description="compute pose_cov when the sequence states its motion noise")
+    initial_sigma: tuple[NonNegativeFloat, NonNegativeFloat, NonNegativeFloat] = Field(
+        (0.0, 0.0, 0.0), description="standard deviations (σx [m], σy [m], σθ [rad]) of the start pose; 0: the start pose is the frame")
+
+
 class DeadReckoning:
-    """Integrate the motion input with the motion model; covariance when the noise is known.
+    """Integrate the motion input with the motion model; covariance when the noise is known (:class:`DeadReckoningParams`)."""
 
-    Parameters
-        motion_model: ``"arc"`` (exact constant-twist step, default) or ``"euler"``; Twist input.
-        propagate_covariance: compute ``pose_cov`` when the motion noise is known (default True).
-        initial_cov: standard deviations ``(σx, σy, σθ)`` of the start pose (default zeros).
-    """
+    Params = DeadReckoningParams
 
-    def __init__(self, motion_model: str = "arc", propagate_covariance: bool = True, initial_cov: list[float] | None = None):
-        if motion_model not in MOTION_MODELS:
-            raise ValueError(f"motion_model must be one of {sorted(MOTION_MODELS)}, got {motion_model!r}")
-        self.model = MOTION_MODELS[motion_model]
-        self.propagate_covariance = bool(propagate_covariance)
-        sigma = np.zeros(3) if initial_cov is None else np.asarray(initial_cov, dtype=float)
-        if sigma.shape != (3,) or np.any(sigma < 0) or not np.all(np.isfinite(sigma)):
-            raise ValueError(f"initial_cov must be three non-negative standard deviations, got {initial_cov!r}")
-        self.P0 = np.diag(sigma**2)
+    def __init__(self, params: DeadReckoningParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.model = MOTION_MODELS[self.params.motion_model]
+        self.P0 = np.diag(np.square(self.params.initial_sigma))
 
     def run(self, sequence: Sequence) -> Estimate:
         motion = sequence.motion
@@ -117,7 +120,7 @@ class DeadReckoning:
             pose_cov=pose_cov,
             step_time=np.full(t.shape, elapsed / max(len(t), 1)),
             diagnostics={"rejected_motion_rows": np.array(rejected)},
-            meta={"motion_model": self.model.name, "input": type(motion).__name__, "rejected_motion_rows": rejected},
+            meta={"params": self.params.canonical(), "input": type(motion).__name__, "rejected_motion_rows": rejected},
         )
 
     # ---------------------------------------------------------------- Twist
@@ -134,7 +137,7 @@ class DeadReckoning:
         poses = np.vstack([piece_poses[:1], piece_poses[last_piece]])
         pose_cov = None
         Q = sequence.noise.twist_cov
-        if self.propagate_covariance and Q is not None:
+        if self.params.propagate_covariance and Q is not None:
             G, V = self.model.jacobians(piece_poses[:-1], v, omega, dt)
             P = propagate_covariance(self.P0, G, V @ Q @ np.swapaxes(V, 1, 2))
             pose_cov = np.concatenate([P[:1], P[last_piece]])
@@ -148,7 +151,7 @@ class DeadReckoning:
         all_poses = accumulate(sequence.start_pose, delta)
         pose_cov = None
         C = inc.cov if inc.cov is not None else sequence.noise.increment_cov
-        if self.propagate_covariance and C is not None:
+        if self.params.propagate_covariance and C is not None:
             C = np.broadcast_to(C, (len(inc), 3, 3)).copy()
             C[bad] = 0.0
             Jx, Jd = compose_jacobians(all_poses[:-1], delta)

@@ -34,8 +34,9 @@ import typing
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, create_model, field_validator, model_validator
 
+from slamarena.params import params_model
 from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
@@ -94,11 +95,43 @@ def check_keywords(func, params: dict, what: str, reserved: tuple[str, ...] = ()
             raise ValueError(f"{what}: {problems}") from None
 
 
+def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = ()) -> dict:
+    """``params`` validated by the ``Params`` model ``target`` declares (:mod:`slamarena.params`), as its
+    canonical JSON form with every default filled in; a ValueError naming each offending ``params.<field>``."""
+    for key in reserved:
+        if key in params:
+            raise ValueError(f"{what}: params.{key} is set by the runner (from seeds:), not in params")
+    try:
+        model = params_model(target)
+    except TypeError:  # not yet converted to a Params model: check the keywords of its signature
+        check_keywords(target.__init__ if inspect.isclass(target) else target, params, what, reserved)
+        return dict(params)
+    try:
+        return model.of(params).canonical()
+    except ValidationError as exc:
+        problems = "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
+        raise ValueError(f"{what}: {problems}") from None
+
+
+def _declares_params(target) -> bool:
+    try:
+        params_model(target)
+    except TypeError:
+        return False
+    return True
+
+
 class DatasetSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: str
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
+
+    _resolved: dict = PrivateAttr(default_factory=dict)
+
+    def resolved_params(self) -> dict:
+        """Every parameter of the dataset, defaults filled in (its reader's or simulator's ``Params`` model)."""
+        return self._resolved
 
     @property
     def is_simulator(self) -> bool:
@@ -116,14 +149,14 @@ class DatasetSpec(BaseModel):
                 simulate = import_target(SIMULATORS[self.name])
             except ImportError as exc:
                 raise ValueError(f"simulator {self.name!r} is registered but cannot be imported: {exc}") from None
-            check_keywords(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
+            self._resolved = resolve_params(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
         elif self.name in CATALOGUE:
             entry = CATALOGUE[self.name]
             try:
                 reader = import_target(entry.reader)
             except ImportError as exc:
                 raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
-            check_keywords(reader, self.params, f"dataset {self.name!r}", reserved=("paths", "name"))
+            self._resolved = resolve_params(reader, self.params, f"dataset {self.name!r}", reserved=("paths", "name"))
         else:
             known = sorted(SIMULATORS) + sorted(CATALOGUE)
             raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
@@ -137,6 +170,7 @@ class EstimatorSpec(BaseModel):
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
     datasets: list[str] | None = Field(None, description="dataset labels this method runs on (default: all)")
+    _resolved: dict = PrivateAttr(default_factory=dict)
 
     @model_validator(mode="after")
     def _registered(self):
@@ -147,17 +181,24 @@ class EstimatorSpec(BaseModel):
             cls = import_target(table[self.name])
         except (ImportError, AttributeError) as exc:
             raise ValueError(f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}") from None
-        check_keywords(cls.__init__, self.params, f"method {self.name!r}")
-        try:
-            cls(**self.params)
-        except Exception as exc:  # the constructor's own validation of values
-            raise ValueError(f"method {self.name!r} rejects params {self.params}: {type(exc).__name__}: {exc}") from None
+        self._resolved = resolve_params(cls, self.params, f"method {self.name!r}")
+        if not _declares_params(cls):
+            try:
+                cls(**self.params)
+            except Exception as exc:  # the constructor's own validation of values
+                raise ValueError(f"method {self.name!r} rejects params {self.params}: {type(exc).__name__}: {exc}") from None
         require_plain(self.label, "label")
         return self
 
     def takes_seed(self) -> bool:
         cls = import_target(method_table()[self.name])
+        if _declares_params(cls):
+            return "seed" in params_model(cls).model_fields and "seed" not in self.params
         return "seed" in inspect.signature(cls.__init__).parameters and "seed" not in self.params
+
+    def resolved_params(self) -> dict:
+        """Every parameter of the method, defaults filled in (its ``Params`` model's canonical form)."""
+        return self._resolved
 
 
 MetricsSpec = create_model(

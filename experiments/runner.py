@@ -117,8 +117,8 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
             takes_seed = es.takes_seed()
             for seed in seeds if (ds.is_simulator or takes_seed) else seeds[:1]:
                 key = _digest({
-                    "dataset": {"name": ds.name, "params": ds.params, "seed": seed if ds.is_simulator else None, "files": checksums},
-                    "estimator": {"name": es.name, "params": es.params, "seed": seed if takes_seed else None},
+                    "dataset": {"name": ds.name, "params": ds.resolved_params(), "seed": seed if ds.is_simulator else None, "files": checksums},
+                    "estimator": {"name": es.name, "params": es.resolved_params(), "seed": seed if takes_seed else None},
                     "seed": seed,
                     "version": version,
                 })

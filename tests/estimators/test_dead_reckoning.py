@@ -146,7 +146,9 @@ def test_increment_covariance_uses_stream_or_stated_noise():
 def test_bad_parameters_rejected():
     with pytest.raises(ValueError, match="motion_model"):
         DeadReckoning(motion_model="rk4")
-    with pytest.raises(ValueError, match="initial_cov"):
-        DeadReckoning(initial_cov=[1.0, -1.0, 0.0])
+    with pytest.raises(ValueError, match="initial_sigma"):
+        DeadReckoning(initial_sigma=[1.0, -1.0, 0.0])
+    with pytest.raises(ValueError, match="propagate_cov"):
+        DeadReckoning(propagate_cov=False)  # a misspelt parameter is an error, never ignored
     with pytest.raises(ValueError, match="motion input"):
         DeadReckoning().run(Sequence("empty", ground_truth=Trajectory(t=[0.0], poses=[[0, 0, 0]])))
