@@ -5,8 +5,10 @@ Search order (first existing directory that holds the requested file wins):
 1. an explicit root passed to :func:`set_data_root` (the CLI's ``--data-root``);
 2. the environment variable ``SLAMARENA_DATA`` (``os.pathsep``-separated list allowed);
 3. defaults: ``../shared/datasets`` beside this checkout, ``./shared/datasets`` and
-   ``../shared/datasets`` relative to the working directory, and the download cache
-   (``$SLAMARENA_CACHE`` or ``~/.cache/slamarena``) where ``slamarena data fetch`` puts files.
+   ``../shared/datasets`` relative to the working directory (not searched when the environment
+   sets ``SLAMARENA_SEARCH_SHARED=0``: a machine without the shared folder, as a fresh clone has),
+   and the download cache (``$SLAMARENA_CACHE`` or ``~/.cache/slamarena``) where
+   ``slamarena data fetch`` puts files.
 
 Files are never copied into the repository.
 """
@@ -40,13 +42,10 @@ def data_roots(existing_only: bool = True) -> list[Path]:
     env = os.environ.get("SLAMARENA_DATA")
     if env:
         candidates += [Path(p).expanduser() for p in env.split(os.pathsep) if p]
-    checkout = Path(__file__).resolve().parent.parent
-    candidates += [
-        checkout.parent / "shared" / "datasets",
-        Path.cwd() / "shared" / "datasets",
-        Path.cwd().parent / "shared" / "datasets",
-        cache_dir(),
-    ]
+    if os.environ.get("SLAMARENA_SEARCH_SHARED", "1") != "0":
+        checkout = Path(__file__).resolve().parent.parent
+        candidates += [checkout.parent / "shared" / "datasets", Path.cwd() / "shared" / "datasets", Path.cwd().parent / "shared" / "datasets"]
+    candidates.append(cache_dir())
     seen: list[Path] = []
     for c in candidates:
         c = c.resolve()

@@ -1,10 +1,12 @@
-"""The one error type of the data layer."""
+"""The errors of the data layer (both are :class:`~slamarena.errors.UserError`: the CLI prints their message alone)."""
 from __future__ import annotations
 
 from pathlib import Path
 
+from slamarena.errors import UserError
 
-class DataFormatError(ValueError):
+
+class DataFormatError(UserError, ValueError):
     """A malformed input file: names the file, the line number (1-based) and what was expected."""
 
     def __init__(self, path: str | Path, line: int | None, expected: str, got: str | None = None):
@@ -19,7 +21,7 @@ class DataFormatError(ValueError):
         super().__init__(message)
 
 
-class DatasetNotFoundError(FileNotFoundError):
+class DatasetNotFoundError(UserError, FileNotFoundError):
     """A dataset whose files are not under any data root."""
 
     def __init__(self, name: str, looked_in: list[Path], relative: str):

@@ -14,6 +14,8 @@ import gzip
 import shutil
 from pathlib import Path
 
+from slamarena.errors import UserError
+
 from .dataroot import cache_dir, data_roots
 
 __all__ = ["FILES", "fetch", "url_of", "FetchError"]
@@ -108,7 +110,7 @@ FILES: dict[str, tuple[str, str, bool]] = {
 }
 
 
-class FetchError(RuntimeError):
+class FetchError(UserError, RuntimeError):
     """A download failed or did not match its pinned sha256 (nothing is stored then)."""
 
 

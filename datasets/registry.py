@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from slamarena.errors import UnknownNameError
 from slamarena.targets import import_target
 
 from .catalogue import CATALOGUE, CatalogueEntry
@@ -46,7 +47,7 @@ def resolve(name: str) -> CatalogueEntry:
     """The catalogue entry of a real dataset name (``KeyError`` listing the valid names)."""
     if name in CATALOGUE:
         return CATALOGUE[name]
-    raise KeyError(f"unknown dataset {name!r}; known: {', '.join(sorted(CATALOGUE) + sorted(SIMULATORS))}")
+    raise UnknownNameError(f"unknown dataset {name!r}; known: {', '.join(sorted(CATALOGUE) + sorted(SIMULATORS))}")
 
 
 def load(name: str, **params):

@@ -6,6 +6,7 @@ and constructed with the config's parameters.
 """
 from __future__ import annotations
 
+from slamarena.errors import UnknownNameError
 from slamarena.targets import import_target
 
 from .base import Estimate, Estimator
@@ -26,5 +27,5 @@ REGISTRY: dict[str, str] = {
 def create(name: str, **params) -> Estimator:
     """Construct the registered method ``name`` with ``params``."""
     if name not in REGISTRY:
-        raise KeyError(f"unknown estimator {name!r}; known: {', '.join(sorted(REGISTRY))}")
+        raise UnknownNameError(f"unknown estimator {name!r}; known: {', '.join(sorted(REGISTRY))}")
     return import_target(REGISTRY[name])(**params)

@@ -1,34 +1,58 @@
 """One cell of an experiment (dataset × method × seed), run in a fresh process of its own.
 
 ``run_cell(spec, timeout)`` — called by the runner's local thread pool or on a Dask worker —
-starts ``python -m slamarena.experiments.cell SPEC.json`` and waits for it, killing it at the timeout.
-A fresh process per cell isolates crashes of native libraries, makes the timeout a hard one
-(the process is killed) and makes ``ru_maxrss`` the peak memory of this cell alone.
+starts ``python -m slamarena.experiments.cell`` with the spec as JSON on its standard input and
+waits for it, killing it at the timeout. A fresh process per cell isolates crashes of native
+libraries, makes the timeout a hard one (the process is killed) and makes ``ru_maxrss`` the
+peak memory of this cell alone. On Linux the cell process is bound to the thread that started
+it (``PR_SET_PDEATHSIG``): if the runner dies, even by SIGKILL, its cells die with it.
+:func:`terminate_all` kills the cells still running (the runner calls it on Ctrl-C).
 
 In the child (:func:`main`): load the dataset (a simulator gets the cell's seed as ``seed``;
 a real dataset is loaded as is), construct the method from the registry (``seed`` passed only
-if its constructor takes one), run it and time the run, then compute the metrics and write
+if its parameters take one), run it and time the run, then compute the metrics and write
 the cell's files (see :mod:`slamarena.experiments.results`) — ``metrics.json`` last. If
-``estimate.npz`` already holds this cell's key (only the metric settings changed), the
-estimate is reused and only the metrics are recomputed (unless the spec says ``force``).
+``estimate.npz`` already holds this cell's key (only the metric settings changed) and reads
+back whole, the estimate is reused and only the metrics are recomputed (unless the spec says
+``force``); a damaged one is recomputed.
 """
 from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
-import tempfile
+import threading
 import time
 import traceback
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["run_cell", "main"]
+__all__ = ["run_cell", "terminate_all", "main"]
+
+_LIVE: set[subprocess.Popen] = set()
+_LIVE_LOCK = threading.Lock()
 
 
 def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
+    import ctypes
+
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def terminate_all() -> int:
+    """Kill every cell process still running; returns how many there were."""
+    with _LIVE_LOCK:
+        live = list(_LIVE)
+    for proc in live:
+        proc.kill()
+    return len(live)
 
 
 def run_cell(spec: dict, timeout: float | None) -> dict:
@@ -36,16 +60,23 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
     cell = Path(spec["dir"])
     cell.mkdir(parents=True, exist_ok=True)
     (cell / "error.json").unlink(missing_ok=True)
-    with tempfile.NamedTemporaryFile("w", suffix=".json", dir=cell, prefix=".spec.", delete=False) as fh:
-        json.dump(spec, fh)
-        spec_path = fh.name
     start = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "slamarena.experiments.cell"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env={**os.environ, **spec.get("env", {})}, preexec_fn=_die_with_parent if sys.platform == "linux" else None,
+    )
+    with _LIVE_LOCK:
+        _LIVE.add(proc)
     try:
-        proc = subprocess.run([sys.executable, "-m", "slamarena.experiments.cell", spec_path], capture_output=True, text=True, timeout=timeout, env={**os.environ, **spec.get("env", {})})
-    except subprocess.TimeoutExpired:
-        return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
+        try:
+            _, stderr = proc.communicate(json.dumps(spec), timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
     finally:
-        Path(spec_path).unlink(missing_ok=True)
+        with _LIVE_LOCK:
+            _LIVE.discard(proc)
     elapsed = time.perf_counter() - start
     if proc.returncode == 0:
         return {"id": spec["id"], "status": "ok", "error": "", "traceback": "", "elapsed": elapsed}
@@ -53,18 +84,23 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
     if error_file.exists():
         info = json.loads(error_file.read_text())
         return {"id": spec["id"], "status": "error", "error": info["error"], "traceback": info["traceback"], "elapsed": elapsed}
-    tail = (proc.stderr or "").strip().splitlines()[-20:]
+    if proc.returncode < 0:
+        name = signal.Signals(-proc.returncode).name
+        return {"id": spec["id"], "status": "killed", "error": f"cell process killed by {name}", "traceback": "", "elapsed": elapsed}
+    tail = (stderr or "").strip().splitlines()[-20:]
     return {"id": spec["id"], "status": "error", "error": f"cell process exited with code {proc.returncode}", "traceback": "\n".join(tail), "elapsed": elapsed}
 
 
 def _flatten_series(series: dict) -> dict:
     import numpy as np
 
+    from .metrics.series import series_key
+
     out = {}
     for metric, values in series.items():
         for key, value in values.items():
             if isinstance(value, np.ndarray):
-                out[f"{metric}/{key}"] = value
+                out[series_key(metric, key)] = value
     return out
 
 
@@ -100,10 +136,13 @@ def execute(spec: dict) -> dict:
 
     estimate_file = cell / "estimate.npz"
     previous = cell / "estimate.json"
+    estimate = None
     if not spec.get("force") and estimate_file.exists() and previous.exists() and read_json(previous).get("key") == spec["key"]:
-        estimate = Estimate.load(estimate_file)
-        wall = read_json(previous)["wall"]
-    else:
+        try:
+            estimate, wall = Estimate.load(estimate_file), read_json(previous)["wall"]
+        except Exception:  # a damaged cached estimate (its key matches, its bytes do not): compute it again
+            estimate = None
+    if estimate is None:
         cls = import_target(method_table()[es["name"]])
         kwargs = dict(es["params"])
         if spec["seed_to_estimator"] and "seed" in inspect.signature(cls.__init__).parameters:
@@ -146,10 +185,11 @@ def execute(spec: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The cell process: the spec is JSON on standard input (or in the file named by the one argument)."""
     from .results import write_json
 
     argv = sys.argv[1:] if argv is None else argv
-    spec = json.loads(Path(argv[0]).read_text())
+    spec = json.loads(Path(argv[0]).read_text() if argv else sys.stdin.read())
     try:
         execute(spec)
     except Exception as exc:

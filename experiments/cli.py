@@ -58,10 +58,14 @@ def run(
 
 @app.command()
 def figures(results_dir: Path = typer.Argument(..., exists=True, file_okay=False, help="A results/<experiment> directory.")):
-    """Regenerate every figure of a results directory (PNG and PDF)."""
+    """Regenerate every figure of a results directory (PNG and PDF); an error when none can be drawn."""
+    from slamarena.errors import UserError
     from slamarena.paper_figures.make import make_all
 
-    make_all(results_dir)
+    written, skipped = make_all(results_dir)
+    if not written:
+        reasons = "; ".join(f"{kind}: {why}" for kind, why in skipped.items())
+        raise UserError(f"{results_dir}: no figure could be drawn ({reasons})")
 
 
 @app.command()
@@ -90,4 +94,15 @@ def map_log(
 
 
 def main() -> None:
-    app()
+    """The console script: a :class:`~slamarena.errors.UserError` (a bad file, a missing dataset, a bad config or
+    option) prints its message and exits with code 2; any other exception is a bug and keeps its traceback."""
+    from slamarena.errors import UserError
+
+    try:
+        app()
+    except UserError as exc:
+        from rich.console import Console
+        from rich.markup import escape
+
+        Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+        raise SystemExit(2) from None

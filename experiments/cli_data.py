@@ -30,14 +30,10 @@ def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/rob
     import numpy as np
     from rich.console import Console
 
-    from slamarena.datasets import DatasetNotFoundError, load
+    from slamarena.datasets import load
 
     console = Console()
-    try:
-        data = load(name)
-    except (KeyError, DatasetNotFoundError) as exc:
-        console.print(f"[red]{exc.args[0] if isinstance(exc, KeyError) else exc}[/red]")
-        raise typer.Exit(1)
+    data = load(name)  # a bad name, missing files or a malformed file is a UserError: one message, exit code 2
     summary = data.summary()
 
     def plain(x):
@@ -52,13 +48,8 @@ def fetch(name: str = typer.Argument(..., help="A registry name (see `slamarena 
     """Download a dataset's files (pinned commit URLs, sha256-checked) into the cache data root."""
     from rich.console import Console
 
-    from slamarena.datasets.fetch import FetchError, fetch as do_fetch
+    from slamarena.datasets.fetch import fetch as do_fetch
 
     console = Console()
-    try:
-        paths = do_fetch(name, force=force)
-    except (KeyError, FetchError) as exc:
-        console.print(f"[red]{exc.args[0] if isinstance(exc, KeyError) else exc}[/red]")
-        raise typer.Exit(1)
-    for p in paths:
+    for p in do_fetch(name, force=force):
         console.print(str(p))

@@ -36,6 +36,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, create_model, field_validator, model_validator
 
+from slamarena.errors import UserError
 from slamarena.params import params_model
 from slamarena.targets import import_target
 
@@ -47,7 +48,7 @@ __all__ = ["ExperimentConfig", "DatasetSpec", "EstimatorSpec", "TableSpec", "Met
 FIGURES = ("trajectories", "errors", "nees", "scaling")
 
 
-class ConfigError(ValueError):
+class ConfigError(UserError, ValueError):
     """An experiment config that cannot run; the message lists every problem with its field path."""
 
 
@@ -312,15 +313,16 @@ def load_config(path: str | Path | None = None) -> ExperimentConfig:
     import yaml
     from importlib.resources import files
 
-    shipped = files("experiments").joinpath("configs")
-    name = "default" if path is None else Path(path).stem
+    shipped = files("slamarena.experiments").joinpath("configs")
+    name = "default" if path is None else str(path)
+    bare = path is None or (Path(name).name == name and not Path(name).suffix)  # "scaling", not "scaling.yaml" or "dir/x"
     if path is not None and Path(path).is_file():
         text, where = Path(path).read_text(), str(path)
-    elif (path is None or Path(path).parent == Path(".")) and shipped.joinpath(f"{name}.yaml").is_file():
+    elif bare and shipped.joinpath(f"{name}.yaml").is_file():
         text, where = shipped.joinpath(f"{name}.yaml").read_text(), f"{name}.yaml (shipped)"
     else:
         names = sorted(p.name.removesuffix(".yaml") for p in shipped.iterdir() if p.name.endswith(".yaml"))
-        raise ConfigError(f"{path}: no such config file (shipped configs: {', '.join(names)})")
+        raise ConfigError(f"{path}: no such config file (a shipped config is named without a suffix: {', '.join(names)})")
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:

@@ -17,7 +17,8 @@
    wait; the work, the timeout kill and the memory peak belong to the cell's own process),
    or on a Dask distributed cluster with ``--scheduler``. A failing or timed-out cell does
    not stop the others; its error and traceback go to ``summary.csv`` and the console, and
-   the exit code is 1.
+   the exit code is 1. Ctrl-C kills the running cells, records the interruption in the manifest
+   and says how to resume (exit code 130); a SIGKILL of the runner takes its cells with it.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
    (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
    and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`).
@@ -28,6 +29,7 @@ import hashlib
 import json
 import os
 import platform
+import shlex
 import socket
 import subprocess
 import sys
@@ -36,6 +38,10 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
+
+from rich.markup import escape
+
+from slamarena.errors import UserError
 
 from .config import ConfigError, ExperimentConfig, load_config
 from .results import MANIFEST, SUMMARY, atomic_write_text, cell_dir, read_json, write_json
@@ -46,7 +52,7 @@ __all__ = ["Cell", "plan", "run_experiment", "run_from_cli", "package_version"]
 FigureMaker = Callable[..., tuple[list, dict]]
 
 
-class SchedulerUnreachable(RuntimeError):
+class SchedulerUnreachable(UserError, RuntimeError):
     """``--scheduler`` names an address where no Dask scheduler answers."""
 
 
@@ -69,7 +75,20 @@ class Cell:
             info = read_json(path)
         except (OSError, json.JSONDecodeError):
             return False
-        return info.get("status") == "ok" and info.get("key") == self.key and info.get("metrics_key") == self.metrics_key
+        if not (info.get("status") == "ok" and info.get("key") == self.key and info.get("metrics_key") == self.metrics_key):
+            return False
+        return all(readable_npz(self.dir / name) for name in ("estimate.npz", "series.npz"))
+
+
+def readable_npz(path: Path) -> bool:
+    """Whether ``path`` is a whole ``.npz`` (every member's CRC checks): a damaged cached file is recomputed, never reused."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return archive.testzip() is None
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def package_version() -> str:
@@ -151,32 +170,53 @@ def _cell_env() -> dict:
 
 
 # ---------------------------------------------------------------------------- execution
-def _execute(specs: list[dict], timeout: float | None, jobs: int, scheduler: str | None, on_done) -> list[dict]:
-    from .cell import run_cell
+def execute(specs: list[dict], timeout: float | None, jobs: int, scheduler: str | None, on_done) -> list[dict]:
+    """Run the pending cells, each in its own process: ``jobs`` local worker threads, or a Dask cluster.
+
+    ``on_done(result)`` is called as each cell ends. On Ctrl-C the cells still running are killed and
+    ``KeyboardInterrupt`` propagates to the caller, which records the interruption.
+    """
+    from .cell import run_cell, terminate_all
 
     results = []
     if not specs:
         return results
-    if scheduler:
-        from distributed import Client, as_completed
+    try:
+        if scheduler:
+            results = _execute_dask(specs, timeout, scheduler, on_done)
+        else:
+            from joblib import Parallel, delayed
 
+            parallel = Parallel(n_jobs=jobs, backend="threading", return_as="generator_unordered")
+            for result in parallel(delayed(run_cell)(spec, timeout) for spec in specs):
+                results.append(result)
+                on_done(result)
+    except KeyboardInterrupt:
+        terminate_all()
+        raise
+    return results
+
+
+def _execute_dask(specs: list[dict], timeout: float | None, scheduler: str, on_done) -> list[dict]:
+    from distributed import Client, as_completed
+
+    from .cell import run_cell
+
+    try:
+        client = Client(scheduler, timeout="20s")
+    except (OSError, ValueError, TypeError) as exc:
+        raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+    results = []
+    with client:
+        futures = client.map(run_cell, specs, [timeout] * len(specs), pure=False)
         try:
-            client = Client(scheduler, timeout="20s")
-        except OSError as exc:
-            raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
-        with client:
-            futures = client.map(run_cell, specs, [timeout] * len(specs), pure=False)
             for future in as_completed(futures):
                 result = future.result()
                 results.append(result)
                 on_done(result)
-        return results
-    from joblib import Parallel, delayed
-
-    parallel = Parallel(n_jobs=max(1, jobs), backend="threading", return_as="generator_unordered")
-    for result in parallel(delayed(run_cell)(spec, timeout) for spec in specs):
-        results.append(result)
-        on_done(result)
+        except KeyboardInterrupt:
+            client.cancel(futures)
+            raise
     return results
 
 
@@ -244,6 +284,7 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
 
     from .metrics.consistency import monte_carlo, nis_per_stamp
     from .metrics.reference import MetricUnavailable
+    from .metrics.series import Series
     from .results import load_npz
 
     enabled = config.enabled_metrics()
@@ -253,10 +294,10 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
             continue
         series = load_npz(cell.dir / "series.npz")
         key = (config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator])
-        if "nees/nees" in series:
-            groups.setdefault(key + ("nees",), []).append((series["nees/t"], series["nees/nees"], np.full(series["nees/t"].shape, 3.0)))
-        if "nis/nis" in series:
-            groups.setdefault(key + ("nis",), []).append(nis_per_stamp(series["nis/t"], series["nis/nis"], series["nis/dof"]))
+        if Series.NEES in series:
+            groups.setdefault(key + ("nees",), []).append((series[Series.NEES_T], series[Series.NEES], np.full(series[Series.NEES_T].shape, 3.0)))
+        if Series.NIS in series:
+            groups.setdefault(key + ("nis",), []).append(nis_per_stamp(series[Series.NIS_T], series[Series.NIS], series[Series.NIS_DOF]))
     rows = []
     for (ds, es, stat), runs in groups.items():
         try:
@@ -269,11 +310,13 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
 
 
 def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float) -> None:
+    """The end-of-run table: one row per (dataset, method), full names even when the console is not a terminal."""
     from rich.table import Table
 
     table = Table(title=f"{len(frame)} cells: {cells_run} run, {cached} cached, {elapsed:.1f} s", show_lines=False)
-    for col in ("dataset", "estimator", "ok/total", "ATE rmse [m]", "RPE trans [m]", "NEES/3", "step median [ms]"):
-        table.add_column(col, justify="right" if col not in ("dataset", "estimator") else "left")
+    columns = ("dataset", "estimator", "ok/total", "ATE rmse [m]", "RPE trans [m]", "NEES/3", "step median [ms]")
+    for col in columns:
+        table.add_column(escape(col), justify="right" if col not in ("dataset", "estimator") else "left", no_wrap=True)
 
     def fmt(group, col, scale=1.0):
         if col not in group or group[col].isna().all():
@@ -281,118 +324,200 @@ def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float
         values = group[col].dropna() * scale
         return f"{values.mean():.3g}" + (f" ± {values.std():.2g}" if len(values) > 1 else "")
 
+    rows = []
     for (ds, es), group in frame.groupby(["dataset", "estimator"], sort=False):
         ok = int((group["status"] == "ok").sum())
-        style = "" if ok == len(group) else "red"
-        table.add_row(ds, es, f"{ok}/{len(group)}", fmt(group, "ate.rmse"), fmt(group, "rpe.trans_rmse"), fmt(group, "nees.mean_over_dof"), fmt(group, "cost.step_median", 1e3), style=style)
+        rows.append(((ds, es, f"{ok}/{len(group)}", fmt(group, "ate.rmse"), fmt(group, "rpe.trans_rmse"), fmt(group, "nees.mean_over_dof"), fmt(group, "cost.step_median", 1e3)), ok == len(group)))
+        table.add_row(*(escape(str(v)) for v in rows[-1][0]), style="" if ok == len(group) else "red")
+    if not console.is_terminal:  # a log file or CI: as wide as the table needs, never squeezed names
+        widths = [max([len(c)] + [len(str(r[0][k])) for r in rows]) for k, c in enumerate(columns)]
+        console.width = max(console.width, sum(widths) + 3 * len(widths) + 4)
     console.print(table)
     failed = frame[frame["status"] != "ok"]
     for _, row in failed.head(8).iterrows():
-        console.print(f"[red]✗ {row['dataset']}/{row['estimator']}/{row['seed']}[/red] {row['status']}: {row['error']}")
+        console.print(f"[red]✗ {escape(str(row['dataset']))}/{escape(str(row['estimator']))}/{row['seed']}[/red] {escape(str(row['status']))}: {escape(str(row['error']))}")
     if len(failed) > 8:
         console.print(f"[red]… and {len(failed) - 8} more failed cells (see summary.csv)[/red]")
 
 
-# ---------------------------------------------------------------------------- entry points
-def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None, make_figures: FigureMaker | None = None) -> int:
-    """Run (or resume) an experiment into ``out``; returns the exit code (0: every cell ok).
-
-    ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's
-    figures at the end; the CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the
-    layer above this one, so they are handed in rather than imported).
-    """
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    from .tables import default_columns, write_tables
-
-    console = console or Console(stderr=True)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    started, t_start = _now(), time.perf_counter()
-    cells = plan(config, out)
-    pending = [c for c in cells if force or not c.finished()]
+# ---------------------------------------------------------------------------- the steps of a run
+def start_manifest(config: ExperimentConfig, out: Path, cells: list[Cell], pending: list[Cell], jobs: int, scheduler: str | None) -> dict:
+    """Write ``manifest.json`` as the run starts (``finished`` stays null until it ends)."""
     manifest = {
         "experiment": config.name,
         "config": config.model_dump(mode="json"),
+        "resolved_params": {"datasets": {lbl: ds.resolved_params() for lbl, ds in zip(config.dataset_labels(), config.datasets)},
+                            "estimators": {lbl: es.resolved_params() for lbl, es in zip(config.estimator_labels(), config.estimators)}},
         "versions": _versions(),
         "git_revision": _git_revision(),
         "machine": _machine(),
         "command": sys.argv,
         "scheduler": scheduler,
         "jobs": jobs,
-        "started": started,
+        "started": _now(),
         "finished": None,
+        "interrupted": None,
         "cells": {"total": len(cells), "to_run": len(pending), "cached": len(cells) - len(pending)},
     }
     write_json(out / MANIFEST, manifest)
+    return manifest
+
+
+def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, force: bool, console) -> dict[str, dict]:
+    """Execute the pending cells with a progress bar; returns the failed ones by id."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     env = _cell_env()
     failures: dict[str, dict] = {}
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console, transient=False) as progress:
-        task = progress.add_task(config.name, total=len(pending))
+        task = progress.add_task(escape(config.name), total=len(pending))
 
         def on_done(result):
             if result["status"] != "ok":
                 failures[result["id"]] = result
             progress.advance(task)
 
-        _execute([_spec(config, c, env, force) for c in pending], config.timeout, jobs, scheduler, on_done)
+        execute([_spec(config, c, env, force) for c in pending], config.timeout, jobs, scheduler, on_done)
+    return failures
 
-    frame = collect(config, cells, failures)
+
+def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path) -> list[Path]:
+    """``summary.csv``, the configured tables (or the default one) and the Monte Carlo table."""
+    from .tables import default_columns, write_frame, write_tables
+
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
     tables = config.tables or [{"name": "summary", "columns": default_columns(config.enabled_metrics())}]
     written = write_tables(frame, tables, out / "tables")
     mc_frame = monte_carlo_table(config, cells)
     if len(mc_frame):
-        from .tables import write_frame
-
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
-    figure_files, figure_errors = [], {}
-    if make_figures is not None and config.figures:
-        figure_files, figure_errors = make_figures(out, only=config.figures, verbose=False)
+    return written
+
+
+def draw_figures(config: ExperimentConfig, out: Path, make_figures: FigureMaker | None) -> tuple[list, dict]:
+    """The config's figures, drawn by the injected ``make_figures`` (none without one)."""
+    if make_figures is None or not config.figures:
+        return [], {}
+    return make_figures(out, only=config.figures, verbose=False)
+
+
+def record_interruption(manifest: dict, out: Path, cells: list[Cell], console) -> None:
+    """After Ctrl-C: the manifest says so, and the console says what finished and how to resume."""
+    done = sum(c.finished() for c in cells)
+    manifest["interrupted"] = {"at": _now(), "finished_cells": done, "total_cells": len(cells)}
+    write_json(out / MANIFEST, manifest)
+    command = " ".join(shlex.quote(a) for a in (manifest["command"] or ["slamarena", "run"]))
+    console.print(f"[yellow]interrupted: {done} of {len(cells)} cells are finished and kept in {escape(str(out))}.[/yellow]")
+    console.print(f"resume with the same command (finished cells are skipped): {escape(command)}", highlight=False)
+
+
+def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None, make_figures: FigureMaker | None = None) -> int:
+    """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures.
+
+    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
+    ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
+    CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
+    they are handed in rather than imported).
+    """
+    from rich.console import Console
+
+    console = console or Console(stderr=True)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t_start = time.perf_counter()
+    cells = plan(config, out)
+    pending = [c for c in cells if force or not c.finished()]
+    manifest = start_manifest(config, out, cells, pending, jobs, scheduler)
+    try:
+        failures = run_cells(config, pending, jobs, scheduler, force, console)
+    except KeyboardInterrupt:
+        record_interruption(manifest, out, cells, console)
+        return 130
+    frame = collect(config, cells, failures)
+    tables = write_outputs(config, cells, frame, out)
+    figure_files, figure_errors = draw_figures(config, out, make_figures)
     elapsed = time.perf_counter() - t_start
-    manifest.update(finished=_now(), duration_s=elapsed, failed=sorted(failures), tables=[str(p.relative_to(out)) for p in written], figures=[str(Path(p).relative_to(out)) for p in figure_files], figure_errors=figure_errors)
+    manifest.update(finished=_now(), duration_s=elapsed, failed=sorted(failures), tables=[str(p.relative_to(out)) for p in tables],
+                    figures=[str(Path(p).relative_to(out)) for p in figure_files], figure_errors=figure_errors)
     write_json(out / MANIFEST, manifest)
     _console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
     for name, err in figure_errors.items():
-        console.print(f"[yellow]figure {name} not drawn: {err}[/yellow]")
-    console.print(f"results: {out}")
+        console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
+    console.print(f"results: {escape(str(out))}", highlight=False)
     return 0 if (frame["status"] == "ok").all() else 1
 
 
 def print_grid(config: ExperimentConfig, out: Path, force: bool, console) -> int:
-    """``--dry-run``: the grid of cells, with the ones already cached."""
+    """``--dry-run``: the resolved parameters of every dataset and method, and the grid of cells with the cached ones."""
     from rich.table import Table
 
+    params = Table(title=f"{escape(config.name)}: resolved parameters (defaults filled in)", show_lines=True)
+    for col in ("", "label", "name", "parameters"):
+        params.add_column(col, overflow="fold")
+    for kind, labels, specs in (("dataset", config.dataset_labels(), config.datasets), ("method", config.estimator_labels(), config.estimators)):
+        for label, spec in zip(labels, specs):
+            resolved = spec.resolved_params()
+            params.add_row(kind, escape(label), escape(spec.name), escape(", ".join(f"{k}={json.dumps(v)}" for k, v in resolved.items()) or "–"))
+    console.print(params)
     cells = plan(config, out)
-    table = Table(title=f"{config.name}: {len(cells)} cells → {out}")
+    table = Table(title=f"{escape(config.name)}: {len(cells)} cells → {escape(str(out))}")
     for col in ("dataset", "method", "seed", "status", "directory"):
         table.add_column(col)
     for cell in cells:
         state = "cached" if (cell.finished() and not force) else "to run"
-        table.add_row(config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator], str(cell.seed), state, str(cell.dir.relative_to(Path(out).resolve())))
+        table.add_row(escape(config.dataset_labels()[cell.dataset]), escape(config.estimator_labels()[cell.estimator]), str(cell.seed), state, escape(str(cell.dir.relative_to(Path(out).resolve()))))
     console.print(table)
     return 0
+
+
+class UsageError(UserError, ValueError):
+    """A command-line value that cannot work (the message says which and why)."""
+
+
+def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
+    """Refuse, before anything runs: ``--jobs`` below 1, a ``--scheduler`` that is not an address, an ``--out``
+    that is (or lies under) a file or cannot be created."""
+    if jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {jobs}")
+    if scheduler is not None:
+        from urllib.parse import urlsplit
+
+        parts = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
+        try:
+            port = parts.port
+        except ValueError:
+            port = None
+        if not parts.hostname or port is None:
+            raise UsageError(f"--scheduler must be a Dask scheduler address such as tcp://host:8786, got {scheduler!r}")
+    for parent in (out, *out.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                raise UsageError(f"--out {out}: {parent} is a file, not a directory")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise UsageError(f"--out {out}: {parent} is not writable")
+            break
 
 
 def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None) -> int:
     """``slamarena run``: validate, then run (or list) the grid.
 
-    Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config or unreachable scheduler.
+    Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
+    scheduler, 130 interrupted.
     """
     from rich.console import Console
 
     console = Console(stderr=True)
     try:
         cfg = load_config(config)
-    except ConfigError as exc:
-        console.print(f"[red]{exc}[/red]", highlight=False)
+        target = cfg.output_dir(out)
+        check_run_options(jobs, scheduler, target)
+    except (ConfigError, UsageError) as exc:
+        console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2
-    target = cfg.output_dir(out)
     if dry_run:
         return print_grid(cfg, target, force, Console())
     try:
         return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures)
     except SchedulerUnreachable as exc:
-        console.print(f"[red]{exc}[/red]", highlight=False)
+        console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2

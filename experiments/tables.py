@@ -89,7 +89,7 @@ def _markdown(cells: pd.DataFrame, text_columns: int = 2) -> str:
 
 
 def _latex(cells: pd.DataFrame, text_columns: int = 2) -> str:
-    """A booktabs tabular; text columns are escaped, the others are already LaTeX."""
+    """A booktabs tabular; text columns (and the header) are escaped here, once; the others are already LaTeX."""
     lines = [f"\\begin{{tabular}}{{{'l' * text_columns + 'r' * (len(cells.columns) - text_columns)}}}", "\\toprule",
              " & ".join(_tex_escape(str(c)) for c in cells.columns) + r" \\", "\\midrule"]
     for row in cells.itertuples(index=False):
@@ -138,5 +138,6 @@ def write_frame(frame: pd.DataFrame, stem: Path) -> list[Path]:
     paths = [stem.with_suffix(".md"), stem.with_suffix(".csv"), stem.with_suffix(".tex")]
     atomic_write_text(paths[0], _markdown(shown))
     atomic_write_text(paths[1], frame.to_csv(index=False))
-    atomic_write_text(paths[2], _latex(shown.map(lambda v: _tex_escape(str(v)))))
+    numbers = shown.iloc[:, 2:].map(lambda v: _tex_escape(str(v)))  # the text columns are escaped by _latex
+    atomic_write_text(paths[2], _latex(pd.concat([shown.iloc[:, :2], numbers], axis=1)))
     return paths

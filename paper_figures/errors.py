@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from slamarena.experiments.metrics.series import Series
+
 from .runs import FigureSkipped, by, load_runs
 from .style import WIDTH, apply, method_style, plt, save
 
@@ -17,14 +19,14 @@ __all__ = ["plot"]
 
 def _across_seeds(runs, key):
     ref = runs[0].series
-    t = ref["ate/t"]
-    rows = [np.interp(t, r.series["ate/t"], r.series[key]) for r in runs if "ate/t" in r.series]
+    t = ref[Series.ATE_T]
+    rows = [np.interp(t, r.series[Series.ATE_T], r.series[key]) for r in runs if Series.ATE_T in r.series]
     rows = np.array(rows)
     return t, rows.mean(axis=0), np.percentile(rows, 10, axis=0), np.percentile(rows, 90, axis=0)
 
 
 def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
-    runs = [r for r in load_runs(results_dir) if "ate/t" in r.series]
+    runs = [r for r in load_runs(results_dir) if Series.ATE_T in r.series]
     if not runs:
         raise FigureSkipped("no ATE series (is the ate metric enabled?)")
     apply()
@@ -34,7 +36,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         fig, (ax_p, ax_h) = plt.subplots(2, 1, figsize=(WIDTH, WIDTH * 0.7), sharex=True)
         for (estimator,), seeds in by(group, "estimator").items():
             style = method_style(estimator, methods)
-            for ax, key, scale in ((ax_p, "ate/position_error", 1.0), (ax_h, "ate/heading_error", 180 / np.pi)):
+            for ax, key, scale in ((ax_p, Series.ATE_POSITION_ERROR, 1.0), (ax_h, Series.ATE_HEADING_ERROR, 180 / np.pi)):
                 t, mean, lo, hi = _across_seeds(seeds, key)
                 ax.plot(t, mean * scale, **style)
                 if len(seeds) > 1:

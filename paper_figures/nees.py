@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from slamarena.experiments.metrics.series import Series
+
 from .runs import FigureSkipped, by, load_runs
 from .style import WIDTH, apply, method_style, plt, save
 
@@ -18,7 +20,7 @@ __all__ = ["plot"]
 def plot(results_dir: str | Path, out_dir: str | Path, probability: float = 0.95) -> list[Path]:
     from slamarena.experiments.metrics.consistency import monte_carlo
 
-    runs = [r for r in load_runs(results_dir) if "nees/nees" in r.series]
+    runs = [r for r in load_runs(results_dir) if Series.NEES in r.series]
     if not runs:
         raise FigureSkipped("no NEES series (no method with covariances, or the nees metric is off)")
     apply()
@@ -28,7 +30,7 @@ def plot(results_dir: str | Path, out_dir: str | Path, probability: float = 0.95
         per_method = by(group, "estimator")
         fig, axes = plt.subplots(len(per_method), 1, figsize=(WIDTH, 2.0 * len(per_method) + 0.6), sharex=True, squeeze=False)
         for ax, ((estimator,), seeds) in zip(axes[:, 0], per_method.items()):
-            mc = monte_carlo([(r.series["nees/t"], r.series["nees/nees"]) for r in seeds], 3, probability)
+            mc = monte_carlo([(r.series[Series.NEES_T], r.series[Series.NEES]) for r in seeds], 3, probability)
             style = method_style(estimator, methods)
             ax.plot(mc["t"], mc["mean"], color=style["color"], label=f"{estimator}: mean NEES over {mc['runs']} run{'s' * (mc['runs'] > 1)}")
             ax.fill_between(mc["t"], mc["lo"], mc["hi"], color="0.6", alpha=0.3, linewidth=0, label=f"χ² {probability:.0%} band ({mc['in_band']:.0%} of steps inside)")

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from slamarena.experiments.metrics.series import Series
+
 from .runs import FigureSkipped, by, load_runs
 from .style import TRUTH, WIDTH, apply, method_style, plt, save
 
@@ -60,7 +62,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             if "landmarks" in truth:
                 ax.scatter(truth["landmarks"][:, 0], truth["landmarks"][:, 1], marker="x", s=18, color="black", linewidths=0.8, label="true landmarks", zorder=3)
         for run in shown:
-            poses = run.series.get("ate/aligned_poses")
+            poses = run.series.get(Series.ATE_ALIGNED_POSES)
             if poses is None:
                 poses = run.estimate.poses
             style = method_style(run.estimator, methods)

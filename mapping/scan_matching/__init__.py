@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slamarena.errors import UnknownNameError
 from slamarena.targets import import_target
 
 __all__ = ["MATCHERS", "MatchResult", "make_matcher"]
@@ -43,5 +44,5 @@ class MatchResult:
 def make_matcher(name: str, **params):
     """Instantiate a registered matcher by name (``KeyError`` listing the names)."""
     if name not in MATCHERS:
-        raise KeyError(f"unknown matcher {name!r}; known: {', '.join(MATCHERS)}")
+        raise UnknownNameError(f"unknown matcher {name!r}; known: {', '.join(MATCHERS)}")
     return import_target(MATCHERS[name])(**params)

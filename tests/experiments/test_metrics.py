@@ -328,3 +328,18 @@ def test_peak_memory_is_the_cell_process_own():
     out = subprocess.run([sys.executable, "-c", "from slamarena.experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
     assert 5 < float(out.stdout) < 200
     del ballast
+
+
+def test_series_names_are_the_ones_the_metrics_write():
+    """Every name in Series is written by its metric (the cell's flattening), and figures/runner read only those."""
+    from slamarena import datasets
+    from slamarena.estimators import create
+    from slamarena.experiments.cell import _flatten_series
+    from slamarena.experiments.metrics.series import Series
+
+    seq = datasets.load("sim:landmarks", n_landmarks=10, laps=1, seed=0)
+    est = create("ekf_slam").run(seq)
+    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")}
+    _, series, skipped = evaluate(CellData(est, seq, reference_of(seq)), selected)
+    assert not skipped
+    assert set(Series) <= set(_flatten_series(series)), set(Series) - set(_flatten_series(series))
