@@ -1,17 +1,17 @@
-"""EKF-SLAM: :class:`EKFSLAM` (efficient, O(n²) per observation), the literal dense reference
+"""EKF-SLAM: :class:`EKFSLAM` (efficient, O(n²) per observation; parameters :class:`EKFSLAMParams`), the literal dense reference
 (:mod:`.reference`, the test oracle) and data association (:mod:`.association`).
 
 The model, state layout and equations are stated in :mod:`.filter`. ``EKFSLAM`` is imported on
-first access, so importing this package does not load numba.
+first access (with ``EKFSLAMParams``), so importing this package does not load numba.
 """
 from .checks import CovarianceError
 
-__all__ = ["EKFSLAM", "CovarianceError"]
+__all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError"]
 
 
 def __getattr__(name: str):
-    if name == "EKFSLAM":
-        from .filter import EKFSLAM
+    if name in ("EKFSLAM", "EKFSLAMParams"):
+        from . import filter as module
 
-        return EKFSLAM
+        return getattr(module, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

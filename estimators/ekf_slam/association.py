@@ -27,6 +27,7 @@ the small dense block of those states), and keeping the hypothesis with the most
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import IntEnum
 
 import numpy as np
 from scipy.linalg import block_diag
@@ -37,10 +38,15 @@ from slamarena.datasets.geometry import wrap_angle
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
-__all__ = ["MATCHED", "NEW", "REJECTED", "DECISIONS", "chi2_gate", "Association", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
+__all__ = ["Decision", "chi2_gate", "Association", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
 
-MATCHED, NEW, REJECTED = 0, 1, 2
-DECISIONS = {MATCHED: "matched", NEW: "new", REJECTED: "rejected"}
+
+class Decision(IntEnum):
+    """What is done with an observation (the int8 code of ``Estimate.diagnostics["assoc_decision"]``)."""
+
+    MATCHED = 0    # applied as an observation of a mapped landmark
+    NEW = 1        # starts a landmark
+    REJECTED = 2   # ambiguous (between the gates) or an outlier of a labelled landmark
 
 
 def chi2_gate(confidence: float, dof: int) -> float:
@@ -50,7 +56,7 @@ def chi2_gate(confidence: float, dof: int) -> float:
 
 @dataclass
 class Association:
-    """Per observation: decision (MATCHED/NEW/REJECTED), landmark slot (−1 if none), d² to the nearest."""
+    """Per observation: decision (:class:`Decision`), landmark slot (−1 if none), d² to the nearest."""
 
     decision: np.ndarray
     slot: np.ndarray
@@ -104,18 +110,18 @@ def pair_d2(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, slots: n
 
 
 def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:
-    return np.where(d2_min >= gate_new, NEW, REJECTED)
+    return np.where(d2_min >= gate_new, Decision.NEW, Decision.REJECTED)
 
 
 def nearest_neighbour(d2: np.ndarray, gate_match: float, gate_new: float) -> Association:
     """Mahalanobis nearest neighbour with a match gate and a separate new-landmark gate."""
     M, n = d2.shape
     if n == 0:
-        return Association(np.full(M, NEW, dtype=np.int8), np.full(M, -1), np.full(M, np.inf))
+        return Association(np.full(M, Decision.NEW, dtype=np.int8), np.full(M, -1), np.full(M, np.inf))
     best = np.argmin(d2, axis=1)
     d2_min = d2[np.arange(M), best]
     matched = d2_min < gate_match
-    decision = np.where(matched, MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
+    decision = np.where(matched, Decision.MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
     return Association(decision, np.where(matched, best, -1), d2_min)
 
 
@@ -175,6 +181,6 @@ def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndar
     slot = np.full(M, -1)
     for j, s in best["pairs"]:
         slot[j] = s
-    decision = np.where(slot >= 0, MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
+    decision = np.where(slot >= 0, Decision.MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
     d2_out = np.where(slot >= 0, d2[np.arange(M), np.maximum(slot, 0)], d2_min)
     return Association(decision, slot, d2_out)

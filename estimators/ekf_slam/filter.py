@@ -87,18 +87,26 @@ indefinite S, the observation skipped).
 """
 from __future__ import annotations
 
+from enum import StrEnum
+from typing import Annotated, Literal
+
 import numpy as np
+from pydantic import FiniteFloat, model_validator
 from scipy.linalg import block_diag
 
 from slamarena.datasets.geometry import accumulate, wrap_angle
+from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..models import MOTION_MODELS, compose_jacobians, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
 from . import association as assoc
+from .association import Decision
 from .checks import CovarianceError, check_covariance, check_innovation_cov
 from .kernels import robot_chain, symmetric_update
 from .storage import GrowingState
 
-__all__ = ["EKFSLAM", "CovarianceError", "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
+__all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
+           "LandmarkInit", "AssociationMethod", "Linearisation", "OnIndefinite",
+           "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
 
 #: fall-back noise when neither the parameters nor the sequence state it
 DEFAULT_TWIST_COV = np.diag([0.1**2, 0.05**2])
@@ -106,112 +114,139 @@ DEFAULT_RANGE_BEARING_COV = np.diag([0.1**2, np.radians(1.0) ** 2])
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
 
-_CHOICES = {
-    "motion_model": tuple(MOTION_MODELS),
-    "motion_noise": ("control", "additive"),
-    "update": ("sequential", "batch"),
-    "covariance_update": ("standard", "joseph"),
-    "init": ("jacobian", "initP"),
-    "association": ("nn", "jcbb"),
-    "jacobians": ("standard", "fej", "ideal"),
-    "on_indefinite": ("raise", "record"),
-    "range_bearing_noise": ("polar", "cartesian"),
-}
+
+class MotionNoise(StrEnum):
+    """Prediction noise Q of the robot block."""
+
+    CONTROL = "control"      # Q = V M Vᵀ, M the twist covariance
+    ADDITIVE = "additive"    # Q = Cx · dt
 
 
-def _cov(value, dim: int, name: str) -> np.ndarray | None:
-    """A covariance parameter: None, a list of `dim` variances, or a dim×dim matrix."""
-    if value is None:
-        return None
-    a = np.asarray(value, dtype=float)
-    if a.shape == (dim,):
-        a = np.diag(a)
-    if a.shape != (dim, dim) or not np.all(np.isfinite(a)) or not np.allclose(a, a.T):
-        raise ValueError(f"{name} must be {dim} variances or a symmetric {dim}×{dim} matrix, got {value!r}")
-    if np.linalg.eigvalsh(a).min() < 0:
-        raise ValueError(f"{name} is not positive semi-definite: {value!r}")
-    return a
+class RangeBearingNoise(StrEnum):
+    """Observation noise R_j of row j."""
+
+    POLAR = "polar"          # R_j = R
+    CARTESIAN = "cartesian"  # R_j = diag(σ², σ²/r_j²), σ² = R[0, 0]
 
 
-def _confidence(value: float, name: str) -> float:
-    value = float(value)
-    if not 0.0 < value < 1.0:
-        raise ValueError(f"{name} must be in (0, 1), got {value!r}")
-    return value
+class UpdateForm(StrEnum):
+    """How the matched observations of one set are applied."""
+
+    SEQUENTIAL = "sequential"  # one 2-row update per observation
+    BATCH = "batch"            # one stacked 2m-row update
+
+
+class CovarianceUpdate(StrEnum):
+    """Form of the covariance update."""
+
+    STANDARD = "standard"    # P ← (I − KH) P
+    JOSEPH = "joseph"        # P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ
+
+
+class LandmarkInit(StrEnum):
+    """Covariance of a new landmark."""
+
+    JACOBIAN = "jacobian"    # propagated through the inverse observation model
+    INIT_P = "initP"         # init_cov · I₂, uncorrelated (the matrix-dimensions reference)
+
+
+class AssociationMethod(StrEnum):
+    """Association of rows without a (trusted) landmark id."""
+
+    NEAREST_NEIGHBOUR = "nn"
+    JCBB = "jcbb"
+
+
+class Linearisation(StrEnum):
+    """Linearisation point of the Jacobians (the ``jacobians`` parameter; module docstring)."""
+
+    STANDARD = "standard"    # the current estimate
+    FEJ = "fej"              # first estimates
+    IDEAL = "ideal"          # the truth (set_truth)
+
+
+class OnIndefinite(StrEnum):
+    """What a loss of positive definiteness does."""
+
+    RAISE = "raise"          # raise CovarianceError
+    RECORD = "record"        # count it (rejected["indefinite"]) and skip the observation
+
+
+#: a χ² gate's confidence, strictly inside (0, 1)
+Confidence = Annotated[float, Field(gt=0.0, lt=1.0)]
+
+
+class EKFSLAMParams(Params):
+    """Parameters of :class:`EKFSLAM`."""
+
+    motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")
+    motion_noise: MotionNoise = Field(MotionNoise.CONTROL, description="prediction noise: 'control' Q = V M Vᵀ (M = twist_cov), 'additive' Q = Cx·dt on the robot block")
+    twist_cov: Covariance2 | None = Field(
+        None, description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else DEFAULT_TWIST_COV")
+    Cx: Covariance3 | None = Field(
+        None, description="additive robot-block noise per second of (x, y, θ) [m²/s, m²/s, rad²/s]; required with motion_noise='additive'")
+    increment_cov: Covariance3 | None = Field(
+        None, description="covariance of an odometry increment (dx, dy, dθ) [m², m², rad²], overriding Increments.cov; "
+                          "None: Increments.cov, else Noise.increment_cov")
+    range_bearing_cov: Covariance2 | None = Field(
+        None, description="R, covariance of an observation (range, bearing) [m², rad²]; None: the sequence's Noise.range_bearing_cov, "
+                          "else DEFAULT_RANGE_BEARING_COV")
+    range_bearing_noise: RangeBearingNoise = Field(
+        RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in "
+                                             "Cartesian coordinates (as Victoria Park states it), R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m]")
+    update: UpdateForm = Field(UpdateForm.SEQUENTIAL, description="'sequential': one update per matched observation; 'batch': one stacked update per observation set")
+    covariance_update: CovarianceUpdate = Field(CovarianceUpdate.STANDARD, description="'standard' (I − KH) P or 'joseph' (I − KH) P (I − KH)ᵀ + K R Kᵀ")
+    init: LandmarkInit = Field(LandmarkInit.JACOBIAN, description="new-landmark covariance: 'jacobian' through the inverse observation model, 'initP' init_cov · I₂ uncorrelated")
+    init_cov: float = Field(1.0, gt=0.0, allow_inf_nan=False, description="variance of each coordinate of a new landmark with init='initP' [m²]")
+    association: AssociationMethod = Field(AssociationMethod.NEAREST_NEIGHBOUR, description="association of rows without a trusted id: 'nn' Mahalanobis nearest neighbour or 'jcbb'")
+    use_ids: bool = Field(True, description="trust the landmark ids of the data (False: associate every row by `association`)")
+    match_confidence: Confidence = Field(0.95, description="χ²₂ gate of a match (d² below its quantile)")
+    new_confidence: Confidence = Field(
+        0.99999, description="χ²₂ gate beyond which an unmatched row starts a landmark (between the gates: rejected as ambiguous); "
+                             "at 0.99999 a true re-observation lands beyond it with probability 1e-5")
+    jcbb_confidence: Confidence = Field(0.95, description="χ²_2k gate of a joint hypothesis of k pairings in JCBB")
+    known_confidence: Confidence | None = Field(
+        None, description="None: rows with a known id are always applied (as in the notes); else a labelled row of a mapped landmark "
+                          "whose d² exceeds χ²₂(known_confidence) is rejected as an outlier")
+    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, 'ideal' the truth (diagnostic)")
+    initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
+        None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")
+    initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame")
+    on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError or 'record' (count it, skip the observation)")
+    capacity: int = Field(64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full")
+
+    @model_validator(mode="after")
+    def _rules(self) -> EKFSLAMParams:
+        if self.motion_noise == MotionNoise.ADDITIVE and self.Cx is None:
+            raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
+        if self.new_confidence < self.match_confidence:
+            raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
+        if self.jacobians == Linearisation.IDEAL and not self.use_ids:
+            raise ValueError("jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)")
+        return self
+
+
+def _matrix(value) -> np.ndarray | None:
+    return None if value is None else np.asarray(value, dtype=float)
 
 
 class EKFSLAM:
-    """EKF-SLAM (see the module docstring for model, layout and equations).
+    """EKF-SLAM (see the module docstring for model, layout and equations; parameters: :class:`EKFSLAMParams`)."""
 
-    Keyword parameters (all optional):
-        motion_model      "arc" (default) | "euler"
-        motion_noise      "control" (V M Vᵀ, default) | "additive" (Cx·dt on the robot block)
-        twist_cov         M, 2 variances or 2×2 [(m/s)², (rad/s)²] (default: sequence noise,
-                          else DEFAULT_TWIST_COV)
-        Cx                3 variances or 3×3 per second (required with motion_noise="additive")
-        increment_cov     3 variances or 3×3 covariance of an odometry increment (overrides
-                          Increments.cov; default: Increments.cov, else Noise.increment_cov)
-        range_bearing_cov R, 2 variances or 2×2 (default: sequence noise, else
-                          DEFAULT_RANGE_BEARING_COV)
-        range_bearing_noise "polar" (default: R for every observation) | "cartesian" (the
-                          sensor noise is isotropic σ² I in Cartesian coordinates, as Victoria
-                          Park states it: R_j = diag(σ², σ²/r_j²), σ² = R[0, 0], r_j the range)
-        update            "sequential" (default) | "batch"
-        covariance_update "standard" (default) | "joseph"
-        init              "jacobian" (default) | "initP"; init_cov (float, m², default 1.0)
-        association       "nn" (default) | "jcbb"; use_ids (default True: trust given ids)
-        match_confidence  χ² gate of a match (0.95); new_confidence, gate beyond which an
-                          unmatched row starts a landmark (0.99999: a true re-observation
-                          lands beyond it with probability 1e-5, so thousands of
-                          observations do not duplicate landmarks); jcbb_confidence (0.95)
-        known_confidence  None (default: rows with a known id are always applied, as in the
-                          notes) or a confidence: a labelled row of a mapped landmark whose
-                          d² exceeds χ²₂(known_confidence) is rejected as an outlier
-        jacobians         "standard" (default) | "fej" | "ideal"
-        initial_pose      3 floats (default: the sequence's start pose, else the origin)
-        initial_cov       3 variances or 3×3 (default zeros: the start defines the frame)
-        on_indefinite     "raise" (default) | "record"
-        capacity          initial state capacity (default 64; doubled when full)
-    """
+    Params = EKFSLAMParams
 
-    def __init__(self, *, motion_model: str = "arc", motion_noise: str = "control", twist_cov=None, Cx=None,
-                 increment_cov=None, range_bearing_cov=None, update: str = "sequential",
-                 covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
-                 association: str = "nn", use_ids: bool = True, match_confidence: float = 0.95,
-                 new_confidence: float = 0.99999, jcbb_confidence: float = 0.95, known_confidence: float | None = None,
-                 jacobians: str = "standard", range_bearing_noise: str = "polar",
-                 initial_pose=None, initial_cov=None, on_indefinite: str = "raise", capacity: int = 64):
-        self.params = dict(motion_model=motion_model, motion_noise=motion_noise, update=update,
-                           covariance_update=covariance_update, init=init, association=association,
-                           jacobians=jacobians, on_indefinite=on_indefinite, range_bearing_noise=range_bearing_noise)
-        for key, value in self.params.items():
-            if value not in _CHOICES[key]:
-                raise ValueError(f"{key} must be one of {_CHOICES[key]}, got {value!r}")
-        self.model = MOTION_MODELS[motion_model]
-        self._twist_cov = _cov(twist_cov, 2, "twist_cov")
-        self._Cx = _cov(Cx, 3, "Cx")
-        if motion_noise == "additive" and self._Cx is None:
-            raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
-        self._increment_cov = _cov(increment_cov, 3, "increment_cov")
-        self._range_bearing_cov = _cov(range_bearing_cov, 2, "range_bearing_cov")
-        if not (np.isfinite(init_cov) and init_cov > 0):
-            raise ValueError(f"init_cov must be > 0, got {init_cov!r}")
-        self.init_cov = float(init_cov)
-        self.use_ids = bool(use_ids)
-        self.gate_match = assoc.chi2_gate(_confidence(match_confidence, "match_confidence"), 2)
-        self.gate_new = assoc.chi2_gate(_confidence(new_confidence, "new_confidence"), 2)
-        if self.gate_new < self.gate_match:
-            raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
-        self.jcbb_confidence = _confidence(jcbb_confidence, "jcbb_confidence")
-        self.gate_known = None if known_confidence is None else assoc.chi2_gate(_confidence(known_confidence, "known_confidence"), 2)
-        self._initial_pose = None if initial_pose is None else np.asarray(initial_pose, dtype=float).reshape(3)
-        self._initial_cov = _cov(initial_cov, 3, "initial_cov")
-        self._capacity = int(capacity)
-        self.params.update(twist_cov=twist_cov, Cx=Cx, increment_cov=increment_cov, range_bearing_cov=range_bearing_cov,
-                           init_cov=self.init_cov, use_ids=self.use_ids, match_confidence=match_confidence,
-                           new_confidence=new_confidence, jcbb_confidence=jcbb_confidence, known_confidence=known_confidence,
-                           initial_pose=initial_pose,
-                           initial_cov=initial_cov, capacity=capacity)
+    def __init__(self, params: EKFSLAMParams | None = None, /, **overrides):
+        self.params = p = self.Params.of(params, overrides)
+        self.model = MOTION_MODELS[p.motion_model]
+        self._twist_cov = _matrix(p.twist_cov)
+        self._Cx = _matrix(p.Cx)
+        self._increment_cov = _matrix(p.increment_cov)
+        self._range_bearing_cov = _matrix(p.range_bearing_cov)
+        self._initial_pose = _matrix(p.initial_pose)
+        self._initial_cov = _matrix(p.initial_cov)
+        self.gate_match = assoc.chi2_gate(p.match_confidence, 2)
+        self.gate_new = assoc.chi2_gate(p.new_confidence, 2)
+        self.gate_known = None if p.known_confidence is None else assoc.chi2_gate(p.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -224,18 +259,17 @@ class EKFSLAM:
         self.R = DEFAULT_RANGE_BEARING_COV if self.R is None else np.asarray(self.R, dtype=float)
         self.increment_cov = self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
         pose = self._initial_pose if self._initial_pose is not None else (sequence.start_pose if sequence is not None else np.zeros(3))
-        self._s = GrowingState(3, self._capacity)
+        self._s = GrowingState(3, self.params.capacity)
         self._s.x[:] = pose
         self._s.x[2] = wrap_angle(pose[2])
-        if self._initial_cov is not None:
-            self._s.P[:] = self._initial_cov
+        self._s.P[:] = self._initial_cov
         self._ids: list[int] = []
         self._slot: dict[int, int] = {}
         self._first = np.zeros((8, 2))
         self._robot_prior = self._s.x[:3].copy()
         self._truth_pose: np.ndarray | None = None
         self._truth_landmarks: dict[int, np.ndarray] = {}
-        self._next_id = NEW_ID_BASE if self.use_ids else 0
+        self._next_id = NEW_ID_BASE if self.params.use_ids else 0
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
@@ -289,7 +323,7 @@ class EKFSLAM:
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
             raise ValueError("controls must be finite")
         delta = self.model.increment(v, omega, dt)
-        if self.params["motion_noise"] == "additive":
+        if self.params.motion_noise == MotionNoise.ADDITIVE:
             return self._chain(delta, None, self._Cx[None] * dt[:, None, None], true_poses)
         _, Vb = self.model.jacobians(np.zeros(3), v, omega, dt)          # body-frame V (K, 3, 2)
         return self._chain(delta, Vb @ self.M @ Vb.transpose(0, 2, 1), None, true_poses)
@@ -321,13 +355,13 @@ class EKFSLAM:
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
-        if self.params["jacobians"] == "ideal":
+        if self.params.jacobians == Linearisation.IDEAL:
             lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
         else:
             lin = poses[:-1]
         Jx, Rot = compose_jacobians(lin, delta)                          # ∂x'/∂x (K, 3, 3), ∂x'/∂δ = Rot (K, 3, 3)
         D = np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]])
-        if self.params["jacobians"] == "fej":
+        if self.params.jacobians == Linearisation.FEJ:
             D[0] = poses[1, :2] - self._robot_prior[:2]
         if Q_world is None:
             Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
@@ -344,7 +378,7 @@ class EKFSLAM:
         return poses[1:], covs
 
     def _linearisation_pose(self) -> np.ndarray:
-        if self.params["jacobians"] == "ideal":
+        if self.params.jacobians == Linearisation.IDEAL:
             if self._truth_pose is None:
                 raise ValueError("jacobians='ideal' needs the true pose: call set_truth(pose=...)")
             return self._truth_pose
@@ -364,23 +398,23 @@ class EKFSLAM:
         if not len(z):
             return
         given = z[:, 2].astype(np.int64)
-        ids = given if self.use_ids else np.full(len(z), -1)
+        ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
         self.assoc_log.extend(zip(decision.tolist(), [-1] * len(z), d2.tolist(), given.tolist()))
         log0 = len(self.assoc_log) - len(z)
-        pending = np.flatnonzero(decision != assoc.REJECTED)
-        if self.params["update"] == "batch":
-            matched = pending[decision[pending] == assoc.MATCHED]
+        pending = np.flatnonzero(decision != Decision.REJECTED)
+        if self.params.update == UpdateForm.BATCH:
+            matched = pending[decision[pending] == Decision.MATCHED]
             if matched.size:
                 self._update_batch(slot[matched], z[matched, :2], Rz[matched])
-            pending = pending[decision[pending] != assoc.MATCHED]
+            pending = pending[decision[pending] != Decision.MATCHED]
         for j in pending:
-            if decision[j] == assoc.MATCHED:
+            if decision[j] == Decision.MATCHED:
                 self._update_one(int(slot[j]), z[j, :2], Rz[j])
             elif ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
                 slot[j] = self._slot[int(ids[j])]
-                self.assoc_log[log0 + j] = (assoc.MATCHED, -1, np.nan, int(given[j]))
+                self.assoc_log[log0 + j] = (Decision.MATCHED, -1, np.nan, int(given[j]))
                 self._update_one(int(slot[j]), z[j, :2], Rz[j])
             else:
                 slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None, Rz[j])
@@ -390,7 +424,7 @@ class EKFSLAM:
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
-        if self.params["range_bearing_noise"] == "polar":
+        if self.params.range_bearing_noise == RangeBearingNoise.POLAR:
             return np.broadcast_to(self.R, (len(z), 2, 2))
         Rz = np.zeros((len(z), 2, 2))
         Rz[:, 0, 0] = self.R[0, 0]
@@ -399,25 +433,25 @@ class EKFSLAM:
 
     def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)
-        decision = np.full(M, assoc.NEW, dtype=np.int8)
+        decision = np.full(M, Decision.NEW, dtype=np.int8)
         slot = np.full(M, -1)
         d2 = np.full(M, np.nan)
         known = ids >= 0
         for j in np.flatnonzero(known):
             s = self._slot.get(int(ids[j]), -1)
             if s >= 0:
-                decision[j], slot[j] = assoc.MATCHED, s
+                decision[j], slot[j] = Decision.MATCHED, s
         if self.gate_known is not None:
             labelled = np.flatnonzero(slot >= 0)
             d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, Rz[labelled], z[labelled], slot[labelled])
             outlier = labelled[d2[labelled] > self.gate_known]
-            decision[outlier], slot[outlier] = assoc.REJECTED, -1
+            decision[outlier], slot[outlier] = Decision.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
             x, P = self._s.x, self._s.P
             nu, _, dist = assoc.compatibility(x, P, Rz[unknown], z[unknown])
-            if self.params["association"] == "jcbb":
-                a = assoc.jcbb(x, P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.jcbb_confidence)
+            if self.params.association == AssociationMethod.JCBB:
+                a = assoc.jcbb(x, P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
@@ -425,10 +459,10 @@ class EKFSLAM:
 
     def _jacobians_at(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """H_x (m, 2, 3) and H_m (m, 2, 2) of landmark slots at the chosen linearisation point."""
-        mode = self.params["jacobians"]
-        if mode == "standard":
+        mode = self.params.jacobians
+        if mode == Linearisation.STANDARD:
             xr, m = self._s.x[:3], self._landmarks()[slots]
-        elif mode == "fej":
+        elif mode == Linearisation.FEJ:
             xr, m = self._robot_prior, self._first[slots]
         else:
             xr = self._linearisation_pose()
@@ -477,7 +511,7 @@ class EKFSLAM:
         try:
             L = check_innovation_cov(S)
         except CovarianceError:
-            if self.params["on_indefinite"] == "raise":
+            if self.params.on_indefinite == OnIndefinite.RAISE:
                 raise
             self.rejected["indefinite"] += nu.size // 2
             return
@@ -492,7 +526,7 @@ class EKFSLAM:
         # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
         # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
         d = nu.size
-        if self.params["covariance_update"] == "standard":
+        if self.params.covariance_update == CovarianceUpdate.STANDARD:
             C, signs = W, np.full(d, -1.0)
         else:
             D = K @ S - PHt
@@ -507,7 +541,7 @@ class EKFSLAM:
             self._next_id += 1
         xr = self._s.x[:3].copy()
         m = inverse_observe(xr, z)
-        if self.params["jacobians"] == "ideal":
+        if self.params.jacobians == Linearisation.IDEAL:
             x_true, m_true = self._linearisation_pose(), self._true_landmark(landmark_id)
             Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
         else:
@@ -516,13 +550,13 @@ class EKFSLAM:
         new = self._s.grow(2)
         x, P = self._s.x, self._s.P
         x[new] = m
-        if self.params["init"] == "jacobian":
+        if self.params.init == LandmarkInit.JACOBIAN:
             P[new, :N] = Gx @ P[:3, :N]
             P[:N, new] = P[new, :N].T
             Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
             P[new, new] = 0.5 * (Pnn + Pnn.T)
         else:
-            P[new, new] = self.init_cov * np.eye(2)
+            P[new, new] = self.params.init_cov * np.eye(2)
         slot = len(self._ids)
         if slot == self._first.shape[0]:
             self._first = np.concatenate([self._first, np.zeros_like(self._first)])
@@ -539,7 +573,7 @@ class EKFSLAM:
             self._fail(str(exc))
 
     def _fail(self, message: str) -> None:
-        if self.params["on_indefinite"] == "raise":
+        if self.params.on_indefinite == OnIndefinite.RAISE:
             raise CovarianceError(message)
         self.rejected["indefinite"] += 1
 

@@ -34,6 +34,7 @@ import numpy as np
 from slamarena.datasets.geometry import wrap_angle
 
 from ..models import MOTION_MODELS, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
+from .filter import CovarianceUpdate, LandmarkInit, MotionNoise, UpdateForm
 
 __all__ = ["ReferenceEKFSLAM"]
 
@@ -41,14 +42,14 @@ __all__ = ["ReferenceEKFSLAM"]
 class ReferenceEKFSLAM:
     """Dense EKF-SLAM; parameters as :class:`EKFSLAM` (matrices given explicitly)."""
 
-    def __init__(self, M, R, *, motion_model: str = "arc", motion_noise: str = "control", Cx=None,
-                 covariance_update: str = "standard", init: str = "jacobian", init_cov: float = 1.0,
-                 update: str = "sequential", initial_pose=(0.0, 0.0, 0.0)):
+    def __init__(self, M, R, *, motion_model: str = "arc", motion_noise: MotionNoise = MotionNoise.CONTROL, Cx=None,
+                 covariance_update: CovarianceUpdate = CovarianceUpdate.STANDARD, init: LandmarkInit = LandmarkInit.JACOBIAN,
+                 init_cov: float = 1.0, update: UpdateForm = UpdateForm.SEQUENTIAL, initial_pose=(0.0, 0.0, 0.0)):
         self.model = MOTION_MODELS[motion_model]
         self.M, self.R = np.asarray(M, dtype=float), np.asarray(R, dtype=float)
         self.Cx = None if Cx is None else np.asarray(Cx, dtype=float)
         self.motion_noise, self.covariance_update = motion_noise, covariance_update
-        self.init, self.init_cov, self.batch = init, init_cov, update == "batch"
+        self.init, self.init_cov, self.batch = init, init_cov, update == UpdateForm.BATCH
         self.xEst = np.asarray(initial_pose, dtype=float).copy()
         self.PEst = np.zeros((3, 3))
         self.ids: list[int] = []
@@ -64,7 +65,7 @@ class ReferenceEKFSLAM:
         G3, V = self.model.jacobians(self.xEst[:3], v, w, dt)
         jF = G3 - np.eye(3)
         G = np.eye(N) + Fx.T @ jF @ Fx
-        Q = V @ self.M @ V.T if self.motion_noise == "control" else self.Cx * dt
+        Q = V @ self.M @ V.T if self.motion_noise == MotionNoise.CONTROL else self.Cx * dt
         self.xEst[:3] = self.model.predict(self.xEst[:3], v, w, dt)
         self.PEst = G @ self.PEst @ G.T + Fx.T @ Q @ Fx
 
@@ -111,7 +112,7 @@ class ReferenceEKFSLAM:
         self.xEst = self.xEst + K @ y
         self.xEst[2] = wrap_angle(self.xEst[2])
         I_KH = np.eye(N) - K @ H
-        if self.covariance_update == "joseph":
+        if self.covariance_update == CovarianceUpdate.JOSEPH:
             self.PEst = I_KH @ self.PEst @ I_KH.T + K @ Q @ K.T
         else:
             self.PEst = I_KH @ self.PEst
@@ -121,7 +122,7 @@ class ReferenceEKFSLAM:
         m = inverse_observe(self.xEst[:3], z)
         Gx, Gz = inverse_observation_jacobians(self.xEst[:3], z)
         Gm = Gx @ self.Fx()
-        if self.init == "jacobian":
+        if self.init == LandmarkInit.JACOBIAN:
             cross = Gm @ self.PEst
             corner = Gm @ self.PEst @ Gm.T + Gz @ self.R @ Gz.T
         else:

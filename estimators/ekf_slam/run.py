@@ -22,7 +22,7 @@ handed to the filter for every prediction piece and update.
 
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
-    assoc_t, assoc_decision     every observation's decision: 0 matched, 1 new, 2 rejected
+    assoc_t, assoc_decision     every observation's decision (association.Decision): 0 matched, 1 new, 2 rejected
     assoc_landmark              id of the landmark matched or created (−1 if rejected)
     assoc_d2                    Mahalanobis d² to the nearest landmark (NaN when associated by id)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
@@ -39,16 +39,18 @@ from slamarena.datasets.geometry import interpolate_poses
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 
 from ..stepping import twist_pieces
+from .association import Decision
+from .filter import Linearisation
 
 __all__ = ["run_sequence"]
 
 
 def run_sequence(ekf, sequence: Sequence) -> Estimate:
     ekf.reset(sequence)
-    ideal = ekf.params["jacobians"] == "ideal"
+    ideal = ekf.params.jacobians == Linearisation.IDEAL
     if ideal:
-        if sequence.ground_truth is None or sequence.landmarks is None or not ekf.use_ids:
-            raise ValueError("jacobians='ideal' needs ground truth poses and landmarks and known association (use_ids=True)")
+        if sequence.ground_truth is None or sequence.landmarks is None:
+            raise ValueError("jacobians='ideal' needs ground truth poses and landmarks")
         gt = sequence.ground_truth
         ekf.set_truth(landmarks=sequence.landmarks)
 
@@ -81,7 +83,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             rejected_motion += int((~ok).sum())
             rows = rows[ok]
             truth = interpolate_poses(gt.t, gt.poses, np.clip(motion.t[rows], gt.t[0], gt.t[-1])) if ideal and rows.size else None
-            cov = None if motion.cov is None or ekf.params["increment_cov"] is not None else motion.cov[rows]
+            cov = None if motion.cov is None or ekf.params.increment_cov is not None else motion.cov[rows]
             done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth) if rows.size else None
             ends = motion.t[rows]
         else:  # no motion input: the robot stands still
@@ -127,12 +129,12 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     }
     decisions = log[:, 0]
     meta = {
-        "params": ekf.params, "sequence": sequence.name, "n_landmarks": n,
-        "matched": int((decisions == 0).sum()), "new": int((decisions == 1).sum()), "rejected": int((decisions == 2).sum()),
+        "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n,
+        **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
         "noise": {"twist_cov": ekf.M.tolist(), "range_bearing_cov": ekf.R.tolist()},
     }
     return Estimate(
-        method="ekf_slam" if ekf.params["jacobians"] == "standard" else f"ekf_slam_{ekf.params['jacobians']}",
+        method="ekf_slam" if ekf.params.jacobians == Linearisation.STANDARD else f"ekf_slam_{ekf.params.jacobians}",
         t=np.asarray(times), poses=np.asarray(poses).reshape(-1, 3), pose_cov=np.asarray(covs).reshape(-1, 3, 3),
         landmark_ids=ekf.landmark_ids, landmarks=ekf.x[3:].reshape(-1, 2).copy(), landmark_cov=landmark_cov.reshape(-1, 2, 2),
         step_time=np.asarray(steps), diagnostics=diagnostics, meta=meta,

@@ -3,11 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
 from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence
-from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError
+from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError, EKFSLAMParams
+from slamarena.estimators.ekf_slam.filter import Linearisation
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 from slamarena.estimators.models import MOTION_MODELS, inverse_observe, observe
 
@@ -203,6 +205,46 @@ def test_bad_motion_and_config_raise():
         with pytest.raises(ValueError):
             EKFSLAM(**bad)
 
+
+
+@pytest.mark.parametrize("bad, field", [
+    (dict(association="nearest"), "association"),
+    (dict(jacobians="best"), "jacobians"),
+    (dict(initial_cov=[0.1, -0.1, 0.0]), "initial_cov"),
+    (dict(initial_pose=[0.0, 1.0]), "initial_pose"),
+    (dict(jcbb_confidence=1.0), "jcbb_confidence"),
+    (dict(capacity=2), "capacity"),
+    (dict(init_cov=float("inf")), "init_cov"),
+    (dict(match_confidance=0.9), "match_confidance"),  # a misspelt parameter is an error, never ignored
+])
+def test_a_bad_or_unknown_parameter_names_its_field(bad, field):
+    with pytest.raises(ValidationError, match=field) as info:
+        EKFSLAM(**bad)
+    assert [e["loc"][0] for e in info.value.errors()] == [field]
+
+
+@pytest.mark.parametrize("bad, fields", [
+    (dict(motion_noise="additive"), ("motion_noise", "Cx")),
+    (dict(match_confidence=0.99, new_confidence=0.9), ("new_confidence", "match_confidence")),
+    (dict(jacobians="ideal", use_ids=False), ("jacobians", "use_ids")),
+])
+def test_rules_joining_parameters_name_both_fields(bad, fields):
+    with pytest.raises(ValidationError) as info:
+        EKFSLAM(**bad)
+    message = info.value.errors()[0]["msg"]
+    assert all(f in message for f in fields), message
+
+
+def test_a_params_model_and_keywords_give_the_same_filter(sim):
+    kw = dict(jacobians="fej", update="batch", twist_cov=[0.01, 0.002], initial_cov=0.01, known_confidence=0.999)
+    a, b = EKFSLAM(EKFSLAM.Params(**kw)), EKFSLAM(**kw)
+    assert EKFSLAM.Params is EKFSLAMParams and a.params == b.params
+    assert a.params.jacobians is Linearisation.FEJ and a.params.twist_cov == [[0.01, 0.0], [0.0, 0.002]]
+    assert EKFSLAM(EKFSLAM.Params(jacobians="fej"), jacobians="standard").params == EKFSLAM().params  # keywords override
+    est = a.run(sim)
+    assert est.method == "ekf_slam_fej" and est.meta["params"] == b.params.canonical()
+    assert est.meta["params"]["jacobians"] == "fej" and est.meta["params"]["initial_cov"] == [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]
+    assert EKFSLAM(**est.meta["params"]).params == a.params  # the recorded configuration rebuilds the filter
 
 def test_run_counts_nonfinite_rows_of_a_sequence():
     seq = datasets.load("sim:landmarks", n_landmarks=20, seed=5)

@@ -7,6 +7,7 @@ import pytest
 from slamarena import datasets
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam import association as assoc
+from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.models import observation_jacobians, observe
 
 
@@ -38,12 +39,12 @@ def test_unknown_association_recovers_the_landmarks_of_a_separated_map(method):
     d = est.diagnostics
     dec, lm, given = d["assoc_decision"], d["assoc_landmark"], d["assoc_given_id"]
     assert est.meta["n_landmarks"] == np.unique(seq.range_bearing.landmark_id).size
-    creator = dict(zip(lm[dec == assoc.NEW], given[dec == assoc.NEW]))
+    creator = dict(zip(lm[dec == Decision.NEW], given[dec == Decision.NEW]))
     assert len(set(creator.values())) == len(creator)  # no true landmark created twice
-    matched = dec == assoc.MATCHED
+    matched = dec == Decision.MATCHED
     assert matched.mean() > 0.85
     assert all(creator[a] == g for a, g in zip(lm[matched], given[matched]))
-    assert np.all(lm[dec == assoc.REJECTED] == -1) and not np.isnan(d["assoc_d2"]).any()
+    assert np.all(lm[dec == Decision.REJECTED] == -1) and not np.isnan(d["assoc_d2"]).any()
     # every observation got a decision, in time order with its stamp
     assert dec.size == len(seq.range_bearing) and np.all(np.diff(d["assoc_t"]) >= 0)
 
@@ -75,7 +76,7 @@ def test_jcbb_associates_the_row_scene_correctly():
     ekf, z = _row_scene("jcbb")
     ekf.update(z)
     log = ekf.assoc_log[5:]
-    assert [dec for dec, _, _, _ in log] == [assoc.MATCHED] * 5
+    assert [dec for dec, _, _, _ in log] == [Decision.MATCHED] * 5
     assert [lm for _, lm, _, _ in log] == [0, 1, 2, 3, 4]
     assert abs(ekf.x[0] - 1.2) < 0.01  # the robot moved to where it truly is
 
@@ -84,6 +85,6 @@ def test_decisions_new_and_rejected_follow_the_two_gates():
     d2 = np.array([[1.0, 50.0], [8.0, 40.0], [30.0, 45.0]])
     g_match, g_new = assoc.chi2_gate(0.95, 2), assoc.chi2_gate(0.99999, 2)
     a = assoc.nearest_neighbour(d2, g_match, g_new)
-    np.testing.assert_array_equal(a.decision, [assoc.MATCHED, assoc.REJECTED, assoc.NEW])
+    np.testing.assert_array_equal(a.decision, [Decision.MATCHED, Decision.REJECTED, Decision.NEW])
     np.testing.assert_array_equal(a.slot, [0, -1, -1])
     assert abs(g_match - 5.991464547) < 1e-6
