@@ -26,6 +26,7 @@ import numpy as np
 from slamarena import datasets
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.experiments.metrics import MetricUnavailable, reference_of
 from slamarena.experiments.metrics.consistency import monte_carlo, nees
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
@@ -132,22 +133,22 @@ def realdata() -> None:
         spent = time.time() - start
         d = est.diagnostics
         dec, lm, given = d["assoc_decision"], d["assoc_landmark"], d["assoc_given_id"]
-        creator = {int(a_): int(g_) for a_, g_ in zip(lm[dec == 1], given[dec == 1])}
-        matched = dec == 0
+        creator = {int(a_): int(g_) for a_, g_ in zip(lm[dec == Decision.NEW], given[dec == Decision.NEW])}
+        matched = dec == Decision.MATCHED
         right = np.array([creator[int(a_)] == int(g_) for a_, g_ in zip(lm[matched], given[matched])], dtype=bool)
         correct = right.mean() if matched.any() else float("nan")
         wrong_t = d["assoc_t"][matched][~right]
         seen, dup_t = set(), []
-        for k in np.flatnonzero(dec == 1):
+        for k in np.flatnonzero(dec == Decision.NEW):
             dup_t += [d["assoc_t"][k]] if int(given[k]) in seen else []
             seen.add(int(given[k]))
         distinct = len(set(creator.values()))
         a, _ = ate(est, ref)
         m = landmark_error(est, ref, MapParams(by="nearest", max_distance=5.0))[0]
         print(f"{method:5s} {gates}: first wrong match at t = {wrong_t[0] if wrong_t.size else None}, first duplicate "
-              f"landmark at t = {dup_t[0] if dup_t else None}, observations rejected as ambiguous {(dec == 2).sum()}")
+              f"landmark at t = {dup_t[0] if dup_t else None}, observations rejected as ambiguous {(dec == Decision.REJECTED).sum()}")
         print(f"{method:5s}: {est.meta['n_landmarks']} landmarks created for {distinct} distinct trees "
-              f"(151 in the data); matched {matched.sum()}, new {(dec == 1).sum()}, rejected {(dec == 2).sum()}; "
+              f"(151 in the data); matched {matched.sum()}, new {(dec == Decision.NEW).sum()}, rejected {(dec == Decision.REJECTED).sum()}; "
               f"matches consistent with the true ids {correct:.3f}; trajectory vs with-ids run: ATE rmse {a['rmse']:.2f} m, "
               f"max {a['max']:.2f} m; map vs with-ids map (nearest, 5 m): rmse {m['rmse']:.2f} m, matched {m['matched']}, "
               f"spurious {m['spurious']}; {spent:.0f} s")
