@@ -8,12 +8,20 @@ methods is used.
     FixedLagLocalizer    gtsam_fixed_lag   cmd_vel + GPS + IMU yaw, IncrementalFixedLagSmoother
     PoseGraphOptimizer   gtsam_pose_graph  g2o / TORO / iSAM pose graphs
 
+Each class declares its parameters as ``<Class>Params`` (``Class.Params``); the settings they share are
+one model each, which the classes' models extend: :class:`~.problem.PoseChainParams` (motion model and
+noise, start prior; batch, iSAM2, fixed lag), :class:`~.landmark.LandmarkSmootherParams` (extra pose keys,
+odometry, observation and beacon noise, beacon anchors, marginals; batch, iSAM2), :class:`~.graph.RobustKernelParams` (all four),
+:class:`~.graph.OptimizerParams` (batch, pose graph) and :class:`~.graph.RelinearizationParams` (iSAM2,
+fixed lag).
+
 The model, the noise mapping from the filters and the frame conventions are in the module
 docstrings of :mod:`.landmark`, :mod:`.noise` and in ``research/graph_slam.md``.
 """
-from .batch import BatchSmoother
-from .fixed_lag import FixedLagLocalizer
-from .isam2 import ISAM2Smoother
-from .pose_graph import PoseGraphOptimizer
+from .batch import BatchSmoother, BatchSmootherParams
+from .fixed_lag import FixedLagLocalizer, FixedLagLocalizerParams
+from .isam2 import ISAM2Smoother, ISAM2SmootherParams
+from .pose_graph import PoseGraphOptimizer, PoseGraphOptimizerParams
 
-__all__ = ["BatchSmoother", "ISAM2Smoother", "FixedLagLocalizer", "PoseGraphOptimizer"]
+__all__ = ["BatchSmoother", "BatchSmootherParams", "ISAM2Smoother", "ISAM2SmootherParams", "FixedLagLocalizer",
+           "FixedLagLocalizerParams", "PoseGraphOptimizer", "PoseGraphOptimizerParams"]

@@ -6,46 +6,44 @@ poses (range-only SLAM: the answer depends on that start; ``diagnostics["beacons
 Levenberg-Marquardt (default), Gauss-Newton or Dogleg. Covariances from ``gtsam.Marginals``
 (body frame → world frame for poses).
 
+Parameters: :class:`BatchSmootherParams` — the landmark smoothers' (:class:`~.landmark.LandmarkSmootherParams`)
+and the optimiser's (:class:`~.graph.OptimizerParams`).
+
 ``Estimate``: one pose per pose key (``t`` = key times), world-frame ``pose_cov``, landmarks with
 covariances; ``step_time`` is ``None`` (a batch method has no per-step cost; the total times are
 in ``diagnostics``: ``time_optimize``, ``time_marginals``), plus ``initial_error``,
-``final_error`` (½ Σ‖e‖²), ``iterations`` and the rejected-input counts.
+``final_error`` (½ Σ‖e‖²), ``iterations`` and the rejected-input counts; ``meta["params"]`` the canonical parameters.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import gtsam
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Sequence
 
-from .graph import (OPTIMIZERS, L, X, check_choice, landmark_step_factors, observation_noise, optimize, point_covariances, points_of,
-                    poses_of, range_noise, world_pose_covariances)
-from .landmark import LandmarkSmootherConfig
+from .graph import (L, OptimizerParams, X, landmark_step_factors, observation_noise, optimize, point_covariances, points_of, poses_of,
+                    range_noise, world_pose_covariances)
+from .landmark import LandmarkSmoother, LandmarkSmootherParams
 from .problem import LandmarkProblem
 
-__all__ = ["BatchSmoother"]
+__all__ = ["BatchSmoother", "BatchSmootherParams"]
 
 
-@dataclass(kw_only=True)
-class BatchSmoother(LandmarkSmootherConfig):
-    optimizer: str = "lm"
-    max_iterations: int = 100
-    relative_error_tol: float = 1e-10
-    absolute_error_tol: float = 1e-10
+class BatchSmootherParams(LandmarkSmootherParams, OptimizerParams):
+    """Parameters of :class:`BatchSmoother`: the landmark smoothers' and the optimiser's."""
 
-    def __post_init__(self):
-        super().__post_init__()
-        check_choice("optimizer", self.optimizer, OPTIMIZERS)
-        if self.max_iterations < 1:
-            raise ValueError("max_iterations must be ≥ 1")
+
+class BatchSmoother(LandmarkSmoother):
+    """The whole landmark graph optimised at once (:class:`BatchSmootherParams`)."""
+
+    Params = BatchSmootherParams
 
     def graph(self, problem: LandmarkProblem) -> gtsam.NonlinearFactorGraph:
         graph = gtsam.NonlinearFactorGraph()
-        obs_noise = observation_noise(problem.R, self.robust, self.robust_k)
-        rng_noise = range_noise(problem.R_range, self.robust, self.robust_k)
+        obs_noise = observation_noise(problem.R, self.params)
+        rng_noise = range_noise(problem.R_range, self.params)
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
             graph.push_back(landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows, rng_noise, range_rows))
         for j in self.anchored_beacons(problem):
@@ -71,8 +69,7 @@ class BatchSmoother(LandmarkSmootherConfig):
     def run(self, sequence: Sequence) -> Estimate:
         problem = self.problem(sequence)
         graph = self.graph(problem)
-        result = optimize(graph, self.initial_values(problem), optimizer=self.optimizer, max_iterations=self.max_iterations,
-                          relative_error_tol=self.relative_error_tol, absolute_error_tol=self.absolute_error_tol)
+        result = optimize(graph, self.initial_values(problem), self.params)
         pose_keys = [X(k) for k in range(problem.n_poses)]
         ids = problem.landmark_ids
         landmark_keys = [L(j) for j in ids]
@@ -80,7 +77,7 @@ class BatchSmoother(LandmarkSmootherConfig):
         landmarks = points_of(result.values, landmark_keys)
         pose_cov = landmark_cov = None
         tic = time.perf_counter()
-        if self.covariances:
+        if self.params.covariances:
             marginals = gtsam.Marginals(graph, result.values)
             pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
             landmark_cov = point_covariances(marginals.marginalCovariance, landmark_keys)
@@ -96,5 +93,5 @@ class BatchSmoother(LandmarkSmootherConfig):
         return Estimate(
             method="gtsam_batch", t=problem.t, poses=poses, pose_cov=pose_cov, landmark_ids=ids, landmarks=landmarks,
             landmark_cov=landmark_cov, diagnostics=diagnostics,
-            meta={"optimizer": self.optimizer, "factors": int(graph.size()), "poses": problem.n_poses, "landmarks": int(ids.size)},
+            meta={"params": self.params.canonical(), "factors": int(graph.size()), "poses": problem.n_poses, "landmarks": int(ids.size)},
         )

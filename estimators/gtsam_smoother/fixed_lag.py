@@ -14,61 +14,68 @@ R_imu = ``Noise.yaw_var`` (each can be overridden). GTSAM's ``IncrementalFixedLa
 (iSAM2 inside) keeps the poses of the last ``lag`` seconds and marginalises older ones into a
 prior on the window. A robust kernel (``robust``) can be put on the GPS factors for outliers.
 
+Parameters: :class:`FixedLagLocalizerParams` — the pose chain's (:class:`~.problem.PoseChainParams`, with
+the EKF localizer's Euler model as default), the robust kernel (:class:`~.graph.RobustKernelParams`),
+iSAM2's relinearisation (:class:`~.graph.RelinearizationParams`, every update by default), the lag, the
+output and the GPS / IMU noise overrides.
+
 ``Estimate`` (one pose per key, world-frame ``pose_cov`` from ``marginalCovariance``):
 ``output="smoothed"`` — each pose as estimated just before it leaves the window (it has seen
 ``lag`` seconds of later data; the last window at the end of the run); ``output="online"`` —
 each pose right after its own update (what a filter reports). ``diagnostics`` hold the other
 trajectory (without covariances) as ``online_poses`` / ``smoothed_poses``, and the
-rejected-input counts. ``step_time[k]`` =
+rejected-input counts; ``meta["params"]`` the canonical parameters. ``step_time[k]`` =
 wall time of update k.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from typing import Literal
 
 import gtsam
 import numpy as np
+from pydantic import NonNegativeFloat, PositiveFloat
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
+from slamarena.params import Covariance2, Field
 
-from .graph import ROBUST, X, check_choice, noise_model
+from .graph import RelinearizationParams, RelinearizeSkip, RobustKernelParams, X, isam2_params, noise_model
 from .noise import body_to_world
-from .problem import check_covariance, motion_chain
+from .problem import MotionModelName, PoseChainParams, check_covariance, motion_chain
 
-__all__ = ["FixedLagLocalizer"]
+__all__ = ["FixedLagLocalizer", "FixedLagLocalizerParams"]
 
 
-@dataclass(kw_only=True)
+class FixedLagLocalizerParams(PoseChainParams, RobustKernelParams, RelinearizationParams):
+    """Parameters of :class:`FixedLagLocalizer`: the pose chain's, the robust kernel on the GPS factors, iSAM2's
+    relinearisation, the lag, the output and the GPS / IMU noise."""
+
+    motion_model: MotionModelName = "euler"
+    relinearize_skip: RelinearizeSkip = 1
+    lag: PositiveFloat = Field(2.0, description="poses older than this behind the newest are marginalised out of the window [s]")
+    output: Literal["smoothed", "online"] = Field(
+        "smoothed", description="each pose as it leaves the window (seen lag seconds of later data) or right after its own update")
+    gps_cov: Covariance2 | None = Field(None, description="covariance of one GPS fix (x, y) [m²]; None: the sequence's Noise.gps_cov")
+    yaw_var: NonNegativeFloat | None = Field(None, description="variance of one IMU yaw [rad²]; None: the sequence's Noise.yaw_var")
+
+
 class FixedLagLocalizer:
-    lag: float = 2.0
-    motion_model: str = "euler"
-    output: str = "smoothed"
-    regularisation: float = 1e-4
-    prior_sigma: list[float] = field(default_factory=lambda: [1e-3, 1e-3, 1e-3])
-    robust: str = "none"
-    robust_k: float = 1.345
-    relinearize_threshold: float = 0.1
-    relinearize_skip: int = 1
-    twist_cov: list | None = None
-    gps_cov: list | None = None
-    yaw_var: float | None = None
+    """cmd_vel + GPS + IMU yaw in GTSAM's IncrementalFixedLagSmoother (:class:`FixedLagLocalizerParams`)."""
 
-    def __post_init__(self):
-        check_choice("output", self.output, ("smoothed", "online"))
-        check_choice("robust", self.robust, ROBUST)
-        sigma = np.asarray(self.prior_sigma, dtype=float)
-        if not self.lag > 0 or sigma.shape != (3,) or np.any(~(sigma > 0)) or self.relinearize_skip < 1:
-            raise ValueError("need lag > 0, three positive prior_sigma, relinearize_skip ≥ 1")
+    Params = FixedLagLocalizerParams
+
+    def __init__(self, params: FixedLagLocalizerParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.prior_cov = np.diag(np.square(self.params.prior_sigma))
 
     def run(self, sequence: Sequence) -> Estimate:
         counts: dict = {}
         gps, heading = sequence.gps, sequence.heading
         stamps = []
         if gps is not None and len(gps):
-            R_gps = check_covariance("gps_cov", self.gps_cov if self.gps_cov is not None else _required(sequence.noise.gps_cov, "gps_cov"), (2, 2))
+            R_gps = check_covariance("gps_cov", _noise(self.params.gps_cov, sequence.noise.gps_cov, "gps_cov"), (2, 2))
             ok = np.isfinite(gps.xy).all(axis=1)
             counts["rejected_nonfinite_gps"] = int((~ok).sum())
             gps = gps.select(ok)
@@ -76,43 +83,39 @@ class FixedLagLocalizer:
         else:
             gps = None
         if heading is not None and len(heading):
-            var = self.yaw_var if self.yaw_var is not None else _required(sequence.noise.yaw_var, "yaw_var")
-            R_imu = check_covariance("yaw_var", np.atleast_2d(float(var)), (1, 1))
+            R_imu = check_covariance("yaw_var", np.atleast_2d(float(_noise(self.params.yaw_var, sequence.noise.yaw_var, "yaw_var"))), (1, 1))
             ok = np.isfinite(heading.yaw)
             counts["rejected_nonfinite_heading"] = int((~ok).sum())
             heading = heading.select(ok)
             stamps.append(heading.t)
         else:
             heading = None
-        chain = motion_chain(sequence, np.concatenate(stamps) if stamps else np.zeros(0), motion_model=self.motion_model,
-                             regularisation=self.regularisation, twist_cov=self.twist_cov)
+        chain = motion_chain(sequence, np.concatenate(stamps) if stamps else np.zeros(0), self.params)
         counts.update(chain.counts)
         K = chain.t.size
         gps_rows = _rows_per_pose(chain, gps.t if gps is not None else np.zeros(0), K, counts, "gps")
         yaw_rows = _rows_per_pose(chain, heading.t if heading is not None else np.zeros(0), K, counts, "heading")
 
-        params = gtsam.ISAM2Params()
-        params.setRelinearizeThreshold(float(self.relinearize_threshold))
-        params.relinearizeSkip = int(self.relinearize_skip)
-        smoother = gtsam.IncrementalFixedLagSmoother(float(self.lag), params)
-        gps_noise = noise_model(R_gps, self.robust, self.robust_k) if gps is not None else None
+        lag = self.params.lag
+        smoother = gtsam.IncrementalFixedLagSmoother(lag, isam2_params(self.params))
+        gps_noise = noise_model(R_gps, self.params) if gps is not None else None
         yaw_noise = noise_model(R_imu) if heading is not None else None
         online = np.empty((K, 3))
         smoothed = np.empty((K, 3))
         smoothed_cov = np.empty((K, 3, 3))
         online_cov = np.empty((K, 3, 3))
         step_time = np.empty(K)
-        want_smoothed_cov = self.output == "smoothed"
+        want_smoothed_cov = self.params.output == "smoothed"
         window: list[int] = []
         for k in range(K):
             tic = time.perf_counter()
             # poses that this update will marginalise (timestamp < t_k − lag): read them while they are in the window
-            while window and chain.t[window[0]] < chain.t[k] - self.lag:
+            while window and chain.t[window[0]] < chain.t[k] - lag:
                 j = window.pop(0)
                 smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
             factors = gtsam.NonlinearFactorGraph()
             if k == 0:
-                factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(np.diag(np.asarray(self.prior_sigma) ** 2))))
+                factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(self.prior_cov)))
                 x = chain.start
             else:
                 factors.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])))
@@ -129,20 +132,23 @@ class FixedLagLocalizer:
             step_time[k] = time.perf_counter() - tic
         for j in window:
             smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
-        if self.output == "smoothed":
+        if self.params.output == "smoothed":
             poses, cov, other = smoothed, smoothed_cov, {"online_poses": online}
         else:
             poses, cov, other = online, online_cov, {"smoothed_poses": smoothed}
         return Estimate(
             method="gtsam_fixed_lag", t=chain.t, poses=poses, pose_cov=cov, step_time=step_time,
-            diagnostics={**other, **counts}, meta={"lag": self.lag, "output": self.output, "poses": K},
+            diagnostics={**other, **counts}, meta={"params": self.params.canonical(), "poses": K},
         )
 
 
-def _required(value, name: str):
-    if value is None:
+def _noise(override, stated, name: str):
+    """The parameter ``override`` when given, else the sequence's stated noise (ValueError naming ``name`` if neither)."""
+    if override is not None:
+        return override
+    if stated is None:
         raise ValueError(f"the sequence states no {name}; pass {name}=...")
-    return value
+    return stated
 
 
 def _rows_per_pose(chain, t: np.ndarray, K: int, counts: dict, name: str) -> list[np.ndarray]:

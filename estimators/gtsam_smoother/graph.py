@@ -3,32 +3,71 @@
 Keys: pose k is ``x_k`` (``gtsam.symbol('x', k)``), landmark or beacon j is ``l_j``.
 
 Noise models: ``Gaussian.Covariance(Σ)`` optionally wrapped in ``Robust`` with a Huber or Cauchy
-m-estimator of width ``k`` (in units of the whitened error, i.e. standard deviations).
+m-estimator of width ``k`` (in units of the whitened error, i.e. standard deviations):
+:class:`RobustKernelParams`, shared by every smoother.
 
 ``BearingRangeFactor2D`` orders its measurement as (bearing, range); the datasets state the
 observation noise in (range, bearing) order, so :func:`observation_noise` swaps it. Beacon ranges
 are ``RangeFactor2D`` (‖l_j − p_k‖ = z − β); a beacon whose position is known is anchored by a
 ``PriorFactorPoint2``.
+
+Settings shared by several smoothers: :class:`OptimizerParams` (batch nonlinear least squares:
+the batch smoother and the pose-graph optimiser), :class:`RelinearizationParams` (iSAM2: the
+incremental and the fixed-lag smoother).
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Annotated, Literal
 
 import gtsam
 import numpy as np
+from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
+
+from slamarena.params import Field, Params
 
 from .noise import body_to_world
 from .problem import LandmarkProblem
 
 __all__ = [
-    "X", "L", "ROBUST", "OPTIMIZERS", "noise_model", "information_model", "robustify", "observation_noise", "range_noise", "landmark_step_factors",
-    "optimize", "OptimizeResult", "poses_of", "points_of", "check_choice",
+    "X", "L", "RobustKernelParams", "OptimizerParams", "RelinearizationParams", "RelativeErrorTol", "AbsoluteErrorTol",
+    "RelinearizeSkip", "ComputeCovariances", "noise_model", "information_model", "robustify", "observation_noise",
+    "range_noise", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "poses_of", "points_of",
 ]
 
-ROBUST = ("none", "huber", "cauchy")
-OPTIMIZERS = ("lm", "gauss_newton", "dogleg")
 _SWAP = np.array([[0.0, 1.0], [1.0, 0.0]])
+
+#: field types whose default differs between the models that share them (one description, one rule each)
+RelativeErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the error's relative decrease in one iteration is below this [1]")]
+AbsoluteErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the error's decrease in one iteration is below this [½ χ²]")]
+RelinearizeSkip = Annotated[PositiveInt, Field(description="iSAM2 checks which variables to relinearise every this many updates")]
+ComputeCovariances = Annotated[bool, Field(description="compute the marginal covariances: world-frame pose_cov and landmark_cov")]
+
+
+class RobustKernelParams(Params):
+    """The robust kernel on the factors that may hold outliers: observations and beacon ranges (landmark
+    smoothers), GPS (fixed-lag localizer), loop closures (pose-graph optimiser)."""
+
+    robust: Literal["none", "huber", "cauchy"] = Field("none", description="m-estimator of those factors; none: plain least squares")
+    robust_k: PositiveFloat = Field(1.345, description="width of the m-estimator [standard deviations of the whitened error]")
+
+
+class OptimizerParams(Params):
+    """Batch nonlinear least squares (:func:`optimize`)."""
+
+    optimizer: Literal["lm", "gauss_newton", "dogleg"] = Field("lm", description="Levenberg-Marquardt, Gauss-Newton or Powell's Dogleg")
+    max_iterations: PositiveInt = Field(100, description="most iterations of the optimiser")
+    relative_error_tol: RelativeErrorTol = 1e-10
+    absolute_error_tol: AbsoluteErrorTol = 1e-10
+
+
+class RelinearizationParams(Params):
+    """iSAM2's relinearisation (:func:`isam2_params`)."""
+
+    relinearize_threshold: NonNegativeFloat = Field(
+        0.1, description="iSAM2 relinearises a variable whose linear update exceeds this in any tangent coordinate [m, rad]")
+    relinearize_skip: RelinearizeSkip = 10
 
 
 def X(k: int) -> int:
@@ -39,37 +78,33 @@ def L(j: int) -> int:
     return gtsam.symbol("l", int(j))
 
 
-def check_choice(name: str, value: str, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {', '.join(choices)}; got {value!r}")
+def noise_model(cov: np.ndarray, kernel: RobustKernelParams | None = None):
+    """Gaussian noise with covariance ``cov``, robustified by ``kernel`` when given."""
+    return robustify(gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=float)), kernel)
 
 
-def noise_model(cov: np.ndarray, robust: str = "none", k: float = 1.345):
-    """Gaussian noise with covariance ``cov``, optionally robustified (Huber/Cauchy, width k)."""
-    return robustify(gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=float)), robust, k)
+def information_model(information: np.ndarray, kernel: RobustKernelParams | None = None):
+    """Gaussian noise with information matrix ``information``, robustified by ``kernel`` when given."""
+    return robustify(gtsam.noiseModel.Gaussian.Information(np.asarray(information, dtype=float)), kernel)
 
 
-def information_model(information: np.ndarray, robust: str = "none", k: float = 1.345):
-    """Gaussian noise with information matrix ``information``, optionally robustified."""
-    return robustify(gtsam.noiseModel.Gaussian.Information(np.asarray(information, dtype=float)), robust, k)
-
-
-def robustify(base, robust: str, k: float):
-    """``base`` wrapped in a Huber or Cauchy m-estimator of width k (``robust="none"``: unchanged)."""
-    if robust == "none":
+def robustify(base, kernel: RobustKernelParams | None):
+    """``base`` wrapped in the kernel's Huber or Cauchy m-estimator of width ``robust_k`` (no kernel or
+    ``robust="none"``: unchanged)."""
+    if kernel is None or kernel.robust == "none":
         return base
-    estimator = {"huber": gtsam.noiseModel.mEstimator.Huber, "cauchy": gtsam.noiseModel.mEstimator.Cauchy}[robust]
-    return gtsam.noiseModel.Robust.Create(estimator.Create(k), base)
+    estimator = {"huber": gtsam.noiseModel.mEstimator.Huber, "cauchy": gtsam.noiseModel.mEstimator.Cauchy}[kernel.robust]
+    return gtsam.noiseModel.Robust.Create(estimator.Create(kernel.robust_k), base)
 
 
-def observation_noise(R: np.ndarray, robust: str = "none", k: float = 1.345):
+def observation_noise(R: np.ndarray, kernel: RobustKernelParams | None = None):
     """Noise of a ``BearingRangeFactor2D`` from the (range, bearing) covariance R."""
-    return noise_model(_SWAP @ R @ _SWAP, robust, k)
+    return noise_model(_SWAP @ R @ _SWAP, kernel)
 
 
-def range_noise(variance: float, robust: str = "none", k: float = 1.345):
+def range_noise(variance: float, kernel: RobustKernelParams | None = None):
     """Noise of a ``RangeFactor2D``: one range of the given variance [m²]."""
-    return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), robust, k)
+    return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), kernel)
 
 
 def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, obs_noise, rows: slice,
@@ -97,22 +132,28 @@ class OptimizeResult:
     time_s: float
 
 
-def optimize(graph, initial, *, optimizer: str = "lm", max_iterations: int = 100, relative_error_tol: float = 1e-10,
-             absolute_error_tol: float = 1e-10) -> OptimizeResult:
+def isam2_params(params: RelinearizationParams) -> gtsam.ISAM2Params:
+    """GTSAM's iSAM2 parameters with the given relinearisation (everything else GTSAM's defaults)."""
+    isam2 = gtsam.ISAM2Params()
+    isam2.setRelinearizeThreshold(float(params.relinearize_threshold))
+    isam2.relinearizeSkip = int(params.relinearize_skip)
+    return isam2
+
+
+def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
     """Batch nonlinear least squares with Levenberg-Marquardt, Gauss-Newton or Dogleg."""
-    check_choice("optimizer", optimizer, OPTIMIZERS)
-    params_cls, optimizer_cls = {
+    settings_cls, optimizer_cls = {
         "lm": (gtsam.LevenbergMarquardtParams, gtsam.LevenbergMarquardtOptimizer),
         "gauss_newton": (gtsam.GaussNewtonParams, gtsam.GaussNewtonOptimizer),
         "dogleg": (gtsam.DoglegParams, gtsam.DoglegOptimizer),
-    }[optimizer]
-    params = params_cls()
-    params.setMaxIterations(int(max_iterations))
-    params.setRelativeErrorTol(float(relative_error_tol))
-    params.setAbsoluteErrorTol(float(absolute_error_tol))
+    }[params.optimizer]
+    settings = settings_cls()
+    settings.setMaxIterations(int(params.max_iterations))
+    settings.setRelativeErrorTol(float(params.relative_error_tol))
+    settings.setAbsoluteErrorTol(float(params.absolute_error_tol))
     initial_error = graph.error(initial)
     tic = time.perf_counter()
-    opt = optimizer_cls(graph, initial, params)
+    opt = optimizer_cls(graph, initial, settings)
     values = opt.optimize()
     elapsed = time.perf_counter() - tic
     return OptimizeResult(values, float(initial_error), float(graph.error(values)), int(opt.iterations()), elapsed)

@@ -15,59 +15,62 @@ the largest change of any variable is below ``final_tol``. The result then equal
 optimum to that tolerance (tested against :class:`~.batch.BatchSmoother`); without this the
 answer would differ from the optimum by the linearisation error the threshold allows.
 
+Parameters: :class:`ISAM2SmootherParams` — the landmark smoothers' (:class:`~.landmark.LandmarkSmootherParams`),
+iSAM2's relinearisation (:class:`~.graph.RelinearizationParams`), the final updates, the factorisation and
+the clock of ``step_time``.
+
 ``Estimate``: the final smoothed poses (one per key) and landmarks; covariances from
 ``ISAM2.marginalCovariance`` (poses converted to the world frame); ``step_time[k]`` = wall time
 (``step_clock="cpu"``: CPU time) of update k plus reading x̂_k, like the filters' per-event time. ``diagnostics``:
 ``online_poses`` (K, 3) — the estimate of x_k right after step k (what a filter would have had),
 ``relinearized`` (K,) variables relinearised per step, ``final_updates_used``, ``final_change``,
-``final_error`` and the rejected-input counts.
+``final_error`` and the rejected-input counts; ``meta["params"]`` the canonical parameters.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from typing import Literal
 
 import gtsam
 import numpy as np
+from pydantic import NonNegativeInt, PositiveFloat
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
 from slamarena.estimators.models import inverse_observe
+from slamarena.params import Field
 
-from .graph import (L, X, check_choice, landmark_step_factors, observation_noise, point_covariances, points_of, poses_of, range_noise,
-                    world_pose_covariances)
-from .landmark import LandmarkSmootherConfig
+from .graph import (L, RelinearizationParams, X, isam2_params, landmark_step_factors, observation_noise, point_covariances, points_of,
+                    poses_of, range_noise, world_pose_covariances)
+from .landmark import LandmarkSmoother, LandmarkSmootherParams
 
-__all__ = ["ISAM2Smoother"]
+__all__ = ["ISAM2Smoother", "ISAM2SmootherParams"]
 
 #: ``step_clock``: wall time (like the filters), or the process's CPU time (all threads), which other
 #: processes on a shared machine disturb less (the benchmark uses it)
 _CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-@dataclass(kw_only=True)
-class ISAM2Smoother(LandmarkSmootherConfig):
-    relinearize_threshold: float = 0.1
-    relinearize_skip: int = 10
-    final_updates: int = 10
-    final_tol: float = 1e-6
-    factorization: str = "CHOLESKY"
-    step_clock: str = "wall"
+class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
+    """Parameters of :class:`ISAM2Smoother`: the landmark smoothers', iSAM2's relinearisation and the final updates."""
 
-    def __post_init__(self):
-        super().__post_init__()
-        if not self.relinearize_threshold >= 0 or self.relinearize_skip < 1 or self.final_updates < 0 or not self.final_tol > 0:
-            raise ValueError("need relinearize_threshold ≥ 0, relinearize_skip ≥ 1, final_updates ≥ 0, final_tol > 0")
-        check_choice("factorization", self.factorization, ("QR", "CHOLESKY"))
-        check_choice("step_clock", self.step_clock, tuple(_CLOCKS))
+    final_updates: NonNegativeInt = Field(10, description="most empty updates after the last step that relinearise and re-solve everything")
+    final_tol: PositiveFloat = Field(
+        1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]")
+    factorization: Literal["CHOLESKY", "QR"] = Field("CHOLESKY", description="iSAM2's factorisation of the linearised system")
+    step_clock: Literal["wall", "cpu"] = Field("wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]")
+
+
+class ISAM2Smoother(LandmarkSmoother):
+    """The landmark graph grown one pose per iSAM2 update, then relinearised to the batch optimum (:class:`ISAM2SmootherParams`)."""
+
+    Params = ISAM2SmootherParams
 
     def isam(self) -> gtsam.ISAM2:
-        params = gtsam.ISAM2Params()
-        params.setRelinearizeThreshold(float(self.relinearize_threshold))
-        params.relinearizeSkip = int(self.relinearize_skip)
-        params.setFactorization(self.factorization)
-        return gtsam.ISAM2(params)
+        settings = isam2_params(self.params)
+        settings.setFactorization(self.params.factorization)
+        return gtsam.ISAM2(settings)
 
     def run(self, sequence: Sequence) -> Estimate:
         problem = self.problem(sequence)
@@ -78,13 +81,13 @@ class ISAM2Smoother(LandmarkSmootherConfig):
                              "iSAM2 cannot initialise a beacon from one range — use gtsam_batch for range-only SLAM")
         K = problem.n_poses
         isam = self.isam()
-        obs_noise = observation_noise(problem.R, self.robust, self.robust_k)
-        rng_noise = range_noise(problem.R_range, self.robust, self.robust_k)
+        obs_noise = observation_noise(problem.R, self.params)
+        rng_noise = range_noise(problem.R_range, self.params)
         known: set[int] = set()
         online = np.empty((K, 3))
         step_time = np.empty(K)
         relinearized = np.zeros(K, dtype=np.int64)
-        clock = _CLOCKS[self.step_clock]
+        clock = _CLOCKS[self.params.step_clock]
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
             tic = clock()
             factors = landmark_step_factors(problem, k, self.prior_cov, obs_noise, rows, rng_noise, range_rows)
@@ -116,7 +119,7 @@ class ISAM2Smoother(LandmarkSmootherConfig):
         final.relinearizeSkip = 1
         final.setOptimizationParams(gtsam.ISAM2GaussNewtonParams(0.0))
         used, change = 0, np.inf
-        while used < self.final_updates and change > self.final_tol:
+        while used < self.params.final_updates and change > self.params.final_tol:
             isam.update()
             used += 1
             refined = isam.calculateEstimate()
@@ -125,7 +128,7 @@ class ISAM2Smoother(LandmarkSmootherConfig):
         poses = poses_of(estimate, pose_keys)
         landmarks = points_of(estimate, landmark_keys)
         pose_cov = landmark_cov = None
-        if self.covariances:
+        if self.params.covariances:
             pose_cov = world_pose_covariances(isam.marginalCovariance, pose_keys, poses)
             landmark_cov = point_covariances(isam.marginalCovariance, landmark_keys)
         graph = isam.getFactorsUnsafe()
@@ -140,8 +143,7 @@ class ISAM2Smoother(LandmarkSmootherConfig):
         return Estimate(
             method="gtsam_isam2", t=problem.t, poses=poses, pose_cov=pose_cov, landmark_ids=ids, landmarks=landmarks,
             landmark_cov=landmark_cov, step_time=step_time, diagnostics=diagnostics,
-            meta={"relinearize_threshold": self.relinearize_threshold, "relinearize_skip": self.relinearize_skip,
-                  "poses": K, "landmarks": int(ids.size)},
+            meta={"params": self.params.canonical(), "poses": K, "landmarks": int(ids.size)},
         )
 
 

@@ -14,30 +14,51 @@ Initial values: ``initial="file"`` uses the file's vertices when it has them, el
 chain (:meth:`PoseGraph.initial_poses`); ``initial="chain"`` always composes the chain. Landmarks
 start from their first observation.
 
+Parameters: :class:`PoseGraphOptimizerParams` — the optimiser's (:class:`~.graph.OptimizerParams`,
+tolerances 1e-8 by default), the robust kernel (:class:`~.graph.RobustKernelParams`), the initial
+values, the anchor and whether to compute marginals.
+
 ``Estimate``: ``t`` = node ids (as float; a pose graph has no time), optimised poses, landmarks;
 ``pose_cov`` (world frame, from ``Marginals``) only with ``covariances=True``; diagnostics
-``initial_error``, ``final_error`` (½ Σ‖e‖²_Ω), ``iterations``, ``time_optimize``. A
-``Sequence`` given to :meth:`PoseGraphOptimizer.run` is solved by :class:`~.batch.BatchSmoother`
-with the same optimiser settings (its motion and observations are a pose graph with landmarks).
+``initial_error``, ``final_error`` (½ Σ‖e‖²_Ω), ``iterations``, ``time_optimize``; ``meta["params"]``
+the canonical parameters and ``meta["initial"]`` the initialisation used. A ``Sequence`` given to
+:meth:`PoseGraphOptimizer.run` is solved by :class:`~.batch.BatchSmoother` with the same optimiser,
+robust-kernel and covariance settings (its motion and observations are a pose graph with landmarks;
+``meta["params"]`` is then the batch smoother's).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from typing import Literal
 
 import gtsam
 import numpy as np
+from pydantic import PositiveFloat
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import transform_points
 from slamarena.datasets.posegraph import PoseGraph
 from slamarena.datasets.sequence import Sequence
 from slamarena.estimators.models import inverse_observe
+from slamarena.params import Field
 
 from .batch import BatchSmoother
-from .graph import OPTIMIZERS, ROBUST, L, X, check_choice, information_model, noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances
+from .graph import (AbsoluteErrorTol, ComputeCovariances, L, OptimizerParams, RelativeErrorTol, RobustKernelParams, X, information_model,
+                    noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances)
 
-__all__ = ["PoseGraphOptimizer", "build_pose_graph"]
+__all__ = ["PoseGraphOptimizer", "PoseGraphOptimizerParams", "build_pose_graph"]
+
+
+class PoseGraphOptimizerParams(OptimizerParams, RobustKernelParams):
+    """Parameters of :class:`PoseGraphOptimizer`: the optimiser's, the robust kernel on the loop closures, the
+    initial values, the anchor and the marginals."""
+
+    relative_error_tol: RelativeErrorTol = 1e-8
+    absolute_error_tol: AbsoluteErrorTol = 1e-8
+    initial: Literal["file", "chain"] = Field(
+        "file", description="initial poses: the file's vertices when it has them (else the odometry chain), or always the odometry chain")
+    anchor_sigma: PositiveFloat = Field(1e-6, description="σ of the prior that holds the first node at its initial pose [m, m, rad]")
+    covariances: ComputeCovariances = False
 
 
 def _point_in_frame_factor(pose_key: int, point_key: int, z: np.ndarray, model) -> gtsam.CustomFactor:
@@ -57,17 +78,17 @@ def _point_in_frame_factor(pose_key: int, point_key: int, z: np.ndarray, model) 
     return gtsam.CustomFactor(model, [pose_key, point_key], error)
 
 
-def build_pose_graph(graph: PoseGraph, *, initial: str = "file", robust: str = "none", robust_k: float = 1.345,
-                     anchor_sigma: float = 1e-6) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
+def build_pose_graph(graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGraphOptimizerParams()
+                     ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
     """The GTSAM factor graph and initial values of a 2D :class:`PoseGraph`."""
     if graph.dim != 2:
         raise NotImplementedError(f"{graph.name}: only 2D pose graphs are optimised (got dim={graph.dim})")
-    poses = graph.initial_poses() if initial == "file" else graph.chain_initialisation()
+    poses = graph.initial_poses() if params.initial == "file" else graph.chain_initialisation()
     factors = gtsam.NonlinearFactorGraph()
-    factors.add(gtsam.PriorFactorPose2(X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * anchor_sigma**2)))
+    factors.add(gtsam.PriorFactorPose2(X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)))
     odometry = graph.odometry_mask()
     for i, j, z, info, odo in zip(graph.edge_i, graph.edge_j, graph.edge_z, graph.edge_information, odometry):
-        factors.add(gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, "none" if odo else robust, robust_k)))
+        factors.add(gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, None if odo else params)))
     values = gtsam.Values()
     for node, p in zip(graph.node_ids, poses):
         values.insert(X(node), gtsam.Pose2(*p))
@@ -87,47 +108,36 @@ def build_pose_graph(graph: PoseGraph, *, initial: str = "file", robust: str = "
     return factors, values
 
 
-@dataclass(kw_only=True)
 class PoseGraphOptimizer:
-    optimizer: str = "lm"
-    max_iterations: int = 100
-    relative_error_tol: float = 1e-8
-    absolute_error_tol: float = 1e-8
-    initial: str = "file"
-    robust: str = "none"
-    robust_k: float = 1.345
-    anchor_sigma: float = 1e-6
-    covariances: bool = False
+    """Nonlinear least squares on a 2D pose graph (:class:`PoseGraphOptimizerParams`)."""
 
-    def __post_init__(self):
-        check_choice("optimizer", self.optimizer, OPTIMIZERS)
-        check_choice("initial", self.initial, ("file", "chain"))
-        check_choice("robust", self.robust, ROBUST)
-        if self.max_iterations < 1 or not self.robust_k > 0 or not self.anchor_sigma > 0:
-            raise ValueError("need max_iterations ≥ 1, robust_k > 0, anchor_sigma > 0")
+    Params = PoseGraphOptimizerParams
+
+    #: the parameters a Sequence's batch smoother takes from these
+    _BATCH_FIELDS = {*OptimizerParams.model_fields, *RobustKernelParams.model_fields, "covariances"}
+
+    def __init__(self, params: PoseGraphOptimizerParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
 
     def run(self, data: PoseGraph | Sequence) -> Estimate:
         if isinstance(data, Sequence):
-            smoother = BatchSmoother(optimizer=self.optimizer, max_iterations=self.max_iterations, robust=self.robust,
-                                     robust_k=self.robust_k, relative_error_tol=self.relative_error_tol,
-                                     absolute_error_tol=self.absolute_error_tol, covariances=self.covariances)
+            smoother = BatchSmoother(self.params.model_dump(include=self._BATCH_FIELDS))
             estimate = smoother.run(data)
             estimate.method = "gtsam_pose_graph"
             return estimate
         if not isinstance(data, PoseGraph):
             raise TypeError(f"PoseGraphOptimizer.run takes a PoseGraph or a Sequence, not {type(data).__name__}")
         tic = time.perf_counter()
-        graph, initial = build_pose_graph(data, initial=self.initial, robust=self.robust, robust_k=self.robust_k, anchor_sigma=self.anchor_sigma)
+        graph, initial = build_pose_graph(data, self.params)
         time_build = time.perf_counter() - tic
-        result = optimize(graph, initial, optimizer=self.optimizer, max_iterations=self.max_iterations,
-                          relative_error_tol=self.relative_error_tol, absolute_error_tol=self.absolute_error_tol)
+        result = optimize(graph, initial, self.params)
         pose_keys = [X(i) for i in data.node_ids]
         poses = poses_of(result.values, pose_keys)
         ids = landmarks = pose_cov = landmark_cov = None
         if data.landmark_id is not None:
             ids = np.unique(data.landmark_id)
             landmarks = points_of(result.values, [L(j) for j in ids])
-        if self.covariances:
+        if self.params.covariances:
             marginals = gtsam.Marginals(graph, result.values)
             pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
             if ids is not None:
@@ -142,6 +152,6 @@ class PoseGraphOptimizer:
         return Estimate(
             method="gtsam_pose_graph", t=data.node_ids.astype(float), poses=poses, pose_cov=pose_cov, landmark_ids=ids,
             landmarks=landmarks, landmark_cov=landmark_cov, diagnostics=diagnostics,
-            meta={"graph": data.name, "nodes": data.n_nodes, "edges": data.n_edges, "optimizer": self.optimizer,
-                  "initial": "file" if (self.initial == "file" and data.poses is not None) else "chain"},
+            meta={"params": self.params.canonical(), "graph": data.name, "nodes": data.n_nodes, "edges": data.n_edges,
+                  "initial": "file" if (self.params.initial == "file" and data.poses is not None) else "chain"},
         )

@@ -1,5 +1,9 @@
 """The landmark-SLAM smoothing problem of a ``Sequence``, as arrays (numpy only; no GTSAM here).
 
+Parameters: :class:`PoseChainParams` (the motion model, the relative motions' noise and the prior on the
+first pose; every sequence smoother extends it) and :class:`LandmarkProblemParams` (adds the extra pose
+keys, the odometry increments', observations' and beacon ranges' noise).
+
 Pose keys
     One pose key at the start of the motion, at every observation set with a known landmark
     id, every ``max_interval`` seconds if given, and at the end of the motion. Keys with no
@@ -13,8 +17,8 @@ Observations
     ``obs_pose`` (N,) pose index, ``obs_id`` (N,), ``obs_range``, ``obs_bearing`` (N,), noise
     ``R = Noise.range_bearing_cov`` (2, 2) in (range, bearing) order.
 Beacon ranges (range-only, ``Sequence.beacon_ranges``)
-    ``rng_pose`` (M,), ``rng_id`` (M,), ``rng_range`` (M,) with the range offset β already
-    removed (z − β), variance ``R_range``. Beacons share the landmark id space (one
+    ``rng_pose`` (M,), ``rng_id`` (M,), ``rng_range`` (M,) with the range offset β = ``beacon_bias``
+    already removed (z − β), variance ``R_range`` = ``beacon_range_var``. Beacons share the landmark id space (one
     ``LandmarkMap`` holds both); ``map_ids``/``map_xy`` are the sequence's known positions.
 
 Rejected and counted (``counts``): non-finite motion rows, non-finite observations and ranges,
@@ -23,6 +27,7 @@ and observations without a landmark id (this smoother uses known association onl
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Annotated, Literal
 
 import numpy as np
 
@@ -30,13 +35,49 @@ from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 from slamarena.estimators.models import MOTION_MODELS, inverse_observe
 from slamarena.estimators.stepping import twist_pieces
+from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from .noise import increments_relative, regularise, twist_relative, world_to_body
 
-__all__ = ["LandmarkProblem", "MotionChain", "motion_chain", "build_problem", "check_covariance"]
+__all__ = ["PoseChainParams", "LandmarkProblemParams", "MotionModelName", "LandmarkProblem", "MotionChain", "motion_chain",
+           "build_problem", "check_covariance"]
 
 #: relative tolerance within which an observation stamp equals the end of the motion
 _STAMP_TOL = 1e-9
+
+#: the motion model's name; a field type because the smoothers share it with different defaults
+MotionModelName = Annotated[Literal["arc", "euler"], Field(
+    description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")]
+PositiveFinite = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class PoseChainParams(Params):
+    """The chain of pose keys every sequence smoother builds (:func:`motion_chain`): the relative motions
+    between the keys with their noise, and the prior on the first."""
+
+    motion_model: MotionModelName = "arc"
+    regularisation: float = Field(
+        1e-4, ge=0.0, lt=1.0, description="floor of a between factor's covariance eigenvalues relative to its largest (noise.regularise) [1]")
+    prior_sigma: tuple[PositiveFinite, PositiveFinite, PositiveFinite] = Field(
+        (1e-3, 1e-3, 1e-3), description="standard deviations (σx [m], σy [m], σθ [rad]) of the prior that holds the first pose at the start pose")
+    twist_cov: Covariance2 | None = Field(
+        None, description="covariance of one Twist row's (v, ω) error [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov")
+
+
+class LandmarkProblemParams(PoseChainParams):
+    """The landmark-SLAM problem (:func:`build_problem`): the pose chain with extra keys and the odometry
+    increments' noise, the observation noise and the beacon ranges'."""
+
+    max_interval: PositiveFinite | None = Field(
+        None, description="a pose key at least every this many seconds besides the measurement stamps [s]; None: keys at the stamps only")
+    increment_cov: Covariance3 | None = Field(
+        None, description="covariance of one odometry increment (dx, dy, dθ) [m², m², rad²], for every row; "
+                          "None: the stream's Increments.cov, else the sequence's Noise.increment_cov")
+
+    range_bearing_cov: Covariance2 | None = Field(
+        None, description="covariance of one observation in (range, bearing) order [m², rad²]; None: the sequence's Noise.range_bearing_cov")
+    beacon_range_var: PositiveFinite = Field(1.0, description="variance σ_r² of one beacon range [m²] (no dataset states it)")
+    beacon_bias: float = Field(0.0, allow_inf_nan=False, description="offset β of every beacon range, subtracted from it [m]")
 
 
 @dataclass(frozen=True)
@@ -163,29 +204,20 @@ class MotionChain:
         return snapped, (snapped >= self.stamps[0]) & (snapped <= t_end)
 
 
-def motion_chain(
-    sequence: Sequence,
-    stamps: np.ndarray,
-    *,
-    motion_model: str = "arc",
-    max_interval: float | None = None,
-    regularisation: float = 1e-4,
-    twist_cov=None,
-    increment_cov=None,
-) -> MotionChain:
-    """Pose keys at the start and end of the motion, at ``stamps`` inside it and every ``max_interval``;
-    the relative motion between consecutive keys and its covariance (the filters' propagation).
+def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams, *, max_interval: float | None = None,
+                 increment_cov=None) -> MotionChain:
+    """Pose keys at the start and end of the motion, at ``stamps`` inside it and every ``max_interval`` [s]
+    (None: no extra keys); the relative motion between consecutive keys and its covariance (the filters'
+    propagation).
 
-    ``twist_cov`` / ``increment_cov`` override the sequence's stated motion noise.
+    ``params.twist_cov`` / ``increment_cov`` (3, 3) override the sequence's stated motion noise.
     """
     motion = sequence.motion
     if motion is None or not len(motion):
         raise ValueError(f"{sequence.name}: the smoother needs a motion input (Twist or Increments)")
-    if motion_model not in MOTION_MODELS:
-        raise ValueError(f"unknown motion_model {motion_model!r}; known: {', '.join(MOTION_MODELS)}")
     counts: dict = {}
     if isinstance(motion, Twist):
-        M = twist_cov if twist_cov is not None else sequence.noise.twist_cov
+        M = params.twist_cov if params.twist_cov is not None else sequence.noise.twist_cov
         if M is None:
             raise ValueError(f"{sequence.name}: no twist noise stated; pass twist_cov")
         M = check_covariance("twist_cov", M, (2, 2))
@@ -196,7 +228,7 @@ def motion_chain(
         finite = np.isfinite(motion.delta).all(axis=1)
         counts["rejected_nonfinite_motion"] = int((~finite).sum())
         if motion.cov is not None:
-            inc_cov = motion.cov if increment_cov is None else np.broadcast_to(check_covariance("increment_cov", increment_cov, (3, 3)), motion.cov.shape)
+            inc_cov = motion.cov if increment_cov is None else np.broadcast_to(np.asarray(increment_cov, dtype=float), motion.cov.shape)
         else:
             C = increment_cov if increment_cov is not None else sequence.noise.increment_cov
             if C is None:
@@ -210,13 +242,11 @@ def motion_chain(
     stamps = np.asarray(stamps, dtype=float)
     parts = [np.array([t_start, t_end]), np.where(np.abs(stamps - t_end) <= _STAMP_TOL * max(1.0, abs(t_end)), t_end, stamps)]
     if max_interval is not None:
-        if not max_interval > 0:
-            raise ValueError("max_interval must be > 0")
         parts.append(np.arange(t_start, t_end, max_interval))
     key_t = np.unique(np.concatenate(parts))
     key_t = key_t[(key_t >= t_start) & (key_t <= t_end)]
 
-    model = MOTION_MODELS[motion_model]
+    model = MOTION_MODELS[params.motion_model]
     pose_of_stamp = np.zeros(key_t.size, dtype=np.int64)
     times, deltas, covs = [key_t[0]], [], []
     for s in range(1, key_t.size):
@@ -235,7 +265,7 @@ def motion_chain(
             pose_of_stamp[s] = pose_of_stamp[s - 1]
             continue
         deltas.append(d)
-        covs.append(regularise(world_to_body(d[2], P), regularisation))
+        covs.append(regularise(world_to_body(d[2], P), params.regularisation))
         times.append(b)
         pose_of_stamp[s] = len(times) - 1
     return MotionChain(
@@ -249,18 +279,7 @@ def motion_chain(
     )
 
 
-def build_problem(
-    sequence: Sequence,
-    *,
-    motion_model: str = "arc",
-    max_interval: float | None = None,
-    regularisation: float = 1e-4,
-    twist_cov=None,
-    increment_cov=None,
-    range_bearing_cov=None,
-    beacon_range_var: float = 1.0,
-    beacon_bias: float = 0.0,
-) -> LandmarkProblem:
+def build_problem(sequence: Sequence, params: LandmarkProblemParams = LandmarkProblemParams()) -> LandmarkProblem:
     """Pose keys, relative motions with their covariances, known-id observations and beacon ranges.
 
     ``twist_cov``, ``increment_cov``, ``range_bearing_cov`` override the sequence's stated noise;
@@ -268,7 +287,7 @@ def build_problem(
     dataset states them).
     """
     counts: dict = {}
-    R = range_bearing_cov if range_bearing_cov is not None else sequence.noise.range_bearing_cov
+    R = params.range_bearing_cov if params.range_bearing_cov is not None else sequence.noise.range_bearing_cov
     rb = sequence.range_bearing
     if rb is not None and len(rb):
         if R is None:
@@ -284,16 +303,13 @@ def build_problem(
         rb = None
     br = sequence.beacon_ranges
     if br is not None and len(br):
-        if not (np.isfinite(beacon_range_var) and beacon_range_var > 0) or not np.isfinite(beacon_bias):
-            raise ValueError("beacon_range_var must be > 0 and beacon_bias finite")
         finite = np.isfinite(br.range)
         counts["rejected_nonfinite_ranges"] = int((~finite).sum())
         br = br.select(finite)
     else:
         br = None
     stamps = np.concatenate([np.zeros(0) if rb is None else rb.t, np.zeros(0) if br is None else br.t])
-    chain = motion_chain(sequence, stamps, motion_model=motion_model, max_interval=max_interval,
-                         regularisation=regularisation, twist_cov=twist_cov, increment_cov=increment_cov)
+    chain = motion_chain(sequence, stamps, params, max_interval=params.max_interval, increment_cov=params.increment_cov)
     counts.update(chain.counts)
     if rb is not None:
         rb_t, inside = chain.inside(rb.t)
@@ -310,7 +326,7 @@ def build_problem(
         rng_pose = chain.index(br_t[inside])
         order = np.argsort(rng_pose, kind="stable")
         ranges = dict(rng_pose=rng_pose[order], rng_id=br.beacon_id[inside][order],
-                      rng_range=br.range[inside][order] - float(beacon_bias), R_range=float(beacon_range_var))
+                      rng_range=br.range[inside][order] - params.beacon_bias, R_range=params.beacon_range_var)
     lm = sequence.landmarks
     if lm is not None:
         ranges.update(map_ids=lm.ids, map_xy=lm.xy)

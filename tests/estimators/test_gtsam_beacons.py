@@ -14,7 +14,7 @@ from slamarena.datasets.sequence import BeaconRanges  # noqa: E402
 from checks import with_beacon_ranges  # noqa: E402
 from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
 from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
-from slamarena.estimators.gtsam_smoother.problem import build_problem  # noqa: E402
+from slamarena.estimators.gtsam_smoother.problem import LandmarkProblemParams, build_problem  # noqa: E402
 
 SIGMA, BIAS = 0.1, 1.5
 
@@ -35,7 +35,7 @@ def _rmse(est, seq):
 
 
 def test_anchored_beacons_localize_and_stay_put(seq, anchored):
-    dead = build_problem(seq, beacon_range_var=SIGMA**2).dead_reckoning()
+    dead = build_problem(seq, LandmarkProblemParams(beacon_range_var=SIGMA**2)).dead_reckoning()
     truth = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, np.minimum(anchored.t, seq.ground_truth.t[-1]))
     dead_rmse = np.sqrt(np.mean(np.sum((dead[:, :2] - truth[:, :2]) ** 2, axis=1)))
     assert _rmse(anchored, seq) < 0.1 and _rmse(anchored, seq) < 0.2 * dead_rmse
@@ -90,7 +90,7 @@ def test_nonfinite_ranges_are_rejected_and_counted(seq, anchored):
 
 @pytest.mark.parametrize("params", [dict(beacon_range_var=0.0), dict(beacon_bias=float("nan")), dict(beacon_prior_sigma=-1.0)])
 def test_bad_beacon_config_is_rejected_before_work(params):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=next(iter(params))):
         BatchSmoother(**params)
 
 

@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -13,6 +14,7 @@ from slamarena.datasets.sequence import Gps  # noqa: E402
 from slamarena.datasets.sim.localization import simulate  # noqa: E402
 from slamarena.estimators.ekf_localizer import EKFLocalizer  # noqa: E402
 from slamarena.estimators.gtsam_smoother import FixedLagLocalizer  # noqa: E402
+from slamarena.estimators.gtsam_smoother.problem import PoseChainParams  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +46,7 @@ def test_online_output_equals_the_ekf_with_the_same_noise(seq, online):
     ratio = np.diagonal(online.pose_cov, axis1=1, axis2=2)[10:] / np.diagonal(cov[k], axis1=1, axis2=2)[10:]
     np.testing.assert_allclose(np.median(ratio, axis=0), 1.0, atol=0.02)
     assert np.all((ratio > 0.7) & (ratio < 1.3))
+    assert online.meta["params"] == FixedLagLocalizer.Params(output="online").canonical()
 
 
 def test_smoothed_output_beats_online_and_is_consistent(seq, online):
@@ -77,5 +80,21 @@ def test_nonfinite_gps_is_rejected_and_counted(seq, online):
 
 @pytest.mark.parametrize("params", [dict(lag=0.0), dict(output="delayed"), dict(robust="l1"), dict(prior_sigma=[1.0])])
 def test_bad_config_is_rejected(params):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=next(iter(params))):
         FixedLagLocalizer(**params)
+
+
+def test_parameters_are_one_model():
+    with pytest.raises(ValidationError, match="yaw_var"):
+        FixedLagLocalizer(yaw_var=-1.0)
+    with pytest.raises(ValidationError, match="gps_sigma"):
+        FixedLagLocalizer(gps_sigma=1.0)  # a misspelt parameter is an error, never ignored
+    given = dict(lag=0.5, output="online", gps_cov=[0.04, 0.09], robust="huber")
+    assert FixedLagLocalizer(FixedLagLocalizer.Params(**given)).params == FixedLagLocalizer(**given).params
+    made = FixedLagLocalizer(**given)
+    assert made.params.gps_cov == [[0.04, 0.0], [0.0, 0.09]]
+    assert FixedLagLocalizer(made.params.canonical()).params == made.params
+    # the pose chain's fields are shared with the landmark smoothers; only the motion model's default differs (the EKF localizer's)
+    chain = {k: getattr(made.params, k) for k in PoseChainParams.model_fields}
+    assert chain == {**dict(PoseChainParams()), "motion_model": "euler"}
+

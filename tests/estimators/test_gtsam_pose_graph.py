@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -66,7 +67,7 @@ def test_noise_free_graph_with_loop_closures_recovers_truth_from_a_bad_start():
         assert est.diagnostics["final_error"] < 1e-9
     chain = PoseGraphOptimizer(initial="chain").run(graph)
     assert np.abs(_angle_aware_diff(chain.poses, truth)).max() < 1e-6
-    assert chain.meta["initial"] == "chain"
+    assert chain.meta["initial"] == "chain" and chain.meta["params"]["initial"] == "chain"
 
 
 def test_xy_landmark_edges_are_points_in_the_robot_frame():
@@ -114,10 +115,22 @@ def test_sequence_input_is_solved_as_the_batch_smoother():
     b = BatchSmoother(covariances=False, relative_error_tol=1e-8, absolute_error_tol=1e-8).run(seq)
     assert a.method == "gtsam_pose_graph"
     np.testing.assert_allclose(a.poses, b.poses, atol=1e-9)
+    assert a.meta["params"] == b.meta["params"]  # the optimiser, kernel and covariance settings are passed on
 
 
 def test_bad_input_is_rejected():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="initial"):
         PoseGraphOptimizer(initial="random")
     with pytest.raises(TypeError):
         PoseGraphOptimizer().run(np.zeros(3))
+
+
+def test_parameters_are_one_model():
+    with pytest.raises(ValidationError, match="anchor_sigma"):
+        PoseGraphOptimizer(anchor_sigma=0.0)
+    with pytest.raises(ValidationError, match="max_iter"):
+        PoseGraphOptimizer(max_iter=10)  # a misspelt parameter is an error, never ignored
+    given = dict(optimizer="gauss_newton", robust="cauchy", robust_k=1.0, covariances=True)
+    assert PoseGraphOptimizer(PoseGraphOptimizer.Params(**given)).params == PoseGraphOptimizer(**given).params
+    # the optimiser's settings are the batch smoother's fields; only the tolerances' defaults differ
+    assert PoseGraphOptimizer().params.relative_error_tol == 1e-8 and BatchSmoother().params.relative_error_tol == 1e-10

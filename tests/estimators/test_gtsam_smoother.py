@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -14,7 +15,7 @@ from slamarena.datasets.sequence import Increments, RangeBearing  # noqa: E402
 from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
 from slamarena.estimators import create  # noqa: E402
 from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # noqa: E402
-from slamarena.estimators.gtsam_smoother.problem import build_problem  # noqa: E402
+from slamarena.estimators.gtsam_smoother.problem import LandmarkProblemParams, build_problem  # noqa: E402
 from slamarena.estimators.models import ARC  # noqa: E402
 from slamarena.experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
 
@@ -59,6 +60,7 @@ def test_batch_beats_dead_reckoning(seq, batch):
     true_xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, batch.landmark_ids)]
     assert np.sqrt(np.mean(np.sum((batch.landmarks - true_xy) ** 2, axis=1))) < 0.2
     assert batch.diagnostics["final_error"] < 0.2 * batch.diagnostics["initial_error"]
+    assert batch.meta["params"] == BatchSmoother.Params().canonical()
     # ½ χ² of the residuals at the optimum ≈ ½ (measurements − unknowns)
     dof = 2 * len(seq.range_bearing) + 3 * (len(batch.t) - 1) + 3 - 3 * len(batch.t) - 2 * len(batch.landmarks)
     assert 0.5 * chi2_band(dof, 1, 0.999)[0] < batch.diagnostics["final_error"] < 0.5 * chi2_band(dof, 1, 0.999)[1]
@@ -160,8 +162,27 @@ def test_nonfinite_and_unknown_observations_are_rejected_and_counted(seq, batch)
 @pytest.mark.parametrize("params", [dict(robust="tukey"), dict(optimizer="newton"), dict(prior_sigma=[0.1, 0.1]),
                                     dict(max_interval=-1.0), dict(regularisation=2.0)])
 def test_bad_config_is_rejected_before_work(params):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=next(iter(params))):
         BatchSmoother(**params)
+
+
+@pytest.mark.parametrize("cls,bad,given,cov", [
+    (BatchSmoother, dict(max_iterations=0), dict(optimizer="dogleg", twist_cov=0.01, prior_sigma=[0.1, 0.1, 0.05]), "twist_cov"),
+    (ISAM2Smoother, dict(factorization="LU"), dict(relinearize_skip=1, range_bearing_cov=[0.01, 1e-4], step_clock="cpu"), "range_bearing_cov"),
+])
+def test_parameters_are_one_model(cls, bad, given, cov):
+    with pytest.raises(ValidationError, match=next(iter(bad))):
+        cls(**bad)
+    with pytest.raises(ValidationError, match="relinearise_skip"):
+        cls(relinearise_skip=1)  # a misspelt parameter is an error, never ignored
+    assert cls(cls.Params(**given)).params == cls(**given).params
+    made = cls(**given)
+    # a covariance given as a scalar or a diagonal is stored as the full matrix; the canonical form rebuilds the same model
+    assert np.asarray(getattr(made.params, cov)).shape == (2, 2)
+    assert cls(made.params.canonical()).params == made.params
+    # the landmark problem's fields are the landmark smoothers' (one model), with the same defaults
+    assert set(LandmarkProblemParams.model_fields) < set(cls.Params.model_fields)
+    assert {k: getattr(cls().params, k) for k in LandmarkProblemParams.model_fields} == dict(LandmarkProblemParams())
 
 
 def test_missing_noise_is_a_clear_error(seq):
@@ -174,7 +195,7 @@ def test_missing_noise_is_a_clear_error(seq):
 def test_max_interval_adds_pose_keys(seq):
     coarse = dataclasses.replace(seq, range_bearing=seq.range_bearing.select(np.isin(seq.range_bearing.t, seq.range_bearing.t[::200])))
     few = build_problem(coarse)
-    many = build_problem(coarse, max_interval=1.0)
+    many = build_problem(coarse, LandmarkProblemParams(max_interval=1.0))
     assert many.n_poses > few.n_poses + 30
     # the chain of relative motions composes to the same end pose either way
     np.testing.assert_allclose(few.dead_reckoning()[-1], many.dead_reckoning()[-1], atol=1e-9)
