@@ -19,7 +19,7 @@ Increments input ``δ_k`` (body frame, covariance ``C_k`` = ``Increments.cov[k]`
 
 Both Jacobians with respect to the state have the form ``G_k = [[I₂, g_k], [0, 1]]``, so the
 recursion has a closed form computed with prefix sums instead of a loop
-(:func:`propagate_covariance`, checked against the literal recursion in the tests).
+(:func:`slamarena.estimators.models.propagate_covariance`, checked against the literal recursion in the tests).
 
 Output poses
 ------------
@@ -46,42 +46,10 @@ from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 from slamarena.params import Field, Params
 
-from .models import MOTION_MODELS, compose_jacobians
+from .models import MOTION_MODELS, compose_chain, propagate_covariance
 from .stepping import twist_pieces
 
-__all__ = ["DeadReckoning", "DeadReckoningParams", "propagate_covariance"]
-
-
-def propagate_covariance(P0: np.ndarray, G: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """All covariances of ``P_{k+1} = G_k P_k G_kᵀ + M_k`` for ``G_k = [[I₂, g_k], [0, 1]]``.
-
-    P0 (3, 3), G (K, 3, 3) (only ``g_k = G_k[:2, 2]`` is used), M (K, 3, 3) → (K + 1, 3, 3).
-
-    With ``S_n = Σ_{i<n} g_i`` the product ``G_{n−1}⋯G_k = [[I, S_n − S_k], [0, 1]]``, so
-    ``P_n = Σ_j Φ_j X_j Φ_jᵀ`` over the terms ``X_j`` ∈ {P_0, M_0, …, M_{n−1}} each carried by
-    ``Φ_j = [[I, a_j], [0, 1]]``, ``a_j = S_n − T_j`` (``T = S_0`` for P_0, ``T = S_{k+1}``
-    for M_k). For ``X = [[A, c], [cᵀ, m]]``, ``Φ X Φᵀ = [[A + a cᵀ + c aᵀ + m a aᵀ, c + m a], ·]``.
-    Summing, with prefix sums over the terms present at n::
-
-        C1 = Σ (A − T cᵀ − c Tᵀ + m T Tᵀ),   C2 = Σ (c − m T),   C3 = Σ m
-        P_n[:2, :2] = C1 + S_n C2ᵀ + C2 S_nᵀ + C3 S_n S_nᵀ,   P_n[:2, 2] = C2 + C3 S_n,   P_n[2, 2] = C3
-    """
-    g = G[:, :2, 2]
-    S = np.vstack([np.zeros((1, 2)), np.cumsum(g, axis=0)])  # S_0 … S_K
-    X = np.concatenate([P0[None], M], axis=0)  # term j = 0 is P0, j = k + 1 is M_k
-    T = np.vstack([np.zeros((1, 2)), S[1:]])  # T_0 = S_0, T_{k+1} = S_{k+1}
-    A, c, m = X[:, :2, :2], X[:, :2, 2], X[:, 2, 2]
-    Tc = T[:, :, None] * c[:, None, :]
-    C1 = np.cumsum(A - Tc - np.swapaxes(Tc, 1, 2) + m[:, None, None] * T[:, :, None] * T[:, None, :], axis=0)
-    C2 = np.cumsum(c - m[:, None] * T, axis=0)
-    C3 = np.cumsum(m)
-    SC2 = S[:, :, None] * C2[:, None, :]
-    P = np.empty((len(S), 3, 3))
-    P[:, :2, :2] = C1 + SC2 + np.swapaxes(SC2, 1, 2) + C3[:, None, None] * S[:, :, None] * S[:, None, :]
-    P[:, :2, 2] = C2 + C3[:, None] * S
-    P[:, 2, :2] = P[:, :2, 2]
-    P[:, 2, 2] = C3
-    return P
+__all__ = ["DeadReckoning", "DeadReckoningParams"]
 
 
 class DeadReckoningParams(Params):
@@ -148,15 +116,15 @@ class DeadReckoning:
         delta = inc.delta.copy()
         bad = ~np.isfinite(delta).all(axis=1)
         delta[bad] = 0.0
-        all_poses = accumulate(sequence.start_pose, delta)
         pose_cov = None
         C = inc.cov if inc.cov is not None else sequence.noise.increment_cov
         if self.params.propagate_covariance and C is not None:
             C = np.broadcast_to(C, (len(inc), 3, 3)).copy()
             C[bad] = 0.0
-            Jx, Jd = compose_jacobians(all_poses[:-1], delta)
-            pose_cov = propagate_covariance(self.P0, Jx, Jd @ C @ np.swapaxes(Jd, 1, 2))[1:]
-        return inc.t.copy(), all_poses[1:], pose_cov, int(bad.sum())
+            poses, pose_cov = compose_chain(sequence.start_pose, self.P0, delta, C)
+        else:
+            poses = accumulate(sequence.start_pose, delta)[1:]
+        return inc.t.copy(), poses, pose_cov, int(bad.sum())
 
 
 def _finite_twist(twist: Twist) -> tuple[Twist, int]:

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slamarena.datasets import kinematics
-from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.datasets.geometry import accumulate, compose, wrap_angle
 
 __all__ = [
     "MotionModel",
@@ -55,7 +55,16 @@ __all__ = [
     "inverse_observe",
     "inverse_observation_jacobians",
     "compose_jacobians",
+    "propagate_covariance",
+    "compose_chain",
+    "DEFAULT_TWIST_COV",
+    "DEFAULT_RANGE_BEARING_COV",
 ]
+
+#: noise of the landmark-SLAM filters when neither the method's parameters nor the sequence state one:
+#: σ_v = 0.1 m/s, σ_ω = 0.05 rad/s per (v, ω) row; σ_r = 0.1 m, σ_b = 1°
+DEFAULT_TWIST_COV = np.diag([0.1**2, 0.05**2])
+DEFAULT_RANGE_BEARING_COV = np.diag([0.1**2, np.radians(1.0) ** 2])
 
 
 def _sinc(a: np.ndarray) -> np.ndarray:
@@ -193,3 +202,51 @@ def compose_jacobians(x, delta) -> tuple[np.ndarray, np.ndarray]:
     Jd[..., 1, 1] = c
     Jd[..., 2, 2] = 1.0
     return Jx, Jd
+
+
+def propagate_covariance(P0: np.ndarray, G: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """All covariances of ``P_{k+1} = G_k P_k G_kᵀ + M_k`` for ``G_k = [[I₂, g_k], [0, 1]]``.
+
+    P0 (3, 3), G (K, 3, 3) (only ``g_k = G_k[:2, 2]`` is used), M (K, 3, 3) → (K + 1, 3, 3).
+
+    With ``S_n = Σ_{i<n} g_i`` the product ``G_{n−1}⋯G_k = [[I, S_n − S_k], [0, 1]]``, so
+    ``P_n = Σ_j Φ_j X_j Φ_jᵀ`` over the terms ``X_j`` ∈ {P_0, M_0, …, M_{n−1}} each carried by
+    ``Φ_j = [[I, a_j], [0, 1]]``, ``a_j = S_n − T_j`` (``T = S_0`` for P_0, ``T = S_{k+1}``
+    for M_k). For ``X = [[A, c], [cᵀ, m]]``, ``Φ X Φᵀ = [[A + a cᵀ + c aᵀ + m a aᵀ, c + m a], ·]``.
+    Summing, with prefix sums over the terms present at n::
+
+        C1 = Σ (A − T cᵀ − c Tᵀ + m T Tᵀ),   C2 = Σ (c − m T),   C3 = Σ m
+        P_n[:2, :2] = C1 + S_n C2ᵀ + C2 S_nᵀ + C3 S_n S_nᵀ,   P_n[:2, 2] = C2 + C3 S_n,   P_n[2, 2] = C3
+    """
+    g = G[:, :2, 2]
+    S = np.vstack([np.zeros((1, 2)), np.cumsum(g, axis=0)])  # S_0 … S_K
+    X = np.concatenate([P0[None], M], axis=0)  # term j = 0 is P0, j = k + 1 is M_k
+    T = np.vstack([np.zeros((1, 2)), S[1:]])  # T_0 = S_0, T_{k+1} = S_{k+1}
+    A, c, m = X[:, :2, :2], X[:, :2, 2], X[:, 2, 2]
+    Tc = T[:, :, None] * c[:, None, :]
+    C1 = np.cumsum(A - Tc - np.swapaxes(Tc, 1, 2) + m[:, None, None] * T[:, :, None] * T[:, None, :], axis=0)
+    C2 = np.cumsum(c - m[:, None] * T, axis=0)
+    C3 = np.cumsum(m)
+    SC2 = S[:, :, None] * C2[:, None, :]
+    P = np.empty((len(S), 3, 3))
+    P[:, :2, :2] = C1 + SC2 + np.swapaxes(SC2, 1, 2) + C3[:, None, None] * S[:, :, None] * S[:, None, :]
+    P[:, :2, 2] = C2 + C3[:, None] * S
+    P[:, 2, :2] = P[:, :2, 2]
+    P[:, 2, 2] = C3
+    return P
+
+
+def compose_chain(start, P0, deltas, C) -> tuple[np.ndarray, np.ndarray]:
+    """Poses and covariances of ``start ⊕ δ_1 ⊕ … ⊕ δ_k`` for k = 1…K, with uncertain increments.
+
+    start (3,), P0 (3, 3) its covariance; deltas (K, 3) body-frame increments with covariances C (K, 3, 3)::
+
+        x_k = x_{k−1} ⊕ δ_k,   P_k = J_x P_{k−1} J_xᵀ + J_δ C_k J_δᵀ      (J_x, J_δ = compose_jacobians(x_{k−1}, δ_k))
+
+    computed in closed form (:func:`propagate_covariance`: J_x = [[I₂, g_k], [0, 1]]). Returns (K, 3), (K, 3, 3).
+    """
+    deltas = np.asarray(deltas, dtype=float).reshape(-1, 3)
+    poses = accumulate(start, deltas)
+    Jx, Jd = compose_jacobians(poses[:-1], deltas)
+    P = propagate_covariance(np.asarray(P0, dtype=float), Jx, Jd @ C @ np.swapaxes(Jd, 1, 2))
+    return poses[1:], P[1:]

@@ -97,7 +97,8 @@ from scipy.linalg import block_diag
 from slamarena.datasets.geometry import accumulate, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
-from ..models import MOTION_MODELS, compose_jacobians, inverse_observation_jacobians, inverse_observe, observation_jacobians, observe
+from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_jacobians, inverse_observation_jacobians,
+                      inverse_observe, observation_jacobians, observe)
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_covariance, check_innovation_cov
@@ -109,8 +110,6 @@ __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeB
            "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
 
 #: fall-back noise when neither the parameters nor the sequence state it
-DEFAULT_TWIST_COV = np.diag([0.1**2, 0.05**2])
-DEFAULT_RANGE_BEARING_COV = np.diag([0.1**2, np.radians(1.0) ** 2])
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
 

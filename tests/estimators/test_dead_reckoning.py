@@ -6,7 +6,8 @@ import pytest
 
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Increments, Noise, Sequence, Trajectory, Twist
-from slamarena.estimators.dead_reckoning import DeadReckoning, propagate_covariance
+from slamarena.estimators.dead_reckoning import DeadReckoning
+from slamarena.estimators.models import propagate_covariance
 from slamarena.estimators.models import ARC, EULER, compose_jacobians
 
 
