@@ -6,6 +6,7 @@ import gzip
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from slamarena.datasets import DataFormatError, Increments
 from slamarena.datasets.formats import carmen
@@ -152,3 +153,20 @@ def test_truncated_compressed_file_is_a_format_error(tmp_path):
     path.write_bytes(path.read_bytes()[:-20])
     with pytest.raises(DataFormatError, match="bz2"):
         carmen.read(path)
+
+
+def test_a_params_model_and_keywords_read_alike(tmp_path):
+    path = _log(tmp_path, GOOD)
+    given = carmen.read(path, params=carmen.CarmenParams(max_range=2.5, strict_time=True))
+    keywords = carmen.read(path, max_range=2.5, strict_time=True)
+    assert carmen.read.Params is carmen.load.Params is carmen.CarmenParams
+    assert given.scans.max_range == keywords.scans.max_range == 2.5 and given.meta["no_return_readings"] == keywords.meta["no_return_readings"] == 4
+    np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)
+    assert carmen.load({"log": path}, "small", max_range=2.5).meta["no_return_readings"] == 4
+
+
+@pytest.mark.parametrize("field,value", [("max_range", 0.0), ("beams", 0), ("interlaced", "maybe"), ("max_rang", 4.0)])
+def test_bad_or_unknown_options_name_the_field(tmp_path, field, value):
+    with pytest.raises(ValidationError) as err:
+        carmen.read(_log(tmp_path, GOOD), **{field: value})
+    assert {e["loc"][0] for e in err.value.errors()} == {field}
