@@ -5,10 +5,11 @@ import math
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
-from slamarena.datasets.sim.landmarks import LAYOUTS, route_distance, simulate
+from slamarena.datasets.sim.landmarks import LAYOUTS, LandmarkWorldParams, route_distance, simulate
 from slamarena.estimators.models import MOTION_MODELS, observe
 from checks import assert_dead_reckoning_consistent, assert_gaussian
 
@@ -152,3 +153,23 @@ def test_events_predict_then_update(seq):
 def test_bad_config_is_rejected(bad):
     with pytest.raises(ValueError):
         simulate(**bad)
+
+
+def test_a_params_model_and_keywords_simulate_alike():
+    given = simulate(params=LandmarkWorldParams(n_landmarks=12, layout="grid", seed=2))
+    keywords = datasets.load("sim:landmarks", n_landmarks=12, layout="grid", seed=2)
+    assert simulate.Params is LandmarkWorldParams and given.meta == keywords.meta and given.meta["layout"] == "grid"
+    np.testing.assert_array_equal(given.range_bearing.range, keywords.range_bearing.range)
+
+
+@pytest.mark.parametrize("field,value", [("n_landmarks", -5), ("layout", "spiral"), ("density", float("inf")), ("fov", 7.0),
+                                         ("max_observations", 0), ("seed", -1), ("n_landmark", 5)])
+def test_bad_value_or_unknown_key_names_the_field(field, value):
+    with pytest.raises(ValidationError) as err:
+        simulate(**{field: value})
+    assert {e["loc"][0] for e in err.value.errors()} == {field}
+
+
+def test_clearance_below_band_is_a_rule_naming_both():
+    with pytest.raises(ValidationError, match=r"clearance \(8.0\) must be < band \(8.0\)"):
+        LandmarkWorldParams(clearance=8.0)

@@ -5,11 +5,12 @@ import math
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
-from slamarena.datasets.sim.localization import first_order_response, simulate
+from slamarena.datasets.sim.localization import LocalizationWorldParams, first_order_response, simulate
 from slamarena.estimators.models import ARC
 from checks import assert_dead_reckoning_consistent, assert_gaussian
 
@@ -161,3 +162,28 @@ def test_step_response_of_the_actuator():
 def test_bad_config_is_rejected(bad):
     with pytest.raises(ValueError):
         simulate(**bad)
+
+
+def test_a_params_model_and_keywords_simulate_alike():
+    slip = [(2.0, 3.0, 0.5, 1.0)]
+    given = simulate(params=LocalizationWorldParams(duration=5.0, slip=slip, motion_source="odometry", seed=3))
+    keywords = datasets.load("sim:localization", duration=5.0, slip=slip, motion_source="odometry", seed=3)
+    assert simulate.Params is LocalizationWorldParams and given.meta == keywords.meta
+    assert given.meta["slip"] == [[2.0, 3.0, 0.5, 1.0]]
+    np.testing.assert_array_equal(given.motion.v, keywords.motion.v)
+
+
+@pytest.mark.parametrize("field,value", [("duration", -30.0), ("motion_source", "imu"), ("gps_outlier_fraction", 1.5),
+                                         ("gps_outages", [(5.0, 1.0)]), ("slip", [(1.0, 2.0, -0.5)]), ("start", (0.0, 0.0)),
+                                         ("substeps", 0), ("seed", -1), ("gps_sigmma", 0.1)])
+def test_bad_value_or_unknown_key_names_the_field(field, value):
+    with pytest.raises(ValidationError) as err:
+        simulate(**{field: value})
+    assert {e["loc"][0] for e in err.value.errors()} == {field}
+
+
+def test_whole_steps_rule_names_the_fields():
+    with pytest.raises(ValidationError, match=r"duration × cmd_rate \(0\.4\)"):
+        LocalizationWorldParams(duration=1.0, cmd_rate=0.4)
+    with pytest.raises(ValidationError, match=r"cmd_rate × substeps \(0\.3\)"):
+        LocalizationWorldParams(duration=10.0, cmd_rate=0.3, substeps=1)
