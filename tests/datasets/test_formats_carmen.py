@@ -2,16 +2,16 @@
 from __future__ import annotations
 
 import bz2
+import functools
 import gzip
 
 import numpy as np
 import pytest
-from pydantic import ValidationError
 
 from slamarena.datasets import DataFormatError, Increments
 from slamarena.datasets.formats import carmen
 from slamarena.datasets.geometry import accumulate
-from checks import load_staged
+from checks import assert_rejected_naming, load_staged
 
 pytestmark = pytest.mark.realdata
 
@@ -165,8 +165,6 @@ def test_a_params_model_and_keywords_read_alike(tmp_path):
     assert carmen.load({"log": path}, "small", max_range=2.5).meta["no_return_readings"] == 4
 
 
-@pytest.mark.parametrize("field,value", [("max_range", 0.0), ("beams", 0), ("interlaced", "maybe"), ("max_rang", 4.0)])
-def test_bad_or_unknown_options_name_the_field(tmp_path, field, value):
-    with pytest.raises(ValidationError) as err:
-        carmen.read(_log(tmp_path, GOOD), **{field: value})
-    assert {e["loc"][0] for e in err.value.errors()} == {field}
+@pytest.mark.parametrize("bad", [dict(max_range=0.0), dict(beams=0), dict(interlaced="maybe"), dict(max_rang=4.0)])
+def test_bad_or_unknown_options_name_the_field(tmp_path, bad):
+    assert_rejected_naming(functools.partial(carmen.read, _log(tmp_path, GOOD)), **bad)

@@ -5,13 +5,12 @@ import math
 
 import numpy as np
 import pytest
-from pydantic import ValidationError
 from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import accumulate, between, compose, transform_points
 from slamarena.datasets.sim.laser import WORLDS, LaserWorldParams, World, raycast, route_controls, segments, simulate, true_occupancy
-from checks import assert_gaussian
+from checks import assert_gaussian, assert_rejected_naming
 
 BOX = World(
     name="box",
@@ -160,11 +159,11 @@ def test_registry_and_determinism():
     assert not np.array_equal(a.motion.delta, simulate(world="rooms", n_beams=31, seed=10).motion.delta)
 
 
-@pytest.mark.parametrize("bad", [dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0),
-                                 dict(sigma_range=-0.1), dict(max_range=0.0)])
-def test_bad_config_is_rejected(bad):
-    with pytest.raises(ValueError):
-        simulate(**bad)
+@pytest.mark.parametrize("bad", [
+    dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0), dict(sigma_range=-0.1), dict(max_range=0.0),
+    dict(max_range=float("nan")), dict(mount=(0.0, 0.0)), dict(seed=-1), dict(nbeams=8)])
+def test_bad_config_is_rejected_naming_the_field(bad):
+    assert_rejected_naming(simulate, **bad)
 
 
 def test_a_params_model_and_keywords_simulate_alike():
@@ -172,16 +171,3 @@ def test_a_params_model_and_keywords_simulate_alike():
     keywords = datasets.load("sim:laser", world=BOX, n_beams=16, mount=(0.2, 0.0, 0.1), seed=2)
     assert simulate.Params is LaserWorldParams and given.meta == keywords.meta and given.meta["world"] == "box"
     np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)
-
-
-@pytest.mark.parametrize("field,value", [("world", "maze"), ("n_beams", 0), ("fov", 7.0), ("dropout", 1.0), ("mount", (0.0, 0.0)),
-                                         ("max_range", float("nan")), ("seed", -1), ("nbeams", 8)])
-def test_bad_value_or_unknown_key_names_the_field(field, value):
-    with pytest.raises(ValidationError) as err:
-        simulate(**{field: value})
-    assert {e["loc"][0] for e in err.value.errors()} == {field}
-
-
-def test_scan_rate_rule_names_the_fields():
-    with pytest.raises(ValidationError, match=r"odom_rate / scan_rate must be a whole number"):
-        LaserWorldParams(odom_rate=20.0, scan_rate=3.0)
