@@ -1,6 +1,7 @@
 """slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
 
-Depends on numpy and the standard library only.
+Depends on numpy, the standard library and, for the parameter models of the readers and simulators,
+pydantic through :mod:`slamarena.params`.
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate

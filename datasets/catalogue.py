@@ -1,14 +1,17 @@
 """Catalogue of the staged real datasets: registry name → files under the data root and reader.
 
 Each entry names its files relative to a data root, the reader (``"module:function"``,
-imported on first use) and the keyword arguments it is called with; the resolved paths are
-passed as the keyword ``paths`` (a dict ``role → Path``).
+imported on first use) and its preset options (``arguments``). A reader declares its options as a
+``Params`` model (``@with_params``); :meth:`CatalogueEntry.load` validates the preset with the
+caller's keywords applied through that model (an unknown or bad option is an error naming it)
+and calls ``reader(paths, name, params=…)`` with the resolved paths (a dict ``role → Path``).
 """
 from __future__ import annotations
 
 import importlib.util
 from dataclasses import dataclass, field
 
+from slamarena.params import params_model
 from slamarena.targets import import_target
 
 from .dataroot import data_roots, find
@@ -35,7 +38,10 @@ class CatalogueEntry:
         return all(any((root / rel).exists() for root in data_roots()) for rel in self.files)
 
     def load(self, **params):
-        return import_target(self.reader)(paths=self.paths(), name=self.name, **{**self.arguments, **params})
+        """The dataset read with the preset ``arguments``, ``params`` applied over them (validated before any file is found)."""
+        reader = import_target(self.reader)
+        options = params_model(reader).of(self.arguments, params)
+        return reader(self.paths(), self.name, params=options)
 
 
 class _VictoriaParkEntry(CatalogueEntry):

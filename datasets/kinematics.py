@@ -11,13 +11,17 @@ A pose moves as ``x' = x ⊕ δ``.
 """
 from __future__ import annotations
 
+from typing import Literal, get_args
+
 import numpy as np
 
 from .geometry import accumulate, se2_exp
 
-__all__ = ["MODELS", "increment", "integrate"]
+__all__ = ["MotionModel", "MODELS", "increment", "integrate"]
 
-MODELS = ("euler", "arc")
+#: the motion models' names (a parameter's type)
+MotionModel = Literal["euler", "arc"]
+MODELS = get_args(MotionModel)
 
 
 def increment(model: str, v, omega, dt) -> np.ndarray:

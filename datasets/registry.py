@@ -25,7 +25,7 @@ from .catalogue import CATALOGUE, CatalogueEntry
 
 __all__ = ["load", "available", "SIMULATORS", "DatasetInfo", "resolve"]
 
-#: simulator name → "module:function"; each function takes keyword parameters (``seed`` among them)
+#: simulator name → "module:function"; each declares its parameters as a ``Params`` model (``seed`` among them)
 SIMULATORS: dict[str, str] = {
     "sim:landmarks": "slamarena.datasets.sim.landmarks:simulate",
     "sim:localization": "slamarena.datasets.sim.localization:simulate",

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 from scipy import stats
 
 from slamarena.datasets.dataroot import data_roots
@@ -31,6 +32,16 @@ def load_staged(name: str, **params):
     if not resolve(name).present():
         pytest.skip(f"dataset {name} is not under any data root (set SLAMARENA_DATA)")
     return load(name, **params)
+
+
+def assert_rejected_naming(call, **bad) -> None:
+    """``call(**bad)`` raises :class:`pydantic.ValidationError` (a ValueError) naming the first key of ``bad``: as
+    the location of every error, or in the message of a rule joining fields (a model validator's error has none)."""
+    field = next(iter(bad))
+    with pytest.raises(ValidationError) as err:
+        call(**bad)
+    for e in err.value.errors():
+        assert e["loc"][0] == field if e["loc"] else field in e["msg"], e
 
 
 def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:

@@ -58,13 +58,16 @@ import re
 from pathlib import Path
 
 import numpy as np
+from pydantic import PositiveFloat, PositiveInt
+
+from slamarena.params import Field, Params, with_params
 
 from ..errors import DataFormatError
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 from ._text import Lines, check_monotonic, fixed, numbers, read_lines, tags
 
-__all__ = ["read", "load", "beam_angles", "beam_step", "JITTER_S"]
+__all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "JITTER_S"]
 
 #: largest backward step of ipc timestamps treated as clock jitter (clamped), seconds
 JITTER_S = 1.0
@@ -161,8 +164,19 @@ def _interlaced_with(chosen: int, n: np.ndarray, start: np.ndarray, step: np.nda
     return (np.abs(step - step[chosen]) <= tol) & (np.abs(start - start[chosen]) < step[chosen] - tol) & (np.abs(n - n[chosen]) <= 1)
 
 
-def read(path: str | Path, max_range: float | None = None, corrected: bool = False, beams: int | None = None,
-         interlaced: bool = True, strict_time: bool = False, name: str | None = None) -> Sequence:
+class CarmenParams(Params):
+    """Options of the CARMEN reader (:func:`read`, :func:`load`)."""
+
+    max_range: PositiveFloat | None = Field(
+        None, description="readings >= max_range are no return [m] (the log's sentinel); None: ROBOTLASER1's stated max range, else the largest reading")
+    corrected: bool = Field(False, description="a SLAM-corrected log: its scan poses are the ground truth, echo ODOM lines are skipped")
+    beams: PositiveInt | None = Field(None, description="keep only the most common layout with this many beams (no interlacing); None: the most common layout")
+    interlaced: bool = Field(True, description="keep the layouts that interlace with the chosen one (angle_offset, beam_count)")
+    strict_time: bool = Field(False, description="raise at the first timestamp stepping back instead of making stamps non-decreasing")
+
+
+@with_params(CarmenParams)
+def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) -> Sequence:
     """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
     lines = read_lines(path)
     tag = tags(lines)
@@ -189,8 +203,8 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
     messages = np.flatnonzero(tag != "")
     pos = np.searchsorted(messages, odom_rows)
     prev_line = np.where(pos > 0, messages[np.maximum(pos - 1, 0)], -1) if odom_rows.size else odom_rows
-    echo = np.isin(prev_line, scan_rows) if corrected else np.zeros(len(odo), dtype=bool)
-    echo_matches = int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum()) if corrected else 0
+    echo = np.isin(prev_line, scan_rows) if params.corrected else np.zeros(len(odo), dtype=bool)
+    echo_matches = int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum()) if params.corrected else 0
     zero_odom_count = int((odo_ts == 0).sum())
     odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
 
@@ -201,16 +215,16 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
     n_l = layouts[:, 0].astype(np.int64)
     start_l = np.full(len(n_l), -np.pi / 2) if layout is None else layouts[:, 1]
     step_l = np.array([beam_step(int(b)) for b in n_l]) if layout is None else layouts[:, 2]
-    if beams is None:
+    if params.beams is None:
         chosen = int(np.argmax(counts))
     else:
-        matches = np.flatnonzero(n_l == beams)
+        matches = np.flatnonzero(n_l == params.beams)
         if not matches.size:
-            raise ValueError(f"{lines.path}: no scans with {beams} beams (layouts: {n_l.tolist()})")
+            raise ValueError(f"{lines.path}: no scans with {params.beams} beams (layouts: {n_l.tolist()})")
         chosen = int(matches[np.argmax(counts[matches])])
     members = np.zeros(len(layouts), dtype=bool)
     members[chosen] = True
-    if interlaced and beams is None:
+    if params.interlaced and params.beams is None:
         members |= _interlaced_with(chosen, n_l, start_l, step_l)
     keep = members[inverse]
     B = int(n_l[members].max())
@@ -227,15 +241,15 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
 
     # --- time (per stream: running maximum over jitter; else the scan index)
     meta: dict = {}
-    if strict_time:
+    if params.strict_time:
         check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
         check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
-    streams = [scan_ts[keep]] + ([odo_ts] if not corrected else [])
+    streams = [scan_ts[keep]] + ([odo_ts] if not params.corrected else [])
     if all(_usable(ts) for ts in streams):
         scan_t = np.maximum.accumulate(scan_ts[keep])
         odo_t = np.maximum.accumulate(odo_ts) if odo_ts.size else odo_ts
         meta["time_source"] = "ipc_timestamp (running maximum within each message type)"
-        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if corrected else (odo_t != odo_ts).sum()))
+        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum()))
     else:
         # unusable stamps: the scan index; each ODOM at the index of the next scan in file order
         scan_t = np.arange(keep.sum(), dtype=float)
@@ -246,7 +260,7 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
     # --- poses, mount, motion
     mounts = between(robot_pose[keep], laser_pose[keep])
     mount = np.median(mounts, axis=0)
-    if corrected:
+    if params.corrected:
         # each scan's odometry = last raw ODOM pose before it in the file (else the first one)
         last = np.searchsorted(odom_rows, scan_rows[keep]) - 1
         motion = None
@@ -269,6 +283,7 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
             meta["motion_source"] = "odometry pose of each scan message (the log has no ODOM)"
         meta["ground_truth_kind"] = "none"
 
+    max_range = params.max_range
     if max_range is None:
         max_range = float(np.max(stated_max[keep])) if stated_max is not None else float(np.nanmax(ranges))
         meta["max_range_source"] = "ROBOTLASER1 max_range" if stated_max is not None else "largest reading of the log"
@@ -278,7 +293,7 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
                   angle_offset=angle_offset, beam_count=beam_count)
     ignored = {str(t): int((tag == t).sum()) for t in present if t not in ("ODOM", "FLASER", "ROBOTLASER1", "PARAM")}
     meta.update({
-        "format": "CARMEN log", "file": lines.path, "corrected": corrected,
+        "format": "CARMEN log", "file": lines.path, "corrected": params.corrected,
         "scan_message": "FLASER" if flaser_rows.size else "ROBOTLASER1",
         "scans": int(keep.sum()), "odom_messages": int(len(odo)),
         "skipped_echo_odom": int(echo.sum()),
@@ -301,6 +316,7 @@ def read(path: str | Path, max_range: float | None = None, corrected: bool = Fal
                     initial_pose=initial, noise=Noise(), meta=meta)
 
 
-def load(paths: dict, name: str, **params) -> Sequence:
-    """Catalogue reader: role ``log``; ``max_range``, ``corrected``, ``beams``, ``interlaced`` from the entry/params."""
-    return read(paths["log"], name=name, **params)
+@with_params(CarmenParams)
+def load(paths: dict, name: str, /, *, params: CarmenParams) -> Sequence:
+    """Catalogue reader: role ``log``; the options (:class:`CarmenParams`) from the entry and the caller."""
+    return read(paths["log"], name, params=params)

@@ -19,8 +19,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal, get_args
 
 import numpy as np
+
+from slamarena.params import Field, Params, with_params
 
 from ..errors import DataFormatError
 from ..geometry import accumulate, transform_points
@@ -28,10 +31,12 @@ from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
 from ._text import read_lines, record_values, tags, upper_triangle, upper_triangular
 
-__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load"]
+__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load", "IsamParams", "NoiseConvention"]
 
 POSE_TAGS = ("ODOMETRY", "EDGE2")
-NOISE_CONVENTIONS = ("sqrt_information", "covariance", "information")
+#: what a record's noise columns hold (:func:`information`)
+NoiseConvention = Literal["sqrt_information", "covariance", "information"]
+NOISE_CONVENTIONS = get_args(NoiseConvention)
 
 
 @dataclass(frozen=True)
@@ -117,7 +122,7 @@ def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np
     return out[0], out[1]
 
 
-def read(path: str | Path, noise: str = "sqrt_information", ground_truth: str | Path | None = None,
+def read(path: str | Path, noise: NoiseConvention = "sqrt_information", ground_truth: str | Path | None = None,
          name: str | None = None, shared_ids: bool = False) -> PoseGraph:
     """An iSAM-format file as a :class:`PoseGraph` (landmark edges of kind ``"xy"``).
 
@@ -169,6 +174,13 @@ def true_poses_and_landmarks(path: str | Path, node_ids: np.ndarray) -> tuple[np
     return poses[row], landmarks
 
 
-def load(paths: dict, name: str, noise: str = "sqrt_information", **_) -> PoseGraph:
+class IsamParams(Params):
+    """Options of the iSAM catalogue reader (:func:`load`)."""
+
+    noise: NoiseConvention = Field("sqrt_information", description="what the noise columns hold (iSAM files: the square-root information)")
+
+
+@with_params(IsamParams)
+def load(paths: dict, name: str, /, *, params: IsamParams) -> PoseGraph:
     """Catalogue reader: roles ``graph`` and optional ``ground_truth``."""
-    return read(paths["graph"], noise=noise, ground_truth=paths.get("ground_truth"), name=name)
+    return read(paths["graph"], noise=params.noise, ground_truth=paths.get("ground_truth"), name=name)

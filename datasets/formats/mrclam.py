@@ -22,12 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
+from slamarena.params import Params, with_params
+
 from ..errors import DataFormatError
 from ..geometry import interpolate_poses
 from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
 from ._text import check_monotonic, numeric_table
 
-__all__ = ["read_table", "read_robot", "read_directory", "read", "ROBOT_SUBJECTS"]
+__all__ = ["read_table", "read_robot", "read_directory", "read", "MrclamParams", "ROBOT_SUBJECTS"]
 
 #: subjects 1..5 are the robots; 6..20 the landmarks
 ROBOT_SUBJECTS = range(1, 6)
@@ -123,6 +125,11 @@ def read_directory(directory: str | Path, robot: int, name: str | None = None) -
                       name=name or f"{directory.name}/robot{robot}")
 
 
-def read(paths: dict, name: str, **_) -> Sequence:
+class MrclamParams(Params):
+    """The MRCLAM catalogue reader (:func:`read`) takes no options."""
+
+
+@with_params(MrclamParams)
+def read(paths: dict, name: str, /, *, params: MrclamParams) -> Sequence:
     """Catalogue reader: ``paths`` has roles odometry, measurement, barcodes, landmarks[, groundtruth]."""
     return read_robot(name=name, **paths)

@@ -41,13 +41,15 @@ from pathlib import Path
 
 import numpy as np
 
+from slamarena.params import Field, Params, with_params
+
 from ..errors import DataFormatError
 from ..geometry import wrap_angle
 from ..sequence import BeaconRanges, Increments, LandmarkMap, Noise, Sequence, Trajectory
 from ._text import check_monotonic, numeric_table
 from .matlab import read_mat
 
-__all__ = ["read_run", "read", "heading_offset"]
+__all__ = ["read_run", "read", "PlazaParams", "heading_offset"]
 
 #: a ground-truth step shorter than this [m] says nothing about the direction of travel
 _MOVING = 0.05
@@ -82,13 +84,21 @@ def _ranges(path: Path, strict_time: bool) -> tuple[BeaconRanges, dict]:
     return stream, meta
 
 
-def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None = None, name: str = "plaza",
-             strict_time: bool = False, align_heading: bool = True) -> Sequence:
+class PlazaParams(Params):
+    """Options of the Plaza reader (:func:`read_run`, :func:`read`)."""
+
+    strict_time: bool = Field(False, description="raise at the first range row stepping back in time instead of sorting the rows")
+    align_heading: bool = Field(True, description="rotate the ground-truth headings by π when they point against the direction of travel")
+
+
+@with_params(PlazaParams)
+def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None = None, name: str = "plaza", /, *,
+             params: PlazaParams) -> Sequence:
     """One Plaza run from its files (see the module docstring); ``truth`` is the ``.mat`` file."""
     odo, odo_lines = numeric_table(odometry, 3, "an odometry row (t delta_distance delta_heading)")
     check_monotonic(str(odometry), odo[:, 0], odo_lines, "odometry")
     delta = np.column_stack([odo[:, 1], np.zeros(len(odo)), odo[:, 2]])
-    beacon_ranges, meta = _ranges(Path(ranges), strict_time)
+    beacon_ranges, meta = _ranges(Path(ranges), params.strict_time)
     meta = {"dataset": "CMU Plaza (range-only)", "files": [str(p) for p in (odometry, ranges, truth) if p is not None],
             "odometry_rows": int(len(odo)), **meta, "noise": "not stated by the dataset", "time": "seconds (dataset clock)"}
 
@@ -101,7 +111,7 @@ def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None 
         check_monotonic(str(truth), gt[:, 0], np.arange(1, len(gt) + 1), "GT rows")
         poses = gt[:, 1:4].copy()
         offset, agreement = heading_offset(poses)
-        flip = align_heading and abs(offset) > np.pi / 2
+        flip = params.align_heading and abs(offset) > np.pi / 2
         if flip:
             poses[:, 2] = wrap_angle(poses[:, 2] + np.pi)
         meta["ground_truth_heading"] = {
@@ -117,6 +127,7 @@ def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None 
                     ground_truth=ground_truth, landmarks=landmarks, initial_pose=initial, noise=Noise(), meta=meta)
 
 
-def read(paths: dict, name: str, **params) -> Sequence:
+@with_params(PlazaParams)
+def read(paths: dict, name: str, /, *, params: PlazaParams) -> Sequence:
     """Catalogue reader: ``paths`` has roles odometry, ranges and (optional) truth."""
-    return read_run(paths["odometry"], paths["ranges"], paths.get("truth"), name=name, **params)
+    return read_run(paths["odometry"], paths["ranges"], paths.get("truth"), name, params=params)

@@ -20,11 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
+from slamarena.params import Params, with_params
+
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ._text import read_lines, record_values, tags
 
-__all__ = ["read", "load", "toro_information", "RECORDS"]
+__all__ = ["read", "load", "ToroParams", "toro_information", "RECORDS"]
 
 RECORDS = {"VERTEX2": 4, "EDGE2": 11, "EQUIV": 2, "BR": 6}
 
@@ -82,6 +84,11 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
                      meta=meta, **landmarks)
 
 
-def load(paths: dict, name: str, **_) -> PoseGraph:
+class ToroParams(Params):
+    """The TORO catalogue reader (:func:`load`) takes no options."""
+
+
+@with_params(ToroParams)
+def load(paths: dict, name: str, /, *, params: ToroParams) -> PoseGraph:
     """Catalogue reader: role ``graph``."""
     return read(paths["graph"], name=name)

@@ -25,16 +25,22 @@ As a :class:`PoseGraph` (:func:`read_graph`): odometry edges and landmark edges 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+
+from slamarena.params import Field, Params, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ..sequence import Increments, Noise, RangeBearing, Sequence
 from . import isam
 
-__all__ = ["read", "read_graph", "load", "CONVENTION", "gtsam_copy"]
+__all__ = ["read", "read_graph", "load", "VictoriaParkParams", "Variant", "CONVENTION", "gtsam_copy"]
 
+#: the two copies of the file
+Variant = Literal["isam", "gtsam"]
+#: variant → noise convention of its noise columns (:func:`slamarena.datasets.formats.isam.information`)
 CONVENTION = {"isam": "sqrt_information", "gtsam": "covariance"}
 
 
@@ -44,14 +50,14 @@ def _convention(variant: str) -> str:
     return CONVENTION[variant]
 
 
-def read_graph(path: str | Path, variant: str = "isam", name: str = "victoria_park") -> PoseGraph:
+def read_graph(path: str | Path, variant: Variant = "isam", name: str = "victoria_park") -> PoseGraph:
     """The file as a pose graph with landmark edges (kind ``"xy"``)."""
     graph = isam.read(path, noise=_convention(variant), name=name, shared_ids=True)
     graph.meta.update(dataset="Victoria Park", variant=variant, ground_truth="none")
     return graph
 
 
-def read(path: str | Path, variant: str = "isam", name: str = "victoria_park") -> Sequence:
+def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park") -> Sequence:
     """The file as a :class:`Sequence` with :class:`Increments` motion and ``t`` = pose index."""
     convention = _convention(variant)
     rec = isam.read_records(path, allowed=("ODOMETRY", "LANDMARK"))
@@ -109,11 +115,21 @@ def gtsam_copy() -> Path:
     return Path(gtsam.findExampleDataFile("victoria_park.txt"))
 
 
-def load(paths: dict, name: str, variant: str = "gtsam", as_graph: bool = False, **_) -> Sequence | PoseGraph:
+class VictoriaParkParams(Params):
+    """Options of the Victoria Park catalogue reader (:func:`load`)."""
+
+    variant: Variant = Field("gtsam", description="the copy to read: 'gtsam' (covariance noise columns; the GTSAM wheel's copy "
+                                                  "when not staged) or 'isam' (square-root information)")
+    as_graph: bool = Field(False, description="a PoseGraph with landmark edges instead of a Sequence")
+
+
+@with_params(VictoriaParkParams)
+def load(paths: dict, name: str, /, *, params: VictoriaParkParams) -> Sequence | PoseGraph:
     """Catalogue reader: the staged file of ``variant`` or, for ``"gtsam"``, the wheel's copy."""
+    variant = params.variant
     path = paths.get(variant)
     if path is None:
         if variant != "gtsam":
             raise FileNotFoundError(f"Victoria Park variant {variant!r} is not staged (only the gtsam copy ships with GTSAM)")
         path = gtsam_copy()
-    return read_graph(path, variant, name) if as_graph else read(path, variant, name)
+    return read_graph(path, variant, name) if params.as_graph else read(path, variant, name)

@@ -55,14 +55,18 @@ leaves the landmarks and the odometry of a seed unchanged.
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
+from pydantic import ConfigDict, PositiveInt, model_validator
+
+from slamarena.params import Field, Params, with_params
 
 from .. import kinematics
 from ..geometry import wrap_angle
 from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
 
-__all__ = ["simulate", "LAYOUTS", "route_distance"]
+__all__ = ["simulate", "LandmarkWorldParams", "LAYOUTS", "route_distance"]
 
 #: steps × landmarks evaluated per block when generating observations (memory bound)
 _BLOCK_ELEMENTS = 2_000_000
@@ -132,65 +136,51 @@ def _lap_controls(half_a: float, half_b: float, radius: float, speed: float, dt:
     return np.asarray(v), np.asarray(w)
 
 
-def simulate(
-    n_landmarks: int = 50,
-    layout: str = "random",
-    density: float = 0.05,
-    band: float = 8.0,
-    clearance: float = 1.0,
-    turn_radius: float = 4.0,
-    aspect: float = 1.5,
-    speed: float = 1.0,
-    laps: int = 1,
-    dt: float = 0.1,
-    motion_model: str = "arc",
-    sigma_v: float = 0.1,
-    sigma_omega: float = 0.05,
-    max_range: float = 10.0,
-    fov: float = math.pi,
-    sigma_range: float = 0.1,
-    sigma_bearing: float = math.radians(1.0),
-    max_observations: int | None = None,
-    t0: float = 0.0,
-    seed: int = 0,
-) -> Sequence:
-    """Simulate one run of the landmark world (see the module docstring for the model).
+class LandmarkWorldParams(Params):
+    """Parameters of :func:`simulate` (SI units, angles in radians; see the module docstring for the model)."""
 
-    Parameters (units SI, angles in radians):
-        n_landmarks, layout ("random" | "grid" | "ring"), density [landmarks/m² of band],
-        band / clearance [m]: landmark distance to the route lies in [clearance, band],
-        turn_radius [m], aspect (long / short straight), speed [m/s], laps, dt [s],
-        motion_model ("arc" | "euler") that drives the truth,
-        sigma_v [m/s], sigma_omega [rad/s]: control noise per row,
-        max_range [m], fov [rad] full width, sigma_range [m], sigma_bearing [rad],
-        max_observations: keep the nearest m visible landmarks per step (None: all),
-        t0 [s] first stamp, seed.
-    """
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown layout {layout!r}; choose from {sorted(LAYOUTS)}")
-    if motion_model not in kinematics.MODELS:
-        raise ValueError(f"unknown motion_model {motion_model!r}; choose from {list(kinematics.MODELS)}")
-    positive = dict(density=density, band=band, turn_radius=turn_radius, aspect=aspect, speed=speed, dt=dt, max_range=max_range, fov=fov)
-    for name, value in positive.items():
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    for name, value in dict(sigma_v=sigma_v, sigma_omega=sigma_omega, sigma_range=sigma_range, sigma_bearing=sigma_bearing, clearance=clearance).items():
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    if int(n_landmarks) < 1 or int(laps) < 1:
-        raise ValueError("n_landmarks and laps must be >= 1")
-    if clearance >= band:
-        raise ValueError(f"clearance ({clearance}) must be < band ({band})")
-    if max_observations is not None and int(max_observations) < 1:
-        raise ValueError("max_observations must be >= 1 or None")
-    n = int(n_landmarks)
+    model_config = ConfigDict(allow_inf_nan=False)
+
+    n_landmarks: int = Field(50, ge=1, description="number of landmarks n")
+    layout: Literal["random", "grid", "ring"] = Field("random", description="landmark layout in the band (LAYOUTS)")
+    density: float = Field(0.05, gt=0, description="landmarks per area of band [1/m²]; sets the route length")
+    band: float = Field(8.0, gt=0, description="largest landmark distance to the route [m]")
+    clearance: float = Field(1.0, ge=0, description="smallest landmark distance to the route [m]; < band")
+    turn_radius: float = Field(4.0, gt=0, description="turning radius r of the route's corners [m] (smaller if the route is short)")
+    aspect: float = Field(1.5, gt=0, description="long straight / short straight of the route [1]")
+    speed: float = Field(1.0, gt=0, description="speed on the straights [m/s]")
+    laps: int = Field(1, ge=1, description="laps of the route")
+    dt: float = Field(0.1, gt=0, description="duration of a control row [s]")
+    motion_model: kinematics.MotionModel = Field("arc", description="motion model that drives the truth (datasets.kinematics)")
+    sigma_v: float = Field(0.1, ge=0, description="std of a row's speed error σ_v [m/s]")
+    sigma_omega: float = Field(0.05, ge=0, description="std of a row's turn-rate error σ_ω [rad/s]")
+    max_range: float = Field(10.0, gt=0, description="sensor range [m]")
+    fov: float = Field(math.pi, gt=0, le=2 * math.pi, description="full field of view, centred ahead [rad]; 2π sees all round")
+    sigma_range: float = Field(0.1, ge=0, description="std of the range noise σ_r [m]")
+    sigma_bearing: float = Field(math.radians(1.0), ge=0, description="std of the bearing noise σ_b [rad]")
+    max_observations: PositiveInt | None = Field(None, description="keep the nearest m visible landmarks per step; None: all")
+    t0: float = Field(0.0, description="first stamp [s]")
+    seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (landmarks, control noise, observation noise)")
+
+    @model_validator(mode="after")
+    def _clearance_below_band(self):
+        if self.clearance >= self.band:
+            raise ValueError(f"clearance ({self.clearance}) must be < band ({self.band})")
+        return self
+
+
+@with_params(LandmarkWorldParams)
+def simulate(*, params: LandmarkWorldParams) -> Sequence:
+    """Simulate one run of the landmark world (:class:`LandmarkWorldParams`; the model is in the module docstring)."""
+    p = params
+    n, density, band, clearance, speed, dt = p.n_landmarks, p.density, p.band, p.clearance, p.speed, p.dt
 
     # ---------------------------------------------------------------- route from n and density
     perimeter = n / (density * 2.0 * (band - clearance))
-    radius = min(turn_radius, perimeter / (4.0 * math.pi))
+    radius = min(p.turn_radius, perimeter / (4.0 * math.pi))
     straights = (perimeter - 2.0 * math.pi * radius) / 2.0  # = 2a + 2b
-    half_b = straights / (2.0 * (1.0 + aspect))
-    half_a = aspect * half_b
+    half_b = straights / (2.0 * (1.0 + p.aspect))
+    half_a = p.aspect * half_b
     v_lap, w_lap = _lap_controls(half_a, half_b, radius, speed, dt)
     # the realised core box (straights are whole numbers of steps)
     n_a = int(round(2 * half_a / (speed * dt)))
@@ -199,18 +189,18 @@ def simulate(
     start = np.array([-half_a, -half_b - radius, 0.0])
     dts_lap = np.full(v_lap.size, float(dt))
 
-    ss_landmarks, ss_controls, ss_obs = np.random.SeedSequence(int(seed)).spawn(3)
+    ss_landmarks, ss_controls, ss_obs = np.random.SeedSequence(p.seed).spawn(3)
     geo = dict(half_a=half_a, half_b=half_b, radius=radius, band=band, clearance=clearance, density=density,
-               lap_poses=kinematics.integrate(motion_model, start, v_lap, w_lap, dts_lap))
-    xy = LAYOUTS[layout](np.random.default_rng(ss_landmarks), n, geo)
+               lap_poses=kinematics.integrate(p.motion_model, start, v_lap, w_lap, dts_lap))
+    xy = LAYOUTS[p.layout](np.random.default_rng(ss_landmarks), n, geo)
 
     # ---------------------------------------------------------------- controls and truth
-    v = np.tile(v_lap, int(laps))
-    w = np.tile(w_lap, int(laps))
+    v = np.tile(v_lap, p.laps)
+    w = np.tile(w_lap, p.laps)
     K = v.size
-    t = t0 + dt * np.arange(K + 1)
-    truth = kinematics.integrate(motion_model, start, v, w, np.full(K, float(dt)))
-    eps = np.random.default_rng(ss_controls).standard_normal((K, 2)) * [sigma_v, sigma_omega]
+    t = p.t0 + dt * np.arange(K + 1)
+    truth = kinematics.integrate(p.motion_model, start, v, w, np.full(K, float(dt)))
+    eps = np.random.default_rng(ss_controls).standard_normal((K, 2)) * [p.sigma_v, p.sigma_omega]
     motion = Twist(t=t[:K], v=v + eps[:, 0], omega=w + eps[:, 1], dt=np.full(K, float(dt)))
 
     # ---------------------------------------------------------------- observations (poses 1..K)
@@ -219,17 +209,17 @@ def simulate(
     for lo in range(1, K + 1, block):
         x = truth[lo:lo + block]
         r = np.hypot(xy[None, :, 0] - x[:, None, 0], xy[None, :, 1] - x[:, None, 1])
-        step, lm = np.nonzero(r <= max_range)
+        step, lm = np.nonzero(r <= p.max_range)
         rr = r[step, lm]
         bb = wrap_angle(np.arctan2(xy[lm, 1] - x[step, 1], xy[lm, 0] - x[step, 0]) - x[step, 2])
-        in_fov = np.abs(bb) <= 0.5 * fov
+        in_fov = np.abs(bb) <= 0.5 * p.fov
         step, lm, rr, bb = step[in_fov], lm[in_fov], rr[in_fov], bb[in_fov]
         order = np.lexsort((lm, rr, step))  # by step, then nearest first
         step, lm, rr, bb = step[order], lm[order], rr[order], bb[order]
-        if max_observations is not None:
+        if p.max_observations is not None:
             first = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])
             rank = np.arange(step.size) - np.repeat(first, np.diff(np.r_[first, step.size]))
-            keep = rank < int(max_observations)
+            keep = rank < p.max_observations
             step, lm, rr, bb = step[keep], lm[keep], rr[keep], bb[keep]
         rows_step.append(lo + step)
         rows_id.append(lm)
@@ -237,7 +227,7 @@ def simulate(
         rows_b.append(bb)
     step = np.concatenate(rows_step)
     ids = np.concatenate(rows_id)
-    eta = np.random.default_rng(ss_obs).standard_normal((step.size, 2)) * [sigma_range, sigma_bearing]
+    eta = np.random.default_rng(ss_obs).standard_normal((step.size, 2)) * [p.sigma_range, p.sigma_bearing]
     range_bearing = RangeBearing(
         t=t[step],
         range=np.concatenate(rows_r) + eta[:, 0],
@@ -245,26 +235,22 @@ def simulate(
         landmark_id=ids,
     )
 
-    params = dict(n_landmarks=n, layout=layout, density=density, band=band, clearance=clearance, turn_radius=turn_radius,
-                  aspect=aspect, speed=speed, laps=int(laps), dt=dt, motion_model=motion_model, sigma_v=sigma_v,
-                  sigma_omega=sigma_omega, max_range=max_range, fov=fov, sigma_range=sigma_range,
-                  sigma_bearing=sigma_bearing, max_observations=max_observations, t0=t0, seed=int(seed))
     extent = [half_a + radius + band, half_b + radius + band]
     meta = dict(
         dataset="sim:landmarks",
-        **params,
+        **p.canonical(),
         route=dict(half_a=half_a, half_b=half_b, turn_radius=radius, length=float(v_lap.sum() * dt), steps_per_lap=int(v_lap.size)),
         world_extent=[-extent[0], -extent[1], extent[0], extent[1]],
         steps=int(K),
         observation_stamping="set k is the true pose at t_{k+1}, after Twist row k; no set at t0",
     )
     return Sequence(
-        name=f"sim:landmarks(n={n},layout={layout},seed={int(seed)})",
+        name=f"sim:landmarks(n={n},layout={p.layout},seed={p.seed})",
         motion=motion,
         range_bearing=range_bearing,
         ground_truth=Trajectory(t=t, poses=truth),
         landmarks=LandmarkMap(ids=np.arange(n), xy=xy),
         initial_pose=start,
-        noise=Noise(twist_cov=np.diag([sigma_v**2, sigma_omega**2]), range_bearing_cov=np.diag([sigma_range**2, sigma_bearing**2])),
+        noise=Noise(twist_cov=np.diag([p.sigma_v**2, p.sigma_omega**2]), range_bearing_cov=np.diag([p.sigma_range**2, p.sigma_bearing**2])),
         meta=meta,
     )

@@ -44,14 +44,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+from pydantic import ConfigDict, model_validator
+
+from slamarena.params import Field, Params, with_params
 
 from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 
-__all__ = ["World", "WORLDS", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
+__all__ = ["World", "WORLDS", "LaserWorldParams", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
 
 #: sensor poses × beams × segments evaluated at once by :func:`raycast`
 _BLOCK_ELEMENTS = 1_000_000
@@ -257,62 +261,57 @@ def _beam_angles(n_beams: int, fov: float) -> np.ndarray:
     return np.linspace(-0.5 * fov, 0.5 * fov, n_beams)
 
 
-def simulate(
-    world: str | World = "loop",
-    n_beams: int = 361,
-    fov: float = 1.5 * math.pi,
-    max_range: float = 12.0,
-    sigma_range: float = 0.01,
-    dropout: float = 0.0,
-    mount=(0.0, 0.0, 0.0),
-    speed: float = 0.5,
-    laps: int = 1,
-    odom_rate: float = 20.0,
-    scan_rate: float = 5.0,
-    k_t: float = 0.02,
-    k_s: float = 0.01,
-    k_r: float = 0.03,
-    k_rt: float = 0.01,
-    t0: float = 0.0,
-    seed: int = 0,
-) -> Sequence:
-    """Simulate one run of the laser world (see the module docstring for the model).
+class LaserWorldParams(Params):
+    """Parameters of :func:`simulate` (metres, radians, seconds, Hz; the model is in the module docstring)."""
 
-    Units: metres, radians, seconds, Hz. ``mount`` is the sensor pose (x, y, θ) in the robot
-    frame; ``odom_rate / scan_rate`` must be a whole number.
-    """
+    model_config = ConfigDict(allow_inf_nan=False)
 
-    w = _world(world)
-    for name, value in dict(fov=fov, max_range=max_range, speed=speed, odom_rate=odom_rate, scan_rate=scan_rate).items():
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    for name, value in dict(sigma_range=sigma_range, k_t=k_t, k_s=k_s, k_r=k_r, k_rt=k_rt).items():
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    if fov > 2.0 * math.pi + 1e-12:
-        raise ValueError("fov must be <= 2π")
-    if not 0.0 <= dropout < 1.0:
-        raise ValueError("dropout must be in [0, 1)")
-    if int(n_beams) < 1 or int(laps) < 1:
-        raise ValueError("n_beams and laps must be >= 1")
-    ratio = odom_rate / scan_rate
-    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        raise ValueError(f"odom_rate / scan_rate must be a whole number >= 1, got {ratio!r}")
-    every = int(round(ratio))
-    mount = np.asarray(mount, dtype=float).reshape(3)
+    world: Literal["loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
+    n_beams: int = Field(361, ge=1, description="beams per scan")
+    fov: float = Field(1.5 * math.pi, gt=0, le=2 * math.pi, description="field of view of a scan, centred ahead [rad]")
+    max_range: float = Field(12.0, gt=0, description="sensor range; the reading of a beam without return [m]")
+    sigma_range: float = Field(0.01, ge=0, description="std of the range noise [m]")
+    dropout: float = Field(0.0, ge=0, lt=1, description="probability that a beam drops out (reads max_range)")
+    mount: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="sensor pose in the robot frame (x [m], y [m], θ [rad])")
+    speed: float = Field(0.5, gt=0, description="speed along the route [m/s]")
+    laps: int = Field(1, ge=1, description="laps of the route")
+    odom_rate: float = Field(20.0, gt=0, description="odometry rate 1/dt [Hz]")
+    scan_rate: float = Field(5.0, gt=0, description="scan rate [Hz]; odom_rate / scan_rate must be a whole number")
+    k_t: float = Field(0.02, ge=0, description="odometry noise along the motion [m/√m]")
+    k_s: float = Field(0.01, ge=0, description="odometry noise across the motion [m/√m]")
+    k_r: float = Field(0.03, ge=0, description="heading noise per turn [rad/√rad]")
+    k_rt: float = Field(0.01, ge=0, description="heading noise per distance [rad/√m]")
+    t0: float = Field(0.0, description="first stamp [s]")
+    seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (odometry, range noise, dropouts)")
 
-    rng_odom, rng_range, rng_dropout = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(3))
+    @model_validator(mode="after")
+    def _scans_at_odometry_stamps(self):
+        ratio = self.odom_rate / self.scan_rate
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(f"odom_rate / scan_rate must be a whole number >= 1, got {ratio!r}")
+        return self
+
+
+@with_params(LaserWorldParams)
+def simulate(*, params: LaserWorldParams) -> Sequence:
+    """Simulate one run of the laser world (:class:`LaserWorldParams`; the model is in the module docstring)."""
+    p = params
+    w = _world(p.world)
+    every = int(round(p.odom_rate / p.scan_rate))
+    mount = np.asarray(p.mount, dtype=float)
+
+    rng_odom, rng_range, rng_dropout = (np.random.default_rng(s) for s in np.random.SeedSequence(p.seed).spawn(3))
 
     # ---------------------------------------------------------------- truth and odometry
-    dt = 1.0 / odom_rate
-    v_lap, w_lap, start = route_controls(w, speed, dt)
-    v, omega = np.tile(v_lap, int(laps)), np.tile(w_lap, int(laps))
+    dt = 1.0 / p.odom_rate
+    v_lap, w_lap, start = route_controls(w, p.speed, dt)
+    v, omega = np.tile(v_lap, p.laps), np.tile(w_lap, p.laps)
     K = v.size
-    t = t0 + dt * np.arange(K + 1)
+    t = p.t0 + dt * np.arange(K + 1)
     delta = kinematics.increment("arc", v, omega, dt)
     truth = accumulate(start, delta)
     ds, dth = np.abs(v) * dt, np.abs(omega) * dt
-    var = np.column_stack([k_t**2 * ds, k_s**2 * ds, k_r**2 * dth + k_rt**2 * ds]) + 1e-12
+    var = np.column_stack([p.k_t**2 * ds, p.k_s**2 * ds, p.k_r**2 * dth + p.k_rt**2 * ds]) + 1e-12
     cov = np.zeros((K, 3, 3))
     cov[:, [0, 1, 2], [0, 1, 2]] = var
     noisy = delta + np.sqrt(var) * rng_odom.standard_normal((K, 3))
@@ -320,29 +319,26 @@ def simulate(
 
     # ---------------------------------------------------------------- scans
     k_scan = np.arange(0, K + 1, every)
-    angles = _beam_angles(int(n_beams), fov)
+    angles = _beam_angles(p.n_beams, p.fov)
     sensor = compose(truth[k_scan], mount)
-    true_ranges = raycast(sensor[:, :2], sensor[:, 2:3] + angles[None, :], segments(w), max_range)
-    ranges = true_ranges + sigma_range * rng_range.standard_normal(true_ranges.shape)
-    dropped = rng_dropout.uniform(size=ranges.shape) < dropout
-    ranges[~np.isfinite(true_ranges) | (ranges >= max_range) | dropped] = max_range
+    true_ranges = raycast(sensor[:, :2], sensor[:, 2:3] + angles[None, :], segments(w), p.max_range)
+    ranges = true_ranges + p.sigma_range * rng_range.standard_normal(true_ranges.shape)
+    dropped = rng_dropout.uniform(size=ranges.shape) < p.dropout
+    ranges[~np.isfinite(true_ranges) | (ranges >= p.max_range) | dropped] = p.max_range
 
-    params = dict(world=w.name, n_beams=int(n_beams), fov=fov, max_range=max_range, sigma_range=sigma_range, dropout=dropout,
-                  mount=mount.tolist(), speed=speed, laps=int(laps), odom_rate=odom_rate, scan_rate=scan_rate, k_t=k_t, k_s=k_s,
-                  k_r=k_r, k_rt=k_rt, t0=t0, seed=int(seed))
     meta = dict(
         dataset="sim:laser",
-        **params,
+        **{**p.canonical(), "world": w.name},
         world_description=w.description,
         steps_per_lap=int(v_lap.size),
         route_length=float(np.sum(np.abs(v_lap)) * dt),
-        no_return_fraction=float(np.mean(ranges >= max_range)),
+        no_return_fraction=float(np.mean(ranges >= p.max_range)),
         dropped_beams=int(dropped.sum()),
     )
     return Sequence(
-        name=f"sim:laser({w.name},seed={int(seed)})",
+        name=f"sim:laser({w.name},seed={p.seed})",
         motion=Increments(t=t[1:], delta=noisy, cov=cov),
-        scans=Scans(t=t[k_scan], ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=odometry[k_scan]),
+        scans=Scans(t=t[k_scan], ranges=ranges, angles=angles, max_range=p.max_range, mount=mount, pose=odometry[k_scan]),
         ground_truth=Trajectory(t=t, poses=truth),
         initial_pose=start,
         noise=Noise(),

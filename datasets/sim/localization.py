@@ -57,16 +57,18 @@ R_imu = 1e-3 rad², Δt = 0.02 s.
 from __future__ import annotations
 
 import math
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import AfterValidator, ConfigDict, NonNegativeFloat, model_validator
+
+from slamarena.params import Field, Params, with_params
 
 from .. import kinematics
 from ..geometry import interpolate_poses, wrap_angle
 from ..sequence import Gps, Heading, Noise, Sequence, Trajectory, Twist
 
-__all__ = ["simulate", "MOTION_SOURCES", "command_profile", "first_order_response"]
-
-MOTION_SOURCES = ("cmd_vel", "odometry")
+__all__ = ["simulate", "LocalizationWorldParams", "command_profile", "first_order_response"]
 
 
 def command_profile(rng: np.random.Generator, t: np.ndarray, v_mean: float, v_amplitude: float, omega_amplitude: float, ramp: float) -> tuple[np.ndarray, np.ndarray]:
@@ -107,16 +109,8 @@ def first_order_response(u: np.ndarray, a: float, w0: np.ndarray) -> np.ndarray:
 def _slip_factors(t_mid: np.ndarray, slip) -> np.ndarray:
     """Ground/wheel speed ratio (N, 2) of the left and right wheel at times ``t_mid``."""
     f = np.ones((t_mid.size, 2))
-    for episode in slip:
-        if len(episode) == 3:
-            t_a, t_b, left = episode
-            right = left
-        elif len(episode) == 4:
-            t_a, t_b, left, right = episode
-        else:
-            raise ValueError(f"slip episode {episode!r}: expected (t_start, t_end, factor) or (t_start, t_end, left, right)")
-        if not (t_b > t_a and 0.0 <= left and 0.0 <= right):
-            raise ValueError(f"slip episode {episode!r}: need t_end > t_start and factors >= 0")
+    for t_a, t_b, left, *right in slip:
+        right = right[0] if right else left
         inside = (t_mid >= t_a) & (t_mid < t_b)
         f[inside] *= [left, right]
     return f
@@ -128,94 +122,96 @@ def _stamps(t0: float, t_end: float, rate: float) -> np.ndarray:
     return np.minimum(stamps, t_end)
 
 
-def simulate(
-    duration: float = 120.0,
-    cmd_rate: float = 50.0,
-    gps_rate: float = 5.0,
-    imu_rate: float = 50.0,
-    gps_sigma: float = 0.01,
-    imu_var: float = 0.001,
-    imu_bias: float = 0.0,
-    gps_outages=(),
-    gps_outlier_fraction: float = 0.0,
-    gps_outlier_magnitude: float = 10.0,
-    slip=(),
-    motion_source: str = "cmd_vel",
-    v_mean: float = 1.0,
-    v_amplitude: float = 0.5,
-    omega_amplitude: float = 0.4,
-    ramp: float = 2.0,
-    wheel_base: float = 0.5,
-    actuator_tau: float = 0.1,
-    actuator_sigma: float = 0.02,
-    encoder_sigma: float = 2e-4,
-    substeps: int = 10,
-    start=(0.0, 0.0, 0.0),
-    t0: float = 0.0,
-    seed: int = 0,
-) -> Sequence:
-    """Simulate one run of the localization world (see the module docstring for the model).
+def _interval(episode: tuple) -> tuple:
+    if not episode[1] > episode[0]:
+        raise ValueError(f"{episode!r}: t_end must be > t_start")
+    return episode
 
-    Units: seconds, metres, radians; rates in Hz. ``gps_outages`` is a list of
-    ``(t_start, t_end)`` in sequence time; ``slip`` a list of ``(t_start, t_end, factor)`` or
-    ``(t_start, t_end, left, right)`` ground/wheel speed ratios.
-    """
 
-    if motion_source not in MOTION_SOURCES:
-        raise ValueError(f"unknown motion_source {motion_source!r}; choose from {MOTION_SOURCES}")
-    for name, value in dict(duration=duration, cmd_rate=cmd_rate, gps_rate=gps_rate, imu_rate=imu_rate, wheel_base=wheel_base).items():
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    for name, value in dict(gps_sigma=gps_sigma, imu_var=imu_var, actuator_tau=actuator_tau, actuator_sigma=actuator_sigma,
-                            encoder_sigma=encoder_sigma, gps_outlier_magnitude=gps_outlier_magnitude, ramp=ramp, v_amplitude=v_amplitude,
-                            omega_amplitude=omega_amplitude).items():
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    if not 0.0 <= gps_outlier_fraction <= 1.0:
-        raise ValueError(f"gps_outlier_fraction must be in [0, 1], got {gps_outlier_fraction!r}")
-    if int(substeps) < 1:
-        raise ValueError("substeps must be >= 1")
-    if duration < 1.0:
-        raise ValueError("duration must be >= 1 s (the input noise is measured over 1-s windows)")
-    outages = [tuple(map(float, o)) for o in gps_outages]
-    if any(len(o) != 2 or not o[1] > o[0] for o in outages):
-        raise ValueError(f"gps_outages must be (t_start, t_end) pairs with t_end > t_start, got {gps_outages!r}")
-    slip = [tuple(map(float, e)) for e in slip]
-    start = np.asarray(start, dtype=float).reshape(3)
+#: ``(t_start, t_end)`` [s] with ``t_end > t_start``
+Interval = Annotated[tuple[float, float], AfterValidator(_interval)]
+#: ``(t_start, t_end, factor)`` (both wheels) or ``(t_start, t_end, left, right)``: ground/wheel speed ratios ≥ 0
+SlipEpisode = Annotated[
+    tuple[float, float, NonNegativeFloat] | tuple[float, float, NonNegativeFloat, NonNegativeFloat], AfterValidator(_interval)]
 
-    streams = np.random.SeedSequence(int(seed)).spawn(6)
+
+class LocalizationWorldParams(Params):
+    """Parameters of :func:`simulate` (seconds, metres, radians, rates in Hz; the model is in the module docstring)."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
+
+    duration: float = Field(120.0, ge=1.0, description="length of the run [s] (≥ 1 s: the input noise is measured over 1-s windows)")
+    cmd_rate: float = Field(50.0, gt=0, description="command rate 1/T [Hz]")
+    gps_rate: float = Field(5.0, gt=0, description="GPS rate [Hz]")
+    imu_rate: float = Field(50.0, gt=0, description="IMU yaw rate [Hz]")
+    gps_sigma: float = Field(0.01, ge=0, description="std of the GPS noise per axis [m]")
+    imu_var: float = Field(0.001, ge=0, description="variance of the IMU yaw noise [rad²]")
+    imu_bias: float = Field(0.0, description="constant IMU yaw bias [rad]")
+    gps_outages: tuple[Interval, ...] = Field((), description="intervals [t_start, t_end) of sequence time without GPS fixes [s]")
+    gps_outlier_fraction: float = Field(0.0, ge=0, le=1, description="probability that a GPS fix is an outlier")
+    gps_outlier_magnitude: float = Field(10.0, ge=0, description="displacement of a GPS outlier, random direction [m]")
+    slip: tuple[SlipEpisode, ...] = Field((), description="slip episodes (t_start [s], t_end [s], factor) or (t_start, t_end, left, right): ground/wheel speed ratios")
+    motion_source: Literal["cmd_vel", "odometry"] = Field("cmd_vel", description="Sequence.motion: the commands or the wheel odometry")
+    v_mean: float = Field(1.0, description="mean commanded speed [m/s]")
+    v_amplitude: float = Field(0.5, ge=0, description="amplitude of the commanded speed's variation [m/s]")
+    omega_amplitude: float = Field(0.4, ge=0, description="amplitude of the commanded turn rate [rad/s]")
+    ramp: float = Field(2.0, ge=0, description="fade-in of the commands from rest [s]")
+    wheel_base: float = Field(0.5, gt=0, description="track width b [m]")
+    actuator_tau: float = Field(0.1, ge=0, description="time constant τ of the wheels' first-order lag [s]; 0: no lag")
+    actuator_sigma: float = Field(0.02, ge=0, description="stationary std of the executed wheel speed around the lagged command [m/s]")
+    encoder_sigma: float = Field(2e-4, ge=0, description="std of the encoder noise per wheel per row [m]")
+    substeps: int = Field(10, ge=1, description="fine integration steps per command row")
+    start: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="start pose (x [m], y [m], θ [rad])")
+    t0: float = Field(0.0, description="first stamp [s]")
+    seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (profile, actuators, encoders, GPS, outliers, IMU)")
+
+    @model_validator(mode="after")
+    def _whole_steps(self):
+        if self.duration * self.cmd_rate < 1 or self.cmd_rate * self.substeps < 1:
+            raise ValueError(f"duration × cmd_rate ({self.duration * self.cmd_rate:g}) and cmd_rate × substeps "
+                             f"({self.cmd_rate * self.substeps:g}) must be ≥ 1: at least one command row, fine steps of at most 1 s")
+        return self
+
+
+@with_params(LocalizationWorldParams)
+def simulate(*, params: LocalizationWorldParams) -> Sequence:
+    """Simulate one run of the localization world (:class:`LocalizationWorldParams`; the model is in the module docstring)."""
+    p = params
+    start = np.asarray(p.start, dtype=float)
+
+    streams = np.random.SeedSequence(p.seed).spawn(6)
     rng_profile, rng_actuator, rng_encoder, rng_gps, rng_outlier, rng_imu = (np.random.default_rng(s) for s in streams)
 
     # ---------------------------------------------------------------- commands, rows t_k
-    T = 1.0 / cmd_rate
-    K = int(round(duration * cmd_rate))
-    t = t0 + T * np.arange(K + 1)
-    v_c, w_c = command_profile(rng_profile, t[:K] - t0, v_mean, v_amplitude, omega_amplitude, ramp)
+    T = 1.0 / p.cmd_rate
+    K = int(round(p.duration * p.cmd_rate))
+    t = p.t0 + T * np.arange(K + 1)
+    v_c, w_c = command_profile(rng_profile, t[:K] - p.t0, p.v_mean, p.v_amplitude, p.omega_amplitude, p.ramp)
 
     # ---------------------------------------------------------------- actuators on the fine grid
-    m = int(substeps)
+    m = p.substeps
     h = T / m
-    half_b = 0.5 * wheel_base
+    half_b = 0.5 * p.wheel_base
     c = np.repeat(np.column_stack([v_c - w_c * half_b, v_c + w_c * half_b]), m, axis=0)  # (K m, 2) left, right
-    a = math.exp(-h / actuator_tau) if actuator_tau > 0 else 0.0
-    drive = (1.0 - a) * c + actuator_sigma * math.sqrt(1.0 - a * a) * rng_actuator.standard_normal(c.shape)
+    a = math.exp(-h / p.actuator_tau) if p.actuator_tau > 0 else 0.0
+    drive = (1.0 - a) * c + p.actuator_sigma * math.sqrt(1.0 - a * a) * rng_actuator.standard_normal(c.shape)
     wheel = first_order_response(drive, a, np.zeros(2))  # executed wheel speeds at the fine stamps
     # executed wheel travel per substep (K m, 2): the exact mean of the lag response over the substep
-    if actuator_tau > 0:
-        travel = h * (c + (1.0 - a) * actuator_tau / h * (wheel[:-1] - c))
+    if p.actuator_tau > 0:
+        travel = h * (c + (1.0 - a) * p.actuator_tau / h * (wheel[:-1] - c))
     else:
         travel = h * wheel[1:]  # no lag: w_{n+1} = c_n + σ ξ_n runs through substep n
-    t_fine = t0 + h * np.arange(K * m + 1)
-    ground = travel * _slip_factors(0.5 * (t_fine[:-1] + t_fine[1:]), slip)
+    t_fine = p.t0 + h * np.arange(K * m + 1)
+    ground = travel * _slip_factors(0.5 * (t_fine[:-1] + t_fine[1:]), p.slip)
     v_true = (ground[:, 1] + ground[:, 0]) / (2.0 * h)
-    w_true = (ground[:, 1] - ground[:, 0]) / (wheel_base * h)
+    w_true = (ground[:, 1] - ground[:, 0]) / (p.wheel_base * h)
     fine = kinematics.integrate("arc", start, v_true, w_true, np.full(K * m, h))
 
     # ---------------------------------------------------------------- wheel odometry per row
-    d = travel.reshape(K, m, 2).sum(axis=1) + encoder_sigma * rng_encoder.standard_normal((K, 2))
+    d = travel.reshape(K, m, 2).sum(axis=1) + p.encoder_sigma * rng_encoder.standard_normal((K, 2))
     v_o = (d[:, 1] + d[:, 0]) / (2.0 * T)
-    w_o = (d[:, 1] - d[:, 0]) / (wheel_base * T)
-    v_in, w_in = (v_c, w_c) if motion_source == "cmd_vel" else (v_o, w_o)
+    w_o = (d[:, 1] - d[:, 0]) / (p.wheel_base * T)
+    v_in, w_in = (v_c, w_c) if p.motion_source == "cmd_vel" else (v_o, w_o)
     motion = Twist(t=t[:K], v=v_in, omega=w_in, dt=np.full(K, T))
 
     # ---------------------------------------------------------------- the input's error per second
@@ -225,39 +221,33 @@ def simulate(
     psd = windows.T @ windows / windows.shape[0] / (per_window * h)
 
     # ---------------------------------------------------------------- GPS and IMU
-    t_gps = _stamps(t0, t_fine[-1], gps_rate)
+    t_gps = _stamps(p.t0, t_fine[-1], p.gps_rate)
     available = np.ones(t_gps.size, dtype=bool)
-    for t_a, t_b in outages:
+    for t_a, t_b in p.gps_outages:
         available &= ~((t_gps >= t_a) & (t_gps < t_b))
     t_gps = t_gps[available]
-    xy = interpolate_poses(t_fine, fine, t_gps)[:, :2] + gps_sigma * rng_gps.standard_normal((t_gps.size, 2))
-    outlier = rng_outlier.uniform(size=t_gps.size) < gps_outlier_fraction
+    xy = interpolate_poses(t_fine, fine, t_gps)[:, :2] + p.gps_sigma * rng_gps.standard_normal((t_gps.size, 2))
+    outlier = rng_outlier.uniform(size=t_gps.size) < p.gps_outlier_fraction
     direction = rng_outlier.uniform(0.0, 2.0 * np.pi, t_gps.size)
-    xy[outlier] += gps_outlier_magnitude * np.column_stack([np.cos(direction), np.sin(direction)])[outlier]
-    t_imu = _stamps(t0, t_fine[-1], imu_rate)
-    yaw = wrap_angle(interpolate_poses(t_fine, fine, t_imu)[:, 2] + imu_bias + math.sqrt(imu_var) * rng_imu.standard_normal(t_imu.size))
+    xy[outlier] += p.gps_outlier_magnitude * np.column_stack([np.cos(direction), np.sin(direction)])[outlier]
+    t_imu = _stamps(p.t0, t_fine[-1], p.imu_rate)
+    yaw = wrap_angle(interpolate_poses(t_fine, fine, t_imu)[:, 2] + p.imu_bias + math.sqrt(p.imu_var) * rng_imu.standard_normal(t_imu.size))
 
-    params = dict(duration=duration, cmd_rate=cmd_rate, gps_rate=gps_rate, imu_rate=imu_rate, gps_sigma=gps_sigma, imu_var=imu_var,
-                  imu_bias=imu_bias, gps_outages=[list(o) for o in outages], gps_outlier_fraction=gps_outlier_fraction,
-                  gps_outlier_magnitude=gps_outlier_magnitude, slip=[list(e) for e in slip], motion_source=motion_source,
-                  v_mean=v_mean, v_amplitude=v_amplitude, omega_amplitude=omega_amplitude, ramp=ramp, wheel_base=wheel_base,
-                  actuator_tau=actuator_tau, actuator_sigma=actuator_sigma, encoder_sigma=encoder_sigma, substeps=m,
-                  start=start.tolist(), t0=t0, seed=int(seed))
     meta = dict(
         dataset="sim:localization",
-        **params,
+        **p.canonical(),
         twist_psd=psd.tolist(),
         twist_psd_unit="[(m/s)^2 s, (m/s)(rad/s) s; ., (rad/s)^2 s]: covariance of the input error integrated over 1 s, per second",
         gps_outlier_index=np.flatnonzero(outlier).tolist(),
-        encoder_twist_cov=[[encoder_sigma**2 / (2 * T * T), 0.0], [0.0, 2 * encoder_sigma**2 / (wheel_base * T) ** 2]],
+        encoder_twist_cov=[[p.encoder_sigma**2 / (2 * T * T), 0.0], [0.0, 2 * p.encoder_sigma**2 / (p.wheel_base * T) ** 2]],
     )
     return Sequence(
-        name=f"sim:localization({motion_source},seed={int(seed)})",
+        name=f"sim:localization({p.motion_source},seed={p.seed})",
         motion=motion,
         gps=Gps(t=t_gps, xy=xy),
         heading=Heading(t=t_imu, yaw=yaw),
         ground_truth=Trajectory(t=t, poses=fine[::m]),
         initial_pose=start,
-        noise=Noise(twist_cov=psd / T, gps_cov=gps_sigma**2 * np.eye(2), yaw_var=float(imu_var)),
+        noise=Noise(twist_cov=psd / T, gps_cov=p.gps_sigma**2 * np.eye(2), yaw_var=float(p.imu_var)),
         meta=meta,
     )

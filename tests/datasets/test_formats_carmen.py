@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import bz2
+import functools
 import gzip
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from slamarena.datasets import DataFormatError, Increments
 from slamarena.datasets.formats import carmen
 from slamarena.datasets.geometry import accumulate
-from checks import load_staged
+from checks import assert_rejected_naming, load_staged
 
 pytestmark = pytest.mark.realdata
 
@@ -152,3 +153,18 @@ def test_truncated_compressed_file_is_a_format_error(tmp_path):
     path.write_bytes(path.read_bytes()[:-20])
     with pytest.raises(DataFormatError, match="bz2"):
         carmen.read(path)
+
+
+def test_a_params_model_and_keywords_read_alike(tmp_path):
+    path = _log(tmp_path, GOOD)
+    given = carmen.read(path, params=carmen.CarmenParams(max_range=2.5, strict_time=True))
+    keywords = carmen.read(path, max_range=2.5, strict_time=True)
+    assert carmen.read.Params is carmen.load.Params is carmen.CarmenParams
+    assert given.scans.max_range == keywords.scans.max_range == 2.5 and given.meta["no_return_readings"] == keywords.meta["no_return_readings"] == 4
+    np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)
+    assert carmen.load({"log": path}, "small", max_range=2.5).meta["no_return_readings"] == 4
+
+
+@pytest.mark.parametrize("bad", [dict(max_range=0.0), dict(beams=0), dict(interlaced="maybe"), dict(max_rang=4.0)])
+def test_bad_or_unknown_options_name_the_field(tmp_path, bad):
+    assert_rejected_naming(functools.partial(carmen.read, _log(tmp_path, GOOD)), **bad)

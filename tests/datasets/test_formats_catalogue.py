@@ -1,12 +1,17 @@
 """The catalogue of real datasets: names, files, readers, the not-found message, and the data CLI."""
 from __future__ import annotations
 
+import functools
+
 import pytest
+from pydantic import ValidationError
 
 from slamarena import datasets
 from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot
 from slamarena.datasets.registry import SIMULATORS
+from slamarena.params import params_model
 from slamarena.targets import import_target
+from checks import assert_rejected_naming
 
 EXPECTED = (
     [f"utias:{d}/robot{k}" for d in (1, 6) for k in range(1, 6)] + ["victoria_park"]
@@ -26,6 +31,49 @@ def test_every_registry_name_is_catalogued_with_a_resolvable_reader():
         assert entry.citation and entry.kind and entry.ground_truth
     names = [info.name for info in datasets.available()]
     assert set(names) == set(catalogue.CATALOGUE) | set(SIMULATORS)
+
+
+#: reader → a dataset it reads and, for a reader with options, a bad value (field, value)
+READERS = {
+    "slamarena.datasets.formats.mrclam:read": ("utias:1/robot1", None),
+    "slamarena.datasets.formats.victoria_park:load": ("victoria_park", ("variant", "isma")),
+    "slamarena.datasets.formats.plaza:read": ("plaza:Plaza1", ("strict_time", "sometimes")),
+    "slamarena.datasets.formats.g2o:load": ("g2o:intel", None),
+    "slamarena.datasets.formats.toro:load": ("g2o:w100", None),
+    "slamarena.datasets.formats.isam:load": ("isam:w20000", ("noise", "cov")),
+    "slamarena.datasets.formats.carmen:load": ("carmen:intel", ("max_range", -1.0)),
+}
+
+
+def test_every_catalogued_reader_and_simulator_declares_a_params_model():
+    assert {entry.reader for entry in catalogue.CATALOGUE.values()} == set(READERS)
+    for target in READERS:
+        assert not {"paths", "name"} & set(params_model(import_target(target)).model_fields)  # the catalogue supplies them
+    for target in SIMULATORS.values():
+        model = params_model(import_target(target))
+        assert model().seed == 0
+        with pytest.raises(ValidationError, match="seed"):
+            model(seed=-1)
+
+
+def test_catalogue_presets_validate_through_the_readers_models():
+    for entry in catalogue.CATALOGUE.values():
+        resolved = params_model(import_target(entry.reader)).of(entry.arguments).canonical()
+        assert {k: resolved[k] for k in entry.arguments} == entry.arguments
+
+
+@pytest.mark.parametrize("reader", sorted(READERS))
+def test_unknown_and_bad_reader_options_are_rejected_naming_the_field(reader, monkeypatch, tmp_path):
+    monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [tmp_path])  # checked before any file is looked for
+    name, bad = READERS[reader]
+    for field, value in [("bogus_option", 1)] + ([bad] if bad else []):
+        assert_rejected_naming(functools.partial(datasets.load, name), **{field: value})
+
+
+@pytest.mark.parametrize("name,typo", [("victoria_park", {"varient": "isam"}), ("utias:6/robot1", {"directory": "/data"})])
+def test_misspelt_reader_keywords_are_errors_not_ignored(name, typo):
+    with pytest.raises(ValidationError, match=next(iter(typo))):
+        datasets.load(name, **typo)
 
 
 @pytest.mark.realdata

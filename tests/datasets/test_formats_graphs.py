@@ -87,6 +87,15 @@ def test_w20000_is_isam_convention():
     assert np.allclose(g.edge_information[0], np.diag([3.16228**2, 3.16228**2, 25.0]))
 
 
+def test_isam_noise_option_as_a_params_model_or_keyword():
+    paths = {"graph": staged("isam_data/manhattanOlson3500.txt")}
+    given = isam.load(paths, "m3500", params=isam.IsamParams(noise="information"))
+    keywords = isam.load(paths, "m3500", noise="information")
+    assert isam.load.Params is isam.IsamParams and given.meta["noise_convention"] == "information"
+    np.testing.assert_allclose(given.edge_information[0], np.eye(3) * 44.72135955)  # the R columns read as Λ itself
+    np.testing.assert_array_equal(given.edge_information, keywords.edge_information)
+
+
 def test_toro_w100_and_example_graph():
     w = load("g2o:w100")
     assert (w.n_nodes, w.n_edges, w.meta["equivalence_count"]) == (100, 300, 40)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from slamarena.datasets import DataFormatError, load
 from slamarena.datasets.formats import plaza
@@ -126,3 +127,14 @@ def test_malformed_files_name_file_and_line(tmp_path):
         plaza.read_run(dr, bad)
     without_truth = plaza.read_run(dr, src)
     assert without_truth.ground_truth is None and without_truth.landmarks is None and len(without_truth.beacon_ranges) == 1816
+
+
+def test_a_params_model_and_keywords_read_alike():
+    files = [staged(f"plaza_range_only/Plaza2{suffix}") for suffix in ("_DR.txt", "_TD.txt", "_.mat")]
+    given = plaza.read_run(*files, params=plaza.PlazaParams(align_heading=False))
+    keywords = plaza.read_run(*files, align_heading=False)
+    assert plaza.read.Params is plaza.read_run.Params is plaza.PlazaParams
+    assert not given.meta["ground_truth_heading"]["rotated_by_pi"] and given.meta == keywords.meta
+    np.testing.assert_array_equal(given.ground_truth.poses, keywords.ground_truth.poses)
+    with pytest.raises(ValidationError, match="align_headings"):
+        plaza.read_run(*files, align_headings=False)

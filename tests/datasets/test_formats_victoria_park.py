@@ -93,3 +93,12 @@ def test_singular_noise_is_reported(tmp_path, variant, noise, fragment):
     with pytest.raises(DataFormatError) as err:
         vp.read(f, variant)
     assert err.value.line == 2 and fragment in str(err.value)
+
+
+def test_catalogue_reader_options_as_a_params_model_or_keywords():
+    paths = {"isam": staged("victoria_park/victoriaPark_isam.txt")}
+    given = vp.load(paths, "vp", params=vp.VictoriaParkParams(variant="isam", as_graph=True))
+    keywords = vp.load(paths, "vp", variant="isam", as_graph=True)
+    assert vp.load.Params is vp.VictoriaParkParams
+    assert given.meta["variant"] == keywords.meta["variant"] == "isam" and given.n_edges == keywords.n_edges == 6968
+    np.testing.assert_array_equal(given.edge_information, keywords.edge_information)

@@ -8,9 +8,9 @@ import pytest
 
 from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
-from slamarena.datasets.sim.landmarks import LAYOUTS, route_distance, simulate
+from slamarena.datasets.sim.landmarks import LAYOUTS, LandmarkWorldParams, route_distance, simulate
 from slamarena.estimators.models import MOTION_MODELS, observe
-from checks import assert_dead_reckoning_consistent, assert_gaussian
+from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 
 
 def true_controls(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -147,8 +147,16 @@ def test_events_predict_then_update(seq):
     assert ev[1].t == ev[2].t == seq.ground_truth.t[1]
 
 
-@pytest.mark.parametrize("bad", [dict(layout="spiral"), dict(motion_model="rk4"), dict(dt=0.0), dict(n_landmarks=0),
-                                 dict(clearance=9.0), dict(sigma_v=-1.0), dict(max_observations=0), dict(density=float("nan"))])
-def test_bad_config_is_rejected(bad):
-    with pytest.raises(ValueError):
-        simulate(**bad)
+@pytest.mark.parametrize("bad", [
+    dict(layout="spiral"), dict(motion_model="rk4"), dict(dt=0.0), dict(n_landmarks=0), dict(n_landmarks=-5), dict(clearance=9.0),
+    dict(clearance=8.0), dict(sigma_v=-1.0), dict(max_observations=0), dict(density=float("nan")), dict(density=float("inf")),
+    dict(fov=7.0), dict(seed=-1), dict(n_landmark=5)])
+def test_bad_config_is_rejected_naming_the_field(bad):
+    assert_rejected_naming(simulate, **bad)
+
+
+def test_a_params_model_and_keywords_simulate_alike():
+    given = simulate(params=LandmarkWorldParams(n_landmarks=12, layout="grid", seed=2))
+    keywords = datasets.load("sim:landmarks", n_landmarks=12, layout="grid", seed=2)
+    assert simulate.Params is LandmarkWorldParams and given.meta == keywords.meta and given.meta["layout"] == "grid"
+    np.testing.assert_array_equal(given.range_bearing.range, keywords.range_bearing.range)

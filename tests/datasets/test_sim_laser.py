@@ -9,8 +9,8 @@ from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import accumulate, between, compose, transform_points
-from slamarena.datasets.sim.laser import WORLDS, World, raycast, route_controls, segments, simulate, true_occupancy
-from checks import assert_gaussian
+from slamarena.datasets.sim.laser import WORLDS, LaserWorldParams, World, raycast, route_controls, segments, simulate, true_occupancy
+from checks import assert_gaussian, assert_rejected_naming
 
 BOX = World(
     name="box",
@@ -159,8 +159,15 @@ def test_registry_and_determinism():
     assert not np.array_equal(a.motion.delta, simulate(world="rooms", n_beams=31, seed=10).motion.delta)
 
 
-@pytest.mark.parametrize("bad", [dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0),
-                                 dict(sigma_range=-0.1), dict(max_range=0.0)])
-def test_bad_config_is_rejected(bad):
-    with pytest.raises(ValueError):
-        simulate(**bad)
+@pytest.mark.parametrize("bad", [
+    dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0), dict(sigma_range=-0.1), dict(max_range=0.0),
+    dict(max_range=float("nan")), dict(mount=(0.0, 0.0)), dict(seed=-1), dict(nbeams=8)])
+def test_bad_config_is_rejected_naming_the_field(bad):
+    assert_rejected_naming(simulate, **bad)
+
+
+def test_a_params_model_and_keywords_simulate_alike():
+    given = simulate(params=LaserWorldParams(world=BOX, n_beams=16, mount=(0.2, 0.0, 0.1), seed=2))
+    keywords = datasets.load("sim:laser", world=BOX, n_beams=16, mount=(0.2, 0.0, 0.1), seed=2)
+    assert simulate.Params is LaserWorldParams and given.meta == keywords.meta and given.meta["world"] == "box"
+    np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)

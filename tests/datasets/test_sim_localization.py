@@ -9,9 +9,9 @@ from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
-from slamarena.datasets.sim.localization import first_order_response, simulate
+from slamarena.datasets.sim.localization import LocalizationWorldParams, first_order_response, simulate
 from slamarena.estimators.models import ARC
-from checks import assert_dead_reckoning_consistent, assert_gaussian
+from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 
 
 def row_twist(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -156,8 +156,18 @@ def test_step_response_of_the_actuator():
     np.testing.assert_allclose(w, 1.0 - np.exp(-np.arange(501) * 0.002 / 0.1), atol=1e-12)
 
 
-@pytest.mark.parametrize("bad", [dict(motion_source="imu"), dict(cmd_rate=0.0), dict(gps_outlier_fraction=1.5),
-                                 dict(gps_outages=[(5.0, 1.0)]), dict(slip=[(1.0, 2.0)]), dict(imu_var=-1.0), dict(duration=0.5)])
-def test_bad_config_is_rejected(bad):
-    with pytest.raises(ValueError):
-        simulate(**bad)
+@pytest.mark.parametrize("bad", [
+    dict(motion_source="imu"), dict(cmd_rate=0.0), dict(gps_outlier_fraction=1.5), dict(gps_outages=[(5.0, 1.0)]), dict(slip=[(1.0, 2.0)]),
+    dict(slip=[(1.0, 2.0, -0.5)]), dict(imu_var=-1.0), dict(duration=0.5), dict(duration=-30.0), dict(start=(0.0, 0.0)), dict(substeps=0),
+    dict(cmd_rate=0.4, duration=1.0), dict(substeps=1, cmd_rate=0.3, duration=10.0), dict(seed=-1), dict(gps_sigmma=0.1)])
+def test_bad_config_is_rejected_naming_the_field(bad):
+    assert_rejected_naming(simulate, **bad)
+
+
+def test_a_params_model_and_keywords_simulate_alike():
+    slip = [(2.0, 3.0, 0.5, 1.0)]
+    given = simulate(params=LocalizationWorldParams(duration=5.0, slip=slip, motion_source="odometry", seed=3))
+    keywords = datasets.load("sim:localization", duration=5.0, slip=slip, motion_source="odometry", seed=3)
+    assert simulate.Params is LocalizationWorldParams and given.meta == keywords.meta
+    assert given.meta["slip"] == [[2.0, 3.0, 0.5, 1.0]]
+    np.testing.assert_array_equal(given.motion.v, keywords.motion.v)

@@ -135,14 +135,16 @@ def test_changed_metric_settings_reuse_the_estimate_and_force_recomputes(tmp_pat
 
 
 def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
-    text = TINY.replace("datasets:\n", "datasets:\n  - name: sim:landmarks\n    label: broken\n    params: {layout: no-such-layout}\n").replace("seeds: 2", "seeds: 1")
+    # a world that validates but whose route cannot be driven (it turns at its first waypoint): the cell fails when run
+    broken = "{world: {name: bad, walls: [], route: [[0, 0], [1, 0]], corner_radius: 1.0, description: turns at the start}}"
+    text = TINY.replace("datasets:\n", f"datasets:\n  - name: sim:laser\n    label: broken\n    params: {broken}\n").replace("seeds: 2", "seeds: 1")
     cfg, _ = _config(tmp_path, text)
     out = tmp_path / "out"
     assert run_experiment(cfg, out, jobs=2, console=_quiet()) == 1
     summary = pd.read_csv(out / "summary.csv").set_index("dataset")
     assert summary.at["sim_landmarks", "status"] == "ok"
     assert summary.at["broken", "status"] == "error"
-    assert "layout" in summary.at["broken", "error"] and "Traceback" in summary.at["broken", "traceback"]
+    assert "route" in summary.at["broken", "error"] and "Traceback" in summary.at["broken", "traceback"]
     assert "broken" in json.loads((out / "manifest.json").read_text())["failed"][0]
     # a timeout kills the cell's process and is reported like a failure
     cfg, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 0.05").replace("seeds: 2", "seeds: 1"), "timeout.yaml")
