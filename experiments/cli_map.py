@@ -102,7 +102,7 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     rtf = summary["real_time_factor"]
     console.print(f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan"
                   + (f", {rtf:.1f}× faster than real time" if rtf else "") + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells "
-                  f"at {slam.map.resolution} m; bad beams {estimate.meta['bad_beams']}, scans not matched {estimate.meta['scans_not_matched']}")
+                  f"at {slam.map.params.resolution} m; bad beams {estimate.meta['bad_beams']}, scans not matched {estimate.meta['scans_not_matched']}")
     if "relations" in summary:
         r = summary["relations"]
         console.print(f"relations: {r['used']} used, {r['dropped']} dropped; translation {r['trans_mean']:.3f} ± {r['trans_std']:.3f} m, "

@@ -102,7 +102,7 @@ def test_estimate_round_trip_and_map_export(room_sequence, tmp_path):
     est.save(tmp_path / "e.npz")
     back = Estimate.load(tmp_path / "e.npz")
     assert np.allclose(back.poses, est.poses) and back.meta["params"]["resolution"] == 0.1
-    assert slam.map.resolution == 0.1 and len(slam.maps.levels) == 2
+    assert slam.map.params.resolution == 0.1 and len(slam.maps.levels) == 2
     pgm, yml = slam.map.save_map_server(tmp_path / "map")
     assert pgm.exists() and yml.exists()
 
@@ -114,7 +114,7 @@ def test_configuration_errors_before_work():
         GridSLAM(resolution=0)
     with pytest.raises(ValueError):
         GridSLAM(min_beams=1)
-    with pytest.raises(TypeError):
+    with pytest.raises(ValueError, match="no_such_parameter"):  # the matcher's model
         GridSLAM(matcher_params={"no_such_parameter": 1})
     with pytest.raises(ValueError, match="laser scans"):
         GridSLAM().run(Sequence(name="empty"))
