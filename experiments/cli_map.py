@@ -37,15 +37,19 @@ def load_log(log: str):
 
 
 def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("results/maps"), relations: Path | None = None) -> int:
+    from pydantic import ValidationError
     from rich.console import Console
+    from rich.markup import escape
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from slamarena.datasets.errors import DataFormatError, DatasetNotFoundError
-    from slamarena.mapping.scan_matching import MATCHERS
+    from slamarena.mapping.grid_slam import GridSLAM
 
     console = Console()
-    if matcher not in MATCHERS:
-        console.print(f"[red]unknown matcher {matcher!r}; choose from {', '.join(MATCHERS)}[/red]")
+    try:
+        slam = GridSLAM(matcher=matcher)
+    except ValidationError as exc:
+        console.print("[red]" + escape("; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())) + "[/red]")
         return 2
     if relations is not None and not Path(relations).is_file():
         console.print(f"[red]relations file {relations} does not exist[/red]")
@@ -62,9 +66,7 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     import numpy as np
 
     from slamarena.datasets.formats import tum
-    from slamarena.mapping.grid_slam import GridSLAM
 
-    slam = GridSLAM(matcher=matcher)
     K = len(sequence.scans)
     t0 = time.perf_counter()
     with Progress(TextColumn(f"mapping {log} ({matcher})"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False) as bar:
@@ -102,7 +104,7 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     rtf = summary["real_time_factor"]
     console.print(f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan"
                   + (f", {rtf:.1f}× faster than real time" if rtf else "") + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells "
-                  f"at {slam.map.resolution} m; bad beams {estimate.meta['bad_beams']}, scans not matched {estimate.meta['scans_not_matched']}")
+                  f"at {slam.map.params.resolution} m; bad beams {estimate.meta['bad_beams']}, scans not matched {estimate.meta['scans_not_matched']}")
     if "relations" in summary:
         r = summary["relations"]
         console.print(f"relations: {r['used']} used, {r['dropped']} dropped; translation {r['trans_mean']:.3f} ± {r['trans_std']:.3f} m, "

@@ -53,7 +53,7 @@ def occupancy_agreement(grid, true_occupied: np.ndarray, tol: int = 1) -> dict:
     true_occupied = np.asarray(true_occupied, dtype=bool)
     if true_occupied.shape != grid.shape:
         raise ValueError(f"true occupancy {true_occupied.shape} is not on the grid's lattice {grid.shape}")
-    est = grid.probability() > grid.occupied_threshold
+    est = grid.probability() > grid.params.occupied_threshold
     known = _dilate(np.abs(grid.log_odds - grid.l0) > 1e-6, tol)
     union = (est | true_occupied).sum()
     seen_truth = true_occupied & known
@@ -77,7 +77,7 @@ def true_occupancy_on(grid, world="loop", truth_in_map=(0.0, 0.0, 0.0)) -> np.nd
     moved = transform_points(np.asarray(truth_in_map, dtype=float), seg)
     walls = tuple((tuple(a), tuple(b)) for a, b in moved.tolist())
     moved_world = laser.World(name=f"{w.name} (moved)", walls=walls, route=w.route, corner_radius=w.corner_radius, description=w.description)
-    occupied, _ = laser.true_occupancy(grid.resolution, moved_world, origin=grid.origin, shape=grid.shape)
+    occupied, _ = laser.true_occupancy(grid.params.resolution, moved_world, origin=grid.origin, shape=grid.shape)
     return occupied
 
 
@@ -85,7 +85,7 @@ def map_sharpness(grid) -> dict:
     """Observed, occupied and free cells, the decided fraction and mean ``|2p − 1|`` of the observed cells."""
     p = grid.probability()
     known = np.abs(grid.log_odds - grid.l0) > 1e-6
-    occupied, free = p > grid.occupied_threshold, p < grid.free_threshold
+    occupied, free = p > grid.params.occupied_threshold, p < grid.params.free_threshold
     n = int(known.sum())
     return {"known_cells": n, "occupied_cells": int(occupied.sum()), "free_cells": int(free.sum()),
             "decided_fraction": float((occupied | free).sum() / n) if n else float("nan"),
@@ -102,7 +102,7 @@ def _end_points(scans, pose, k, max_range):
 
 def hits_on_occupied(grid, scans, poses, index, tol: int = 1) -> float:
     """Fraction of the usable end points of scans ``index`` at ``poses`` (one per index) within ``tol`` cells of an occupied cell."""
-    near = _dilate(grid.probability() > grid.occupied_threshold, tol)
+    near = _dilate(grid.probability() > grid.params.occupied_threshold, tol)
     hits = total = 0
     for k, pose in zip(index, poses):
         ok, pts = _end_points(scans, pose, k, scans.max_range)

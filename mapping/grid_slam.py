@@ -30,86 +30,69 @@ given the map, not a full SLAM covariance, hence not ``pose_cov``). After ``run`
 from __future__ import annotations
 
 import time
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt, ValidationInfo, field_validator
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
 from slamarena.datasets.sequence import Sequence
+from slamarena.params import Field, params_model
 
-from .map_pyramid import MapPyramid
-from .scan_matching import MATCHERS, make_matcher
+from .map_pyramid import MapPyramid, PyramidParams
+from .scan_matching import MATCHERS, make_matcher, matcher_class
 
-__all__ = ["GridSLAM"]
+__all__ = ["GridSLAM", "GridSLAMParams"]
+
+
+class GridSLAMParams(PyramidParams):
+    """Parameters of :class:`GridSLAM` (see the module docstring): the matcher, the map pyramid and its cell
+    model (:class:`~slamarena.mapping.map_pyramid.PyramidParams`; ``hit_guard``: see
+    :mod:`slamarena.mapping.occupancy_grid`), the beams used, and when the map is updated.
+
+    ``matcher_params`` are validated by the matcher's own model (``MatcherClass.Params``) and kept in its
+    canonical form, every default filled in: a wrong matcher parameter in an experiment config fails before
+    any cell runs, naming ``params.matcher_params.<field>``.
+
+    ``update_distance``, ``update_angle``: Hector's 0.4 m, 0.9 rad. ``initial_updates``: a one-scan map is
+    sparse at grazing angles and the Gauss-Newton match against it can jump by a cell (the notes' "10–20 scans
+    before scan matching"). ``clear_range``: 5 m, Cartographer's missing_data_ray_length: no-returns of real
+    lasers also come from glass and dark surfaces, and long clearing rays erase walls they pass.
+    """
+
+    matcher: Literal[tuple(MATCHERS)] = Field("gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS")
+    matcher_params: dict[str, Any] = Field(default_factory=dict, description="the matcher's parameters (its Params model)")
+    use_odometry: bool = Field(True, description="guess each pose from the scans' odometry poses (else: the previous pose)")
+    update_distance: NonNegativeFloat = Field(0.4, description="update the map when the pose moved more than this since the last update [m]")
+    update_angle: NonNegativeFloat = Field(0.9, description="update the map when the pose turned more than this since the last update [rad]")
+    initial_updates: NonNegativeInt = Field(10, description="update the map at every usable scan until it holds this many scans")
+    clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
+    max_usable_range: PositiveFloat | None = Field(None, description="longer returns are neither matched nor mapped [m]; None: all returns")
+    min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
+    reference_scans: PositiveInt = Field(10, description="point matchers match against the end points of this many last map-update scans")
+
+    @field_validator("matcher_params")
+    @classmethod
+    def _matcher_params(cls, value: dict, info: ValidationInfo) -> dict:
+        if "matcher" not in info.data:  # the matcher's name is wrong: reported on its own
+            return value
+        return params_model(matcher_class(info.data["matcher"])).of(value).canonical()
 
 
 class GridSLAM:
-    """Scan-to-map SLAM; every parameter is a keyword with a default (see the module docstring).
+    """Scan-to-map SLAM (module docstring; :class:`GridSLAMParams`)."""
 
-    matcher: a name of :data:`slamarena.mapping.scan_matching.MATCHERS`; matcher_params: its keywords.
-    resolution [m], levels: the map pyramid. update_distance [m], update_angle [rad]: map
-    update thresholds (Hector's 0.4 m, 0.9 rad). p_hit, p_miss, clamp, hit_guard: the cell
-    model (hit_guard g > 0: cells within g cells of a hit are not cleared by the same scan,
-    see :mod:`slamarena.mapping.occupancy_grid`). initial_updates: the map is updated at every one of
-    the first scans until it holds this many (a one-scan map is sparse at grazing angles and
-    the Gauss-Newton match against it can jump by a cell; the notes' "10–20 scans before
-    scan matching").
-    clear_range [m]: how far a no-return reading clears space (5 m, Cartographer's
-    missing_data_ray_length: no-returns of real lasers also come from glass and dark
-    surfaces, and long clearing rays erase walls they pass). max_usable_range [m]: longer
-    returns are not matched or mapped (None: all returns). min_beams: fewest usable beams
-    for a match. reference_scans: point matchers' reference size. use_odometry: guess from
-    the scans' odometry poses.
-    """
+    Params = GridSLAMParams
 
-    def __init__(
-        self,
-        matcher: str = "gauss_newton",
-        matcher_params: dict | None = None,
-        use_odometry: bool = True,
-        resolution: float = 0.05,
-        levels: int = 3,
-        update_distance: float = 0.4,
-        update_angle: float = 0.9,
-        p_hit: float = 0.7,
-        p_miss: float = 0.4,
-        clamp: list | tuple | None = (0.12, 0.97),
-        hit_guard: int = 0,
-        clear_range: float = 5.0,
-        max_usable_range: float | None = None,
-        min_beams: int = 10,
-        reference_scans: int = 10,
-        initial_updates: int = 10,
-    ):
-        if matcher not in MATCHERS:
-            raise ValueError(f"unknown matcher {matcher!r}; known: {', '.join(MATCHERS)}")
-        if resolution <= 0 or levels < 1 or update_distance < 0 or update_angle < 0 or clear_range <= 0 or min_beams < 3 or reference_scans < 1:
-            raise ValueError("GridSLAM: resolution > 0, levels ≥ 1, thresholds ≥ 0, clear_range > 0, min_beams ≥ 3, reference_scans ≥ 1")
-        if max_usable_range is not None and max_usable_range <= 0:
-            raise ValueError("max_usable_range must be > 0")
-        self.matcher_name = matcher
-        self.matcher_params = dict(matcher_params or {})
-        self.matcher = make_matcher(matcher, **self.matcher_params)
-        self.use_odometry = bool(use_odometry)
-        self.grid_params = dict(resolution=float(resolution), levels=int(levels), p_hit=p_hit, p_miss=p_miss,
-                                clamp=None if clamp is None else tuple(clamp), hit_guard=int(hit_guard))
-        self.update_distance, self.update_angle = float(update_distance), float(update_angle)
-        self.clear_range, self.max_usable_range = float(clear_range), max_usable_range
-        self.min_beams, self.reference_scans = int(min_beams), int(reference_scans)
-        if initial_updates < 0:
-            raise ValueError("initial_updates must be ≥ 0")
-        self.initial_updates = int(initial_updates)
+    def __init__(self, params: GridSLAMParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.matcher = make_matcher(self.params.matcher, **self.params.matcher_params)
         self.maps: MapPyramid | None = None
 
     @property
     def map(self):
         return None if self.maps is None else self.maps.finest
-
-    def params(self) -> dict:
-        return {"matcher": self.matcher_name, "matcher_params": self.matcher_params, "use_odometry": self.use_odometry,
-                **self.grid_params, "update_distance": self.update_distance, "update_angle": self.update_angle,
-                "clear_range": self.clear_range, "initial_updates": self.initial_updates, "max_usable_range": self.max_usable_range, "min_beams": self.min_beams,
-                "reference_scans": self.reference_scans}
 
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Map ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
@@ -117,8 +100,9 @@ class GridSLAM:
         if scans is None or len(scans) == 0:
             raise ValueError(f"GridSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         K, B = scans.ranges.shape
-        odom = scans.pose if (self.use_odometry and scans.pose is not None) else None
-        limit = scans.max_range if self.max_usable_range is None else min(scans.max_range, self.max_usable_range)
+        p = self.params
+        odom = scans.pose if (p.use_odometry and scans.pose is not None) else None
+        limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
 
         poses = np.zeros((K, 3))
         step_time = np.zeros(K)
@@ -129,7 +113,7 @@ class GridSLAM:
         }
         start = scans.pose[0] if scans.pose is not None and np.all(np.isfinite(scans.pose[0])) else sequence.start_pose
         pose = np.asarray(start, dtype=float).copy()
-        self.maps = MapPyramid(**self.grid_params, size=2.0 * min(scans.max_range, self.clear_range, 50.0), centre=pose[:2])
+        self.maps = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
         last_update = None
         n_updates = 0
         keyframes: list[np.ndarray] = []
@@ -146,7 +130,7 @@ class GridSLAM:
 
             if k > 0 and odom is not None and np.all(np.isfinite(odom[k - 1 : k + 1])):
                 pose = compose(pose, between(odom[k - 1], odom[k]))
-            if usable.sum() >= self.min_beams:
+            if usable.sum() >= p.min_beams:
                 pts = transform_points(scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
                 if last_update is not None:
                     reference = self.maps if self.matcher.kind == "grid" else np.concatenate(keyframes)
@@ -154,11 +138,11 @@ class GridSLAM:
                     pose = res.pose
                     diag["matched"][k] = True
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
-                if last_update is None or n_updates < self.initial_updates or np.hypot(*(pose[:2] - last_update[:2])) > self.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > self.update_angle:
+                if last_update is None or n_updates < p.initial_updates or np.hypot(*(pose[:2] - last_update[:2])) > p.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > p.update_angle:
                     mapped = ~bad & ((r < limit) | no_return)
-                    self.maps.integrate(r[mapped], a[mapped], pose, scans.mount, max_range=limit, clear_range=self.clear_range)
+                    self.maps.integrate(r[mapped], a[mapped], pose, scans.mount, max_range=limit, clear_range=p.clear_range)
                     if self.matcher.kind == "points":
-                        keyframes = (keyframes + [transform_points(pose, pts)])[-self.reference_scans :]
+                        keyframes = (keyframes + [transform_points(pose, pts)])[-p.reference_scans :]
                     last_update = pose.copy()
                     n_updates += 1
                     diag["map_updated"][k] = True
@@ -168,7 +152,7 @@ class GridSLAM:
                 progress(k + 1, K)
 
         meta = {
-            "params": self.params(),
+            "params": p.canonical(),
             "scans": int(K),
             "beams": int(B),
             "bad_beams": int(diag["bad_beams"].sum()),

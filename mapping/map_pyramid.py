@@ -9,23 +9,44 @@ matched on level k sees smooth, wide basins, the fine level gives accuracy.
 from __future__ import annotations
 
 import numpy as np
+from pydantic import PositiveFloat, PositiveInt
 
-from .occupancy_grid import OccupancyGrid
+from slamarena.params import Field
 
-__all__ = ["MapPyramid"]
+from .occupancy_grid import CellModelParams, OccupancyGrid
+
+__all__ = ["MapPyramid", "MapPyramidParams", "PyramidParams"]
+
+
+class PyramidParams(CellModelParams):
+    """The levels and the cell model of a map pyramid (what GridSLAM configures; the extent comes from the data)."""
+
+    resolution: PositiveFloat = Field(0.05, description="cell side of the finest level, level 0 [m]; level k has resolution · 2^k")
+    levels: PositiveInt = Field(3, description="number of levels")
+
+
+class MapPyramidParams(PyramidParams):
+    """Parameters of :class:`MapPyramid`: :class:`PyramidParams` and the initial extent."""
+
+    size: PositiveFloat = Field(20.0, description="side of the initial square every level covers [m] (grids grow as scans reach beyond)")
+    centre: tuple[float, float] = Field((0.0, 0.0), description="centre of the initial square [m]")
 
 
 class MapPyramid:
-    def __init__(self, resolution: float = 0.05, levels: int = 3, size: float = 20.0, centre=(0.0, 0.0), **grid_params):
-        """``size`` [m]: the initial square around ``centre`` (grids grow as scans reach beyond)."""
-        if levels < 1:
-            raise ValueError("levels must be ≥ 1")
+    """Occupancy grids at resolutions ``resolution · 2^k`` with one cell model (:class:`MapPyramidParams`)."""
+
+    Params = MapPyramidParams
+
+    def __init__(self, params: MapPyramidParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        p = self.params
+        cell_model = p.model_dump(include=set(CellModelParams.model_fields))
         self.levels: list[OccupancyGrid] = []
-        for k in range(levels):
-            res = resolution * 2**k
-            n = max(int(np.ceil(size / res)), 1)
-            corner = np.round(np.asarray(centre, dtype=float) / res) * res - (n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
-            self.levels.append(OccupancyGrid(resolution=res, width=n, height=n, origin=tuple(corner), **grid_params))
+        for k in range(p.levels):
+            res = p.resolution * 2**k
+            n = max(int(np.ceil(p.size / res)), 1)
+            corner = np.round(np.asarray(p.centre) / res) * res - (n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
+            self.levels.append(OccupancyGrid(cell_model, resolution=res, width=n, height=n, origin=tuple(corner)))
         self.version = 0
 
     @property

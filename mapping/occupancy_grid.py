@@ -38,14 +38,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import NonNegativeInt, PositiveFloat, PositiveInt, model_validator
 
 from slamarena.datasets.geometry import compose, transform_points
+from slamarena.params import Field, Params
 
 from .raytrace import bresenham
 
-__all__ = ["OccupancyGrid", "logit", "probability", "load_map_server", "ROS_FREE", "ROS_OCCUPIED", "ROS_UNKNOWN"]
+__all__ = ["OccupancyGrid", "OccupancyGridParams", "CellModelParams", "logit", "probability", "load_map_server", "ROS_FREE", "ROS_OCCUPIED", "ROS_UNKNOWN"]
 
 ROS_FREE, ROS_OCCUPIED, ROS_UNKNOWN = 0, 100, -1
 #: map_server trinary PGM pixel values (map_saver): occupied black, free white, unknown grey
@@ -71,47 +74,58 @@ class ScanCells:
     hit: np.ndarray
 
 
-class OccupancyGrid:
-    """Log-odds occupancy grid; see the module docstring for the model and conventions."""
+#: a probability strictly between 0 and 1
+OpenProbability = Annotated[float, Field(gt=0.0, lt=1.0)]
 
-    def __init__(
-        self,
-        resolution: float = 0.05,
-        width: int = 200,
-        height: int = 200,
-        origin: tuple[float, float] | None = None,
-        p_hit: float = 0.7,
-        p_miss: float = 0.4,
-        p_prior: float = 0.5,
-        free_threshold: float = 0.25,
-        occupied_threshold: float = 0.65,
-        clamp: tuple[float, float] | None = (0.12, 0.97),
-        grow: bool = True,
-        hit_guard: int = 0,
-        dtype=np.float32,
-    ):
-        for name, p in (("p_hit", p_hit), ("p_miss", p_miss), ("p_prior", p_prior)):
-            if not 0.0 < p < 1.0:
-                raise ValueError(f"{name} must be in (0, 1), got {p}")
-        if not p_miss < p_prior < p_hit:
-            raise ValueError(f"need p_miss < p_prior < p_hit, got {p_miss}, {p_prior}, {p_hit}")
-        if not 0.0 < free_threshold < occupied_threshold < 1.0:
-            raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
-        if resolution <= 0 or width < 1 or height < 1:
-            raise ValueError("resolution must be > 0 and the grid at least 1 × 1")
-        if clamp is not None and not 0.0 < clamp[0] < p_prior < clamp[1] < 1.0:
-            raise ValueError(f"clamp must be probabilities (p_min, p_max) around p_prior, got {clamp}")
-        self.resolution = float(resolution)
-        self.origin = np.array(origin if origin is not None else (-0.5 * width * resolution, -0.5 * height * resolution), dtype=float)
-        self.p_hit, self.p_miss, self.p_prior = float(p_hit), float(p_miss), float(p_prior)
-        self.l_hit, self.l_miss, self.l0 = float(logit(p_hit)), float(logit(p_miss)), float(logit(p_prior))
-        self.free_threshold, self.occupied_threshold = float(free_threshold), float(occupied_threshold)
-        self.l_min, self.l_max = (float(logit(clamp[0])), float(logit(clamp[1]))) if clamp is not None else (-np.inf, np.inf)
-        if hit_guard < 0:
-            raise ValueError("hit_guard must be ≥ 0")
-        self.grow = grow
-        self.hit_guard = int(hit_guard)
-        self.log_odds = np.full((int(height), int(width)), self.l0, dtype=dtype)
+
+class CellModelParams(Params):
+    """The cell model of a log-odds grid (inverse sensor model, thresholds, clamp, hit guard); shared by
+    :class:`OccupancyGridParams`, the map pyramid's and GridSLAM's parameters."""
+
+    p_hit: OpenProbability = Field(0.7, description="p(m | z) of the cell holding a beam end point")
+    p_miss: OpenProbability = Field(0.4, description="p(m | z) of the cells a beam passes through")
+    p_prior: OpenProbability = Field(0.5, description="prior occupancy p0 of an unobserved cell (l0 = logit p0)")
+    free_threshold: OpenProbability = Field(0.25, description="a cell with p below this is free")
+    occupied_threshold: OpenProbability = Field(0.65, description="a cell with p above this is occupied")
+    clamp: tuple[OpenProbability, OpenProbability] | None = Field(
+        (0.12, 0.97), description="probabilities (p_min, p_max) the log-odds are clamped to; None: no clamping")
+    hit_guard: NonNegativeInt = Field(0, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off")
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if not self.p_miss < self.p_prior < self.p_hit:
+            raise ValueError(f"need p_miss < p_prior < p_hit, got {self.p_miss}, {self.p_prior}, {self.p_hit}")
+        if not self.free_threshold < self.occupied_threshold:
+            raise ValueError(f"need free_threshold < occupied_threshold, got {self.free_threshold}, {self.occupied_threshold}")
+        if self.clamp is not None and not self.clamp[0] < self.p_prior < self.clamp[1]:
+            raise ValueError(f"clamp (p_min, p_max) must lie around p_prior = {self.p_prior}, got {self.clamp}")
+        return self
+
+
+class OccupancyGridParams(CellModelParams):
+    """Parameters of :class:`OccupancyGrid`: its lattice and its cell model."""
+
+    resolution: PositiveFloat = Field(0.05, description="cell side [m]")
+    width: PositiveInt = Field(200, description="initial number of columns (x) [cells]")
+    height: PositiveInt = Field(200, description="initial number of rows (y) [cells]")
+    origin: tuple[float, float] | None = Field(
+        None, description="world position of the lower-left corner of cell (0, 0) [m]; None: the grid centred on (0, 0)")
+    grow: bool = Field(True, description="grow in blocks of 64 cells when a scan reaches beyond the grid (else drop those cells)")
+    dtype: Literal["float32", "float64"] = Field("float32", description="storage type of the log-odds")
+
+
+class OccupancyGrid:
+    """Log-odds occupancy grid; see the module docstring for the model and conventions (:class:`OccupancyGridParams`)."""
+
+    Params = OccupancyGridParams
+
+    def __init__(self, params: OccupancyGridParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        p = self.params
+        self.origin = np.array(p.origin if p.origin is not None else (-0.5 * p.width * p.resolution, -0.5 * p.height * p.resolution), dtype=float)
+        self.l_hit, self.l_miss, self.l0 = float(logit(p.p_hit)), float(logit(p.p_miss)), float(logit(p.p_prior))
+        self.l_min, self.l_max = (float(logit(p.clamp[0])), float(logit(p.clamp[1]))) if p.clamp is not None else (-np.inf, np.inf)
+        self.log_odds = np.full((p.height, p.width), self.l0, dtype=p.dtype)
         self.version = 0
         self.cell_updates = 0
 
@@ -123,11 +137,11 @@ class OccupancyGrid:
     def world_to_grid(self, xy) -> np.ndarray:
         """Integer cell indices ``(…, 2)`` as ``(ix, iy)``: rounding with the half-cell shift."""
         xy = np.asarray(xy, dtype=float)
-        return np.floor((xy - self.origin - 0.5 * self.resolution) / self.resolution + 0.5).astype(np.int64)
+        return np.floor((xy - self.origin - 0.5 * self.params.resolution) / self.params.resolution + 0.5).astype(np.int64)
 
     def grid_to_world(self, ij) -> np.ndarray:
         """World position ``(…, 2)`` of the centres of cells ``(ix, iy)``."""
-        return self.origin + (np.asarray(ij, dtype=float) + 0.5) * self.resolution
+        return self.origin + (np.asarray(ij, dtype=float) + 0.5) * self.params.resolution
 
     def contains(self, ij) -> np.ndarray:
         ij = np.asarray(ij)
@@ -146,7 +160,7 @@ class OccupancyGrid:
         pad_lo = -(-pad_lo // _GROW_BLOCK) * _GROW_BLOCK
         pad_hi = -(-pad_hi // _GROW_BLOCK) * _GROW_BLOCK
         self.log_odds = np.pad(self.log_odds, ((pad_lo[1], pad_hi[1]), (pad_lo[0], pad_hi[0])), constant_values=self.l0)
-        self.origin = self.origin - pad_lo * self.resolution
+        self.origin = self.origin - pad_lo * self.params.resolution
         self.version += 1
 
     # ------------------------------------------------------------------ update
@@ -170,7 +184,7 @@ class OccupancyGrid:
         if reach.size == 0:
             return ScanCells(np.zeros(0, np.int64), np.zeros(0, np.int64))
         ends = transform_points(sensor, np.column_stack([reach * np.cos(a[valid]), reach * np.sin(a[valid])]))
-        if self.grow:
+        if self.params.grow:
             self.ensure_contains(np.minimum(ends.min(axis=0), sensor[:2]), np.maximum(ends.max(axis=0), sensor[:2]))
         c0 = self.world_to_grid(sensor[:2])
         c1 = self.world_to_grid(ends)
@@ -182,8 +196,8 @@ class OccupancyGrid:
         hits = np.unique(flat[is_hit & inside])
         free = np.unique(flat[~is_hit & inside])
         guarded = hits
-        if self.hit_guard:
-            g = np.arange(-self.hit_guard, self.hit_guard + 1)
+        if self.params.hit_guard:
+            g = np.arange(-self.params.hit_guard, self.params.hit_guard + 1)
             guarded = np.unique((hits[:, None] + (g[:, None] * self.shape[1] + g[None, :]).ravel()[None, :]).ravel())
         free = free[~np.isin(free, guarded)]
         return ScanCells(free, hits)
@@ -210,8 +224,8 @@ class OccupancyGrid:
         """int8 grid (rows = y): 0 free (p < free), 100 occupied (p > occupied), −1 unknown."""
         p = self.probability()
         out = np.full(p.shape, ROS_UNKNOWN, dtype=np.int8)
-        out[p < self.free_threshold] = ROS_FREE
-        out[p > self.occupied_threshold] = ROS_OCCUPIED
+        out[p < self.params.free_threshold] = ROS_FREE
+        out[p > self.params.occupied_threshold] = ROS_OCCUPIED
         return out
 
     def nbytes(self) -> int:
@@ -247,16 +261,16 @@ class OccupancyGrid:
         h, w = pgm.shape
         pgm_path = stem.with_suffix(".pgm")
         with open(pgm_path, "wb") as fh:
-            fh.write(f"P5\n# slamarena occupancy grid, {self.resolution} m/cell\n{w} {h}\n255\n".encode("ascii"))
+            fh.write(f"P5\n# slamarena occupancy grid, {self.params.resolution} m/cell\n{w} {h}\n255\n".encode("ascii"))
             fh.write(pgm[::-1].tobytes())
         yaml_path = stem.with_suffix(".yaml")
         meta = {
             "image": pgm_path.name,
             "mode": "trinary",
-            "resolution": self.resolution,
+            "resolution": self.params.resolution,
             "origin": [float(self.origin[0]), float(self.origin[1]), 0.0],
             "negate": 0,
-            "occupied_thresh": self.occupied_threshold,
+            "occupied_thresh": self.params.occupied_threshold,
             "free_thresh": 0.196,
         }
         yaml_path.write_text(yaml.safe_dump(meta, sort_keys=False))

@@ -1,7 +1,7 @@
 """2D scan matchers: registry and the common result type.
 
-Every matcher is a class built from keyword parameters with ``kind`` telling what it
-matches against and a ``match`` method:
+Every matcher is a class built from its parameter model (``Class.Params``, :mod:`slamarena.params`: a
+model or keywords) with ``kind`` telling what it matches against and a ``match`` method:
 
     kind = "grid":   match(maps: MapPyramid, points (N, 2), guess (3,)) -> MatchResult
     kind = "points": match(reference (M, 2) world points, points (N, 2), guess (3,)) -> MatchResult
@@ -19,7 +19,7 @@ import numpy as np
 from slamarena.errors import UnknownNameError
 from slamarena.targets import import_target
 
-__all__ = ["MATCHERS", "MatchResult", "make_matcher"]
+__all__ = ["MATCHERS", "MatchResult", "make_matcher", "matcher_class"]
 
 MATCHERS: dict[str, str] = {
     "gauss_newton": "slamarena.mapping.scan_matching.gauss_newton:GaussNewtonMatcher",
@@ -41,8 +41,13 @@ class MatchResult:
     info: dict = field(default_factory=dict)
 
 
-def make_matcher(name: str, **params):
-    """Instantiate a registered matcher by name (``KeyError`` listing the names)."""
+def matcher_class(name: str) -> type:
+    """The class of a registered matcher (``KeyError`` listing the names)."""
     if name not in MATCHERS:
         raise UnknownNameError(f"unknown matcher {name!r}; known: {', '.join(MATCHERS)}")
-    return import_target(MATCHERS[name])(**params)
+    return import_target(MATCHERS[name])
+
+
+def make_matcher(name: str, **params):
+    """Instantiate a registered matcher by name; its ``Params`` model validates ``params``."""
+    return matcher_class(name)(**params)

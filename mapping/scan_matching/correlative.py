@@ -36,11 +36,14 @@ its Ceres matcher: the wide, global search picks the basin, Gauss-Newton the sub
 from __future__ import annotations
 
 import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
+
+from slamarena.params import Field, Params
 
 from ..occupancy_grid import probability as _probability
 from . import MatchResult
 
-__all__ = ["CorrelativeMatcher", "BranchAndBoundMatcher", "likelihood_grid"]
+__all__ = ["CorrelativeMatcher", "CorrelativeMatcherParams", "BranchAndBoundMatcher", "BranchAndBoundMatcherParams", "likelihood_grid"]
 
 _BLOCK = 64
 
@@ -52,11 +55,11 @@ def likelihood_grid(grid, sigma: float, p_floor: float, box: tuple[int, int, int
 
     h, w = grid.shape
     ix0, iy0, ix1, iy1 = box if box is not None else (0, 0, w, h)
-    m = int(np.ceil(4 * sigma / grid.resolution))
+    m = int(np.ceil(4 * sigma / grid.params.resolution))
     x0, y0, x1, y1 = max(ix0 - m, 0), max(iy0 - m, 0), min(ix1 + m, w), min(iy1 + m, h)
-    occupied = _probability(grid.log_odds[y0:y1, x0:x1]) > grid.occupied_threshold
+    occupied = _probability(grid.log_odds[y0:y1, x0:x1]) > grid.params.occupied_threshold
     if occupied.any():
-        d = distance_transform_edt(~occupied) * grid.resolution
+        d = distance_transform_edt(~occupied) * grid.params.resolution
         G = np.log(p_floor + (1.0 - p_floor) * np.exp(-0.5 * (d / sigma) ** 2))
     else:
         G = np.full(occupied.shape, np.log(p_floor))
@@ -64,26 +67,12 @@ def likelihood_grid(grid, sigma: float, p_floor: float, box: tuple[int, int, int
 
 
 class _Correlative:
+    """The pieces the exhaustive and the branch-and-bound search share; ``Params`` is the subclass's model."""
+
     kind = "grid"
 
-    def __init__(
-        self,
-        linear_window: float = 0.3,
-        angular_window: float = 0.3,
-        angular_step: float | None = None,
-        sigma: float = 0.05,
-        p_floor: float = 0.01,
-        level: int = 0,
-        covariance_cells: int = 2,
-        refine: bool = False,
-    ):
-        if linear_window < 0 or angular_window < 0 or sigma <= 0 or not 0 < p_floor < 1 or level < 0 or covariance_cells < 1:
-            raise ValueError("correlative matcher: windows ≥ 0, sigma > 0, 0 < p_floor < 1, level ≥ 0, covariance_cells ≥ 1")
-        if angular_step is not None and angular_step <= 0:
-            raise ValueError("angular_step must be > 0")
-        self.linear_window, self.angular_window, self.angular_step = float(linear_window), float(angular_window), angular_step
-        self.sigma, self.p_floor, self.level, self.covariance_cells = float(sigma), float(p_floor), int(level), int(covariance_cells)
-        self.refine = bool(refine)
+    def __init__(self, params: CorrelativeMatcherParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
         self._cache_key = None
         self._cache: dict = {}
 
@@ -91,15 +80,15 @@ class _Correlative:
     def _grids(self, maps, depth: int, guess, reach: float):
         """Padded likelihood grid of the map region within ``reach`` of the guess (snapped to
         blocks of 64 cells) and, for ``depth > 0``, its max-pyramid; cached per map version."""
-        grid = maps.levels[min(self.level, len(maps.levels) - 1)]
+        grid = maps.levels[min(self.params.level, len(maps.levels) - 1)]
         h, w = grid.shape
         lo = np.clip((grid.world_to_grid(np.asarray(guess[:2]) - reach) // _BLOCK) * _BLOCK, 0, [w, h])
         hi = np.clip((grid.world_to_grid(np.asarray(guess[:2]) + reach) // _BLOCK + 1) * _BLOCK, 0, [w, h])
         key = (id(grid), grid.version, grid.shape, depth, *lo, *hi)
         if key != self._cache_key:
-            floor = np.log(self.p_floor)
+            floor = np.log(self.params.p_floor)
             pad = 2**depth + self._w(grid) + 1
-            G = likelihood_grid(grid, self.sigma, self.p_floor, (lo[0], lo[1], hi[0], hi[1]))
+            G = likelihood_grid(grid, self.params.sigma, self.params.p_floor, (lo[0], lo[1], hi[0], hi[1]))
             pyramid = [np.pad(G, pad, constant_values=floor)]
             for h in range(1, depth + 1):
                 s = 2 ** (h - 1)
@@ -113,15 +102,15 @@ class _Correlative:
 
     def _reach(self, grid, pts) -> float:
         r = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 0.0
-        return r + self.linear_window + 4 * self.sigma + 2 * grid.resolution
+        return r + self.params.linear_window + 4 * self.params.sigma + 2 * grid.params.resolution
 
     def _w(self, grid) -> int:
-        return int(np.ceil(self.linear_window / grid.resolution - 1e-9))
+        return int(np.ceil(self.params.linear_window / grid.params.resolution - 1e-9))
 
     def _angles(self, grid, pts: np.ndarray) -> tuple[float, int]:
-        r_max = max(float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 1.0, grid.resolution)
-        step = self.angular_step or float(np.arccos(1.0 - grid.resolution**2 / (2.0 * r_max**2)))
-        return step, int(np.ceil(self.angular_window / step - 1e-9))
+        r_max = max(float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 1.0, grid.params.resolution)
+        step = self.params.angular_step or float(np.arccos(1.0 - grid.params.resolution**2 / (2.0 * r_max**2)))
+        return step, int(np.ceil(self.params.angular_window / step - 1e-9))
 
     @staticmethod
     def _cells(grid, pad, pts, guess, angles):
@@ -131,8 +120,8 @@ class _Correlative:
         c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
         wx = guess[0] + c * pts[:, 0] - s * pts[:, 1]
         wy = guess[1] + s * pts[:, 0] + c * pts[:, 1]
-        ix = np.floor((wx - grid.origin[0]) / grid.resolution).astype(np.int64) + pad[0]
-        iy = np.floor((wy - grid.origin[1]) / grid.resolution).astype(np.int64) + pad[1]
+        ix = np.floor((wx - grid.origin[0]) / grid.params.resolution).astype(np.int64) + pad[0]
+        iy = np.floor((wy - grid.origin[1]) / grid.params.resolution).astype(np.int64) + pad[1]
         return ix, iy
 
     @staticmethod
@@ -163,9 +152,9 @@ class _Correlative:
         return cov
 
     def _result(self, maps, pts, grid, S_best, n, guess, a, b, th, cov, evaluated):
-        pose = np.array([guess[0] + a * grid.resolution, guess[1] + b * grid.resolution, guess[2] + th])
+        pose = np.array([guess[0] + a * grid.params.resolution, guess[1] + b * grid.params.resolution, guess[2] + th])
         info = {"candidates_scored": int(evaluated)}
-        if self.refine:
+        if self.params.refine:
             from .gauss_newton import GaussNewtonMatcher
 
             info["lattice_pose"] = pose.copy()
@@ -174,13 +163,27 @@ class _Correlative:
         return MatchResult(pose=pose, cov=cov, score=float(S_best / max(n, 1)), iterations=int(evaluated), info=info)
 
 
+class CorrelativeMatcherParams(Params):
+    """Parameters of :class:`CorrelativeMatcher` (and of :class:`BranchAndBoundMatcher`, which adds one)."""
+
+    linear_window: NonNegativeFloat = Field(0.3, description="half-width of the translation search around the guess [m] (w = ⌈linear_window / res⌉ cells)")
+    angular_window: NonNegativeFloat = Field(0.3, description="half-width of the rotation search around the guess [rad]")
+    angular_step: PositiveFloat | None = Field(None, description="rotation step δθ [rad]; None: arccos(1 − res² / 2 r_max²), the farthest point moves one cell")
+    sigma: PositiveFloat = Field(0.05, description="σ of the Gaussian smoothing of the obstacles in the likelihood grid [m]")
+    p_floor: float = Field(0.01, gt=0.0, lt=1.0, description="likelihood floor of a point that hits nothing mapped")
+    level: NonNegativeInt = Field(0, description="pyramid level searched (0: finest; beyond the coarsest: the coarsest)")
+    refine: bool = Field(False, description="polish the lattice pose with the Gauss-Newton matcher on the pyramid")
+
+
 class CorrelativeMatcher(_Correlative):
-    """Exhaustive correlative scan matching over the search window (Olson 2009)."""
+    """Exhaustive correlative scan matching over the search window (Olson 2009; :class:`CorrelativeMatcherParams`)."""
+
+    Params = CorrelativeMatcherParams
 
     def match(self, maps, points, guess) -> MatchResult:
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         guess = np.asarray(guess, dtype=float)
-        grid = maps.levels[min(self.level, len(maps.levels) - 1)]
+        grid = maps.levels[min(self.params.level, len(maps.levels) - 1)]
         w = self._w(grid)
         dth, na = self._angles(grid, pts)
         cache = self._grids(maps, 0, guess, self._reach(grid, pts))
@@ -189,17 +192,25 @@ class CorrelativeMatcher(_Correlative):
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
         S, a, b = self._response(G, ix, iy, range(offsets.size), w, w)
         k, j, i = np.unravel_index(int(np.argmax(S)), S.shape)
-        cov = self._moments(S, a, b, offsets, grid.resolution, dth, guess)
+        cov = self._moments(S, a, b, offsets, grid.params.resolution, dth, guess)
         return self._result(maps, pts, grid, S[k, j, i], len(pts), guess, a[i], b[j], offsets[k], cov, S.size)
 
 
+class BranchAndBoundMatcherParams(CorrelativeMatcherParams):
+    """Parameters of :class:`BranchAndBoundMatcher`: the correlative search's and the covariance window."""
+
+    covariance_cells: PositiveInt = Field(2, description="half-width of the exhaustive response around the optimum that gives the covariance [cells and angle steps]")
+
+
 class BranchAndBoundMatcher(_Correlative):
-    """Branch and bound over max-pyramids of the likelihood grid (Cartographer's fast matcher)."""
+    """Branch and bound over max-pyramids of the likelihood grid (Cartographer's fast matcher; :class:`BranchAndBoundMatcherParams`)."""
+
+    Params = BranchAndBoundMatcherParams
 
     def match(self, maps, points, guess) -> MatchResult:
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         guess = np.asarray(guess, dtype=float)
-        grid0 = maps.levels[min(self.level, len(maps.levels) - 1)]
+        grid0 = maps.levels[min(self.params.level, len(maps.levels) - 1)]
         w = self._w(grid0)
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
         grid = grid0
@@ -241,8 +252,8 @@ class BranchAndBoundMatcher(_Correlative):
 
         search(nodes, depth)
         S_best, k, a, b = best
-        c = self.covariance_cells
+        c = self.params.covariance_cells
         ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
         S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))
-        cov = self._moments(S, ga, gb, offsets[list(ks)], grid.resolution, dth, guess)
+        cov = self._moments(S, ga, gb, offsets[list(ks)], grid.params.resolution, dth, guess)
         return self._result(maps, pts, grid, S_best, len(pts), guess, a, b, offsets[k], cov, evaluated)

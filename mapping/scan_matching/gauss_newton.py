@@ -44,10 +44,13 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
+
+from slamarena.params import Field, Params
 
 from . import MatchResult
 
-__all__ = ["GaussNewtonMatcher", "interpolate", "solve_level"]
+__all__ = ["GaussNewtonMatcher", "GaussNewtonMatcherParams", "interpolate", "solve_level"]
 
 
 @njit(cache=True)
@@ -186,55 +189,48 @@ def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t,
     return np.array([x, y, th]), H, ssr, msum, n, it
 
 
-class GaussNewtonMatcher:
-    """Hector-style multi-resolution Gauss-Newton scan-to-map matcher (see module docstring).
+class GaussNewtonMatcherParams(Params):
+    """Parameters of :class:`GaussNewtonMatcher`.
 
-    Parameters: ``iterations`` per level (default 10), convergence tolerances
-    ``tol_translation`` [m] and ``tol_rotation`` [rad], step clamps ``max_step_translation``
-    [m, on the finest level; scaled with each level's resolution] and ``max_step_rotation``
-    [rad], ``hector_gradient_bug`` to reproduce the published gradient weights.
-    ``prior_translation_weight`` [1/m²] and ``prior_rotation_weight`` [1/rad²] add
-    ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as Cartographer's
-    Ceres matcher does: directions the map does not constrain (along a corridor) then follow
-    the guess instead of drifting on the coarse levels (on sim:laser, pure Hector jumps 0.2–0.3 m
-    along the first corridor; research/mapping.md). Default 100 each, small against the map's
-    H (10⁴–10⁵ per m² in constrained directions); 0 gives Hector's objective exactly.
+    The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as
+    Cartographer's Ceres matcher does: directions the map does not constrain (along a corridor) then follow
+    the guess instead of drifting on the coarse levels (on sim:laser, pure Hector jumps 0.2–0.3 m along the
+    first corridor; research/mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
+    constrained directions); 0 gives Hector's objective exactly.
     """
 
-    kind = "grid"
+    iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
+    tol_translation: NonNegativeFloat = Field(1e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)")
+    tol_rotation: NonNegativeFloat = Field(1e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
+    max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
+    max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
+    hector_gradient_bug: bool = Field(False, description="reproduce the gradient weights of Hector's published code (module docstring)")
+    prior_translation_weight: NonNegativeFloat = Field(100.0, description="w_t of the prior towards the guess [1/m²]; 0: Hector's objective")
+    prior_rotation_weight: NonNegativeFloat = Field(100.0, description="w_r of the prior towards the guess [1/rad²]; 0: Hector's objective")
 
-    def __init__(
-        self,
-        iterations: int = 10,
-        tol_translation: float = 1e-4,
-        tol_rotation: float = 1e-4,
-        max_step_translation: float = 0.1,
-        max_step_rotation: float = 0.2,
-        hector_gradient_bug: bool = False,
-        prior_translation_weight: float = 100.0,
-        prior_rotation_weight: float = 100.0,
-    ):
-        if iterations < 1 or max_step_translation <= 0 or max_step_rotation <= 0 or tol_translation < 0 or tol_rotation < 0:
-            raise ValueError("GaussNewtonMatcher: iterations ≥ 1, positive step clamps and non-negative tolerances required")
-        self.iterations = int(iterations)
-        self.tol_translation, self.tol_rotation = float(tol_translation), float(tol_rotation)
-        self.max_step_translation, self.max_step_rotation = float(max_step_translation), float(max_step_rotation)
-        self.hector_gradient_bug = bool(hector_gradient_bug)
-        if prior_translation_weight < 0 or prior_rotation_weight < 0:
-            raise ValueError("GaussNewtonMatcher: prior weights must be ≥ 0")
-        self.w_t, self.w_r = float(prior_translation_weight), float(prior_rotation_weight)
+
+class GaussNewtonMatcher:
+    """Hector-style multi-resolution Gauss-Newton scan-to-map matcher (module docstring, :class:`GaussNewtonMatcherParams`)."""
+
+    kind = "grid"
+    Params = GaussNewtonMatcherParams
+
+    def __init__(self, params: GaussNewtonMatcherParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
 
     def match(self, maps, points: np.ndarray, guess: np.ndarray) -> MatchResult:
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         guess = np.asarray(guess, dtype=np.float64)
         pose = guess.copy()
-        fine = maps.levels[0].resolution
+        p = self.params
+        fine = maps.levels[0].params.resolution
         total = 0
         for grid in reversed(maps.levels):
+            res = grid.params.resolution
             pose, H, ssr, msum, n, it = solve_level(
-                grid.log_odds, grid.origin[0], grid.origin[1], grid.resolution, pts, pose, self.iterations,
-                self.tol_translation, self.tol_rotation, self.max_step_translation * grid.resolution / fine,
-                self.max_step_rotation, self.hector_gradient_bug, guess, self.w_t, self.w_r,
+                grid.log_odds, grid.origin[0], grid.origin[1], res, pts, pose, p.iterations,
+                p.tol_translation, p.tol_rotation, p.max_step_translation * res / fine,
+                p.max_step_rotation, p.hector_gradient_bug, guess, p.prior_translation_weight, p.prior_rotation_weight,
             )
             total += it
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi

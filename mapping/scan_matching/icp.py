@@ -24,11 +24,16 @@ Covariance (both): the Gauss-Newton approximation of 2D point-to-point ICP at th
 """
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
+from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
+
+from slamarena.params import Field, Params
 
 from . import MatchResult
 
-__all__ = ["KissICPMatcher", "Open3DICPMatcher", "normals_2d"]
+__all__ = ["KissICPMatcher", "KissICPMatcherParams", "Open3DICPMatcher", "Open3DICPMatcherParams", "normals_2d"]
 
 
 def _se2_to_matrix(pose) -> np.ndarray:
@@ -81,50 +86,65 @@ def _laplace_and_score(reference, points, pose, gate) -> tuple[np.ndarray, float
     return sigma2 * np.linalg.inv(H), n / len(points)
 
 
+class KissICPMatcherParams(Params):
+    """Parameters of :class:`KissICPMatcher`."""
+
+    voxel_size: PositiveFloat = Field(0.1, description="voxel side of kiss-icp's VoxelHashMap holding the reference [m]")
+    max_points_per_voxel: PositiveInt = Field(20, description="most reference points kept per voxel")
+    max_correspondence: PositiveFloat = Field(0.5, description="correspondence gate [m]; the Geman-McClure kernel is a third of it")
+    max_iterations: PositiveInt = Field(500, description="most ICP iterations")
+    convergence: NonNegativeFloat = Field(1e-4, description="ICP stops when the norm of an update (se(3) twist [m, rad]) is below this")
+
+
 class KissICPMatcher:
-    """kiss-icp point-to-map registration of a 2D scan (see module docstring)."""
+    """kiss-icp point-to-map registration of a 2D scan (module docstring, :class:`KissICPMatcherParams`)."""
 
     kind = "points"
+    Params = KissICPMatcherParams
 
-    def __init__(self, voxel_size: float = 0.1, max_points_per_voxel: int = 20, max_correspondence: float = 0.5, max_iterations: int = 500, convergence: float = 1e-4):
-        if voxel_size <= 0 or max_correspondence <= 0 or max_iterations < 1 or max_points_per_voxel < 1:
-            raise ValueError("KissICPMatcher: positive voxel_size, max_correspondence, max_iterations, max_points_per_voxel required")
-        self.voxel_size, self.max_points_per_voxel = float(voxel_size), int(max_points_per_voxel)
-        self.max_correspondence, self.max_iterations, self.convergence = float(max_correspondence), int(max_iterations), float(convergence)
+    def __init__(self, params: KissICPMatcherParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
         self._registration = None
 
     def match(self, reference, points, guess) -> MatchResult:
         from kiss_icp.mapping import VoxelHashMap
         from kiss_icp.registration import Registration
 
+        p = self.params
         if self._registration is None:
-            self._registration = Registration(max_num_iterations=self.max_iterations, convergence_criterion=self.convergence, max_num_threads=1)
+            self._registration = Registration(max_num_iterations=p.max_iterations, convergence_criterion=p.convergence, max_num_threads=1)
         reference = np.asarray(reference, dtype=float).reshape(-1, 2)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        voxel_map = VoxelHashMap(voxel_size=self.voxel_size, max_distance=1e6, max_points_per_voxel=self.max_points_per_voxel)
+        voxel_map = VoxelHashMap(voxel_size=p.voxel_size, max_distance=1e6, max_points_per_voxel=p.max_points_per_voxel)
         voxel_map.add_points(_lift(reference))
         T = self._registration.align_points_to_map(
             points=_lift(points), voxel_map=voxel_map, initial_guess=_se2_to_matrix(np.asarray(guess, dtype=float)),
-            max_correspondance_distance=self.max_correspondence, kernel=self.max_correspondence / 3.0,
+            max_correspondance_distance=p.max_correspondence, kernel=p.max_correspondence / 3.0,
         )
         pose = _matrix_to_se2(np.asarray(T))
-        cov, score = _laplace_and_score(reference, points, pose, self.max_correspondence)
+        cov, score = _laplace_and_score(reference, points, pose, p.max_correspondence)
         return MatchResult(pose=pose, cov=cov, score=score)
 
 
+class Open3DICPMatcherParams(Params):
+    """Parameters of :class:`Open3DICPMatcher`."""
+
+    method: Literal["point_to_point", "point_to_plane", "generalized"] = Field(
+        "point_to_plane", description="Open3D registration: point-to-point or point-to-plane ICP, or generalized ICP")
+    max_correspondence: PositiveFloat = Field(0.5, description="correspondence gate [m]")
+    max_iterations: PositiveInt = Field(50, description="most ICP iterations")
+    neighbours: int = Field(8, ge=3, description="k nearest neighbours of the 2D normals and covariances")
+    epsilon: PositiveFloat = Field(1e-3, description="GICP's variance along the normal relative to the tangent's, ε of R diag(ε, 1) Rᵀ")
+
+
 class Open3DICPMatcher:
-    """Open3D ICP: ``method`` point_to_point, point_to_plane or generalized (see module docstring)."""
+    """Open3D ICP: ``method`` point_to_point, point_to_plane or generalized (module docstring, :class:`Open3DICPMatcherParams`)."""
 
     kind = "points"
-    METHODS = ("point_to_point", "point_to_plane", "generalized")
+    Params = Open3DICPMatcherParams
 
-    def __init__(self, method: str = "point_to_plane", max_correspondence: float = 0.5, max_iterations: int = 50, neighbours: int = 8, epsilon: float = 1e-3):
-        if method not in self.METHODS:
-            raise ValueError(f"Open3DICPMatcher: method must be one of {self.METHODS}, got {method!r}")
-        if max_correspondence <= 0 or max_iterations < 1 or neighbours < 3 or epsilon <= 0:
-            raise ValueError("Open3DICPMatcher: positive max_correspondence, max_iterations ≥ 1, neighbours ≥ 3, epsilon > 0")
-        self.method, self.max_correspondence, self.max_iterations = method, float(max_correspondence), int(max_iterations)
-        self.neighbours, self.epsilon = int(neighbours), float(epsilon)
+    def __init__(self, params: Open3DICPMatcherParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
 
     def _cloud(self, xy, with_normals: bool, with_covariances: bool):
         import open3d as o3d
@@ -132,13 +152,13 @@ class Open3DICPMatcher:
         pc = o3d.geometry.PointCloud()
         pc.points = o3d.utility.Vector3dVector(_lift(xy))
         if with_normals or with_covariances:
-            n, _ = normals_2d(xy, self.neighbours)
+            n, _ = normals_2d(xy, self.params.neighbours)
             if with_normals:
                 pc.normals = o3d.utility.Vector3dVector(_lift(n))
             if with_covariances:
                 t = np.column_stack([-n[:, 1], n[:, 0]])
                 C = np.zeros((len(n), 3, 3))
-                C[:, :2, :2] = self.epsilon * np.einsum("ni,nj->nij", n, n) + np.einsum("ni,nj->nij", t, t)
+                C[:, :2, :2] = self.params.epsilon * np.einsum("ni,nj->nij", n, n) + np.einsum("ni,nj->nij", t, t)
                 C[:, 2, 2] = 1.0
                 pc.covariances = o3d.utility.Matrix3dVector(C)
         return pc
@@ -147,18 +167,19 @@ class Open3DICPMatcher:
         import open3d as o3d
 
         reg = o3d.pipelines.registration
+        p = self.params
         reference = np.asarray(reference, dtype=float).reshape(-1, 2)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        gicp = self.method == "generalized"
+        gicp = p.method == "generalized"
         source = self._cloud(points, False, gicp)
-        target = self._cloud(reference, self.method == "point_to_plane", gicp)
-        criteria = reg.ICPConvergenceCriteria(max_iteration=self.max_iterations)
+        target = self._cloud(reference, p.method == "point_to_plane", gicp)
+        criteria = reg.ICPConvergenceCriteria(max_iteration=p.max_iterations)
         init = _se2_to_matrix(np.asarray(guess, dtype=float))
         if gicp:
-            out = reg.registration_generalized_icp(source, target, self.max_correspondence, init, reg.TransformationEstimationForGeneralizedICP(self.epsilon), criteria)
+            out = reg.registration_generalized_icp(source, target, p.max_correspondence, init, reg.TransformationEstimationForGeneralizedICP(p.epsilon), criteria)
         else:
-            estimation = reg.TransformationEstimationPointToPlane() if self.method == "point_to_plane" else reg.TransformationEstimationPointToPoint()
-            out = reg.registration_icp(source, target, self.max_correspondence, init, estimation, criteria)
+            estimation = reg.TransformationEstimationPointToPlane() if p.method == "point_to_plane" else reg.TransformationEstimationPointToPoint()
+            out = reg.registration_icp(source, target, p.max_correspondence, init, estimation, criteria)
         pose = _matrix_to_se2(np.asarray(out.transformation))
-        cov, score = _laplace_and_score(reference, points, pose, self.max_correspondence)
+        cov, score = _laplace_and_score(reference, points, pose, p.max_correspondence)
         return MatchResult(pose=pose, cov=cov, score=score, info={"fitness": float(out.fitness), "inlier_rmse": float(out.inlier_rmse)})

@@ -18,7 +18,7 @@ def test_map_sharpness_by_hand():
 
 
 def _line(g, start, angle, length):
-    s = np.linspace(0.0, length, int(length / (0.25 * g.resolution)))
+    s = np.linspace(0.0, length, int(length / (0.25 * g.params.resolution)))
     xy = np.asarray(start) + s[:, None] * [np.cos(angle), np.sin(angle)]
     ij = g.world_to_grid(xy)
     g.log_odds[ij[:, 1], ij[:, 0]] = logit(0.9)

@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
 from conftest import make_sequence
+from pydantic import ValidationError
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Scans, Sequence
@@ -102,22 +104,70 @@ def test_estimate_round_trip_and_map_export(room_sequence, tmp_path):
     est.save(tmp_path / "e.npz")
     back = Estimate.load(tmp_path / "e.npz")
     assert np.allclose(back.poses, est.poses) and back.meta["params"]["resolution"] == 0.1
-    assert slam.map.resolution == 0.1 and len(slam.maps.levels) == 2
+    assert slam.map.params.resolution == 0.1 and len(slam.maps.levels) == 2
     pgm, yml = slam.map.save_map_server(tmp_path / "map")
     assert pgm.exists() and yml.exists()
 
 
 def test_configuration_errors_before_work():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValidationError, match="matcher"):
         GridSLAM(matcher="ndt")
-    with pytest.raises(ValueError):
+    with pytest.raises(ValidationError, match="resolution"):
         GridSLAM(resolution=0)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValidationError, match="min_beams"):
         GridSLAM(min_beams=1)
-    with pytest.raises(TypeError):
+    with pytest.raises(ValidationError, match=r"matcher_params\.no_such_parameter"):
         GridSLAM(matcher_params={"no_such_parameter": 1})
     with pytest.raises(ValueError, match="laser scans"):
         GridSLAM().run(Sequence(name="empty"))
+
+
+def test_parameters_bad_values_unknown_keys_and_the_model_form():
+    with pytest.raises(ValidationError, match="update_angle"):
+        GridSLAM(update_angle=-0.1)
+    with pytest.raises(ValidationError, match="max_usable_range"):
+        GridSLAM(max_usable_range=0.0)
+    with pytest.raises(ValidationError, match="no_such_parameter"):
+        GridSLAM(no_such_parameter=1)
+    with pytest.raises(ValidationError, match="p_miss < p_prior < p_hit"):  # the cell model's rule
+        GridSLAM(p_miss=0.6)
+    with pytest.raises(ValidationError, match=r"clamp \(p_min, p_max\)"):
+        GridSLAM(clamp=(0.55, 0.97))
+    with pytest.raises(ValidationError, match=r"matcher_params\.sigma"):  # validated by the chosen matcher's model
+        GridSLAM(matcher="correlative", matcher_params={"sigma": 0.0})
+    with pytest.raises(ValidationError, match=r"matcher_params\.sigma"):  # a correlative parameter is not a Gauss-Newton one
+        GridSLAM(matcher_params={"sigma": 0.1})
+    assert GridSLAM(GridSLAM.Params(update_distance=1.0, matcher="kiss_icp")).params == GridSLAM(update_distance=1.0, matcher="kiss_icp").params
+    slam = GridSLAM(matcher="branch_and_bound", matcher_params={"linear_window": 0.2}, p_hit=0.8)
+    assert slam.params.update_distance == 0.4 and slam.params.p_hit == 0.8
+    assert slam.matcher.params.linear_window == 0.2
+    # the canonical form holds every matcher parameter, defaults included (cache keys and Estimate.meta)
+    assert slam.params.canonical()["matcher_params"] == slam.matcher.params.canonical()
+    assert slam.params.canonical()["matcher_params"]["covariance_cells"] == 2
+
+
+def test_experiment_config_rejects_a_wrong_matcher_parameter_before_any_cell(tmp_path):
+    from slamarena.experiments.config import ConfigError, load_config
+
+    config = """
+name: tiny
+seeds: [0]
+datasets:
+  - name: sim:laser
+estimators:
+  - name: grid_slam
+    params: {matcher: correlative, matcher_params: PARAMS}
+metrics: [ate]
+"""
+    path = tmp_path / "exp.yaml"
+    path.write_text(config.replace("PARAMS", "{linear_window: 0.2}"))
+    (method,) = load_config(path).estimators
+    assert method.resolved_params()["matcher_params"] == GridSLAM(matcher="correlative", matcher_params={"linear_window": 0.2}).params.canonical()["matcher_params"]
+    for bad, message in (("{linear_window: -1}", "params.matcher_params.linear_window: Input should be greater than or equal to 0"),
+                         ("{iterations: 3}", "params.matcher_params.iterations: Extra inputs are not permitted")):
+        path.write_text(config.replace("PARAMS", bad))
+        with pytest.raises(ConfigError, match=re.escape(message)):
+            load_config(path)
 
 
 def test_without_odometry_and_with_a_mounted_sensor():

@@ -1,9 +1,13 @@
 """Occupancy grid: Bayes update after known hit/miss sequences, conventions, export round trip."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
+from slamarena.mapping.map_pyramid import MapPyramid
 from slamarena.mapping.occupancy_grid import OccupancyGrid, load_map_server, logit, probability
 
 RES = 0.1
@@ -151,6 +155,32 @@ def test_bad_parameters_rejected():
         OccupancyGrid(free_threshold=0.7, occupied_threshold=0.6)
     with pytest.raises(ValueError):
         OccupancyGrid(resolution=0)
+
+
+def test_parameters_bad_values_unknown_keys_and_the_model_form():
+    for bad, message in (({"p_hit": 1.0}, "p_hit"), ({"p_miss": 0.5}, "p_miss < p_prior < p_hit"), ({"clamp": (0.6, 0.97)}, "clamp"),
+                         ({"clamp": (0.0, 0.97)}, "clamp.0"), ({"hit_guard": -1}, "hit_guard"), ({"width": 0}, "width"), ({"dtype": "int8"}, "dtype"),
+                         ({"free_threshold": 0.7}, "free_threshold < occupied_threshold"), ({"no_such_parameter": 1}, "no_such_parameter")):
+        with pytest.raises(ValidationError, match=re.escape(message)):
+            OccupancyGrid(**bad)
+    assert OccupancyGrid(OccupancyGrid.Params(p_hit=0.8, width=10)).params == OccupancyGrid(p_hit=0.8, width=10).params
+    g = OccupancyGrid(p_hit=0.8, p_prior=0.45, width=10, height=4, resolution=0.2, dtype="float64")
+    assert g.l_hit == pytest.approx(logit(0.8)) and g.l0 == pytest.approx(logit(0.45)) and g.log_odds.dtype == np.float64
+    assert g.shape == (4, 10) and np.allclose(g.origin, [-1.0, -0.4])
+
+
+def test_map_pyramid_parameters_reach_every_level():
+    with pytest.raises(ValidationError, match="levels"):
+        MapPyramid(levels=0)
+    with pytest.raises(ValidationError, match="no_such_parameter"):
+        MapPyramid(no_such_parameter=1)
+    with pytest.raises(ValidationError, match="p_miss < p_prior < p_hit"):
+        MapPyramid(p_hit=0.45)
+    assert MapPyramid(MapPyramid.Params(levels=2, size=4.0)).params == MapPyramid(levels=2, size=4.0).params
+    maps = MapPyramid(resolution=0.1, levels=3, size=4.0, centre=(0.8, -1.6), p_hit=0.8, clamp=None, hit_guard=1)
+    assert [g.params.resolution for g in maps.levels] == pytest.approx([0.1, 0.2, 0.4])
+    assert all(g.params.p_hit == 0.8 and g.params.clamp is None and g.params.hit_guard == 1 for g in maps.levels)
+    assert all(np.allclose(g.grid_to_world(np.array(g.shape)[::-1] // 2), [0.8, -1.6]) for g in maps.levels)  # the middle cell on the centre
 
 
 def test_hit_guard_keeps_cells_next_to_hits_from_being_cleared():

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import WALLS, raycast
+from pydantic import ValidationError
 
 from slamarena.datasets.geometry import between, transform_points
 from slamarena.mapping.map_pyramid import MapPyramid
-from slamarena.mapping.scan_matching import MATCHERS, make_matcher
+from slamarena.mapping.scan_matching import MATCHERS, make_matcher, matcher_class
 from slamarena.mapping.scan_matching.gauss_newton import interpolate
 
 ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
@@ -32,7 +33,7 @@ def room_map():
 
 def grid_of(maps):
     g = maps.finest
-    return g.log_odds, g.origin[0], g.origin[1], g.resolution
+    return g.log_odds, g.origin[0], g.origin[1], g.params.resolution
 
 
 # --------------------------------------------------------------------------- gradients
@@ -221,6 +222,36 @@ def test_registry_and_bad_parameters():
         make_matcher("correlative", sigma=0)
     with pytest.raises(ValueError):
         make_matcher("open3d_icp", method="colored")
+
+
+PARAMETER_CASES = [  # (matcher, a valid non-default parameter, a bad value)
+    ("gauss_newton", {"prior_rotation_weight": 0.0}, {"max_step_rotation": 0.0}),
+    ("correlative", {"angular_step": 0.01}, {"p_floor": 1.0}),
+    ("branch_and_bound", {"covariance_cells": 3}, {"linear_window": -0.1}),
+    ("kiss_icp", {"voxel_size": 0.2}, {"max_points_per_voxel": 0}),
+    ("open3d_icp", {"method": "generalized"}, {"neighbours": 2}),
+]
+
+
+@pytest.mark.parametrize("name,good,bad", PARAMETER_CASES)
+def test_parameters_bad_values_unknown_keys_and_the_model_form(name, good, bad):
+    cls = matcher_class(name)
+    (field,) = bad
+    with pytest.raises(ValidationError, match=field):
+        make_matcher(name, **bad)
+    with pytest.raises(ValidationError, match="no_such_parameter"):
+        cls(no_such_parameter=1)
+    (key, value), = good.items()
+    m = make_matcher(name, **good)
+    assert getattr(m.params, key) == value != getattr(cls().params, key)
+    assert cls(cls.Params(**good)).params == m.params
+
+
+def test_the_covariance_window_belongs_to_branch_and_bound_only():
+    """The exhaustive search takes its covariance from the whole response: ``covariance_cells`` is no parameter of it."""
+    assert make_matcher("branch_and_bound", covariance_cells=1).params.covariance_cells == 1
+    with pytest.raises(ValidationError, match="covariance_cells"):
+        make_matcher("correlative", covariance_cells=1)
 
 
 def test_refined_correlative_match_leaves_the_lattice(room_map):
