@@ -7,7 +7,9 @@ consistency test and the claims of the design notes use ``sim:localization``
 from __future__ import annotations
 
 import numpy as np
+import pydantic
 import pytest
+from scipy.stats import chi2
 
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
@@ -135,6 +137,42 @@ def test_gps_and_imu_updates_use_the_notes_H():
     np.testing.assert_allclose(f.x[2], 0.5 + 0.01 / (0.01 + 1e-3) * 0.1, atol=1e-12)
 
 
+@pytest.mark.parametrize("accept", [True, False])
+def test_the_gate_compares_the_nis_of_the_prior_with_its_threshold(accept):
+    """The NIS the gate reads (filterpy's y and S⁻¹ after ``update()``) is yᵀ S⁻¹ y with S = H P⁻ Hᵀ + R
+    written out here from the prior, for a GPS and a landmark update; a gate just below it refuses the
+    update, one just above lets it in. (filterpy 1.4.5 never set ``SI``: the gate saw 0 and passed all.)"""
+    x0 = np.array([1.0, 2.0, 0.4])
+    P0 = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, 0.002], [0.0, 0.002, 0.01]])
+    R_gps, R_landmark = np.diag([0.02, 0.03]), np.diag([0.01, 0.0025])
+    z_gps = np.array([1.3, 1.7])
+    y_gps = z_gps - x0[:2]
+    H_gps = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    m, z_lm = np.array([5.0, 4.0]), np.array([4.0, 0.3])
+    dx, dy = m - x0[:2]
+    q = dx**2 + dy**2
+    y_lm = z_lm - np.array([np.sqrt(q), np.arctan2(dy, dx) - x0[2]])
+    y_lm[1] = wrap_angle(y_lm[1])
+    H_lm = np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0.0], [dy / q, -dx / q, -1.0]])
+    for sensor, y, H, R, update in (("gps", y_gps, H_gps, R_gps, lambda f: f.update_gps(z_gps)),
+                                    ("landmark", y_lm, H_lm, R_landmark, lambda f: f.update_landmark(*z_lm, m))):
+        expected = y @ np.linalg.solve(H @ P0 @ H.T + R, y)
+        assert expected > 0.5
+        f = EKFLocalizer(R_gps=R_gps, R_landmark=R_landmark, gate_confidence=1.0)
+        f.reset(x0, P0)
+        assert update(f)
+        nis = f.diagnostics()[f"nis_{sensor}"]
+        assert nis.size == 1 and nis[0] == pytest.approx(expected, rel=1e-12)
+        confidence = float(chi2.cdf(expected * (1.0 + 1e-6 if accept else 1.0 - 1e-6), 2))
+        f = EKFLocalizer(R_gps=R_gps, R_landmark=R_landmark, gate_confidence={sensor: confidence}, max_rejections=0)
+        f.reset(x0, P0)
+        prior = f.x, f.P
+        assert update(f) is accept
+        assert f.rejected[sensor].get("gate", 0) == (0 if accept else 1)
+        if not accept:  # a refused update leaves the prior
+            assert np.array_equal(f.x, prior[0]) and np.array_equal(f.P, prior[1])
+
+
 # ---------------------------------------------------------------- errata of the notes
 def test_yaw_residual_is_wrapped():
     """θ̂ = π − 0.05, z = −π + 0.05: the true difference is +0.1 rad, not −2π + 0.1."""
@@ -224,6 +262,87 @@ def test_bad_configuration_is_rejected():
     assert isinstance(create("ekf_localizer"), EKFLocalizer)
 
 
+@pytest.mark.parametrize("field, bad", [
+    ("motion_model", "eular"), ("q_unit", "per_fortnight"), ("heading_convention", "north"),
+    ("Q", [[1, 2, 0], [0, 1, 0], [0, 0, 1]]), ("R_gps", (1e-4, -1.0)), ("R_imu", [1e-3, 1e-3]), ("twist_cov", np.eye(3)),
+    ("initial_cov", np.nan), ("gate_confidence", 0.0), ("gate_confidence", {"lidar": 0.9}), ("gate_confidence", {"gps": 1.5}),
+    ("nominal_dt", 0.0), ("history_length", -1.0), ("max_rejections", -1), ("beacon_bias", np.inf),
+    ("magnetic_declination", np.nan), ("R_gsp", (1e-4, 1e-4)),
+])
+def test_a_bad_or_unknown_parameter_is_a_validation_error_naming_it(field, bad):
+    with pytest.raises(pydantic.ValidationError) as raised:
+        EKFLocalizer(**{field: bad})
+    assert {e["loc"][0] for e in raised.value.errors()} == {field}
+    with pytest.raises(pydantic.ValidationError):
+        EKFLocalizer.Params(**{field: bad})
+
+
+def test_a_params_model_and_keywords_configure_the_same_filter():
+    kw = dict(motion_model="arc", Q=0.5, q_unit="per_second", twist_cov=(0.01, 0.02), gate_confidence={"gps": 0.99, "imu": 1.0},
+              heading_convention="compass", max_rejections=2, use_sequence_noise=True)
+    a, b = EKFLocalizer(EKFLocalizer.Params(**kw)), EKFLocalizer(**kw)
+    assert a.params == b.params and a.params.Q == [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.5]]
+    assert EKFLocalizer(a.params, Q=0.25).params == EKFLocalizer(**{**kw, "Q": np.diag([0.25] * 3)}).params
+    assert a.gate["gps"] == pytest.approx(chi2.ppf(0.99, 2)) and a.gate["imu"] == np.inf
+    assert a.gate["landmark"] == pytest.approx(chi2.ppf(0.999, 2))  # a sensor the dict leaves out: the default
+
+
+def test_the_estimate_records_the_parameters_and_the_noise_in_force():
+    seq = _scenario(seed=11, duration=1.0)
+    f = EKFLocalizer(Q=0.0, use_sequence_noise=True)
+    est = f.run(seq)
+    assert est.meta["params"] == f.params.canonical() == EKFLocalizer.Params(Q=0.0, use_sequence_noise=True).canonical()
+    assert est.meta["params"]["R_gps"] == [[1e-4, 0.0], [0.0, 1e-4]]  # the parameter as given
+    noise = est.meta["noise"]  # the noise as used: the sequence's
+    np.testing.assert_array_equal(noise["R_gps"], seq.noise.gps_cov)
+    np.testing.assert_array_equal(noise["R_imu"], [[seq.noise.yaw_var]])
+    np.testing.assert_array_equal(noise["twist_cov"], seq.noise.twist_cov)
+    assert noise["R_landmark"] == est.meta["params"]["R_landmark"]  # the sequence states none
+    assert EKFLocalizer(Q=0.0).run(seq).meta["noise"]["R_gps"] == [[1e-4, 0.0], [0.0, 1e-4]]
+
+
+def _state(f: EKFLocalizer):
+    return f.t, f.x, f.P, f.history(), f.rejected, f.recoveries, f.diagnostics()
+
+
+def _assert_same_state(a, b):
+    assert a[0] == b[0]
+    np.testing.assert_array_equal(a[1], b[1])
+    np.testing.assert_array_equal(a[2], b[2])
+    for u, v in zip(a[3], b[3]):
+        np.testing.assert_array_equal(u, v)
+    assert a[4] == b[4] and a[5] == b[5]
+    assert a[6].keys() == b[6].keys()
+    for key in a[6]:
+        np.testing.assert_array_equal(a[6][key], b[6][key])
+
+
+def test_a_failing_call_leaves_the_filter_as_it_was():
+    f = EKFLocalizer()
+    before = _state(f)
+    with pytest.raises(ValueError):
+        f.process(0.0, "twist", (1.0, 0.0, 0.0))  # would start the clock
+    _assert_same_state(_state(f), before)
+    assert f.t is None
+    f.process(0.0, "twist", (1.0, 0.1, 0.5))
+    f.process(0.2, "gps", (0.2, 0.0))
+    f.process(0.3, "landmark", [(4.8, 0.0, 5.0, 0.0)])
+    before = _state(f)
+    bad_landmarks = [(4.6, 0.0, 5.0, 0.0), (4.0, 0.1, np.nan, 1.0)]  # the first row alone would apply
+    for t in (0.4, 0.1):  # in time order, and delayed (a rewind)
+        for kind, value in (("twist", (1.0, 0.0, -0.02)), ("landmark", bad_landmarks), ("beacon", [(3.0, np.inf, 0.0)]),
+                            ("gps", (1.0, 2.0, 3.0)), ("increment", ((0.1, 0.0), None)), ("lidar", (1.0,))):
+            with pytest.raises(ValueError):
+                f.process(t, kind, value)
+            _assert_same_state(_state(f), before)
+    for call in (lambda: f.reset((1.0, 2.0, 0.0), cov=[[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+                 lambda: f.update_landmark(4.0, 0.1, (np.nan, 0.0)), lambda: f.update_beacon(4.0, (0.0, np.inf)),
+                 lambda: f.predict(1.0, 0.0, 0.0)):
+        with pytest.raises(ValueError):
+            call()
+        _assert_same_state(_state(f), before)
+
+
 def test_nonfinite_measurements_are_rejected_and_counted():
     seq = _scenario(seed=2, duration=6.0, landmarks=np.array([[5.0, 5.0], [-3.0, 4.0]]))
     gps_xy = seq.gps.xy.copy()
@@ -301,7 +420,7 @@ def _with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0) -> Seque
 
 
 def test_beacon_jacobian_matches_finite_differences():
-    from slamarena.estimators.ekf_localizer import _H_beacon, _h_beacon
+    from slamarena.estimators.ekf_localizer.filter import _H_beacon, _h_beacon
 
     x, b = np.array([1.0, -0.5, 2.8]), np.array([4.0, 3.0])
     np.testing.assert_allclose(_H_beacon(x, b, 0.7), _fd_jacobian(lambda s: _h_beacon(s, b, 0.7), x), atol=1e-8)
@@ -404,7 +523,7 @@ def test_out_of_order_input_gives_the_in_order_estimate():
     seq = _scenario(seed=8, duration=10.0)
     in_order = _true_noise_filter().run(seq)
     f = _true_noise_filter(history_length=1.0)
-    f._configure_noise(seq)
+    f.use_noise_of(seq)
     f.reset(seq.start_pose, t=seq.t0)
     shuffled = _arrive(_stream(seq), max_delay=0.3, seed=1)
     assert any(a[0] > b[0] for a, b in zip(shuffled, shuffled[1:]))  # really out of order
@@ -420,12 +539,23 @@ def test_out_of_order_input_gives_the_in_order_estimate():
     np.testing.assert_allclose(hx, in_order.poses[k], atol=1e-9)
     np.testing.assert_allclose(hP, in_order.pose_cov[k], atol=1e-12)
     assert f.rejected["gps"].get("too_old", 0) == 0
+    # replays replace the records of the steps they redo: one NIS per measurement, that of the in-order run
+    # where the measurement is alone at its stamp (the order of two at one stamp is the arrival order)
+    diagnostics = f.diagnostics()
+    shared = np.intersect1d(seq.gps.t, seq.heading.t)
+    for sensor in ("gps", "imu"):
+        t = diagnostics[f"nis_{sensor}_t"]
+        np.testing.assert_array_equal(t, in_order.diagnostics[f"nis_{sensor}_t"])
+        alone = ~np.isin(t, shared)
+        assert alone.sum() >= 50
+        np.testing.assert_allclose(diagnostics[f"nis_{sensor}"][alone], in_order.diagnostics[f"nis_{sensor}"][alone], rtol=1e-6)
+        np.testing.assert_array_equal(diagnostics[f"nis_{sensor}_accepted"], in_order.diagnostics[f"nis_{sensor}_accepted"])
 
 
 def test_input_older_than_the_history_is_rejected_and_counted():
     seq = _scenario(seed=9, duration=5.0)
     f = _true_noise_filter(history_length=0.5)
-    f._configure_noise(seq)
+    f.use_noise_of(seq)
     f.reset(seq.start_pose, t=seq.t0)
     items = _stream(seq)
     late_gps = [it for it in items if it[1] == "gps"][:5]  # the first five fixes arrive at the very end

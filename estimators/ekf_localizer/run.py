@@ -1,0 +1,94 @@
+"""``EKFLocalizer.run(sequence) -> Estimate``: walk ``Sequence.events()`` through the localizer's timed steps.
+
+The filter starts at ``sequence.start_pose`` with ``initial_cov`` at ``sequence.t0``, with the noise in
+force for the sequence (``use_sequence_noise``: the noise it states). Used streams: the motion stream
+(a Twist is followed row by row, :meth:`EKFLocalizer.follow`; Increments rows are applied at their
+stamps with the row's, the sequence's or ``increment_cov`` covariance), GPS, heading, and the
+range-bearing and beacon-range rows whose id is in ``sequence.landmarks`` (the others are counted as
+``unknown_landmark`` / ``unknown_beacon``); scans are ignored. Events come in time order, so no
+input is replayed.
+
+One pose and covariance are recorded per event, with the wall time of its step. ``Estimate.meta``
+holds the parameters (``params``: :meth:`Params.canonical`), the noise in force (``noise``: the
+parameters ``use_sequence_noise`` replaces, as used), ``rejected`` (sensor → reason → count) and
+``recoveries`` (sensor → count); ``Estimate.diagnostics`` the arrays of :mod:`.diagnostics`.
+"""
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.sequence import Event, Increments, Sequence, Twist
+
+from .filter import SEQUENCE_NOISE
+
+if TYPE_CHECKING:
+    from .filter import EKFLocalizer
+
+__all__ = ["run_sequence"]
+
+
+def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
+    localizer.use_noise_of(sequence)
+    localizer.reset(sequence.start_pose, t=sequence.t0)
+    if isinstance(sequence.motion, Twist):
+        localizer.follow(sequence.motion)
+    n = sequence.event_table()[0].size
+    times, poses, covs, step_time = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3)), np.empty(n)
+    k = 0
+    for event in sequence.events():
+        if event.stream == "scans":
+            continue
+        tic = time.perf_counter()
+        kind, value = _input(localizer, sequence, event)
+        localizer._step(event.t, kind, value)  # in time order: a step, never a replay
+        step_time[k] = time.perf_counter() - tic
+        times[k], poses[k], covs[k] = event.t, localizer.x, localizer.P
+        k += 1
+    record = localizer.record()
+    return Estimate(
+        method="ekf_localizer",
+        t=times[:k],
+        poses=poses[:k],
+        pose_cov=covs[:k],
+        step_time=step_time[:k],
+        diagnostics=record.arrays(),
+        meta={"sequence": sequence.name, "params": localizer.params.canonical(),
+              "noise": {name: getattr(localizer.noise, name) for name in SEQUENCE_NOISE},
+              "rejected": record.rejected, "recoveries": record.recoveries},
+    )
+
+
+def _input(localizer: EKFLocalizer, sequence: Sequence, event: Event) -> tuple[str, object]:
+    """The timed input (kind, value) of ``event``; unknown landmark and beacon ids are counted and left out."""
+    start, stop = event.start, event.stop
+    if event.stream == "motion":
+        motion = sequence.motion
+        if isinstance(motion, Increments):
+            return "increment", (motion.delta[start], None if motion.cov is None else motion.cov[start])
+        return "twist", None  # the followed stream: propagating to the stamp is the whole step
+    if event.stream == "gps":
+        return "gps", sequence.gps.xy[start]
+    if event.stream == "heading":
+        return "imu", sequence.heading.yaw[start]
+    if event.stream == "beacon_ranges":
+        br = sequence.beacon_ranges
+        rows, xy = _known(localizer, sequence, br.beacon_id[start:stop], "beacon")
+        return "beacon", np.column_stack([br.range[start:stop][rows], xy])
+    rb = sequence.range_bearing
+    rows, xy = _known(localizer, sequence, rb.landmark_id[start:stop], "landmark")
+    return "landmark", np.column_stack([rb.range[start:stop][rows], rb.bearing[start:stop][rows], xy])
+
+
+def _known(localizer: EKFLocalizer, sequence: Sequence, ids: np.ndarray, sensor: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``ids`` in ``sequence.landmarks`` and their positions; the others are counted."""
+    lm = sequence.landmarks
+    known = np.isin(ids, lm.ids) if lm is not None else np.zeros(ids.shape, dtype=bool)
+    unknown = int((~known).sum())
+    if unknown:
+        localizer._log.reject(sensor, f"unknown_{sensor}", unknown)
+    rows = np.flatnonzero(known)
+    return rows, np.array([lm.position(i) for i in ids[rows]]).reshape(-1, 2)
