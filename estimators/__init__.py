@@ -17,6 +17,7 @@ REGISTRY: dict[str, str] = {
     "dead_reckoning": "slamarena.estimators.dead_reckoning:DeadReckoning",
     "ekf_slam": "slamarena.estimators.ekf_slam:EKFSLAM",
     "ekf_localizer": "slamarena.estimators.ekf_localizer:EKFLocalizer",
+    "fastslam": "slamarena.estimators.fastslam:FastSLAM",
     "gtsam_batch": "slamarena.estimators.gtsam_smoother:BatchSmoother",
     "gtsam_isam2": "slamarena.estimators.gtsam_smoother:ISAM2Smoother",
     "gtsam_fixed_lag": "slamarena.estimators.gtsam_smoother:FixedLagLocalizer",

@@ -8,6 +8,11 @@ propagate from their current time to ``t`` with the motion input in force:
   :func:`twist_pieces` cuts ``(t_from, t_to]`` into ``(v, ω, dt)`` pieces, vectorised.
 * :class:`Increments` input is applied as a whole at its stamp (it is the motion since the
   previous stamp), so a filter treats an ``Increments`` row as a motion event.
+
+A filter records a pose after every event; events of several streams can share a stamp (a motion
+row and an observation set at the same time). :func:`last_per_stamp` keeps one pose per stamp, the
+last one recorded there — the posterior after everything that happened at that time — so that
+every written trajectory has strictly increasing stamps (as evo and the TUM format expect).
 """
 from __future__ import annotations
 
@@ -15,7 +20,7 @@ import numpy as np
 
 from slamarena.datasets.sequence import Twist
 
-__all__ = ["twist_pieces"]
+__all__ = ["twist_pieces", "last_per_stamp"]
 
 
 def twist_pieces(twist: Twist, t_from: float, t_to: float, with_rows: bool = False) -> tuple[np.ndarray, ...]:
@@ -42,3 +47,18 @@ def twist_pieces(twist: Twist, t_from: float, t_to: float, with_rows: bool = Fal
     if with_rows:
         return twist.v[k], twist.omega[k], hi - lo, k
     return twist.v[k], twist.omega[k], hi - lo
+
+
+def last_per_stamp(t: np.ndarray, step_time: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Keep the last record of every stamp: ``(t, step_time, *arrays)`` with strictly increasing t.
+
+    ``t`` (K,) non-decreasing; each array has K rows. A kept record's step time is the sum of the
+    step times of the records it replaces (the work done at that stamp).
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size and np.any(np.diff(t) < 0):
+        raise ValueError("last_per_stamp: the stamps must be non-decreasing")
+    last = np.flatnonzero(np.append(np.diff(t) > 0, True)) if t.size else np.zeros(0, dtype=int)
+    first = np.concatenate([[0], last[:-1] + 1]) if t.size else last
+    steps = np.add.reduceat(np.asarray(step_time, dtype=float), first) if t.size else np.zeros(0)
+    return (t[last], steps, *(np.asarray(a)[last] for a in arrays))

@@ -1,0 +1,312 @@
+"""FastSLAM 1.0 and 2.0 (Montemerlo et al. 2002, 2003): a Rao-Blackwellised particle filter for landmark SLAM.
+
+Factorisation
+-------------
+    p(x_{1:t}, m | z_{1:t}, u_{1:t}) = p(x_{1:t} | z_{1:t}, u_{1:t}) · Π_j p(m_j | x_{1:t}, z_{1:t})
+
+The path posterior is represented by M particles; given a particle's path the landmarks are
+independent, so each particle carries one 2 × 2 EKF per landmark (mean μ (2,), covariance Σ (2, 2)).
+
+State layout (M particles, n_m landmarks of particle m)
+------------------------------------------------------
+    x0      (M, 3)   each particle's pose at its last sampling [m, m, rad]
+    Δ, Σ_Δ  (3,), (3, 3)  the motion since the last sampling, composed in the frame of the pose at that
+                     sampling, and its covariance — the same for every particle (the controls are)
+    log w   (M,)     log weights (normalised to max 0 after every update)
+    maps             copy-on-write landmark trees shared between particles (:mod:`.storage`)
+
+Prediction (between samplings)
+------------------------------
+A control u = (v, ω) held for dt gives the body-frame increment δ = δ(u, dt) with covariance
+C = V M Vᵀ (V = ∂δ/∂u (3, 2), M the twist covariance (2, 2), the EKF-SLAM "control" noise model);
+an odometry increment δ comes with its own C (3, 3). The chain is composed once for all particles:
+
+    Δ ← Δ ⊕ δ,   Σ_Δ ← J_Δ Σ_Δ J_Δᵀ + J_δ C J_δᵀ      (J_Δ, J_δ = ∂(Δ ⊕ δ)/∂Δ, ∂/∂δ, (3, 3) each)
+
+so that particle m's predicted pose and its covariance are
+
+    x̂_m = x0_m ⊕ Δ,   P_m = J_m Σ_Δ J_mᵀ,   J_m = blockdiag(R(θ0_m), 1)        (3,), (3, 3)
+
+(exact for the composition: x0 ⊕ Δ is linear in Δ for a fixed x0). A chain is sampled at every
+observation set, and at least every ``max_chain`` seconds without one (x0_m ← x̂_m + A_m ε_m,
+A_m A_mᵀ = P_m): so the Gaussian chain replaces per-step sampling only over short stretches.
+
+Update (per observation set z (k, 2), :mod:`.kernels`)
+-----------------------------------------------------
+FastSLAM 1.0 samples x_m ~ N(x̂_m, P_m) (the motion model) and weights by the landmarks' innovation
+likelihoods; FastSLAM 2.0 first conditions the Gaussian on the observations (one EKF step of the pose
+per observation, with the landmark's uncertainty in the measurement noise), samples from that proposal
+and weights by its normaliser. Both then update each observed landmark's EKF at the sampled pose.
+Known association uses the ids; with ``use_ids=False`` every particle associates on its own by
+maximum likelihood, with existence counters where a perceptual field is stated (``max_range``, ``fov``).
+
+Resampling
+----------
+    ŵ = exp(log w − logsumexp(log w)),   N_eff = 1 / Σ ŵ²
+When N_eff < ``resample_threshold`` · M, particles are drawn with low-variance (systematic)
+resampling — one uniform u₀ ~ U[0, 1/M), pointers u₀ + i/M through the cumulative weights — and the
+weights reset to uniform. Maps are shared after resampling: copying a particle is O(1) (its root),
+and a later write copies O(log n) nodes (:mod:`.storage`).
+
+Randomness comes from one ``numpy.random.Generator`` seeded by ``seed``; the same seed gives the same run.
+"""
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import NonNegativeInt, PositiveFloat, PositiveInt, model_validator
+from scipy.stats import chi2
+
+from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
+
+from ..models import DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_chain, compose_jacobians
+from .kernels import sqrt_psd, update_particles
+from .storage import LandmarkStore
+
+__all__ = ["FastSLAM", "FastSLAMParams"]
+
+
+class FastSLAMParams(Params):
+    """Parameters of :class:`FastSLAM`."""
+
+    version: Literal[1, 2] = Field(2, description="1: proposal = motion model; 2: proposal conditioned on the observations")
+    particles: PositiveInt = Field(100, description="number of particles M")
+    motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models)")
+    twist_cov: Covariance2 | None = Field(None, description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default")
+    increment_cov: Covariance3 | None = Field(None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's")
+    range_bearing_cov: Covariance2 | None = Field(None, description="covariance R of a (range, bearing) observation [m², rad²]; None: the sequence's noise, else the EKF-SLAM default")
+    range_bearing_noise: Literal["polar", "cartesian"] = Field(
+        "polar", description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)")
+    use_ids: bool = Field(True, description="associate by the ids in the data; False: per-particle maximum likelihood")
+    association_confidence: Probability = Field(
+        0.9999, description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
+                            "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate")
+    max_range: PositiveFloat | None = Field(None, description="perceptual range [m] for the existence counters (unknown association); None: no counters")
+    fov: float | None = Field(None, gt=0.0, le=2 * math.pi, description="full field of view [rad] for the existence counters; None: all round")
+    resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < threshold · M")
+    max_chain: PositiveFloat = Field(1.0, description="sample from the motion model at least this often without observations [s]")
+    trajectory: Literal["mean", "best"] = Field(
+        "mean", description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), or the ancestral path of the particle of largest final weight")
+    initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose the particles are drawn from [m², m², rad²]")
+    seed: NonNegativeInt = Field(0, description="seed of the random generator")
+
+    @model_validator(mode="after")
+    def _field_of_view_needs_a_range(self):
+        if self.fov is not None and self.max_range is None:
+            raise ValueError("fov is the perceptual field of the existence counters and needs max_range")
+        return self
+
+
+class FastSLAM:
+    """FastSLAM 1.0 / 2.0 (module docstring). Step interface: ``predict(u, dt)``, ``update(z)``; ``run(sequence)``."""
+
+    Params = FastSLAMParams
+
+    def __init__(self, params: FastSLAMParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.model = MOTION_MODELS[self.params.motion_model]
+        self.gate = float(chi2.ppf(self.params.association_confidence, 2))
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self, sequence=None) -> None:
+        """Start over: every particle at the start pose (of ``sequence``, else the origin), noise resolved."""
+        p = self.params
+        noise = getattr(sequence, "noise", None)
+        self.M_twist = np.asarray(p.twist_cov) if p.twist_cov is not None else np.asarray(getattr(noise, "twist_cov", None) if getattr(noise, "twist_cov", None) is not None else DEFAULT_TWIST_COV, dtype=float)
+        self.R = np.asarray(p.range_bearing_cov) if p.range_bearing_cov is not None else np.asarray(getattr(noise, "range_bearing_cov", None) if getattr(noise, "range_bearing_cov", None) is not None else DEFAULT_RANGE_BEARING_COV, dtype=float)
+        self.increment_cov = np.asarray(p.increment_cov) if p.increment_cov is not None else getattr(noise, "increment_cov", None)
+        self.rng = np.random.default_rng(p.seed)
+        start = sequence.start_pose if sequence is not None else np.zeros(3)
+        M = p.particles
+        P0 = np.asarray(p.initial_cov)
+        self.x0 = np.tile(np.asarray(start, dtype=float), (M, 1)) + self.rng.standard_normal((M, 3)) @ sqrt_psd(P0).T
+        self.x0[:, 2] = wrap_angle(self.x0[:, 2])
+        self.delta = np.zeros(3)
+        self.Sigma_delta = np.zeros((3, 3))
+        self.log_w = np.zeros(M)
+        self.store = LandmarkStore(M)
+        self.n_slots = np.zeros(M, dtype=np.int64)
+        self._slot_of_id: dict[int, int] = {}
+        self._id_of_slot: list[int] = []
+        self.rejected = {"nonfinite": 0, "negative_range": 0}
+        self.resamplings = 0
+
+    @property
+    def M(self) -> int:
+        return self.params.particles
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Normalised weights ŵ (M,)."""
+        w = np.exp(self.log_w - self.log_w.max())
+        return w / w.sum()
+
+    @property
+    def n_eff(self) -> float:
+        """Effective sample size 1 / Σ ŵ²."""
+        return float(1.0 / np.sum(self.weights**2))
+
+    def predicted(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every particle's predicted pose x̂ = x0 ⊕ Δ (M, 3) and its covariance P = J Σ_Δ Jᵀ (M, 3, 3)."""
+        return self._predicted(self.delta, self.Sigma_delta)
+
+    def _predicted(self, delta, Sigma):
+        J = compose_jacobians(self.x0, delta)[1]
+        return compose(self.x0, delta), J @ Sigma @ np.swapaxes(J, -1, -2)
+
+    @property
+    def poses(self) -> np.ndarray:
+        """The particles' current (predicted) poses (M, 3)."""
+        return self.predicted()[0]
+
+    # ------------------------------------------------------------------ prediction
+    def predict(self, u, dt: float) -> None:
+        """Propagate with the control u = [v, ω] held for dt > 0 seconds."""
+        u = np.asarray(u, dtype=float).reshape(2)
+        self.predict_twists(u[:1], u[1:], np.array([dt], dtype=float))
+
+    def predict_twists(self, v, omega, dt) -> tuple[np.ndarray, np.ndarray]:
+        """A chain of controls (v_k, ω_k) held for dt_k; returns Δ and Σ_Δ after each piece ((K, 3), (K, 3, 3))."""
+        v, omega, dt = (np.asarray(a, dtype=float).reshape(-1) for a in (v, omega, dt))
+        if not np.all(np.isfinite(dt) & (dt > 0)):
+            raise ValueError(f"predict: dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}")
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
+            raise ValueError("predict: controls must be finite")
+        delta = self.model.increment(v, omega, dt)
+        V = self.model.jacobians(np.zeros(3), v, omega, dt)[1]
+        return self._chain(delta, V @ self.M_twist @ np.swapaxes(V, 1, 2))
+
+    def predict_increments(self, delta, cov=None) -> tuple[np.ndarray, np.ndarray]:
+        """A chain of body-frame odometry increments (K, 3) with covariances (K, 3, 3) (default ``increment_cov``)."""
+        delta = np.asarray(delta, dtype=float).reshape(-1, 3)
+        C = self.increment_cov if cov is None else cov
+        if C is None:
+            raise ValueError("predict_increments: no increment covariance (give cov, increment_cov, or Noise.increment_cov)")
+        C = np.broadcast_to(np.asarray(C, dtype=float), (len(delta), 3, 3))
+        if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C))):
+            raise ValueError("predict_increments: increments and covariances must be finite")
+        return self._chain(delta, C)
+
+    def _chain(self, delta: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        deltas, Sigmas = compose_chain(self.delta, self.Sigma_delta, delta, C)
+        self.delta, self.Sigma_delta = deltas[-1], Sigmas[-1]
+        return deltas, Sigmas
+
+    def sample_motion(self) -> None:
+        """Draw every particle from its predicted Gaussian and start a new chain (no observation)."""
+        xhat, P = self.predicted()
+        eps = self.rng.standard_normal((self.M, 3))
+        self.x0 = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)
+        self.x0[:, 2] = wrap_angle(self.x0[:, 2])
+        self.delta = np.zeros(3)
+        self.Sigma_delta = np.zeros((3, 3))
+
+    # ------------------------------------------------------------------ update
+    def update(self, z) -> np.ndarray:
+        """Apply one observation set z (k, 3) = rows [range, bearing, id]; returns the slot each particle gave each row (M, k).
+
+        Rows with a non-finite value or a negative range are rejected and counted; with ``use_ids`` a
+        negative id is rejected as unlabelled. Resamples when N_eff falls below the threshold.
+        """
+        z = np.asarray(z, dtype=float).reshape(-1, 3)
+        finite = np.all(np.isfinite(z[:, :2]), axis=1)
+        positive = z[:, 0] >= 0
+        self.rejected["nonfinite"] += int((~finite).sum())
+        self.rejected["negative_range"] += int((finite & ~positive).sum())
+        z = z[finite & positive]
+        p = self.params
+        if p.use_ids:
+            z = z[z[:, 2] >= 0]
+            _, first = np.unique(z[:, 2].astype(np.int64), return_index=True)
+            z = z[np.sort(first)]  # one row per landmark per set
+            slots = np.array([self._slot(int(i)) for i in z[:, 2]], dtype=np.int64)
+        else:
+            slots = np.zeros(len(z), dtype=np.int64)
+        R = self._noise(z)
+        xhat, P = self.predicted()
+        eps = self.rng.standard_normal((self.M, 3))
+        poses = np.empty((self.M, 3))
+        assoc = np.full((self.M, len(z)), -1, dtype=np.int64)
+        if len(z):
+            top = int(slots.max()) if p.use_ids else int(self.n_slots.max()) + len(z)
+            self.store.reserve(top, self.M * (len(z) + (0 if p.use_ids else int(self.n_slots.max()))))
+            log_p0 = -0.5 * self.gate - 0.5 * math.log(np.linalg.det(R).max()) - math.log(2 * math.pi)
+            max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
+            half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
+            update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots,
+                             R, self.gate, log_p0, max_range, half_fov, self.store.depth, *self.store.kernel_args(), poses, assoc)
+        else:
+            poses = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)
+            poses[:, 2] = wrap_angle(poses[:, 2])
+        self.x0 = poses
+        self.delta = np.zeros(3)
+        self.Sigma_delta = np.zeros((3, 3))
+        self.log_w -= self.log_w.max()
+        self.last_sampled, self.last_log_w, self.last_ancestors = poses.copy(), self.log_w.copy(), None
+        if self.n_eff < p.resample_threshold * self.M:
+            self.resample()
+        return assoc
+
+    def _slot(self, landmark_id: int) -> int:
+        if landmark_id not in self._slot_of_id:
+            self._slot_of_id[landmark_id] = len(self._id_of_slot)
+            self._id_of_slot.append(landmark_id)
+        return self._slot_of_id[landmark_id]
+
+    def _noise(self, z: np.ndarray) -> np.ndarray:
+        """R of every row (k, 2, 2): the same R, or the Cartesian-isotropic form diag(σ², σ²/r²)."""
+        if self.params.range_bearing_noise == "polar":
+            return np.ascontiguousarray(np.broadcast_to(self.R, (len(z), 2, 2)))
+        sigma2 = self.R[0, 0]
+        R = np.zeros((len(z), 2, 2))
+        R[:, 0, 0] = sigma2
+        R[:, 1, 1] = sigma2 / np.maximum(z[:, 0], 1e-6) ** 2
+        return R
+
+    def resample(self) -> np.ndarray:
+        """Low-variance (systematic) resampling; returns the ancestors (M,)."""
+        cumulative = np.cumsum(self.weights)
+        cumulative[-1] = 1.0
+        pointers = (self.rng.uniform(0.0, 1.0 / self.M) + np.arange(self.M) / self.M)
+        ancestors = np.searchsorted(cumulative, pointers, side="right").astype(np.int64)
+        self.x0 = self.x0[ancestors]
+        self.n_slots = self.n_slots[ancestors]
+        self.store.resample(ancestors)
+        self.log_w = np.zeros(self.M)
+        self.resamplings += 1
+        self.last_ancestors = ancestors
+        return ancestors
+
+    # ------------------------------------------------------------------ maps
+    def landmarks(self, particle: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Live landmarks of one particle (default: the heaviest): ids (L,), means (L, 2), covariances (L, 2, 2).
+
+        Ids are the data's ids with known association, the particle's slot numbers otherwise."""
+        m = int(np.argmax(self.log_w)) if particle is None else int(particle)
+        n = int(self.n_slots[m])
+        mu, S, state = self.store.gather(n)
+        live = np.flatnonzero(state[m] > 0)
+        cov = np.stack([S[m, live, 0], S[m, live, 1], S[m, live, 1], S[m, live, 2]], axis=-1).reshape(-1, 2, 2)
+        ids = np.asarray(self._id_of_slot, dtype=np.int64)[live] if self.params.use_ids else live.astype(np.int64)
+        return ids, mu[m, live], cov
+
+    def landmark_counts(self) -> np.ndarray:
+        """Live landmarks of every particle (M,)."""
+        _, _, state = self.store.gather(int(self.n_slots.max()) if self.n_slots.size else 0)
+        return (state > 0).sum(axis=1)
+
+    def run(self, sequence):
+        """Run over a sequence (:mod:`.run`)."""
+        from .run import run_sequence
+
+        return run_sequence(self, sequence)
+
+
+def _sqrt_batch(P: np.ndarray) -> np.ndarray:
+    """A square root of every PSD matrix of P (M, 3, 3)."""
+    w, V = np.linalg.eigh(0.5 * (P + np.swapaxes(P, -1, -2)))
+    return V * np.sqrt(np.clip(w, 0.0, None))[..., None, :]

@@ -1,0 +1,263 @@
+"""The per-particle measurement update of FastSLAM 1.0 and 2.0 (numba): a loop over particles is inherent
+(each particle associates, samples and writes its own copy-on-write map), so it runs compiled.
+
+For particle m with predicted pose x̂ (3,) and predicted pose covariance P (3, 3) (the motion since the last
+sampling, :mod:`.filter`), an observation set z (k, 2) with noise R (2, 2) per observation:
+
+Observation model of landmark μ (2,) from pose x (:mod:`slamarena.estimators.models`, written out here):
+    δ = μ − p, q = δᵀδ, r = √q
+    h = (r, atan2(δy, δx) − θ),  H_m = [[δx/r, δy/r], [−δy/q, δx/q]] (2, 2),
+    H_x = [[−δx/r, −δy/r, 0], [δy/q, −δx/q, −1]] (2, 3)
+
+FastSLAM 1.0 (proposal = motion model): x ~ N(x̂, P); then per observation of a known landmark
+    Q = H_m Σ H_mᵀ + R,  ν = z ⊖ h(x, μ),  log w += log N(ν; 0, Q)
+    K = Σ H_mᵀ Q⁻¹ (2, 2),  μ ← μ + K ν,  Σ ← (I − K H_m) Σ (I − K H_m)ᵀ + K R Kᵀ
+
+FastSLAM 2.0 (proposal conditioned on the observations, Montemerlo et al. 2003): starting from
+x̄ = x̂, Σx = P, for each observation of a known landmark, linearised at the current x̄:
+    Q = H_m Σ H_mᵀ + R,  L = H_x Σx H_xᵀ + Q,  ν = z ⊖ h(x̄, μ),  log w += log N(ν; 0, L)
+    Kx = Σx H_xᵀ L⁻¹ (3, 2),  x̄ ← x̄ + Kx ν,  Σx ← (I − Kx H_x) Σx (I − Kx H_x)ᵀ + Kx Q Kxᵀ
+then x ~ N(x̄, Σx) and the landmarks are updated at the sampled x as in 1.0 (without weight).
+The product of the L-likelihoods is the proposal's normaliser p(z | x̂, map) taken one observation
+at a time, each conditioned on the ones before it.
+
+New landmark (both): μ = p + r (cos(θ+b), sin(θ+b)), Σ = G_z R G_zᵀ with G_z = [[c, −r s], [s, r c]].
+
+Unknown association (per particle, maximum likelihood): every live landmark not yet taken in this set is a
+candidate if its d² = νᵀ S⁻¹ ν ≤ ``gate`` (S = Q for 1.0 at the sampled pose, L for 2.0 at x̄); the
+candidate of largest log N(ν; 0, S) is the match. Without a candidate the observation starts a new
+landmark and the weight takes the new-landmark likelihood ``log_p0``. With a stated perceptual field
+(max range, field of view) each landmark keeps an existence counter (slot state = counter + 1): +1 when
+matched, −1 when predicted inside the field from the sampled pose and not matched, removed at −1;
+new landmarks start at counter 1.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .storage import find, writable
+
+__all__ = ["update_particles", "sqrt_psd"]
+
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+@njit(cache=True)
+def _wrap(a):
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def sqrt_psd(P):
+    """A square root A of a symmetric positive semi-definite P (A Aᵀ = P), by eigen-decomposition
+    (P may be singular: the motion noise of a twist is rank 2 in the pose)."""
+    w, V = np.linalg.eigh(0.5 * (P + P.T))
+    A = np.empty_like(P)
+    for j in range(P.shape[0]):
+        s = math.sqrt(w[j]) if w[j] > 0.0 else 0.0
+        for i in range(P.shape[0]):
+            A[i, j] = V[i, j] * s
+    return A
+
+
+@njit(cache=True)
+def _observe(x, mu, zhat, Hx, Hm):
+    dx = mu[0] - x[0]
+    dy = mu[1] - x[1]
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    zhat[0] = r
+    zhat[1] = _wrap(math.atan2(dy, dx) - x[2])
+    Hm[0, 0] = dx / r
+    Hm[0, 1] = dy / r
+    Hm[1, 0] = -dy / q
+    Hm[1, 1] = dx / q
+    Hx[0, 0] = -Hm[0, 0]
+    Hx[0, 1] = -Hm[0, 1]
+    Hx[0, 2] = 0.0
+    Hx[1, 0] = -Hm[1, 0]
+    Hx[1, 1] = -Hm[1, 1]
+    Hx[1, 2] = -1.0
+
+
+@njit(cache=True)
+def _inv2(S):
+    det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+    out = np.empty((2, 2))
+    out[0, 0] = S[1, 1] / det
+    out[1, 1] = S[0, 0] / det
+    out[0, 1] = -S[0, 1] / det
+    out[1, 0] = -S[1, 0] / det
+    return out, det
+
+
+@njit(cache=True)
+def _landmark_update(x, mu, S, z, R, out_mu, out_S):
+    """The 2 × 2 EKF of one landmark at pose x (Joseph form); returns the innovation's (d², log-likelihood)."""
+    zhat = np.empty(2)
+    Hx = np.empty((2, 3))
+    Hm = np.empty((2, 2))
+    _observe(x, mu, zhat, Hx, Hm)
+    Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
+    Q = Hm @ Sig @ Hm.T + R
+    Qi, det = _inv2(Q)
+    nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
+    d2 = nu @ Qi @ nu
+    K = Sig @ Hm.T @ Qi
+    new_mu = mu + K @ nu
+    A = np.eye(2) - K @ Hm
+    new_S = A @ Sig @ A.T + K @ R @ K.T
+    out_mu[0] = new_mu[0]
+    out_mu[1] = new_mu[1]
+    out_S[0] = new_S[0, 0]
+    out_S[1] = 0.5 * (new_S[0, 1] + new_S[1, 0])
+    out_S[2] = new_S[1, 1]
+    return d2, -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
+
+
+@njit(cache=True)
+def _new_landmark(x, z, R, out_mu, out_S):
+    a = x[2] + z[1]
+    c = math.cos(a)
+    s = math.sin(a)
+    out_mu[0] = x[0] + z[0] * c
+    out_mu[1] = x[1] + z[0] * s
+    G = np.array([[c, -z[0] * s], [s, z[0] * c]])
+    Sig = G @ R @ G.T
+    out_S[0] = Sig[0, 0]
+    out_S[1] = 0.5 * (Sig[0, 1] + Sig[1, 0])
+    out_S[2] = Sig[1, 1]
+
+
+@njit(cache=True)
+def _predictive(xbar, Sx, mu, S, z, R, use_pose):
+    """Innovation ν, its covariance (L with the pose's uncertainty when ``use_pose``, else Q), H_x, Q."""
+    zhat = np.empty(2)
+    Hx = np.empty((2, 3))
+    Hm = np.empty((2, 2))
+    _observe(xbar, mu, zhat, Hx, Hm)
+    Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
+    Q = Hm @ Sig @ Hm.T + R
+    L = Hx @ Sx @ Hx.T + Q if use_pose else Q.copy()
+    nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
+    return nu, L, Hx, Q
+
+
+@njit(cache=True)
+def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, gate, log_p0, max_range, half_fov,
+                     depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                     free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
+    """One observation set z (k, 2) for every particle (module docstring).
+
+    known: slots (k,) are the landmarks' slots (the same in every particle; a slot ≥ n_slots[m] is new).
+    Otherwise slots are ignored and each particle associates by maximum likelihood; n_slots (M,) grows.
+    xhat (M, 3), P (M, 3, 3): predicted poses and their covariances; eps (M, 3) standard normals.
+    R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0: the
+    new-landmark log-likelihood added to a particle's weight when an observation starts a landmark.
+    Writes the sampled poses to poses_out (M, 3) and each observation's slot to assoc_out (M, k)
+    (−1: not used). max_range ≤ 0 disables the existence counters.
+    """
+    M = xhat.shape[0]
+    k = z.shape[0]
+    zhat = np.empty(2)
+    Hx = np.empty((2, 3))
+    Hm = np.empty((2, 2))
+    for m in range(M):
+        n = n_slots[m]
+        # the particle's live landmarks (unknown association reads them all)
+        mus = np.zeros((n, 2))
+        Ss = np.zeros((n, 3))
+        states = np.zeros(n, dtype=np.int64)
+        if not known:
+            for s in range(n):
+                leaf, off = find(roots[m], s, depth, inner_child)
+                if leaf >= 0:
+                    mus[s] = leaf_mu[leaf, off]
+                    Ss[s] = leaf_S[leaf, off]
+                    states[s] = leaf_state[leaf, off]
+        taken = np.zeros(n, dtype=np.bool_)
+        target = np.full(k, -1, dtype=np.int64)  # slot matched (≥ 0) or −1: new
+        xbar = xhat[m].copy()
+        Sx = P[m].copy()
+        if version == 1:  # the motion model is the proposal: sample first
+            xbar = xbar + sqrt_psd(Sx) @ eps[m]
+            Sx[:, :] = 0.0
+        for j in range(k):
+            best = -1
+            best_ll = -np.inf
+            best_nu = np.zeros(2)
+            best_L = np.eye(2)
+            best_Hx = np.zeros((2, 3))
+            best_Q = np.eye(2)
+            if known:
+                s = slots[j]
+                if s < n:
+                    leaf, off = find(roots[m], s, depth, inner_child)
+                    nu, L, H, Q = _predictive(xbar, Sx, leaf_mu[leaf, off], leaf_S[leaf, off], z[j], R[j], version == 2)
+                    Li, det = _inv2(L)
+                    best, best_nu, best_L, best_Hx, best_Q = s, nu, L, H, Q
+                    best_ll = -0.5 * (nu @ Li @ nu) - 0.5 * math.log(det) - _LOG_2PI
+            else:
+                for s in range(n):
+                    if states[s] == 0 or taken[s]:
+                        continue
+                    nu, L, H, Q = _predictive(xbar, Sx, mus[s], Ss[s], z[j], R[j], version == 2)
+                    Li, det = _inv2(L)
+                    d2 = nu @ Li @ nu
+                    if d2 > gate:
+                        continue
+                    ll = -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
+                    if ll > best_ll:
+                        best, best_ll, best_nu, best_L, best_Hx, best_Q = s, ll, nu, L, H, Q
+            if best >= 0:
+                target[j] = best
+                if not known:
+                    taken[best] = True
+                log_w[m] += best_ll
+                if version == 2:  # condition the proposal on this observation
+                    Li, _ = _inv2(best_L)
+                    Kx = Sx @ best_Hx.T @ Li
+                    xbar = xbar + Kx @ best_nu
+                    A = np.eye(3) - Kx @ best_Hx
+                    Sx = A @ Sx @ A.T + Kx @ best_Q @ Kx.T
+            elif not known:
+                log_w[m] += log_p0
+        x = xbar + sqrt_psd(Sx) @ eps[m] if version == 2 else xbar
+        x[2] = _wrap(x[2])
+        poses_out[m] = x
+        # landmark updates at the sampled pose
+        new_mu = np.empty(2)
+        new_S = np.empty(3)
+        for j in range(k):
+            s = target[j]
+            if s >= 0:
+                leaf, off = find(roots[m], s, depth, inner_child)
+                _landmark_update(x, leaf_mu[leaf, off].copy(), leaf_S[leaf, off].copy(), z[j], R[j], new_mu, new_S)
+                state = leaf_state[leaf, off] + 1
+            else:
+                s = slots[j] if known else n_slots[m]
+                if not known:
+                    n_slots[m] += 1
+                elif s >= n_slots[m]:
+                    n_slots[m] = s + 1
+                _new_landmark(x, z[j], R[j], new_mu, new_S)
+                state = 2 if max_range > 0.0 and not known else 1
+            leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                                 free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+            leaf_mu[leaf, off] = new_mu
+            leaf_S[leaf, off] = new_S
+            leaf_state[leaf, off] = state
+            assoc_out[m, j] = s
+        # negative evidence: live landmarks inside the perceptual field that nothing matched
+        if not known and max_range > 0.0:
+            for s in range(n):
+                if states[s] == 0 or taken[s]:
+                    continue
+                _observe(x, mus[s], zhat, Hx, Hm)
+                if zhat[0] <= max_range and abs(zhat[1]) <= half_fov:
+                    leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                                         free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+                    leaf_state[leaf, off] -= 1

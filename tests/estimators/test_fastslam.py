@@ -1,0 +1,190 @@
+"""FastSLAM 1.0 / 2.0: the storage's sharing, the proposal and weights, association, resampling, determinism."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pydantic import ValidationError
+
+from slamarena import datasets
+from slamarena.estimators import create
+from slamarena.estimators.dead_reckoning import DeadReckoning
+from slamarena.estimators.fastslam import FastSLAM
+from slamarena.estimators.fastslam.storage import FANOUT, LEAF, LandmarkStore, writable
+from slamarena.experiments.metrics import reference_of
+from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
+from slamarena.experiments.metrics.trajectory import ATEParams, ate
+
+
+def _write(store: LandmarkStore, m: int, slot: int, value: float) -> None:
+    store.reserve(slot, 1)
+    leaf, off = writable(m, slot, store.depth, *store.kernel_args()[:7], *store.kernel_args()[7:])
+    store.leaf_mu[leaf, off] = (value, -value)
+    store.leaf_S[leaf, off] = (value, 0.0, value)
+    store.leaf_state[leaf, off] = 1
+
+
+def _read(store: LandmarkStore, n: int) -> np.ndarray:
+    mu, _, state = store.gather(n)
+    return np.where(state > 0, mu[..., 0], np.nan)
+
+
+# ---------------------------------------------------------------------------- storage
+operations = st.lists(
+    st.one_of(
+        st.tuples(st.just("write"), st.integers(0, 5), st.integers(0, 3 * FANOUT * LEAF), st.floats(-1e3, 1e3, allow_nan=False)),
+        st.tuples(st.just("resample"), st.lists(st.integers(0, 5), min_size=6, max_size=6)),
+    ),
+    max_size=60,
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(operations)
+def test_copy_on_write_maps_behave_like_independent_copies(ops):
+    """Against a literal model (one dict per particle, deep-copied at resampling): a write to one particle's
+    landmark is never seen by another, whatever the sharing, and slots beyond the capacity grow the trees."""
+    store = LandmarkStore(6)
+    model = [dict() for _ in range(6)]
+    top = 0
+    for op in ops:
+        if op[0] == "write":
+            _, m, slot, value = op
+            _write(store, m, slot, value)
+            model[m][slot] = value
+            top = max(top, slot + 1)
+        else:
+            ancestors = np.array(op[1])
+            store.resample(ancestors)
+            model = [dict(model[a]) for a in ancestors]
+    got = _read(store, top)
+    expected = np.full((6, top), np.nan)
+    for m, d in enumerate(model):
+        for slot, value in d.items():
+            expected[m, slot] = value
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_resampling_copies_roots_and_a_write_copies_one_path():
+    store = LandmarkStore(4)
+    for slot in range(200):
+        _write(store, 0, slot, float(slot))
+    store.resample(np.zeros(4, dtype=np.int64))  # four copies of particle 0
+    inner, leaves = store.live_nodes()
+    _write(store, 2, 37, -1.0)
+    inner2, leaves2 = store.live_nodes()
+    assert leaves2 - leaves == 1 and inner2 - inner == store.depth  # one leaf and the inner nodes on its path
+    got = _read(store, 200)
+    assert got[2, 37] == -1.0 and np.all(got[[0, 1, 3], 37] == 37.0)
+    # dropping every copy but one frees the shared nodes' duplicates: nothing leaks
+    for _ in range(50):
+        store.resample(np.array([2, 2, 2, 2]))
+        _write(store, 1, 5, 1.0)
+    assert store.live_nodes()[1] <= leaves + 2 * 4
+
+
+# ---------------------------------------------------------------------------- filter
+def test_one_particle_without_noise_follows_the_motion_model():
+    seq = datasets.load("sim:landmarks", n_landmarks=10, laps=1, seed=0)
+    est = FastSLAM(particles=1, twist_cov=0.0, motion_model="arc").run(seq)
+    dr = DeadReckoning(motion_model="arc").run(seq)
+    poses = np.array([dr.poses[np.argmin(np.abs(dr.t - t))] for t in est.t])
+    matched = np.abs(np.array([dr.t[np.argmin(np.abs(dr.t - t))] for t in est.t]) - est.t) < 1e-9
+    np.testing.assert_allclose(est.poses[matched], poses[matched], atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def small_world():
+    return datasets.load("sim:landmarks", n_landmarks=25, laps=1, seed=2)
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_known_ids_approach_the_ekf(small_world, version):
+    seq = small_world
+    ref = reference_of(seq)
+    ekf = create("ekf_slam").run(seq)
+    fs = FastSLAM(version=version, particles=200, seed=3).run(seq)
+    ate_ekf = ate(ekf, ref, ATEParams(align="se2"))[0]["rmse"]
+    ate_fs = ate(fs, ref, ATEParams(align="se2"))[0]["rmse"]
+    dr = ate(DeadReckoning().run(seq), ref, ATEParams(align="se2"))[0]["rmse"]
+    assert ate_fs < 2.0 * ate_ekf and ate_fs < 0.3 * dr, (ate_fs, ate_ekf, dr)
+    assert set(fs.landmark_ids) == set(ekf.landmark_ids)
+    assert landmark_error(fs, ref, MapParams())[0]["rmse"] < 2.0 * landmark_error(ekf, ref, MapParams())[0]["rmse"]
+
+
+def test_fastslam2_needs_fewer_resamplings_than_1(small_world):
+    one = FastSLAM(version=1, particles=50, seed=1).run(small_world)
+    two = FastSLAM(version=2, particles=50, seed=1).run(small_world)
+    assert two.meta["resamplings"] < one.meta["resamplings"]
+    assert np.median(two.diagnostics["neff"]) > np.median(one.diagnostics["neff"])
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_unknown_association_recovers_the_landmarks_of_a_well_separated_map(version):
+    seq = datasets.load("sim:landmarks", n_landmarks=16, layout="grid", density=0.02, laps=1, seed=0)
+    fs = FastSLAM(version=version, particles=60, use_ids=False, seed=0).run(seq)
+    assert len(fs.landmark_ids) == 16, len(fs.landmark_ids)
+    err = landmark_error(fs, reference_of(seq), MapParams(by="nearest"))[0]
+    assert err["rmse"] < 0.5
+
+
+def test_existence_counters_remove_a_spurious_landmark():
+    f = FastSLAM(particles=5, use_ids=False, max_range=20.0, fov=np.pi, seed=0, range_bearing_cov=[0.01, 1e-4])
+    f.update([[5.0, 0.0, -1]])
+    f.update([[5.0, 0.0, -1], [4.0, 1.0, -1]])  # a second landmark: seen once
+    assert np.all(f.landmark_counts() == 2)
+    for _ in range(3):  # then never again, though in view
+        f.update([[5.0, 0.0, -1]])
+    assert np.all(f.landmark_counts() == 1)
+
+
+def test_neff_and_systematic_resampling():
+    f = FastSLAM(particles=8, seed=0)
+    f.log_w = np.log(np.array([0.5, 0.3, 0.1, 0.1, 1e-9, 1e-9, 1e-9, 1e-9]))
+    assert f.n_eff == pytest.approx(1 / (0.25 + 0.09 + 0.01 + 0.01), rel=1e-6)
+    ancestors = f.resample()
+    counts = np.bincount(ancestors, minlength=8)
+    expected = 8 * np.array([0.5, 0.3, 0.1, 0.1, 0, 0, 0, 0])
+    assert np.all(np.abs(counts - expected) < 1.0 + 1e-9)  # low variance: within one of M·w
+    assert np.all(f.log_w == 0) and f.resamplings == 1
+
+
+def test_resampling_happens_below_the_threshold_only(small_world):
+    est = FastSLAM(particles=30, resample_threshold=0.5, seed=0).run(small_world)
+    d = est.diagnostics
+    assert np.all(d["neff"][d["resampled"]] < 0.5 * 30 + 1e-9)
+    assert np.all(d["neff"][~d["resampled"]] >= 0.5 * 30 - 1e-9)
+
+
+def test_same_seed_same_run_and_the_estimate_is_complete(small_world):
+    a = FastSLAM(particles=20, seed=5).run(small_world)
+    b = FastSLAM(particles=20, seed=5).run(small_world)
+    c = FastSLAM(particles=20, seed=6).run(small_world)
+    np.testing.assert_array_equal(a.poses, b.poses)
+    assert not np.array_equal(a.poses, c.poses)
+    assert a.pose_cov.shape == (len(a.t), 3, 3) and np.all(np.linalg.eigvalsh(a.pose_cov) > -1e-12)
+    assert np.all(np.diff(a.t) > 0)  # one pose per stamp
+    assert a.landmark_cov.shape == (len(a.landmark_ids), 2, 2)
+    assert a.diagnostics["best_poses"].shape == a.poses.shape
+    best = FastSLAM(particles=20, seed=5, trajectory="best").run(small_world)
+    np.testing.assert_array_equal(best.poses, a.diagnostics["best_poses"])
+
+
+def test_bad_rows_are_rejected_and_counted():
+    f = FastSLAM(particles=4, seed=0)
+    f.update([[np.nan, 0.1, 1], [-1.0, 0.1, 2], [3.0, 0.2, 3]])
+    assert f.rejected == {"nonfinite": 1, "negative_range": 1}
+    assert list(f.landmarks()[0]) == [3]
+
+
+def test_parameters_are_typed():
+    with pytest.raises(ValidationError, match="version"):
+        FastSLAM(version=3)
+    with pytest.raises(ValidationError, match="particles"):
+        FastSLAM(particles=0)
+    with pytest.raises(ValidationError, match="particle"):
+        FastSLAM(particle=10)
+    with pytest.raises(ValidationError, match="fov"):
+        FastSLAM(fov=1.0)  # a field of view needs a range
+    assert FastSLAM(FastSLAM.Params(particles=7)).params == FastSLAM(particles=7).params
