@@ -17,10 +17,29 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from typer.core import TyperGroup
 
 from .cli_data import data_app
 
+class _Commands(TyperGroup):
+    """The command group: a :class:`~slamarena.errors.UserError` (a bad file, a missing dataset, a bad config or
+    option) prints its message and exits with code 2; any other exception is a bug and keeps its traceback."""
+
+    def invoke(self, ctx):
+        from slamarena.errors import UserError
+
+        try:
+            return super().invoke(ctx)
+        except UserError as exc:
+            from rich.console import Console
+            from rich.markup import escape
+
+            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+            raise typer.Exit(2) from None
+
+
 app = typer.Typer(
+    cls=_Commands,
     name="slamarena",
     help="Comparative SLAM research: EKF-SLAM, an EKF localizer, GTSAM smoothers and grid mapping on shared datasets.",
     no_args_is_help=True,
@@ -94,15 +113,4 @@ def map_log(
 
 
 def main() -> None:
-    """The console script: a :class:`~slamarena.errors.UserError` (a bad file, a missing dataset, a bad config or
-    option) prints its message and exits with code 2; any other exception is a bug and keeps its traceback."""
-    from slamarena.errors import UserError
-
-    try:
-        app()
-    except UserError as exc:
-        from rich.console import Console
-        from rich.markup import escape
-
-        Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
-        raise SystemExit(2) from None
+    app()

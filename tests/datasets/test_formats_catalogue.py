@@ -102,4 +102,4 @@ def test_data_cli_list_and_info():
     info = runner.invoke(app, ["data", "info", "g2o:noisyToyGraph"])
     assert info.exit_code == 0 and '"nodes": 4' in info.output
     unknown = runner.invoke(app, ["data", "info", "nope"])
-    assert unknown.exit_code == 1 and "unknown dataset" in unknown.output
+    assert unknown.exit_code == 2 and "unknown dataset 'nope'" in unknown.output
