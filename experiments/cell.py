@@ -115,7 +115,6 @@ def _truth_arrays(ref) -> dict:
 
 def execute(spec: dict) -> dict:
     """The work of one cell (in the child process); returns the ``metrics.json`` content."""
-    import inspect
 
     from slamarena import datasets
     from slamarena.targets import import_target

@@ -28,9 +28,7 @@ parameter the simulator/reader/estimator does not take or rejects — is a
 """
 from __future__ import annotations
 
-import inspect
 import re
-import typing
 from pathlib import Path
 from typing import Any, Literal
 
@@ -72,30 +70,6 @@ def method_table() -> dict[str, str]:
     return {**ESTIMATORS, **MAPPERS}
 
 
-def check_keywords(func, params: dict, what: str, reserved: tuple[str, ...] = ()) -> None:
-    """Check ``params`` against ``func``'s keyword parameters: names, and types where annotated."""
-    sig = inspect.signature(func)
-    accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
-    names = [n for n, p in sig.parameters.items() if n != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
-    for key in params:
-        if key in reserved:
-            raise ValueError(f"{what}: {key!r} is set by the runner (from seeds:), not in params")
-        if key not in names and not accepts_any:
-            raise ValueError(f"{what} takes no parameter {key!r}; it takes: {', '.join(n for n in names if n not in reserved) or 'none'}")
-    try:
-        hints = typing.get_type_hints(func)
-    except Exception:  # unresolvable annotations: the names were checked, the call checks values
-        return
-    fields = {k: (hints[k], ...) for k in params if k in hints}
-    if fields:
-        model = create_model(f"{what}_params", __config__=ConfigDict(arbitrary_types_allowed=True, strict=False), **fields)
-        try:
-            model(**{k: params[k] for k in fields})
-        except ValidationError as exc:
-            problems = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
-            raise ValueError(f"{what}: {problems}") from None
-
-
 def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = ()) -> dict:
     """``params`` validated by the ``Params`` model ``target`` declares (:mod:`slamarena.params`), as its
     canonical JSON form with every default filled in; a ValueError naming each offending ``params.<field>``."""
@@ -103,23 +77,10 @@ def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = 
         if key in params:
             raise ValueError(f"{what}: params.{key} is set by the runner (from seeds:), not in params")
     try:
-        model = params_model(target)
-    except TypeError:  # not yet converted to a Params model: check the keywords of its signature
-        check_keywords(target.__init__ if inspect.isclass(target) else target, params, what, reserved)
-        return dict(params)
-    try:
-        return model.of(params).canonical()
+        return params_model(target).of(params).canonical()
     except ValidationError as exc:
         problems = "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
         raise ValueError(f"{what}: {problems}") from None
-
-
-def _declares_params(target) -> bool:
-    try:
-        params_model(target)
-    except TypeError:
-        return False
-    return True
 
 
 class DatasetSpec(BaseModel):
@@ -157,7 +118,7 @@ class DatasetSpec(BaseModel):
                 reader = import_target(entry.reader)
             except ImportError as exc:
                 raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
-            self._resolved = resolve_params(reader, self.params, f"dataset {self.name!r}", reserved=("paths", "name"))
+            self._resolved = resolve_params(reader, {**entry.arguments, **self.params}, f"dataset {self.name!r}")
         else:
             known = sorted(SIMULATORS) + sorted(CATALOGUE)
             raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
@@ -183,19 +144,12 @@ class EstimatorSpec(BaseModel):
         except (ImportError, AttributeError) as exc:
             raise ValueError(f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}") from None
         self._resolved = resolve_params(cls, self.params, f"method {self.name!r}")
-        if not _declares_params(cls):
-            try:
-                cls(**self.params)
-            except Exception as exc:  # the constructor's own validation of values
-                raise ValueError(f"method {self.name!r} rejects params {self.params}: {type(exc).__name__}: {exc}") from None
         require_plain(self.label, "label")
         return self
 
     def takes_seed(self) -> bool:
-        cls = import_target(method_table()[self.name])
-        if _declares_params(cls):
-            return "seed" in params_model(cls).model_fields and "seed" not in self.params
-        return "seed" in inspect.signature(cls.__init__).parameters and "seed" not in self.params
+        """Whether the runner passes the cell's seed: the method's parameters have one and the config does not fix it."""
+        return "seed" in params_model(import_target(method_table()[self.name])).model_fields and "seed" not in self.params
 
     def resolved_params(self) -> dict:
         """Every parameter of the method, defaults filled in (its ``Params`` model's canonical form)."""
