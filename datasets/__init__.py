@@ -1,6 +1,6 @@
 """slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
 
-Depends on numpy, the standard library and, for the parameter models of the readers and simulators,
+Depends on numpy, scipy (MAT files) and pydantic (parameter models) besides the standard library.
 pydantic through :mod:`slamarena.params`.
 """
 from .dataroot import data_roots, set_data_root

@@ -9,7 +9,7 @@ A run ``PlazaN`` has three files:
                    over 1.86 km.
 ``PlazaN_TD.txt``  ``t  robot_id  beacon_id  range`` — radio ranges [m] to four fixed beacons
                    → :class:`BeaconRanges`.
-``PlazaN_.mat``    MATLAB v5 (read by :mod:`slamarena.datasets.formats.matlab`): ``GT`` ``(t, x, y, θ)`` ground-truth
+``PlazaN_.mat``    MATLAB v5 (read by ``scipy.io.loadmat``, :func:`read_mat`): ``GT`` ``(t, x, y, θ)`` ground-truth
                    poses, ``TL`` ``(beacon_id, x, y)`` true beacon positions; also ``DR``/``TD`` (the same
                    numbers as the text files) and ``DRp`` (GTSAM's dead-reckoned path).
 
@@ -47,12 +47,36 @@ from ..errors import DataFormatError
 from ..geometry import wrap_angle
 from ..sequence import BeaconRanges, Increments, LandmarkMap, Noise, Sequence, Trajectory
 from ._text import check_monotonic, numeric_table
-from .matlab import read_mat
 
-__all__ = ["read_run", "read", "PlazaParams", "heading_offset"]
+__all__ = ["read_run", "read", "read_mat", "PlazaParams", "heading_offset"]
 
 #: a ground-truth step shorter than this [m] says nothing about the direction of travel
 _MOVING = 0.05
+
+
+def read_mat(path: str | Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The numeric matrices ``names`` of a MATLAB v5 MAT-file (``scipy.io.loadmat``).
+
+    A file scipy cannot read (not a MAT-file, truncated, the HDF5-based v7.3 format), a missing variable
+    or one that is not a real numeric matrix raises :class:`DataFormatError` naming the file."""
+    from scipy.io import loadmat
+
+    path = Path(path)
+    try:
+        data = loadmat(path, variable_names=list(names))
+    except FileNotFoundError:
+        raise
+    except Exception as exc:  # scipy's reader raises many kinds on damaged input; all mean "not a readable MAT-file"
+        raise DataFormatError(path, None, "a MATLAB v5 MAT-file", f"{type(exc).__name__}: {exc}") from None
+    out = {}
+    for name in names:
+        if name not in data:
+            raise DataFormatError(path, None, f"a variable {name!r}", "no such variable")
+        value = data[name]
+        if not (isinstance(value, np.ndarray) and (np.issubdtype(value.dtype, np.number) or value.dtype == bool) and not np.iscomplexobj(value)):
+            raise DataFormatError(path, None, f"a real numeric matrix for variable {name!r}", type(value).__name__ if not isinstance(value, np.ndarray) else str(value.dtype))
+        out[name] = value.astype(float)
+    return out
 
 
 def heading_offset(poses: np.ndarray) -> tuple[float, float]:

@@ -7,7 +7,7 @@ from pydantic import ValidationError
 
 from slamarena.datasets import DataFormatError, load
 from slamarena.datasets.formats import plaza
-from slamarena.datasets.formats.matlab import read_mat
+from slamarena.datasets.formats.plaza import read_mat
 from slamarena.datasets.geometry import compose, interpolate_poses, wrap_angle
 from checks import load_staged, staged
 
@@ -138,3 +138,25 @@ def test_a_params_model_and_keywords_read_alike():
     np.testing.assert_array_equal(given.ground_truth.poses, keywords.ground_truth.poses)
     with pytest.raises(ValidationError, match="align_headings"):
         plaza.read_run(*files, align_headings=False)
+
+
+def test_mat_files_scipy_cannot_read_name_the_file(tmp_path):
+    from scipy.io import savemat
+
+    savemat(tmp_path / "ok.mat", {"GT": np.arange(8.0).reshape(2, 4), "name": "text"})
+    np.testing.assert_array_equal(read_mat(tmp_path / "ok.mat", ("GT",))["GT"], np.arange(8.0).reshape(2, 4))
+    (tmp_path / "garbage.mat").write_bytes(b"MATLAB" + b"\x00" * 50)
+    cases = {
+        "garbage.mat": (("GT",), "a MATLAB v5 MAT-file"),
+        "ok.mat": (("TL",), "a variable 'TL', got 'no such variable'"),
+    }
+    for name, (names, message) in cases.items():
+        with pytest.raises(DataFormatError, match=message) as info:
+            read_mat(tmp_path / name, names)
+        assert name in str(info.value)
+    with pytest.raises(DataFormatError, match="real numeric matrix for variable 'name'"):
+        read_mat(tmp_path / "ok.mat", ("name",))
+    truncated = (tmp_path / "ok.mat").read_bytes()
+    (tmp_path / "cut.mat").write_bytes(truncated[: len(truncated) // 2])
+    with pytest.raises(DataFormatError, match="cut.mat"):
+        read_mat(tmp_path / "cut.mat", ("GT",))
