@@ -1,7 +1,7 @@
 """slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
 
-Depends on numpy, scipy (MAT files) and pydantic (parameter models) besides the standard library.
-pydantic through :mod:`slamarena.params`.
+Depends on numpy, scipy (MAT files) and pydantic (the parameter models of readers and simulators,
+through :mod:`slamarena.params`) besides the standard library.
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate
