@@ -61,8 +61,10 @@ prediction has drifted beyond its own covariance (wheel slip, a wrong noise mode
 outlier". After ``max_rejections`` consecutive gated-out measurements of one sensor (default 5; 0
 disables) the filter treats itself, not the sensor, as wrong: it scales P by α = NIS/χ²-threshold
 (> 1: the inflation that makes S as large as the innovation says it is) and applies the measurement
-(a recovery). Non-finite motion input is rejected and counted (``motion``/``nonfinite``); Δt ≤ 0
-raises ``ValueError``.
+(a recovery). Motion input that is not finite, or whose prediction is not (a control so large that
+x⁻ or P⁻ overflows), is rejected and counted (``motion``/``nonfinite``) with the prior kept; an
+increment covariance that is not symmetric positive semi-definite is rejected (``motion``/
+``bad_covariance``); Δt ≤ 0 raises ``ValueError``.
 
 Timed input
 -----------
@@ -182,6 +184,11 @@ def _positive_dt(dt, what: str) -> float:
     if not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"{what}: dt must be a finite number > 0, got {dt!r}")
     return dt
+
+
+def _is_covariance(C: np.ndarray) -> bool:
+    """Symmetric and positive semi-definite (to rounding)."""
+    return bool(np.allclose(C, C.T, rtol=1e-9, atol=1e-12) and np.linalg.eigvalsh(0.5 * (C + C.T)).min() >= -1e-12 * max(1.0, np.abs(C).max()))
 
 
 def _finite_positions(xy, what: str) -> np.ndarray:
@@ -331,8 +338,7 @@ class EKFLocalizer:
             return False
         delta = self.model.increment(v, omega, dt)
         D = self.model.jacobians(_ORIGIN, v, omega, dt)[1]
-        self._predict_delta(delta, D, dt, period)
-        return True
+        return self._predict_delta(delta, D, dt, period)
 
     def _predict_delta(self, delta: np.ndarray, D: np.ndarray, dt: float, period: float | None) -> None:
         """x⁻ = x ⊕ δ with F = ∂(x ⊕ δ)/∂x and V = ∂(x ⊕ δ)/∂δ · ∂δ/∂u (D = ∂δ/∂u, the model's V at the origin).
@@ -340,9 +346,20 @@ class EKFLocalizer:
         This is the model's (G, V) at x: δ does not depend on x, so only the composition does.
         """
         F, J_delta = compose_jacobians(self._kf.x, delta)
-        self._kf.F = F
-        self._kf.Q = self.process_noise(dt, J_delta @ D, period)
-        self._kf.predict(u=delta)
+        return self._propagate(delta, F, self.process_noise(dt, J_delta @ D, period))
+
+    def _propagate(self, delta: np.ndarray, F: np.ndarray, Q: np.ndarray) -> bool:
+        """filterpy's predict with x⁻ = x ⊕ δ, F and Q; a result that is not finite (a control so large that
+        x⁻ or P⁻ overflows) is rejected and counted (``motion``/``nonfinite``) and the prior kept."""
+        kf = self._kf
+        prior = kf.x, kf.P, kf.F, kf.Q  # filterpy's predict rebinds x and P: the prior stays intact
+        kf.F, kf.Q = F, Q
+        kf.predict(u=delta)
+        if np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P)):
+            return True
+        kf.x, kf.P, kf.F, kf.Q = prior
+        self._log.reject(MOTION, "nonfinite")
+        return False
 
     def predict_increment(self, delta, cov=None) -> bool:
         """Propagate with a body-frame odometry increment δ (3,) of covariance ``cov`` (default ``increment_cov``)."""
@@ -351,11 +368,11 @@ class EKFLocalizer:
         if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C))):
             self._log.reject(MOTION, "nonfinite")
             return False
+        if not _is_covariance(C):
+            self._log.reject(MOTION, "bad_covariance")
+            return False
         Jx, Jd = compose_jacobians(self._kf.x, delta)
-        self._kf.F = Jx
-        self._kf.Q = Jd @ C @ Jd.T
-        self._kf.predict(u=delta)
-        return True
+        return self._propagate(delta, Jx, Jd @ C @ Jd.T)
 
     # ------------------------------------------------------------------ updates
     def update_gps(self, xy) -> bool:

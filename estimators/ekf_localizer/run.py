@@ -8,7 +8,8 @@ range-bearing and beacon-range rows whose id is in ``sequence.landmarks`` (the o
 ``unknown_landmark`` / ``unknown_beacon``); scans are ignored. Events come in time order, so no
 input is replayed.
 
-One pose and covariance are recorded per event, with the wall time of its step. ``Estimate.meta``
+One pose and covariance are recorded per stamp — the posterior after every event at that stamp
+(:func:`slamarena.estimators.stepping.last_per_stamp`) — with the wall time of its steps. ``Estimate.meta``
 holds the parameters (``params``: :meth:`Params.canonical`), the noise in force (``noise``: the
 parameters ``use_sequence_noise`` replaces, as used), ``rejected`` (sensor → reason → count) and
 ``recoveries`` (sensor → count); ``Estimate.diagnostics`` the arrays of :mod:`.diagnostics`.
@@ -23,6 +24,7 @@ import numpy as np
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Event, Increments, Sequence, Twist
 
+from ..stepping import last_per_stamp
 from .filter import SEQUENCE_NOISE
 
 if TYPE_CHECKING:
@@ -49,12 +51,13 @@ def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
         times[k], poses[k], covs[k] = event.t, localizer.x, localizer.P
         k += 1
     record = localizer.record()
+    t, steps, poses, covs = last_per_stamp(times[:k], step_time[:k], poses[:k], covs[:k])
     return Estimate(
         method="ekf_localizer",
-        t=times[:k],
-        poses=poses[:k],
-        pose_cov=covs[:k],
-        step_time=step_time[:k],
+        t=t,
+        poses=poses,
+        pose_cov=covs,
+        step_time=steps,
         diagnostics=record.arrays(),
         meta={"sequence": sequence.name, "params": localizer.params.canonical(),
               "noise": {name: getattr(localizer.noise, name) for name in SEQUENCE_NOISE},

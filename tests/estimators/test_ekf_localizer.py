@@ -381,13 +381,14 @@ def test_unknown_landmark_ids_are_counted():
 
 
 # ---------------------------------------------------------------- run(), accuracy, NIS
-def test_run_records_one_pose_per_event_and_localizes():
+def test_run_records_one_pose_per_stamp_and_localizes():
     seq = _scenario(seed=4, duration=20.0)
     est = _true_noise_filter().run(seq)
-    n_events = len(seq.motion) + len(seq.gps) + len(seq.heading)
-    assert est.t.shape == (n_events,) and est.poses.shape == (n_events, 3) and est.pose_cov.shape == (n_events, 3, 3)
-    assert est.step_time.shape == (n_events,) and np.all(est.step_time >= 0)
-    assert np.all(np.diff(est.t) >= 0)
+    stamps = np.unique(np.concatenate([seq.motion.t, seq.gps.t, seq.heading.t]))
+    n = stamps.size
+    np.testing.assert_array_equal(est.t, stamps)
+    assert est.poses.shape == (n, 3) and est.pose_cov.shape == (n, 3, 3)
+    assert est.step_time.shape == (n,) and np.all(est.step_time >= 0)
     err = est.poses[:, :2] - _truth_at(seq, est.t)[:, :2]
     rmse = np.sqrt(np.mean(np.sum(err**2, axis=1)))
     dead = EKFLocalizer(Q=0.0).run(Sequence(**{**seq.__dict__, "gps": None, "heading": None}))
@@ -627,3 +628,41 @@ def test_plaza2_range_only_localization_needs_the_range_offset():
     rmse = {k: ate(e, ref, ATEParams(align="none", max_gap=0.25))[0]["rmse"] for k, e in (("biased", biased), ("plain", plain), ("dead", dead))}
     assert rmse["biased"] < 1.0 and rmse["plain"] > 3 * rmse["biased"] and rmse["dead"] > 20.0
     assert biased.meta["rejected"]["beacon"].get("gate", 0) == 0 and plain.meta["rejected"]["beacon"]["gate"] > 100
+
+
+def test_absurd_motion_input_is_rejected_and_leaves_the_filter_as_it_was():
+    f = EKFLocalizer()
+    f.predict(1.0, 0.1, 0.1)
+    x, P = f.x, f.P
+    assert f.predict(1e300, 0.0, 0.1) is False  # finite, but x⁻ and P⁻ overflow
+    assert f.predict_increment([1e300, 0.0, 0.0]) is False
+    assert f.predict_increment([0.1, 0.0, 0.0], cov=np.diag([1e-4, -1e-2, 1e-4])) is False  # not a covariance
+    np.testing.assert_array_equal(f.x, x)
+    np.testing.assert_array_equal(f.P, P)
+    assert f.rejected["motion"] == {"nonfinite": 2, "bad_covariance": 1}
+    assert f.predict(1.0, 0.0, 0.1) and np.all(np.isfinite(f.P))  # and it goes on
+
+
+def test_one_pose_per_stamp_the_posterior():
+    from slamarena import datasets
+
+    seq = datasets.load("sim:localization", duration=5.0, seed=0)
+    est = EKFLocalizer(use_sequence_noise=True).run(seq)
+    assert np.all(np.diff(est.t) > 0)
+    # the pose kept at a stamp shared by GPS and IMU is the one after both updates: replay by hand
+    f = EKFLocalizer(use_sequence_noise=True)
+    f.use_noise_of(seq)
+    f.reset(seq.start_pose, t=seq.t0)
+    f.follow(seq.motion)
+    shared = np.intersect1d(seq.gps.t, seq.heading.t)[2]
+    for event in seq.events():
+        if event.t > shared:
+            break
+        if event.stream == "gps":
+            f.process(event.t, "gps", seq.gps.xy[event.start])
+        elif event.stream == "heading":
+            f.process(event.t, "imu", seq.heading.yaw[event.start])
+        elif event.stream == "motion":
+            f.process(event.t, "twist", (seq.motion.v[event.start], seq.motion.omega[event.start], seq.motion.dt[event.start]))
+    k = np.flatnonzero(est.t == shared)[0]
+    np.testing.assert_allclose(est.poses[k], f.x, atol=1e-12)
