@@ -1,31 +1,17 @@
-"""Scan-to-map laser SLAM on an occupancy-grid pyramid (Hector-style front end).
+"""Scan-to-map laser SLAM on an occupancy-grid pyramid (Hector-style front end), without loop closure.
 
-For each scan k of ``sequence.scans`` (robot pose ``x_k = (x, y, θ)``, world frame):
-
-1. Beams. Scan k's beams and angles come from ``Scans.beams(k)`` (interlaced logs: each scan's
-   own angle offset and beam count; the padding of shorter scans is not a beam). A reading is
-   *bad* when it is NaN, ±inf, zero or negative (rejected, counted per scan in
-   ``diagnostics["bad_beams"]``); *no return* when ``≥ max_range`` (clears space only);
-   *usable* otherwise (and below ``max_usable_range`` when set). End points of usable beams in
-   the robot frame: ``s_i = mount ⊕ (r_i cos α_i, r_i sin α_i)``.
-2. Guess. With odometry (``use_odometry`` and ``Scans.pose`` present):
-   ``x̂_k = x_{k−1} ⊕ (⊖o_{k−1} ⊕ o_k)`` (the odometry increment applied to the previous
-   estimate); without: ``x̂_k = x_{k−1}``.
-3. Match. If the scan has fewer than ``min_beams`` usable beams it is not matched
-   (``x_k = x̂_k``; ``diagnostics["matched"] = False``; "all max-range" scans land here), else
-   ``x_k = matcher.match(map, s, x̂_k).pose``. Grid matchers (gauss_newton, correlative,
-   branch_and_bound) match against the grid pyramid, point matchers (kiss_icp,
-   open3d_icp) against the end points of the last ``reference_scans`` map-update scans.
-4. Map update: each of the first ``initial_updates`` usable scans, then whenever the pose
-   moved more than ``update_distance`` [m] or turned more than ``update_angle`` [rad] since
-   the last update.
+For each scan k of ``sequence.scans`` the steps of :mod:`slamarena.mapping.frontend`: classify the beams,
+guess the pose from odometry, match the usable end points against the one growing map (grid matchers:
+gauss_newton, correlative, branch_and_bound, against the grid pyramid; point matchers: kiss_icp,
+open3d_icp, against the end points of the last ``reference_scans`` inserted scans), and insert the scan
+when the motion filter says so.
 
 Result: :class:`~slamarena.datasets.estimate.Estimate` with one pose per scan at the scan stamps,
-``step_time`` the wall time of each scan's steps 1–4; ``diagnostics``: ``bad_beams``,
-``no_return_beams``, ``usable_beams``, ``matched``, ``map_updated``, ``score``,
-``iterations``, ``match_cov`` (K, 3, 3; NaN where not matched: the matcher's covariance
-given the map, not a full SLAM covariance, hence not ``pose_cov``). After ``run`` the map is
-``self.maps`` (a :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
+``step_time`` the wall time of each scan's steps; ``diagnostics``: ``bad_beams``, ``no_return_beams``,
+``usable_beams``, ``matched``, ``map_updated``, ``odometry_stalled``, ``score``, ``iterations``,
+``match_cov`` (K, 3, 3; NaN where not matched: the matcher's covariance given the map, not a full SLAM
+covariance, hence not ``pose_cov``). After ``run`` the map is ``self.maps`` (a
+:class:`~slamarena.mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
 """
 from __future__ import annotations
 
@@ -36,10 +22,11 @@ import numpy as np
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt, ValidationInfo, field_validator
 
 from slamarena.datasets.estimate import Estimate
-from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
+from slamarena.datasets.geometry import transform_points
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field, params_model
 
+from .frontend import FrontEnd
 from .map_pyramid import MapPyramid, PyramidParams
 from .scan_matching import MATCHERS, make_matcher, matcher_class
 
@@ -87,7 +74,7 @@ class GridSLAM:
 
     def __init__(self, params: GridSLAMParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
-        self.matcher = make_matcher(self.params.matcher, **self.params.matcher_params)
+        self.matcher = make_matcher(self.params.matcher, **self.params.matcher_params)  # validated now, rebuilt per run
         self.maps: MapPyramid | None = None
 
     @property
@@ -101,9 +88,8 @@ class GridSLAM:
             raise ValueError(f"GridSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         K, B = scans.ranges.shape
         p = self.params
-        odom = scans.pose if (p.use_odometry and scans.pose is not None) else None
-        limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
-
+        front = FrontEnd(p, scans)
+        self.matcher = front.matcher
         poses = np.zeros((K, 3))
         step_time = np.zeros(K)
         diag = {
@@ -111,45 +97,33 @@ class GridSLAM:
             "matched": np.zeros(K, bool), "map_updated": np.zeros(K, bool), "score": np.full(K, np.nan),
             "iterations": np.zeros(K, np.int64), "match_cov": np.full((K, 3, 3), np.nan),
         }
-        start = scans.pose[0] if scans.pose is not None and np.all(np.isfinite(scans.pose[0])) else sequence.start_pose
-        pose = np.asarray(start, dtype=float).copy()
+        pose = front.start_pose(sequence.start_pose)
         self.maps = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
-        last_update = None
-        n_updates = 0
         keyframes: list[np.ndarray] = []
         n_beams = np.zeros(K, np.int64)
         for k in range(K):
             t0 = time.perf_counter()
-            r, a = scans.beams(k)
-            n_beams[k] = r.size
-            finite = np.isfinite(r)
-            bad = ~finite | (np.where(finite, r, 1.0) <= 0)
-            no_return = ~bad & (r >= scans.max_range)
-            usable = ~bad & (r < limit)
-            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = bad.sum(), no_return.sum(), usable.sum()
-
-            if k > 0 and odom is not None and np.all(np.isfinite(odom[k - 1 : k + 1])):
-                pose = compose(pose, between(odom[k - 1], odom[k]))
-            if usable.sum() >= p.min_beams:
-                pts = transform_points(scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
-                if last_update is not None:
-                    reference = self.maps if self.matcher.kind == "grid" else np.concatenate(keyframes)
-                    res = self.matcher.match(reference, pts, pose)
+            beams = front.beams(k)
+            n_beams[k] = beams.r.size
+            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = beams.bad.sum(), beams.no_return.sum(), beams.usable.sum()
+            pose = front.guess(k, poses, pose)
+            if front.last_insert is not None:
+                res = front.match(self.maps if front.matcher.kind == "grid" else np.concatenate(keyframes), beams, pose)
+                if res is not None:
                     pose = res.pose
                     diag["matched"][k] = True
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
-                if last_update is None or n_updates < p.initial_updates or np.hypot(*(pose[:2] - last_update[:2])) > p.update_distance or abs(wrap_angle(pose[2] - last_update[2])) > p.update_angle:
-                    mapped = ~bad & ((r < limit) | no_return)
-                    self.maps.integrate(r[mapped], a[mapped], pose, scans.mount, max_range=limit, clear_range=p.clear_range)
-                    if self.matcher.kind == "points":
-                        keyframes = (keyframes + [transform_points(pose, pts)])[-p.reference_scans :]
-                    last_update = pose.copy()
-                    n_updates += 1
-                    diag["map_updated"][k] = True
+            if len(beams.points) >= p.min_beams and front.due(pose):
+                self.maps.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
+                if front.matcher.kind == "points":
+                    keyframes = (keyframes + [transform_points(pose, beams.points)])[-p.reference_scans :]
+                front.inserted(pose)
+                diag["map_updated"][k] = True
             poses[k] = pose
             step_time[k] = time.perf_counter() - t0
             if progress is not None:
                 progress(k + 1, K)
+        diag["odometry_stalled"] = front.stalled
 
         meta = {
             "params": p.canonical(),
@@ -158,6 +132,7 @@ class GridSLAM:
             "bad_beams": int(diag["bad_beams"].sum()),
             "scans_with_bad_beams": int((diag["bad_beams"] > 0).sum()),
             "scans_not_matched": int((~diag["matched"]).sum()),
+            "odometry_stalled_scans": int(front.stalled.sum()),
             "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == n_beams).sum()),
             "scans_all_bad": int((diag["bad_beams"] == n_beams).sum()),
             "map_updates": int(diag["map_updated"].sum()),

@@ -186,3 +186,17 @@ def test_without_odometry_and_with_a_mounted_sensor():
     assert aligned_ate(GridSLAM(use_odometry=False).run(seq), seq) < 0.03
     ignoring_mount = Scans(t=scans.t, ranges=ranges, angles=scans.angles, max_range=scans.max_range, pose=scans.pose)
     assert aligned_ate(GridSLAM().run(dataclasses.replace(seq, scans=ignoring_mount)), seq) > 0.05
+
+
+def test_frozen_odometry_that_then_jumps_is_not_counted_twice(room_sequence):
+    """mit-csail's odometry freezes for a few scans while the robot moves, then jumps by the whole motion:
+    the matcher has followed the motion meanwhile, so the jump is applied from the last fresh reading."""
+    sc = room_sequence.scans
+    odom = sc.pose.copy()
+    for start in (40, 80):
+        odom[start : start + 6] = odom[start - 1]  # six scans without a new reading, then the true reading again
+    frozen = dataclasses.replace(room_sequence, scans=dataclasses.replace(sc, pose=odom))
+    est = GridSLAM().run(frozen)
+    truth = room_sequence.ground_truth.poses
+    assert np.hypot(*(est.poses[:, :2] - truth[:, :2]).T).max() < 0.1  # counted twice: 0.86 m off
+    assert est.diagnostics["odometry_stalled"].sum() == 12 and est.meta["odometry_stalled_scans"] == 12
