@@ -11,7 +11,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 LAYER = {"datasets": 0, "estimators": 1, "mapping": 1, "experiments": 2, "paper_figures": 3}
-BASE = {"slamarena", "slamarena.targets", "slamarena.params", "slamarena.errors"}  # the namespace's own modules, below every layer
+BASE = {"slamarena", "slamarena.targets", "slamarena.params", "slamarena.errors", "slamarena.robust"}  # the namespace's own modules, below every layer
 DATASETS_MAY_IMPORT = {"numpy", "scipy", "pydantic", "pooch", "gtsam"}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example data
 
 

@@ -3,8 +3,8 @@
 Keys: pose k is ``x_k`` (``gtsam.symbol('x', k)``), landmark or beacon j is ``l_j``.
 
 Noise models: ``Gaussian.Covariance(Σ)`` optionally wrapped in ``Robust`` with a Huber or Cauchy
-m-estimator of width ``k`` (in units of the whitened error, i.e. standard deviations):
-:class:`RobustKernelParams`, shared by every smoother.
+m-estimator (:mod:`slamarena.robust`: :class:`RobustKernelParams`, shared by every smoother and by laser
+graph SLAM's back end).
 
 ``BearingRangeFactor2D`` orders its measurement as (bearing, range); the datasets state the
 observation noise in (range, bearing) order, so :func:`observation_noise` swaps it. Beacon ranges
@@ -23,9 +23,10 @@ from typing import Annotated, Literal
 
 import gtsam
 import numpy as np
-from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
+from pydantic import NonNegativeFloat, PositiveInt
 
 from slamarena.params import Field, Params
+from slamarena.robust import RobustKernelParams, information_model, noise_model, robustify
 
 from .noise import body_to_world
 from .problem import LandmarkProblem
@@ -43,14 +44,6 @@ RelativeErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the 
 AbsoluteErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the error's decrease in one iteration is below this [½ χ²]")]
 RelinearizeSkip = Annotated[PositiveInt, Field(description="iSAM2 checks which variables to relinearise every this many updates")]
 ComputeCovariances = Annotated[bool, Field(description="compute the marginal covariances: world-frame pose_cov and landmark_cov")]
-
-
-class RobustKernelParams(Params):
-    """The robust kernel on the factors that may hold outliers: observations and beacon ranges (landmark
-    smoothers), GPS (fixed-lag localizer), loop closures (pose-graph optimiser)."""
-
-    robust: Literal["none", "huber", "cauchy"] = Field("none", description="m-estimator of those factors; none: plain least squares")
-    robust_k: PositiveFloat = Field(1.345, description="width of the m-estimator [standard deviations of the whitened error]")
 
 
 class OptimizerParams(Params):
@@ -76,25 +69,6 @@ def X(k: int) -> int:
 
 def L(j: int) -> int:
     return gtsam.symbol("l", int(j))
-
-
-def noise_model(cov: np.ndarray, kernel: RobustKernelParams | None = None):
-    """Gaussian noise with covariance ``cov``, robustified by ``kernel`` when given."""
-    return robustify(gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=float)), kernel)
-
-
-def information_model(information: np.ndarray, kernel: RobustKernelParams | None = None):
-    """Gaussian noise with information matrix ``information``, robustified by ``kernel`` when given."""
-    return robustify(gtsam.noiseModel.Gaussian.Information(np.asarray(information, dtype=float)), kernel)
-
-
-def robustify(base, kernel: RobustKernelParams | None):
-    """``base`` wrapped in the kernel's Huber or Cauchy m-estimator of width ``robust_k`` (no kernel or
-    ``robust="none"``: unchanged)."""
-    if kernel is None or kernel.robust == "none":
-        return base
-    estimator = {"huber": gtsam.noiseModel.mEstimator.Huber, "cauchy": gtsam.noiseModel.mEstimator.Cauchy}[kernel.robust]
-    return gtsam.noiseModel.Robust.Create(estimator.Create(kernel.robust_k), base)
 
 
 def observation_noise(R: np.ndarray, kernel: RobustKernelParams | None = None):
