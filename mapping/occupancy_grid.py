@@ -148,6 +148,13 @@ class OccupancyGrid:
         h, w = self.shape
         return (ij[..., 0] >= 0) & (ij[..., 0] < w) & (ij[..., 1] >= 0) & (ij[..., 1] < h)
 
+    def _scratch(self) -> np.ndarray:
+        """An int64 array of the grid's size for :meth:`scan_cells` (its contents are never read before written)."""
+        size = self.shape[0] * self.shape[1]
+        if getattr(self, "_scratch_cells", None) is None or self._scratch_cells.size != size:
+            self._scratch_cells = np.empty(size, dtype=np.int64)
+        return self._scratch_cells
+
     def ensure_contains(self, xy_min, xy_max) -> None:
         """Grow (in blocks of cells) so the world box ``[xy_min, xy_max]`` lies inside."""
         lo = self.world_to_grid(np.asarray(xy_min, dtype=float))
@@ -192,14 +199,25 @@ class OccupancyGrid:
         is_end = step == np.maximum(np.abs(c1[:, 0] - c0[0]), np.abs(c1[:, 1] - c0[1]))[line]
         is_hit = is_end & hit[line]
         inside = self.contains(np.column_stack([x, y]))
-        flat = y * self.shape[1] + x
-        hits = np.unique(flat[is_hit & inside])
-        free = np.unique(flat[~is_hit & inside])
-        guarded = hits
-        if self.params.hit_guard:
+        flat = (y * self.shape[1] + x)[inside]
+        is_hit = is_hit[inside]
+        # one entry per cell without sorting: write every entry's position into a scratch grid and keep the entries
+        # that read their own position back (one per cell); then mark the guarded cells (−2) and the hit cells (−1):
+        # a hit wins over free, and a guarded cell is not cleared
+        scratch = self._scratch()
+        position = np.arange(flat.size)
+        scratch[flat] = position
+        cells = flat[scratch[flat] == position]
+        hits = flat[is_hit]
+        if self.params.hit_guard and hits.size:
             g = np.arange(-self.params.hit_guard, self.params.hit_guard + 1)
-            guarded = np.unique((hits[:, None] + (g[:, None] * self.shape[1] + g[None, :]).ravel()[None, :]).ravel())
-        free = free[~np.isin(free, guarded)]
+            hx, hy = hits % self.shape[1], hits // self.shape[1]
+            gx, gy = (v.ravel() for v in np.broadcast_arrays(hx[:, None, None] + g[None, None, :], hy[:, None, None] + g[None, :, None]))
+            near = (gx >= 0) & (gx < self.shape[1]) & (gy >= 0) & (gy < self.shape[0])
+            scratch[gy[near] * self.shape[1] + gx[near]] = -2
+        scratch[hits] = -1
+        mark = scratch[cells]
+        hits, free = cells[mark == -1], cells[mark >= 0]
         return ScanCells(free, hits)
 
     def apply(self, cells: ScanCells) -> int:

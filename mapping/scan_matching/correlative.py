@@ -36,6 +36,7 @@ its Ceres matcher: the wide, global search picks the basin, Gauss-Newton the sub
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 
 from slamarena.params import Field, Params
@@ -66,6 +67,95 @@ def likelihood_grid(grid, sigma: float, p_floor: float, box: tuple[int, int, int
     return G[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
 
 
+@njit(cache=True)
+def _node_score(P, ix, iy, a, b):
+    h, w = P.shape
+    total = 0.0
+    for i in range(ix.shape[0]):
+        x = min(max(ix[i] + a, 0), w - 1)
+        y = min(max(iy[i] + b, 0), h - 1)
+        total += P[y, x]
+    return total
+
+
+@njit(cache=True)
+def _branch_and_bound(pyramid, ix, iy, w, depth):
+    """Depth-first branch and bound (module docstring) over angles k and offsets |a|, |b| ≤ w.
+
+    pyramid (depth + 1, H, W): P_0 … P_depth; ix, iy (K, N) the points' cells at each angle. Nodes are visited
+    best-first (ties: larger k, a, b first, as a descending sort of (bound, k, a, b)); a node whose bound does
+    not beat the best leaf so far is pruned. Returns (best score, k, a, b, nodes scored)."""
+    K = ix.shape[0]
+    step = 2**depth
+    n_top = (2 * w) // step + 1
+    M = K * n_top * n_top
+    bound = np.empty(M)
+    ks = np.empty(M, dtype=np.int64)
+    As = np.empty(M, dtype=np.int64)
+    Bs = np.empty(M, dtype=np.int64)
+    m = 0
+    for k in range(K):
+        for j in range(n_top):
+            for i in range(n_top):
+                a = -w + i * step
+                b = -w + j * step
+                bound[m] = _node_score(pyramid[depth], ix[k], iy[k], a, b)
+                ks[m], As[m], Bs[m] = k, a, b
+                m += 1
+    evaluated = M
+    # best first: descending (bound, k, a, b)
+    order = np.arange(M)
+    keys = np.empty(M)
+    for r in range(3, -1, -1):  # stable sorts from the least significant key: b, a, k, bound
+        for q in range(M):
+            idx = order[q]
+            keys[q] = -(Bs[idx] if r == 3 else As[idx] if r == 2 else ks[idx] if r == 1 else bound[idx])
+        order = order[np.argsort(keys, kind="mergesort")]
+    cap = M + 4 * depth + 4
+    st_h = np.empty(cap, dtype=np.int64)
+    st_k = np.empty(cap, dtype=np.int64)
+    st_a = np.empty(cap, dtype=np.int64)
+    st_b = np.empty(cap, dtype=np.int64)
+    st_s = np.empty(cap)
+    sp = 0
+    for q in range(M - 1, -1, -1):  # push worst first: the best is popped first
+        idx = order[q]
+        st_h[sp], st_k[sp], st_a[sp], st_b[sp], st_s[sp] = depth, ks[idx], As[idx], Bs[idx], bound[idx]
+        sp += 1
+    best, best_k, best_a, best_b = -np.inf, 0, 0, 0
+    cs = np.empty(4)
+    ca = np.empty(4, dtype=np.int64)
+    cb = np.empty(4, dtype=np.int64)
+    while sp > 0:
+        sp -= 1
+        h, k, a, b, sc = st_h[sp], st_k[sp], st_a[sp], st_b[sp], st_s[sp]
+        if sc <= best:
+            continue
+        if h == 0:
+            best, best_k, best_a, best_b = sc, k, a, b
+            continue
+        half = 2 ** (h - 1)
+        n = 0
+        for da, db in ((0, 0), (half, 0), (0, half), (half, half)):
+            if a + da <= w and b + db <= w:
+                ca[n], cb[n] = a + da, b + db
+                cs[n] = _node_score(pyramid[h - 1], ix[k], iy[k], a + da, b + db)
+                n += 1
+        evaluated += n
+        # push the children worst first, so that they pop in descending (score, a, b)
+        for _ in range(n):
+            worst = 0
+            for c in range(1, n):
+                if cs[c] < cs[worst] or (cs[c] == cs[worst] and (ca[c] < ca[worst] or (ca[c] == ca[worst] and cb[c] < cb[worst]))):
+                    worst = c
+            st_h[sp], st_k[sp], st_a[sp], st_b[sp], st_s[sp] = h - 1, k, ca[worst], cb[worst], cs[worst]
+            sp += 1
+            cs[worst] = np.inf  # taken
+            ca[worst] = np.iinfo(np.int64).max
+            cb[worst] = np.iinfo(np.int64).max
+    return best, best_k, best_a, best_b, evaluated
+
+
 class _Correlative:
     """The pieces the exhaustive and the branch-and-bound search share; ``Params`` is the subclass's model."""
 
@@ -89,13 +179,14 @@ class _Correlative:
             floor = np.log(self.params.p_floor)
             pad = 2**depth + self._w(grid) + 1
             G = likelihood_grid(grid, self.params.sigma, self.params.p_floor, (lo[0], lo[1], hi[0], hi[1]))
-            pyramid = [np.pad(G, pad, constant_values=floor)]
+            pyramid = np.empty((depth + 1,) + tuple(np.add(G.shape, 2 * pad)))  # P_0 … P_depth, one array
+            pyramid[0] = np.pad(G, pad, constant_values=floor)
             for h in range(1, depth + 1):
                 s = 2 ** (h - 1)
-                P = pyramid[-1].copy()
+                P = pyramid[h]
+                P[:] = pyramid[h - 1]
                 np.maximum(P[:, :-s], P[:, s:], out=P[:, :-s])
                 np.maximum(P[:-s, :], P[s:, :], out=P[:-s, :])
-                pyramid.append(P)
             self._cache_key = key
             self._cache = {"grid": grid, "pad": pad, "pyramid": pyramid, "corner": lo}
         return self._cache
@@ -220,38 +311,7 @@ class BranchAndBoundMatcher(_Correlative):
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
 
-        top = np.arange(-w, w + 1, 2**depth)
-        A, B = (v.ravel() for v in np.meshgrid(top, top))
-        P = pyramid[depth]
-        h, w_ = P.shape
-        # top-level bounds of all angles × offsets in one gather: (K, M)
-        xs = np.minimum(np.maximum(ix[:, None, :] + A[None, :, None], 0), w_ - 1)
-        ys = np.minimum(np.maximum(iy[:, None, :] + B[None, :, None], 0), h - 1)
-        bounds = P[ys, xs].sum(axis=2)
-        kk, mm = np.meshgrid(np.arange(offsets.size), np.arange(A.size), indexing="ij")
-        nodes = list(zip(bounds.ravel().tolist(), kk.ravel().tolist(), A[mm.ravel()].tolist(), B[mm.ravel()].tolist()))
-        best = [-np.inf, 0, 0, 0]
-        evaluated = len(nodes)
-
-        def search(cands, h):
-            nonlocal evaluated
-            for bound, k, a, b in sorted(cands, reverse=True):
-                if bound <= best[0]:
-                    return
-                if h == 0:
-                    best[:] = [bound, k, a, b]
-                    continue
-                s = 2 ** (h - 1)
-                ca = np.array([a, a + s, a, a + s])
-                cb = np.array([b, b, b + s, b + s])
-                keep = (ca <= w) & (cb <= w)
-                ca, cb = ca[keep], cb[keep]
-                scores = self._score(pyramid[h - 1], ix[k], iy[k], ca, cb)
-                evaluated += int(keep.sum())
-                search([(float(v), k, int(x), int(y)) for v, x, y in zip(scores, ca, cb)], h - 1)
-
-        search(nodes, depth)
-        S_best, k, a, b = best
+        S_best, k, a, b, evaluated = _branch_and_bound(pyramid, np.ascontiguousarray(ix), np.ascontiguousarray(iy), w, depth)
         c = self.params.covariance_cells
         ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
         S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))
