@@ -18,6 +18,7 @@ from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother  # 
 from slamarena.estimators.gtsam_smoother.problem import LandmarkProblemParams, build_problem  # noqa: E402
 from slamarena.estimators.models import ARC  # noqa: E402
 from slamarena.experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
+from checks import assert_covariances_close  # noqa: E402
 
 SIM = dict(n_landmarks=30, laps=1)
 
@@ -92,8 +93,10 @@ def test_isam2_final_equals_batch(seq, batch):
     np.testing.assert_allclose(est.t, batch.t)
     assert np.abs(_world_error(est.poses, batch.poses)).max() < 1e-6
     np.testing.assert_allclose(est.landmarks, batch.landmarks, atol=1e-6)
-    np.testing.assert_allclose(est.pose_cov, batch.pose_cov, atol=1e-6 * np.abs(batch.pose_cov).max())
-    np.testing.assert_allclose(est.landmark_cov, batch.landmark_cov, atol=1e-6 * np.abs(batch.landmark_cov).max())
+    # equal in every direction to 0.1 % of the variance along it (measured: 1e-5 poses, 2e-8 landmarks; 0.15 / 0.03 without
+    # the final updates)
+    assert_covariances_close(est.pose_cov, batch.pose_cov, rtol=1e-3)
+    assert_covariances_close(est.landmark_cov, batch.landmark_cov, rtol=1e-3)
     assert est.step_time.shape == est.t.shape and np.all(est.step_time > 0)
     assert est.diagnostics["final_change"] < 1e-6
     # the online estimates (what a filter would report at each step) are far better than dead reckoning
