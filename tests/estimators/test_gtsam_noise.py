@@ -102,3 +102,23 @@ def test_regularise_lifts_only_the_null_direction():
     lam = np.linalg.eigvalsh(Q)
     np.testing.assert_allclose(lam, [4e-6, 0.01, 0.04], rtol=1e-9)
     np.testing.assert_allclose(regularise(P, 0.0), P)
+
+
+
+def test_covariances_are_compared_in_their_own_metric():
+    """checks.assert_covariances_close bounds the relative error of the variance along every direction. The tolerance it
+    replaced (absolute, 1e-6 of the largest entry) fails on a round-off of 1.5e-6 relative (another machine's BLAS did
+    that), and passes a variance doubled along a direction whose variance is below 1e-6 of the largest (a well-anchored
+    first pose next to metres of drift)."""
+    U = np.linalg.qr(np.array([[1.0, 0.3, 0.1], [0.2, 1.0, 0.4], [0.0, 0.5, 1.0]]))[0]
+    lam = np.array([4e-3, 1e-3, 1e-9])
+    B = U @ np.diag(lam) @ U.T
+    old = lambda A: np.testing.assert_allclose(A, B, atol=1e-6 * np.abs(B).max())  # noqa: E731
+    roundoff = (1 + 1.5e-6) * B
+    with pytest.raises(AssertionError):
+        old(roundoff)
+    assert_covariances_close(roundoff, B, rtol=1e-3)
+    doubled = B + lam[2] * np.outer(U[:, 2], U[:, 2])
+    old(doubled)
+    with pytest.raises(AssertionError, match="relative difference 1 > 0.001"):
+        assert_covariances_close(doubled, B, rtol=1e-3)
