@@ -78,13 +78,14 @@ def test_trilateration_is_exact_on_noise_free_ranges():
     np.testing.assert_allclose(xy, true_xy, atol=1e-6)
 
 
-def test_nonfinite_ranges_are_rejected_and_counted(seq, anchored):
+def test_nonfinite_absurd_and_negative_ranges_are_rejected_and_counted(seq, anchored):
+    """A range of 1e300 m cannot be squared; a negative one (as measured, before the offset) is no range."""
     br = seq.beacon_ranges
     r = br.range.copy()
-    r[[3, 30]] = [np.nan, np.inf]
+    r[[3, 30, 50, 60]] = [np.nan, np.inf, 1e300, -1.0]
     est = BatchSmoother(beacon_range_var=SIGMA**2, beacon_bias=BIAS, covariances=False).run(
         dataclasses.replace(seq, beacon_ranges=BeaconRanges(t=br.t, range=r, beacon_id=br.beacon_id)))
-    assert est.diagnostics["rejected_nonfinite_ranges"] == 2
+    assert est.diagnostics["rejected_nonfinite_ranges"] == 3 and est.diagnostics["rejected_negative_ranges"] == 1
     assert np.all(np.isfinite(est.poses)) and _rmse(est, seq) < 0.1
 
 
