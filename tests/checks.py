@@ -1,4 +1,4 @@
-"""Helpers shared by the tests: locating staged datasets and statistical assertions.
+"""Helpers shared by the tests: locating staged datasets, statistical assertions and covariance comparisons.
 
 Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
 from __future__ import annotations
@@ -42,6 +42,21 @@ def assert_rejected_naming(call, **bad) -> None:
         call(**bad)
     for e in err.value.errors():
         assert e["loc"][0] == field if e["loc"] else field in e["msg"], e
+
+
+def assert_covariances_close(actual: np.ndarray, desired: np.ndarray, rtol: float) -> None:
+    """Each covariance of ``actual`` (..., d, d) equals the one of ``desired`` to ``rtol`` in that covariance's own
+    metric: with B = L Lᵀ, every eigenvalue of L⁻¹ (A − B) L⁻ᵀ lies within ±rtol, i.e. |uᵀ(A − B)u| ≤ rtol · uᵀBu for every
+    direction u — the relative error of the variance along each direction. Independent of units, scale and
+    conditioning (a tolerance relative to the largest entry would not test the small-variance directions at all and
+    fails on a round-off that a better-conditioned entry would absorb): it tests the claim, not the BLAS."""
+    A, B = np.asarray(actual, dtype=float), np.asarray(desired, dtype=float)
+    assert A.shape == B.shape and A.shape[-1] == A.shape[-2], (A.shape, B.shape)
+    L = np.linalg.cholesky(B)
+    D = np.linalg.solve(L, np.swapaxes(np.linalg.solve(L, A - B), -1, -2))
+    worst = np.abs(np.linalg.eigvalsh(0.5 * (D + np.swapaxes(D, -1, -2)))).max(axis=-1)
+    k = np.unravel_index(np.argmax(worst), worst.shape) if worst.ndim else ()
+    assert np.max(worst) <= rtol, f"covariance {k}: relative difference {np.max(worst):.3g} > {rtol:g}"
 
 
 def assert_gaussian(residuals: np.ndarray, sigma: float, p: float = 1e-4) -> None:

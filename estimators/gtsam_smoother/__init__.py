@@ -15,13 +15,17 @@ odometry, observation and beacon noise, beacon anchors, marginals; batch, iSAM2)
 :class:`~.graph.OptimizerParams` (batch, pose graph) and :class:`~.graph.RelinearizationParams` (iSAM2,
 fixed lag).
 
+Bad measurements are rejected and counted before they reach a graph (:mod:`.problem`); an optimisation
+that reaches no optimum raises :class:`OptimizationError` (:mod:`.graph`), never returns a guess.
+
 The model, the noise mapping from the filters and the frame conventions are in the module
 docstrings of :mod:`.landmark`, :mod:`.noise` and in ``research/graph_slam.md``.
 """
 from .batch import BatchSmoother, BatchSmootherParams
 from .fixed_lag import FixedLagLocalizer, FixedLagLocalizerParams
+from .graph import OptimizationError
 from .isam2 import ISAM2Smoother, ISAM2SmootherParams
 from .pose_graph import PoseGraphOptimizer, PoseGraphOptimizerParams
 
 __all__ = ["BatchSmoother", "BatchSmootherParams", "ISAM2Smoother", "ISAM2SmootherParams", "FixedLagLocalizer",
-           "FixedLagLocalizerParams", "PoseGraphOptimizer", "PoseGraphOptimizerParams"]
+           "FixedLagLocalizerParams", "PoseGraphOptimizer", "PoseGraphOptimizerParams", "OptimizationError"]

@@ -12,7 +12,9 @@ and the optimiser's (:class:`~.graph.OptimizerParams`).
 ``Estimate``: one pose per pose key (``t`` = key times), world-frame ``pose_cov``, landmarks with
 covariances; ``step_time`` is ``None`` (a batch method has no per-step cost; the total times are
 in ``diagnostics``: ``time_optimize``, ``time_marginals``), plus ``initial_error``,
-``final_error`` (½ Σ‖e‖²), ``iterations`` and the rejected-input counts; ``meta["params"]`` the canonical parameters.
+``final_error`` (½ Σ‖e‖²), ``iterations`` and the rejected-input counts (:mod:`.problem`); ``meta["params"]`` the
+canonical parameters. An optimisation that does not converge, and a failure of GTSAM's marginals, is
+:class:`~.graph.OptimizationError` (:func:`~.graph.optimize`), never a result.
 """
 from __future__ import annotations
 
@@ -23,8 +25,8 @@ import gtsam
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Sequence
 
-from .graph import (L, OptimizerParams, X, landmark_step_factors, observation_noise, optimize, point_covariances, points_of, poses_of,
-                    range_noise, world_pose_covariances)
+from .graph import (L, OptimizerParams, X, gtsam_errors, landmark_step_factors, observation_noise, optimize, point_covariances, points_of,
+                    poses_of, range_noise, world_pose_covariances)
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
 from .problem import LandmarkProblem
 
@@ -78,9 +80,10 @@ class BatchSmoother(LandmarkSmoother):
         pose_cov = landmark_cov = None
         tic = time.perf_counter()
         if self.params.covariances:
-            marginals = gtsam.Marginals(graph, result.values)
-            pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
-            landmark_cov = point_covariances(marginals.marginalCovariance, landmark_keys)
+            with gtsam_errors("marginal covariances"):
+                marginals = gtsam.Marginals(graph, result.values)
+                pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
+                landmark_cov = point_covariances(marginals.marginalCovariance, landmark_keys)
         diagnostics = {
             "initial_error": result.initial_error,
             "final_error": result.final_error,

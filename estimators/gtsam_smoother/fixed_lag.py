@@ -14,6 +14,12 @@ R_imu = ``Noise.yaw_var`` (each can be overridden). GTSAM's ``IncrementalFixedLa
 (iSAM2 inside) keeps the poses of the last ``lag`` seconds and marginalises older ones into a
 prior on the window. A robust kernel (``robust``) can be put on the GPS factors for outliers.
 
+Bad input is rejected and counted before it reaches the graph: GPS fixes and yaw readings that are not
+finite or too large to square (``rejected_nonfinite_gps``, ``rejected_nonfinite_heading``), and the motion
+rows as in :mod:`.problem`. GTSAM's ``RuntimeError`` in an update (an indeterminate linear system, …) and
+a non-finite pose estimate are :class:`~.graph.OptimizationError` naming the update, its time and the
+variable.
+
 Parameters: :class:`FixedLagLocalizerParams` — the pose chain's (:class:`~.problem.PoseChainParams`, with
 the EKF localizer's Euler model as default), the robust kernel (:class:`~.graph.RobustKernelParams`),
 iSAM2's relinearisation (:class:`~.graph.RelinearizationParams`, every update by default), the lag, the
@@ -41,9 +47,9 @@ from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Covariance2, Field
 
-from .graph import RelinearizationParams, RelinearizeSkip, RobustKernelParams, X, isam2_params, noise_model
+from .graph import OptimizationError, RelinearizationParams, RelinearizeSkip, RobustKernelParams, X, gtsam_errors, isam2_params, noise_model
 from .noise import body_to_world
-from .problem import MotionModelName, PoseChainParams, check_covariance, motion_chain
+from .problem import MotionModelName, PoseChainParams, check_covariance, motion_chain, summable
 
 __all__ = ["FixedLagLocalizer", "FixedLagLocalizerParams"]
 
@@ -76,7 +82,7 @@ class FixedLagLocalizer:
         stamps = []
         if gps is not None and len(gps):
             R_gps = check_covariance("gps_cov", _noise(self.params.gps_cov, sequence.noise.gps_cov, "gps_cov"), (2, 2))
-            ok = np.isfinite(gps.xy).all(axis=1)
+            ok = summable(gps.xy)
             counts["rejected_nonfinite_gps"] = int((~ok).sum())
             gps = gps.select(ok)
             stamps.append(gps.t)
@@ -84,7 +90,7 @@ class FixedLagLocalizer:
             gps = None
         if heading is not None and len(heading):
             R_imu = check_covariance("yaw_var", np.atleast_2d(float(_noise(self.params.yaw_var, sequence.noise.yaw_var, "yaw_var"))), (1, 1))
-            ok = np.isfinite(heading.yaw)
+            ok = summable(heading.yaw)
             counts["rejected_nonfinite_heading"] = int((~ok).sum())
             heading = heading.select(ok)
             stamps.append(heading.t)
@@ -109,10 +115,11 @@ class FixedLagLocalizer:
         window: list[int] = []
         for k in range(K):
             tic = time.perf_counter()
+            where = f"fixed-lag update {k} (t = {chain.t[k]:.6g} s)"
             # poses that this update will marginalise (timestamp < t_k − lag): read them while they are in the window
             while window and chain.t[window[0]] < chain.t[k] - lag:
                 j = window.pop(0)
-                smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
+                smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov, where)
             factors = gtsam.NonlinearFactorGraph()
             if k == 0:
                 factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(self.prior_cov)))
@@ -126,12 +133,13 @@ class FixedLagLocalizer:
                 factors.add(gtsam.PoseRotationPrior2D(X(k), gtsam.Rot2(float(heading.yaw[r])), yaw_noise))
             values = gtsam.Values()
             values.insert(X(k), gtsam.Pose2(*x))
-            smoother.update(factors, values, {X(k): float(chain.t[k])})
-            online[k], online_cov[k] = _pose_and_cov(smoother, k, not want_smoothed_cov)
+            with gtsam_errors(where):
+                smoother.update(factors, values, {X(k): float(chain.t[k])})
+            online[k], online_cov[k] = _pose_and_cov(smoother, k, not want_smoothed_cov, where)
             window.append(k)
             step_time[k] = time.perf_counter() - tic
         for j in window:
-            smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov)
+            smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov, "fixed-lag end of the run")
         if self.params.output == "smoothed":
             poses, cov, other = smoothed, smoothed_cov, {"online_poses": online}
         else:
@@ -161,10 +169,13 @@ def _rows_per_pose(chain, t: np.ndarray, K: int, counts: dict, name: str) -> lis
     return [rows[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _pose_and_cov(smoother, k: int, with_cov: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Current estimate of pose k and (``with_cov``) its world-frame covariance (else NaN)."""
-    p = smoother.calculateEstimatePose2(X(k))
-    pose = np.array([p.x(), p.y(), p.theta()])
-    if not with_cov:
-        return pose, np.full((3, 3), np.nan)
-    return pose, body_to_world(pose[2], smoother.marginalCovariance(X(k)))
+def _pose_and_cov(smoother, k: int, with_cov: bool, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Current estimate of pose k and (``with_cov``) its world-frame covariance (else NaN); :class:`OptimizationError`
+    naming ``where`` if GTSAM fails or the pose is not finite."""
+    with gtsam_errors(where):
+        p = smoother.calculateEstimatePose2(X(k))
+        pose = np.array([p.x(), p.y(), p.theta()])
+        cov = smoother.marginalCovariance(X(k)) if with_cov else None
+    if not np.isfinite(pose).all():
+        raise OptimizationError(f"{where}: the estimate of x{k} is not finite")
+    return pose, (np.full((3, 3), np.nan) if cov is None else body_to_world(pose[2], cov))

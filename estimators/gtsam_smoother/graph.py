@@ -14,10 +14,24 @@ are ``RangeFactor2D`` (‖l_j − p_k‖ = z − β); a beacon whose position is
 Settings shared by several smoothers: :class:`OptimizerParams` (batch nonlinear least squares:
 the batch smoother and the pose-graph optimiser), :class:`RelinearizationParams` (iSAM2: the
 incremental and the fixed-lag smoother).
+
+Failures: :func:`optimize` returns only an optimum. It raises :class:`OptimizationError` when the error
+at the initial values or at the end is not finite (naming the first factor whose error is not), when
+it ended above where it started, and when the optimiser stopped without converging — Levenberg-Marquardt
+gave up (no damping up to ``lambdaUpperBound`` lowers the error: GTSAM's "cannot decrease error with
+maximum lambda"), the last iteration raised the error by more than the tolerances (Gauss-Newton
+diverging: GTSAM's "stopping because error increased"), or ``max_iterations`` ran out with the last
+decrease above the tolerances — unless the answer is the optimum of its own linearisation all the same: a Gauss-Newton step from it promises at most the tolerance or :data:`NEGLIGIBLE_DECREASE` (the
+answer within 1 % of a standard deviation of that optimum; Levenberg-Marquardt can give up there when
+the tolerances ask for more than round-off allows). Inside :func:`gtsam_errors`, GTSAM's own
+``RuntimeError`` (an indeterminate linear system, …) becomes an :class:`OptimizationError` that says
+where it happened and which variable GTSAM names.
 """
 from __future__ import annotations
 
+import re
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Annotated, Literal
 
@@ -34,7 +48,8 @@ from .problem import LandmarkProblem
 __all__ = [
     "X", "L", "RobustKernelParams", "OptimizerParams", "RelinearizationParams", "RelativeErrorTol", "AbsoluteErrorTol",
     "RelinearizeSkip", "ComputeCovariances", "noise_model", "information_model", "robustify", "observation_noise",
-    "range_noise", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "poses_of", "points_of",
+    "range_noise", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "OptimizationError", "gtsam_errors", "finite_error",
+    "poses_of", "points_of",
 ]
 
 _SWAP = np.array([[0.0, 1.0], [1.0, 0.0]])
@@ -61,6 +76,26 @@ class RelinearizationParams(Params):
     relinearize_threshold: NonNegativeFloat = Field(
         0.1, description="iSAM2 relinearises a variable whose linear update exceeds this in any tangent coordinate [m, rad]")
     relinearize_skip: RelinearizeSkip = 10
+
+
+class OptimizationError(RuntimeError):
+    """An optimisation that reached no optimum: a non-finite or growing error, an optimiser that gave up, diverged
+    or ran out of iterations, or GTSAM's own failure (an indeterminate linear system); the message says what
+    happened and where."""
+
+
+@contextmanager
+def gtsam_errors(where: str):
+    """Run the block; GTSAM's ``RuntimeError`` raised in it becomes :class:`OptimizationError` naming ``where`` and
+    GTSAM's first sentence, with the variable it names as its symbol (``x12``, ``l3``)."""
+    try:
+        yield
+    except OptimizationError:
+        raise
+    except RuntimeError as exc:
+        first = str(exc).strip().split("\n\n")[0]
+        message = " ".join(re.sub(r"\d+ \(Symbol: (\w+)\)", r"\1", first).split())
+        raise OptimizationError(f"{where}: GTSAM: {message}") from exc
 
 
 def X(k: int) -> int:
@@ -99,6 +134,8 @@ def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarra
 
 @dataclass
 class OptimizeResult:
+    """A converged optimum: its values, the error ½ Σ ‖e‖² at the initial values and at the optimum, the iterations."""
+
     values: "gtsam.Values"
     initial_error: float
     final_error: float
@@ -114,23 +151,80 @@ def isam2_params(params: RelinearizationParams) -> gtsam.ISAM2Params:
     return isam2
 
 
+_OPTIMIZERS = {
+    "lm": ("Levenberg-Marquardt", gtsam.LevenbergMarquardtParams, gtsam.LevenbergMarquardtOptimizer),
+    "gauss_newton": ("Gauss-Newton", gtsam.GaussNewtonParams, gtsam.GaussNewtonOptimizer),
+    "dogleg": ("Dogleg", gtsam.DoglegParams, gtsam.DoglegOptimizer),
+}
+
+
 def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
-    """Batch nonlinear least squares with Levenberg-Marquardt, Gauss-Newton or Dogleg."""
-    settings_cls, optimizer_cls = {
-        "lm": (gtsam.LevenbergMarquardtParams, gtsam.LevenbergMarquardtOptimizer),
-        "gauss_newton": (gtsam.GaussNewtonParams, gtsam.GaussNewtonOptimizer),
-        "dogleg": (gtsam.DoglegParams, gtsam.DoglegOptimizer),
-    }[params.optimizer]
+    """Batch nonlinear least squares with Levenberg-Marquardt, Gauss-Newton or Dogleg; :class:`OptimizationError`
+    unless it converged (module docstring)."""
+    name, settings_cls, optimizer_cls = _OPTIMIZERS[params.optimizer]
     settings = settings_cls()
     settings.setMaxIterations(int(params.max_iterations))
     settings.setRelativeErrorTol(float(params.relative_error_tol))
     settings.setAbsoluteErrorTol(float(params.absolute_error_tol))
-    initial_error = graph.error(initial)
+    steps: list[tuple[float, float]] = []  # (error before, error after) of every iteration
+    settings.iterationHook = lambda iteration, before, after: steps.append((before, after))
+    initial_error = finite_error(graph, initial, f"{name}: at the initial values")
     tic = time.perf_counter()
     opt = optimizer_cls(graph, initial, settings)
-    values = opt.optimize()
+    with gtsam_errors(name):
+        values = opt.optimize()
     elapsed = time.perf_counter() - tic
-    return OptimizeResult(values, float(initial_error), float(graph.error(values)), int(opt.iterations()), elapsed)
+    n = int(opt.iterations())
+    final_error = finite_error(graph, values, f"{name}: after {n} iterations")
+    ran = f"{name}, {n} iterations, error {initial_error:.6g} → {final_error:.6g}"
+    before, after = steps[-1] if steps else (initial_error, final_error)
+    tol = max(float(params.absolute_error_tol), float(params.relative_error_tol) * before)  # GTSAM's "no change" (checkConvergence)
+    outlier = "a gross outlier or a wrong noise model? see the robust kernel"
+    if params.optimizer == "lm" and opt.lambda_() >= settings.getlambdaUpperBound():
+        stop = f"gave up, no damping up to λ = {settings.getlambdaUpperBound():g} lowers the error ({outlier})"
+    elif after - before > tol:
+        stop = f"diverging, the last iteration raised the error by {after - before:.3g} (Levenberg-Marquardt damps the steps; {outlier})"
+    elif n >= params.max_iterations and before - after > tol:
+        stop = (f"not converged within max_iterations = {params.max_iterations}, the last iteration lowered the error by "
+                f"{before - after:.3g} (raise max_iterations)")
+    elif final_error > initial_error:
+        stop = "the error ended above where it started"
+    else:
+        return OptimizeResult(values, initial_error, final_error, n, elapsed)
+    # stopped without converging: an error unless the answer is the optimum of its own linearisation all the same
+    remaining = _remaining_decrease(graph, values, f"{name}: the linearisation at its answer")
+    if final_error > initial_error or remaining > max(tol, NEGLIGIBLE_DECREASE):
+        raise OptimizationError(f"{ran}: {stop}; its linearisation at the answer still promises a decrease of {remaining:.3g}")
+    return OptimizeResult(values, initial_error, final_error, n, elapsed)
+
+
+#: the decrease of ½χ² below which a point is the optimum of its linearisation: ½ · 0.01², i.e. the point lies within
+#: 1 % of a standard deviation (Mahalanobis, all variables together) of that optimum
+NEGLIGIBLE_DECREASE = 0.5 * 0.01**2
+
+
+def _remaining_decrease(graph, values, where: str) -> float:
+    """The decrease of the error that one Gauss-Newton step from ``values`` promises (the linearised model's ½‖b‖²
+    minus its minimum): ½ d² with d the Mahalanobis distance of ``values`` from the optimum of the linearisation."""
+    with gtsam_errors(where):
+        linear = graph.linearize(values)
+        step = linear.optimize()
+    return float(linear.error(gtsam.VectorValues.Zero(step)) - linear.error(step))
+
+
+def finite_error(graph, values, where: str) -> float:
+    """The error ½ Σ ‖e‖² of ``graph`` at ``values``; :class:`OptimizationError` naming ``where`` and the first
+    factor whose error is not finite if the sum is not."""
+    error = float(graph.error(values))
+    if np.isfinite(error):
+        return error
+    culprit = "each factor's error is finite, their sum is not"
+    for i in range(graph.size()):
+        factor = graph.at(i)
+        if factor is not None and not np.isfinite(factor.error(values)):
+            culprit = f"first at factor {i}, {type(factor).__name__} on {', '.join(gtsam.DefaultKeyFormatter(k) for k in factor.keys())}"
+            break
+    raise OptimizationError(f"{where}: the error is {error} ({culprit})")
 
 
 def poses_of(values, keys) -> np.ndarray:

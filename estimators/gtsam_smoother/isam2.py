@@ -15,6 +15,12 @@ the largest change of any variable is below ``final_tol``. The result then equal
 optimum to that tolerance (tested against :class:`~.batch.BatchSmoother`); without this the
 answer would differ from the optimum by the linearisation error the threshold allows.
 
+Failures are :class:`~.graph.OptimizationError`, never a result: GTSAM's ``RuntimeError`` in an update
+(an indeterminate linear system, …) names the update, its time and the variable GTSAM names; so does a
+non-finite estimate; final updates that leave a variable moving by more than ``final_tol`` after
+``final_updates`` of them (``final_updates=0`` asks for none), and a non-finite error at the end, are
+errors too.
+
 Parameters: :class:`ISAM2SmootherParams` — the landmark smoothers' (:class:`~.landmark.LandmarkSmootherParams`),
 iSAM2's relinearisation (:class:`~.graph.RelinearizationParams`), the final updates, the factorisation and
 the clock of ``step_time``.
@@ -41,8 +47,8 @@ from slamarena.datasets.sequence import Sequence
 from slamarena.estimators.models import inverse_observe
 from slamarena.params import Field
 
-from .graph import (L, RelinearizationParams, X, isam2_params, landmark_step_factors, observation_noise, point_covariances, points_of,
-                    poses_of, range_noise, world_pose_covariances)
+from .graph import (L, OptimizationError, RelinearizationParams, X, finite_error, gtsam_errors, isam2_params, landmark_step_factors,
+                    observation_noise, point_covariances, points_of, poses_of, range_noise, world_pose_covariances)
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
 
 __all__ = ["ISAM2Smoother", "ISAM2SmootherParams"]
@@ -103,11 +109,15 @@ class ISAM2Smoother(LandmarkSmoother):
                     known.add(int(j))
                     values.insert(L(j), gtsam.Point2(*problem.map_position(j)))
                     factors.add(self.beacon_prior(problem, j))
-            result = isam.update(factors, values)
-            p = isam.calculateEstimatePose2(X(k))
+            where = f"iSAM2 update {k} (t = {problem.t[k]:.6g} s)"
+            with gtsam_errors(where):
+                result = isam.update(factors, values)
+                p = isam.calculateEstimatePose2(X(k))
             online[k] = (p.x(), p.y(), p.theta())
             step_time[k] = clock() - tic
             relinearized[k] = result.getVariablesRelinearized()
+            if not np.isfinite(online[k]).all():
+                raise OptimizationError(f"{where}: the estimate of x{k} is not finite")
 
         pose_keys = [X(k) for k in range(K)]
         ids = problem.landmark_ids
@@ -120,24 +130,29 @@ class ISAM2Smoother(LandmarkSmoother):
         final.setOptimizationParams(gtsam.ISAM2GaussNewtonParams(0.0))
         used, change = 0, np.inf
         while used < self.params.final_updates and change > self.params.final_tol:
-            isam.update()
+            with gtsam_errors(f"iSAM2 final update {used + 1}"):
+                isam.update()
+                refined = isam.calculateEstimate()
             used += 1
-            refined = isam.calculateEstimate()
             change = _max_change(estimate, refined, pose_keys, landmark_keys)
             estimate = refined
+        if self.params.final_updates and change > self.params.final_tol:
+            raise OptimizationError(f"iSAM2: the final updates did not converge, after {used} a variable still moved by {change:.3g} "
+                                    f"> final_tol = {self.params.final_tol:g}; raise final_updates")
+        final_error = finite_error(isam.getFactorsUnsafe(), estimate, f"iSAM2 after {used} final updates")
         poses = poses_of(estimate, pose_keys)
         landmarks = points_of(estimate, landmark_keys)
         pose_cov = landmark_cov = None
         if self.params.covariances:
-            pose_cov = world_pose_covariances(isam.marginalCovariance, pose_keys, poses)
-            landmark_cov = point_covariances(isam.marginalCovariance, landmark_keys)
-        graph = isam.getFactorsUnsafe()
+            with gtsam_errors("iSAM2 marginal covariances"):
+                pose_cov = world_pose_covariances(isam.marginalCovariance, pose_keys, poses)
+                landmark_cov = point_covariances(isam.marginalCovariance, landmark_keys)
         diagnostics = {
             "online_poses": online,
             "relinearized": relinearized,
             "final_updates_used": used,
             "final_change": float(change),
-            "final_error": float(graph.error(estimate)),
+            "final_error": final_error,
             **problem.counts,
         }
         return Estimate(

@@ -21,7 +21,9 @@ values, the anchor and whether to compute marginals.
 ``Estimate``: ``t`` = node ids (as float; a pose graph has no time), optimised poses, landmarks;
 ``pose_cov`` (world frame, from ``Marginals``) only with ``covariances=True``; diagnostics
 ``initial_error``, ``final_error`` (½ Σ‖e‖²_Ω), ``iterations``, ``time_optimize``; ``meta["params"]``
-the canonical parameters and ``meta["initial"]`` the initialisation used. A ``Sequence`` given to
+the canonical parameters and ``meta["initial"]`` the initialisation used. An optimisation that does not
+converge (including one that runs out of ``max_iterations``) is :class:`~.graph.OptimizationError`
+(:func:`~.graph.optimize`). A ``Sequence`` given to
 :meth:`PoseGraphOptimizer.run` is solved by :class:`~.batch.BatchSmoother` with the same optimiser,
 robust-kernel and covariance settings (its motion and observations are a pose graph with landmarks;
 ``meta["params"]`` is then the batch smoother's).
@@ -43,8 +45,8 @@ from slamarena.estimators.models import inverse_observe
 from slamarena.params import Field
 
 from .batch import BatchSmoother
-from .graph import (AbsoluteErrorTol, ComputeCovariances, L, OptimizerParams, RelativeErrorTol, RobustKernelParams, X, information_model,
-                    noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances)
+from .graph import (AbsoluteErrorTol, ComputeCovariances, L, OptimizerParams, RelativeErrorTol, RobustKernelParams, X, gtsam_errors,
+                    information_model, noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances)
 
 __all__ = ["PoseGraphOptimizer", "PoseGraphOptimizerParams", "build_pose_graph"]
 
@@ -138,10 +140,11 @@ class PoseGraphOptimizer:
             ids = np.unique(data.landmark_id)
             landmarks = points_of(result.values, [L(j) for j in ids])
         if self.params.covariances:
-            marginals = gtsam.Marginals(graph, result.values)
-            pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
-            if ids is not None:
-                landmark_cov = point_covariances(marginals.marginalCovariance, [L(j) for j in ids])
+            with gtsam_errors("marginal covariances"):
+                marginals = gtsam.Marginals(graph, result.values)
+                pose_cov = world_pose_covariances(marginals.marginalCovariance, pose_keys, poses)
+                if ids is not None:
+                    landmark_cov = point_covariances(marginals.marginalCovariance, [L(j) for j in ids])
         diagnostics = {
             "initial_error": result.initial_error,
             "final_error": result.final_error,

@@ -21,8 +21,14 @@ Beacon ranges (range-only, ``Sequence.beacon_ranges``)
     already removed (z − β), variance ``R_range`` = ``beacon_range_var``. Beacons share the landmark id space (one
     ``LandmarkMap`` holds both); ``map_ids``/``map_xy`` are the sequence's known positions.
 
-Rejected and counted (``counts``): non-finite motion rows, non-finite observations and ranges,
-and observations without a landmark id (this smoother uses known association only).
+Rejected and counted (``counts``) before they reach a graph: motion rows, observations and ranges
+that are not finite or too large to square (:func:`summable`: ``rejected_nonfinite_motion``,
+``rejected_nonfinite_observations``, ``rejected_nonfinite_ranges``), odometry increments whose own
+covariance is not finite, symmetric and positive semidefinite (:func:`valid_covariances`:
+``rejected_invalid_cov_motion``), negative ranges as measured (``rejected_negative_range_observations``,
+``rejected_negative_ranges``: before β is removed), and observations without a landmark id (``skipped_unknown_id_observations``:
+this smoother uses known association only). A stated noise (a parameter or ``Sequence.noise``) that is
+not a covariance is a ``ValueError`` (:func:`check_covariance`).
 """
 from __future__ import annotations
 
@@ -40,7 +46,7 @@ from slamarena.params import Covariance2, Covariance3, Field, Params
 from .noise import increments_relative, regularise, twist_relative, world_to_body
 
 __all__ = ["PoseChainParams", "LandmarkProblemParams", "MotionModelName", "LandmarkProblem", "MotionChain", "motion_chain",
-           "build_problem", "check_covariance"]
+           "build_problem", "check_covariance", "valid_covariances", "summable"]
 
 #: relative tolerance within which an observation stamp equals the end of the motion
 _STAMP_TOL = 1e-9
@@ -158,6 +164,24 @@ def _slices(pose_of_row: np.ndarray, n_poses: int) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
+def summable(*columns: np.ndarray) -> np.ndarray:
+    """Mask of the rows whose values are finite and have finite squares, so that a sum of squared errors can
+    hold them (a range of 1e300 m is finite, its square is not); each column is (N,) or (N, d)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.logical_and.reduce([np.isfinite(np.square(c)).reshape(len(c), -1).all(axis=1) for c in columns])
+
+
+def valid_covariances(C: np.ndarray) -> np.ndarray:
+    """Mask of the matrices of ``C`` (..., d, d) that are finite, symmetric and positive semidefinite
+    (eigenvalues ≥ −1e-12 of the largest entry: round-off of a semidefinite zero is not negative)."""
+    C = np.asarray(C, dtype=float)
+    finite = np.isfinite(C).all(axis=(-2, -1))
+    C = np.where(finite[..., None, None], C, 0.0)
+    symmetric = np.isclose(C, np.swapaxes(C, -1, -2)).all(axis=(-2, -1))
+    scale = np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
+    return finite & symmetric & (np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))[..., 0] >= -1e-12 * scale)
+
+
 def check_covariance(name: str, C, shape: tuple[int, ...]) -> np.ndarray:
     """A finite, symmetric positive-semidefinite covariance of the given shape, or ValueError."""
     C = np.asarray(C, dtype=float)
@@ -165,7 +189,7 @@ def check_covariance(name: str, C, shape: tuple[int, ...]) -> np.ndarray:
         raise ValueError(f"{name} must have shape {shape}, got {C.shape}")
     if not np.isfinite(C).all():
         raise ValueError(f"{name} has non-finite entries")
-    if not np.allclose(C, np.swapaxes(C, -1, -2)) or np.linalg.eigvalsh(C).min() < -1e-12 * max(1.0, np.abs(C).max()):
+    if not valid_covariances(C):
         raise ValueError(f"{name} is not symmetric positive semidefinite")
     return C
 
@@ -221,22 +245,26 @@ def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams
         if M is None:
             raise ValueError(f"{sequence.name}: no twist noise stated; pass twist_cov")
         M = check_covariance("twist_cov", M, (2, 2))
-        finite = np.isfinite(motion.v) & np.isfinite(motion.omega)
+        finite = summable(motion.v, motion.omega)
         counts["rejected_nonfinite_motion"] = int((~finite).sum())
         motion = motion.select(finite)
+        n_left = len(motion)
     else:
-        finite = np.isfinite(motion.delta).all(axis=1)
+        finite = summable(motion.delta)
         counts["rejected_nonfinite_motion"] = int((~finite).sum())
-        if motion.cov is not None:
-            inc_cov = motion.cov if increment_cov is None else np.broadcast_to(np.asarray(increment_cov, dtype=float), motion.cov.shape)
+        if increment_cov is None and motion.cov is not None:
+            inc_cov = motion.cov  # the stream's own, row by row: a bad row is rejected below
         else:
             C = increment_cov if increment_cov is not None else sequence.noise.increment_cov
             if C is None:
                 raise ValueError(f"{sequence.name}: no odometry-increment noise stated; pass increment_cov")
             inc_cov = np.broadcast_to(check_covariance("increment_cov", C, (3, 3)), (len(motion), 3, 3))
-        inc_cov, inc_delta, inc_t = inc_cov[finite], motion.delta[finite], motion.t[finite]
-    if not len(motion.t):
-        raise ValueError(f"{sequence.name}: every motion row is non-finite")
+        valid = finite & valid_covariances(inc_cov)
+        counts["rejected_invalid_cov_motion"] = int((finite & ~valid).sum())
+        inc_cov, inc_delta, inc_t = inc_cov[valid], motion.delta[valid], motion.t[valid]
+        n_left = inc_t.size
+    if not n_left:
+        raise ValueError(f"{sequence.name}: every motion row is rejected ({counts})")
 
     t_start, t_end = _motion_span(motion)
     stamps = np.asarray(stamps, dtype=float)
@@ -268,11 +296,17 @@ def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams
         covs.append(regularise(world_to_body(d[2], P), params.regularisation))
         times.append(b)
         pose_of_stamp[s] = len(times) - 1
+    cov = np.asarray(covs, dtype=float).reshape(-1, 3, 3)
+    singular = np.flatnonzero(np.linalg.eigvalsh(cov)[:, 0] <= 0)
+    if singular.size:  # a Gaussian factor needs a positive-definite covariance (GTSAM's error would be NaN)
+        k = int(singular[0])
+        raise ValueError(f"{sequence.name}: the motion from {times[k]:.6g} s to {times[k + 1]:.6g} s (and {singular.size - 1} more) has a "
+                         f"singular covariance; regularisation = {params.regularisation:g} does not lift it, a value > 0 does")
     return MotionChain(
         t=np.asarray(times, dtype=float),
         start=np.asarray(sequence.start_pose, dtype=float),
         delta=np.asarray(deltas, dtype=float).reshape(-1, 3),
-        cov=np.asarray(covs, dtype=float).reshape(-1, 3, 3),
+        cov=cov,
         stamps=key_t,
         pose_of_stamp=pose_of_stamp,
         counts=counts,
@@ -293,19 +327,23 @@ def build_problem(sequence: Sequence, params: LandmarkProblemParams = LandmarkPr
         if R is None:
             raise ValueError(f"{sequence.name}: no range-bearing noise stated; pass range_bearing_cov")
         R = check_covariance("range_bearing_cov", R, (2, 2))
-        finite = np.isfinite(rb.range) & np.isfinite(rb.bearing)
+        finite = summable(rb.range, rb.bearing)
+        positive = finite & (rb.range >= 0)
         known = rb.landmark_id >= 0
         counts["rejected_nonfinite_observations"] = int((~finite).sum())
-        counts["skipped_unknown_id_observations"] = int((finite & ~known).sum())
-        rb = rb.select(finite & known)
+        counts["rejected_negative_range_observations"] = int((finite & ~positive).sum())
+        counts["skipped_unknown_id_observations"] = int((positive & ~known).sum())
+        rb = rb.select(positive & known)
     else:
         R = np.eye(2) if R is None else check_covariance("range_bearing_cov", R, (2, 2))
         rb = None
     br = sequence.beacon_ranges
     if br is not None and len(br):
-        finite = np.isfinite(br.range)
+        finite = summable(br.range)
+        positive = finite & (br.range >= 0)
         counts["rejected_nonfinite_ranges"] = int((~finite).sum())
-        br = br.select(finite)
+        counts["rejected_negative_ranges"] = int((finite & ~positive).sum())
+        br = br.select(positive)
     else:
         br = None
     stamps = np.concatenate([np.zeros(0) if rb is None else rb.t, np.zeros(0) if br is None else br.t])

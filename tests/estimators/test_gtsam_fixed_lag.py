@@ -10,10 +10,11 @@ from pydantic import ValidationError
 gtsam = pytest.importorskip("gtsam")
 
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle  # noqa: E402
-from slamarena.datasets.sequence import Gps  # noqa: E402
+from slamarena.datasets.sequence import Gps, Heading  # noqa: E402
 from slamarena.datasets.sim.localization import simulate  # noqa: E402
 from slamarena.estimators.ekf_localizer import EKFLocalizer  # noqa: E402
 from slamarena.estimators.gtsam_smoother import FixedLagLocalizer  # noqa: E402
+from slamarena.estimators.gtsam_smoother.graph import OptimizationError  # noqa: E402
 from slamarena.estimators.gtsam_smoother.problem import PoseChainParams  # noqa: E402
 
 
@@ -69,13 +70,22 @@ def test_robust_gps_kernel_resists_outliers():
     assert _rmse(seq, robust.t, robust.poses) < 0.5 * _rmse(seq, plain.t, plain.poses)
 
 
-def test_nonfinite_gps_is_rejected_and_counted(seq, online):
+def test_nonfinite_and_absurd_gps_and_yaw_are_rejected_and_counted(seq, online):
     xy = seq.gps.xy.copy()
-    xy[[3, 17]] = np.nan
-    bad = dataclasses.replace(seq, gps=Gps(t=seq.gps.t, xy=xy))
+    xy[[3, 17, 40]] = [[np.nan, 0.0], [np.nan, np.nan], [1e300, 0.0]]  # 1e300 m: finite, but its square is not
+    yaw = seq.heading.yaw.copy()
+    yaw[[5, 9]] = [np.inf, -1e300]
+    bad = dataclasses.replace(seq, gps=Gps(t=seq.gps.t, xy=xy), heading=Heading(t=seq.heading.t, yaw=yaw))
     est = FixedLagLocalizer(output="online").run(bad)
-    assert est.diagnostics["rejected_nonfinite_gps"] == 2
+    assert est.diagnostics["rejected_nonfinite_gps"] == 3 and est.diagnostics["rejected_nonfinite_heading"] == 2
     assert np.all(np.isfinite(est.poses)) and _rmse(bad, est.t, est.poses) < 2 * _rmse(seq, online.t, online.poses)
+
+
+def test_an_indeterminate_system_is_an_optimization_error_naming_the_update(seq):
+    """GTSAM's raw RuntimeError from the smoother's iSAM2 becomes OptimizationError with the update, its time and the
+    variable GTSAM names (a between factor with lateral variance 1e-12 of its largest: the Euler model has no lateral noise)."""
+    with pytest.raises(OptimizationError, match=r"fixed-lag update 1 \(t = 0\.02 s\): GTSAM: Indeterminate linear system .* variable x0"):
+        FixedLagLocalizer(regularisation=1e-12).run(seq)
 
 
 @pytest.mark.parametrize("params", [dict(lag=0.0), dict(output="delayed"), dict(robust="l1"), dict(prior_sigma=[1.0])])

@@ -10,6 +10,7 @@ from slamarena.datasets.geometry import compose, wrap_angle  # noqa: E402
 from slamarena.estimators.gtsam_smoother.graph import X, observation_noise  # noqa: E402
 from slamarena.estimators.gtsam_smoother.noise import body_to_world, increments_relative, regularise, twist_relative, world_to_body  # noqa: E402
 from slamarena.estimators.models import ARC, EULER  # noqa: E402
+from checks import assert_covariances_close  # noqa: E402
 
 
 def _pose(p) -> np.ndarray:
@@ -24,10 +25,10 @@ def test_marginal_covariance_is_body_frame_constructed_case():
     values = gtsam.Values()
     values.insert(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2))
     marginal = gtsam.Marginals(graph, values).marginalCovariance(X(0))
-    np.testing.assert_allclose(marginal, Sigma_body, atol=1e-12)  # GTSAM reports the body frame
+    assert_covariances_close(marginal, Sigma_body, rtol=1e-9)  # GTSAM reports the body frame
     world = body_to_world(np.pi / 2, marginal)
-    np.testing.assert_allclose(np.diag(world), [0.01, 4.0, 1e-4], atol=1e-12)
-    np.testing.assert_allclose(world_to_body(np.pi / 2, world), marginal, atol=1e-12)
+    assert_covariances_close(world, np.diag([0.01, 4.0, 1e-4]), rtol=1e-9)
+    assert_covariances_close(world_to_body(np.pi / 2, world), marginal, rtol=1e-9)
 
 
 def test_body_to_world_matches_monte_carlo_of_gtsam_retraction(rng):
@@ -101,3 +102,23 @@ def test_regularise_lifts_only_the_null_direction():
     lam = np.linalg.eigvalsh(Q)
     np.testing.assert_allclose(lam, [4e-6, 0.01, 0.04], rtol=1e-9)
     np.testing.assert_allclose(regularise(P, 0.0), P)
+
+
+
+def test_covariances_are_compared_in_their_own_metric():
+    """checks.assert_covariances_close bounds the relative error of the variance along every direction. The tolerance it
+    replaced (absolute, 1e-6 of the largest entry) fails on a round-off of 1.5e-6 relative (another machine's BLAS did
+    that), and passes a variance doubled along a direction whose variance is below 1e-6 of the largest (a well-anchored
+    first pose next to metres of drift)."""
+    U = np.linalg.qr(np.array([[1.0, 0.3, 0.1], [0.2, 1.0, 0.4], [0.0, 0.5, 1.0]]))[0]
+    lam = np.array([4e-3, 1e-3, 1e-9])
+    B = U @ np.diag(lam) @ U.T
+    old = lambda A: np.testing.assert_allclose(A, B, atol=1e-6 * np.abs(B).max())  # noqa: E731
+    roundoff = (1 + 1.5e-6) * B
+    with pytest.raises(AssertionError):
+        old(roundoff)
+    assert_covariances_close(roundoff, B, rtol=1e-3)
+    doubled = B + lam[2] * np.outer(U[:, 2], U[:, 2])
+    old(doubled)
+    with pytest.raises(AssertionError, match="relative difference 1 > 0.001"):
+        assert_covariances_close(doubled, B, rtol=1e-3)

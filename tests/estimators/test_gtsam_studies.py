@@ -18,7 +18,7 @@ import pytest
 gtsam = pytest.importorskip("gtsam")
 
 from slamarena import datasets  # noqa: E402
-from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother, PoseGraphOptimizer  # noqa: E402
+from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother, OptimizationError, PoseGraphOptimizer  # noqa: E402
 from slamarena.experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees  # noqa: E402
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error  # noqa: E402
 from slamarena.experiments.metrics.reference import reference_of  # noqa: E402
@@ -65,7 +65,7 @@ def test_pose_graph_study():
         graph = datasets.load(name)
         if graph.dim != 2:
             continue
-        est = PoseGraphOptimizer().run(graph)
+        est = PoseGraphOptimizer(max_iterations=500).run(graph)  # ais2klinik and w20000 need ≈ 200
         d = est.diagnostics
         assert d["final_error"] <= d["initial_error"]
         ate_rmse = "—"
@@ -77,7 +77,7 @@ def test_pose_graph_study():
     assert rows
     _write("pose_graphs", ["graph", "nodes", "edges", "landmarks", "initial", "initial error", "final error", "iterations",
                            "time [s]", "ATE RMSE [m] (SE(2)-aligned)"], rows,
-           "Errors are ½ Σ eᵀ Ω e (GTSAM's graph.error); Levenberg-Marquardt, relative/absolute tolerance 1e-8, at most 100 "
+           "Errors are ½ Σ eᵀ Ω e (GTSAM's graph.error); Levenberg-Marquardt, relative/absolute tolerance 1e-8, at most 500 "
            "iterations; initial = the file's vertices, or the odometry chain when the file has none.")
 
 
@@ -111,21 +111,24 @@ def test_mrclam_dataset6_study():
 
 
 def test_victoria_park_study():
-    """Batch LM from dead reckoning against iSAM2 (one pose per odometry increment, as in the published graph)."""
+    """Batch from dead reckoning against iSAM2 (one pose per odometry increment, as in the published graph).
+    Levenberg-Marquardt gives up from that start (an OptimizationError); Dogleg converges, to a local minimum."""
     if not _available("victoria_park"):
         pytest.skip("victoria_park not staged")
     seq = datasets.load("victoria_park")
+    common = dict(covariances=False, max_interval=1.0, max_iterations=300)
+    with pytest.raises(OptimizationError, match="gave up") as lm:
+        BatchSmoother(**common).run(seq)
     tic = time.perf_counter()
-    batch = BatchSmoother(covariances=False, max_interval=1.0, max_iterations=300).run(seq)
+    batch = BatchSmoother(**common, optimizer="dogleg").run(seq)
     t_batch = time.perf_counter() - tic
     tic = time.perf_counter()
     inc = ISAM2Smoother(covariances=False, max_interval=1.0).run(seq)
     t_inc = time.perf_counter() - tic
     diff = np.abs(inc.poses[:, :2] - batch.poses[:, :2]).max()
-    assert batch.diagnostics["final_error"] < batch.diagnostics["initial_error"]
-    assert inc.diagnostics["final_error"] <= batch.diagnostics["final_error"] * (1 + 1e-6)
+    assert inc.diagnostics["final_error"] < batch.diagnostics["final_error"] < batch.diagnostics["initial_error"]
     rows = [
-        ["batch (LM from dead reckoning)", len(batch.t), len(batch.landmarks), f"{batch.diagnostics['initial_error']:.5g}",
+        ["batch (Dogleg from dead reckoning)", len(batch.t), len(batch.landmarks), f"{batch.diagnostics['initial_error']:.5g}",
          f"{batch.diagnostics['final_error']:.6g}", batch.diagnostics["iterations"], f"{t_batch:.1f}", "—"],
         ["iSAM2 (+ final updates)", len(inc.t), len(inc.landmarks), "—", f"{inc.diagnostics['final_error']:.6g}",
          inc.diagnostics["final_updates_used"], f"{t_inc:.1f}", f"{1e3 * inc.step_time.mean():.2f} / {1e3 * inc.step_time.max():.1f}"],
@@ -133,7 +136,7 @@ def test_victoria_park_study():
     _write("victoria_park", ["method", "poses", "landmarks", "initial error", "final error", "iterations / final updates", "time [s]",
                              "step time mean / max [ms]"], rows,
            f"Known association (the file's landmark ids), the file's stated noise; no ground truth. Largest position difference "
-           f"between the two answers: {diff:.3g} m.")
+           f"between the two answers: {diff:.3g} m. Levenberg-Marquardt from the same start: {lm.value}")
 
 
 def test_landmark_smoother_monte_carlo_study():
