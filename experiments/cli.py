@@ -102,14 +102,19 @@ def bench(
 @app.command("map")
 def map_log(
     log: str = typer.Argument(..., help="A CARMEN log path, or a registry name such as carmen:intel or sim:laser."),
-    matcher: str = typer.Option("gauss_newton", "--matcher", help="Scan matcher: gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp."),
+    method: str = typer.Option("grid_slam", "--method", help="Mapping method: grid_slam (front end alone), laser_slam (with loop closure), rbpf."),
+    param: list[str] = typer.Option([], "--param", help="A parameter of the method, key=value (repeatable), e.g. --param matcher=branch_and_bound."),
+    matcher: Optional[str] = typer.Option(None, "--matcher", help="Scan matcher (short for --param matcher=NAME): gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp."),
+    particles: Optional[int] = typer.Option(None, "--particles", help="Particles of a particle filter (short for --param particles=N)."),
     out: Path = typer.Option(Path("results/maps"), "--out", help="Output directory."),
     relations: Optional[Path] = typer.Option(None, "--relations", help="A Kümmerle et al. relations file to score the trajectory against."),
 ):
-    """Scan-matching grid SLAM over a laser log: trajectory, map PNG/PGM, timing."""
-    from .cli_map import map_command
+    """A laser mapping method over a log: trajectory, map PNG/PGM, pose graph, timing."""
+    from .cli_map import map_command, parse_params
 
-    raise typer.Exit(map_command(log, matcher=matcher, out=out, relations=relations))
+    params = parse_params(param)
+    params.update({k: v for k, v in (("matcher", matcher), ("particles", particles)) if v is not None})
+    raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations))
 
 
 def main() -> None:

@@ -1,15 +1,19 @@
-"""``slamarena map LOG``: scan-matching grid SLAM over a laser log, with its outputs.
+"""``slamarena map LOG [--method M] [--param key=value …]``: a laser mapping method over a log, with its outputs.
 
-LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``) or the path
-of a CARMEN log (``.clf``/``.log``, optionally ``.gz``/``.bz2``). Writes into ``--out``:
+LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``) or the path of a CARMEN log
+(``.clf``/``.log``, optionally ``.gz``/``.bz2``). M is a name of ``slamarena.mapping.REGISTRY`` (``grid_slam``, the
+front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built with the ``--param`` values (its
+``Params`` model validates them). Writes into ``--out``:
 
     trajectory.tum      the estimated robot poses at the scan stamps (TUM, z = 0)
     estimate.npz        the full :class:`~slamarena.datasets.estimate.Estimate` (diagnostics included)
     map.png             the finest grid, 1 − p in grey (white free, black occupied)
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
-    summary.json        timing (total, per scan, real-time factor), counts of bad beams and
-                        unmatched scans, map size, beam layouts (interlaced logs: one stream,
-                        several angle offsets); the relation error when ``--relations`` is given
+    pose_graph.g2o      the pose graph, for methods that build one (laser_slam)
+    loop_closures.csv   every loop-closure candidate: node, submap, scores, accepted, time (laser_slam)
+    summary.json        timing (wall, per scan, real-time factor), the method's counts, map size, beam layouts
+                        (interlaced logs: one stream, several angle offsets); the relation error when
+                        ``--relations`` is given
 """
 from __future__ import annotations
 
@@ -17,7 +21,7 @@ import json
 import time
 from pathlib import Path
 
-__all__ = ["map_command", "load_log"]
+__all__ = ["map_command", "load_log", "parse_params", "write_loop_closures"]
 
 
 def load_log(log: str):
@@ -33,43 +37,57 @@ def load_log(log: str):
         from slamarena.datasets.formats.carmen import read
 
         return read(path)
-    raise FileNotFoundError(f"{log!r} is neither a dataset name (see `slamarena data list`) nor a file")
+    from slamarena.errors import UserError
+
+    raise UserError(f"{log!r} is neither a dataset name (see `slamarena data list`) nor a file")
 
 
-def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("results/maps"), relations: Path | None = None) -> int:
+def parse_params(pairs: list[str]) -> dict:
+    """``key=value`` pairs of ``--param`` into a dict; values are YAML scalars (``0.05``, ``true``, ``[1, 2]``, ``cauchy``)."""
+    import yaml
+
+    from slamarena.errors import UserError
+
+    out = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise UserError(f"--param {pair!r}: write key=value")
+        out[key.strip()] = yaml.safe_load(value)
+    return out
+
+
+def map_command(log: str, method: str = "grid_slam", params: dict | None = None, out: Path = Path("results/maps"), relations: Path | None = None) -> int:
+    """Run a mapping method of ``slamarena.mapping.REGISTRY`` over a log and write its outputs (module docstring).
+    User errors (a bad method, parameter, log or relations file) raise :class:`~slamarena.errors.UserError`."""
     from pydantic import ValidationError
     from rich.console import Console
-    from rich.markup import escape
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from slamarena.datasets.errors import DataFormatError, DatasetNotFoundError
-    from slamarena.mapping.grid_slam import GridSLAM
+    from slamarena.errors import UnknownNameError, UserError
+    from slamarena.mapping import REGISTRY
+    from slamarena.targets import import_target
 
     console = Console()
+    if method not in REGISTRY:
+        raise UnknownNameError(f"unknown mapping method {method!r}; known: {', '.join(REGISTRY)}")
     try:
-        slam = GridSLAM(matcher=matcher)
+        slam = import_target(REGISTRY[method])(**(params or {}))
     except ValidationError as exc:
-        console.print("[red]" + escape("; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())) + "[/red]")
-        return 2
+        raise UserError(f"{method}: " + "; ".join(f"params.{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())) from None
     if relations is not None and not Path(relations).is_file():
-        console.print(f"[red]relations file {relations} does not exist[/red]")
-        return 2
-    try:
-        sequence = load_log(log)
-    except (FileNotFoundError, DatasetNotFoundError, DataFormatError, KeyError, ValueError) as exc:
-        console.print(f"[red]{exc}[/red]")
-        return 1
+        raise UserError(f"relations file {relations} does not exist")
+    sequence = load_log(log)
     if getattr(sequence, "scans", None) is None or not len(sequence.scans):
-        console.print(f"[red]{log}: no laser scans to map[/red]")
-        return 1
+        raise UserError(f"{log}: no laser scans to map")
 
     import numpy as np
 
-    from slamarena.datasets.formats import tum
+    from slamarena.datasets.formats import g2o, tum
 
     K = len(sequence.scans)
     t0 = time.perf_counter()
-    with Progress(TextColumn(f"mapping {log} ({matcher})"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False) as bar:
+    with Progress(TextColumn(f"mapping {log} ({method})"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False) as bar:
         task = bar.add_task("scans", total=K)
         estimate = slam.run(sequence, progress=lambda k, _K: bar.update(task, completed=k) if k % 50 == 0 or k == _K else None)
     wall = time.perf_counter() - t0
@@ -80,34 +98,46 @@ def map_command(log: str, matcher: str = "gauss_newton", out: Path = Path("resul
     estimate.save(out / "estimate.npz")
     slam.map.save_png(out / "map.png")
     slam.map.save_map_server(out / "map")
+    written = ["trajectory.tum", "estimate.npz", "map.png", "map.pgm", "map.yaml"]
+    if getattr(slam, "pose_graph", None) is not None:
+        g2o.write(out / "pose_graph.g2o", slam.pose_graph)
+        written.append("pose_graph.g2o")
+    if "loop_node" in estimate.diagnostics:
+        write_loop_closures(out / "loop_closures.csv", estimate.diagnostics)
+        written.append("loop_closures.csv")
     duration = float(sequence.scans.t[-1] - sequence.scans.t[0])
     summary = {
-        "log": log, "matcher": matcher, "scans": K, "log_duration_s": duration, "wall_s": wall,
+        "log": log, "method": method, "scans": K, "log_duration_s": duration, "wall_s": wall,
         "beam_layouts": 1 if sequence.scans.angle_offset is None else int(np.unique(sequence.scans.angle_offset).size),
-        "scan_steps_s": float(estimate.step_time.sum()),
-        "per_scan_ms": {"mean": 1e3 * float(np.mean(estimate.step_time)), "median": 1e3 * float(np.median(estimate.step_time)),
-                        "max": 1e3 * float(np.max(estimate.step_time))},
-        "real_time_factor": duration / float(estimate.step_time.sum()) if duration > 0 else None,
+        "per_scan_ms": {"mean": 1e3 * wall / K, "median": 1e3 * float(np.median(estimate.step_time)), "max": 1e3 * float(np.max(estimate.step_time))},
+        "real_time_factor": duration / wall if duration > 0 and wall > 0 else None,
         **{k: v for k, v in estimate.meta.items() if k != "params"}, "params": estimate.meta["params"],
     }
     if relations is not None:
-        from slamarena.experiments.metrics.reference import MetricUnavailable
         from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
 
-        try:
-            summary["relations"], _ = relation_error_from_file(estimate, sequence, RelationsParams(file=relations))
-        except (MetricUnavailable, DataFormatError, ValueError) as exc:
-            console.print(f"[red]relations: {exc}[/red]")
-            return 1
+        summary["relations"], _ = relation_error_from_file(estimate, sequence, RelationsParams(file=relations))
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    written.append("summary.json")
 
     rtf = summary["real_time_factor"]
-    console.print(f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan"
-                  + (f", {rtf:.1f}× faster than real time" if rtf else "") + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells "
-                  f"at {slam.map.params.resolution} m; bad beams {estimate.meta['bad_beams']}, scans not matched {estimate.meta['scans_not_matched']}")
+    extra = "; ".join(f"{k.replace('_', ' ')} {estimate.meta[k]}" for k in ("bad_beams", "scans_not_matched", "loop_closures", "resamplings") if k in estimate.meta)
+    console.print(f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan" + (f", {rtf:.1f}× faster than real time" if rtf else "")
+                  + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells at {slam.map.params.resolution} m" + (f"; {extra}" if extra else ""))
     if "relations" in summary:
         r = summary["relations"]
         console.print(f"relations: {r['used']} used, {r['dropped']} dropped; translation {r['trans_mean']:.3f} ± {r['trans_std']:.3f} m, "
                       f"rotation {r['rot_mean']:.4f} ± {r['rot_std']:.4f} rad")
-    console.print(f"wrote {out}/trajectory.tum, estimate.npz, map.png, map.pgm, map.yaml, summary.json")
+    console.print(f"wrote {out}/" + ", ".join(written))
     return 0
+
+
+def write_loop_closures(path: Path, diagnostics: dict) -> None:
+    """The loop-closure candidates as CSV: node, submap, anchor node, search and refined scores, accepted, seconds, z."""
+    d = diagnostics
+    rows = ["node,submap,anchor,search_score,search_nodes,score,accepted,seconds,z_x,z_y,z_theta"]
+    for k in range(d["loop_node"].size):
+        z = d["loop_z"][k]
+        rows.append(f"{d['loop_node'][k]},{d['loop_submap'][k]},{d['loop_anchor'][k]},{d['loop_search_score'][k]:.6g},{d['loop_search_nodes'][k]},"
+                    f"{d['loop_score'][k]:.6g},{int(d['loop_accepted'][k])},{d['loop_seconds'][k]:.6g},{z[0]:.9g},{z[1]:.9g},{z[2]:.9g}")
+    Path(path).write_text("\n".join(rows) + "\n")

@@ -79,12 +79,13 @@ def _node_score(P, ix, iy, a, b):
 
 
 @njit(cache=True)
-def _branch_and_bound(pyramid, ix, iy, w, depth):
+def _branch_and_bound(pyramid, ix, iy, w, depth, floor):
     """Depth-first branch and bound (module docstring) over angles k and offsets |a|, |b| ≤ w.
 
     pyramid (depth + 1, H, W): P_0 … P_depth; ix, iy (K, N) the points' cells at each angle. Nodes are visited
     best-first (ties: larger k, a, b first, as a descending sort of (bound, k, a, b)); a node whose bound does
-    not beat the best leaf so far is pruned. Returns (best score, k, a, b, nodes scored)."""
+    not beat the best leaf so far — or ``floor``, a score not worth finding — is pruned. Returns (best score,
+    k, a, b, nodes scored); the score is −inf when no candidate beats ``floor``."""
     K = ix.shape[0]
     step = 2**depth
     n_top = (2 * w) // step + 1
@@ -122,7 +123,8 @@ def _branch_and_bound(pyramid, ix, iy, w, depth):
         idx = order[q]
         st_h[sp], st_k[sp], st_a[sp], st_b[sp], st_s[sp] = depth, ks[idx], As[idx], Bs[idx], bound[idx]
         sp += 1
-    best, best_k, best_a, best_b = -np.inf, 0, 0, 0
+    best, best_k, best_a, best_b = floor, 0, 0, 0
+    found = False
     cs = np.empty(4)
     ca = np.empty(4, dtype=np.int64)
     cb = np.empty(4, dtype=np.int64)
@@ -133,6 +135,7 @@ def _branch_and_bound(pyramid, ix, iy, w, depth):
             continue
         if h == 0:
             best, best_k, best_a, best_b = sc, k, a, b
+            found = True
             continue
         half = 2 ** (h - 1)
         n = 0
@@ -153,7 +156,7 @@ def _branch_and_bound(pyramid, ix, iy, w, depth):
             cs[worst] = np.inf  # taken
             ca[worst] = np.iinfo(np.int64).max
             cb[worst] = np.iinfo(np.int64).max
-    return best, best_k, best_a, best_b, evaluated
+    return (best if found else -np.inf), best_k, best_a, best_b, evaluated
 
 
 class _Correlative:
@@ -288,9 +291,12 @@ class CorrelativeMatcher(_Correlative):
 
 
 class BranchAndBoundMatcherParams(CorrelativeMatcherParams):
-    """Parameters of :class:`BranchAndBoundMatcher`: the correlative search's and the covariance window."""
+    """Parameters of :class:`BranchAndBoundMatcher`: the correlative search's, the covariance window and the score floor."""
 
     covariance_cells: PositiveInt = Field(2, description="half-width of the exhaustive response around the optimum that gives the covariance [cells and angle steps]")
+    min_score: float | None = Field(
+        None, le=0.0, description="mean log-likelihood per point below which a pose is not worth finding: the search prunes below it and "
+                                  "reports no match (score −inf) when nothing beats it; None: the best pose, however poor")
 
 
 class BranchAndBoundMatcher(_Correlative):
@@ -311,7 +317,10 @@ class BranchAndBoundMatcher(_Correlative):
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
 
-        S_best, k, a, b, evaluated = _branch_and_bound(pyramid, np.ascontiguousarray(ix), np.ascontiguousarray(iy), w, depth)
+        floor = -np.inf if self.params.min_score is None else self.params.min_score * len(pts)
+        S_best, k, a, b, evaluated = _branch_and_bound(pyramid, np.ascontiguousarray(ix), np.ascontiguousarray(iy), w, depth, floor)
+        if not np.isfinite(S_best):
+            return MatchResult(pose=guess.copy(), cov=np.full((3, 3), np.inf), score=-np.inf, iterations=int(evaluated), info={"candidates_scored": int(evaluated), "below_min_score": True})
         c = self.params.covariance_cells
         ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
         S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))

@@ -36,7 +36,7 @@ def test_map_command_writes_trajectory_map_and_summary(carmen_log, tmp_path):
                                      motion=np.column_stack([between(truth[:-5], truth[5:])[:, :2], np.zeros((len(truth) - 5, 3)), between(truth[:-5], truth[5:])[:, 2]]))
     relations_format.write(tmp_path / "room.relations", rel)
     out = tmp_path / "out"
-    assert map_command(str(path), matcher="gauss_newton", out=out, relations=tmp_path / "room.relations") == 0
+    assert map_command(str(path), params={"matcher": "gauss_newton"}, out=out, relations=tmp_path / "room.relations") == 0
     for name in ("trajectory.tum", "estimate.npz", "map.png", "map.pgm", "map.yaml", "summary.json"):
         assert (out / name).stat().st_size > 0, name
     traj = tum.read_trajectory(out / "trajectory.tum")
@@ -50,14 +50,39 @@ def test_map_command_writes_trajectory_map_and_summary(carmen_log, tmp_path):
 
 
 def test_map_command_rejects_bad_input_before_work(carmen_log, tmp_path):
+    from slamarena.errors import UserError
+
     path, _, _ = carmen_log
-    assert map_command(str(path), matcher="ndt", out=tmp_path) == 2
-    assert map_command(str(path), relations=tmp_path / "missing.relations", out=tmp_path) == 2
-    assert map_command(str(tmp_path / "no_such.clf"), out=tmp_path) == 1
     bad = tmp_path / "bad.clf"
     bad.write_text("FLASER 3 1.0 1.0\n")
-    assert map_command(str(bad), out=tmp_path) == 1
+    cases = [
+        (dict(params={"matcher": "ndt"}), "params.matcher"),
+        (dict(method="ndt_slam"), "unknown mapping method 'ndt_slam'"),
+        (dict(method="laser_slam", params={"submap_scans": 0}), "params.submap_scans"),
+        (dict(relations=tmp_path / "missing.relations"), "missing.relations does not exist"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(UserError, match=message):
+            map_command(str(path), out=tmp_path, **kwargs)
+    with pytest.raises(UserError, match="neither a dataset name"):
+        map_command(str(tmp_path / "no_such.clf"), out=tmp_path)
+    with pytest.raises(UserError, match="bad.clf:1"):
+        map_command(str(bad), out=tmp_path)
     assert not (tmp_path / "summary.json").exists()
+
+
+def test_map_command_with_laser_slam_writes_the_pose_graph_and_loop_list(carmen_log, tmp_path):
+    from slamarena.datasets.formats import g2o
+
+    path, seq, _ = carmen_log
+    out = tmp_path / "graph"
+    assert map_command(str(path), method="laser_slam", params={"search_every": 1}, out=out) == 0
+    graph = g2o.read(out / "pose_graph.g2o")
+    summary = json.loads((out / "summary.json").read_text())
+    assert graph.n_nodes == summary["nodes"] and summary["method"] == "laser_slam"
+    lines = (out / "loop_closures.csv").read_text().splitlines()
+    assert lines[0].startswith("node,submap") and len(lines) - 1 == summary["loop_candidates"]
+    assert len(tum.read_trajectory(out / "trajectory.tum")) == len(seq.scans.t)
 
 
 def test_map_command_on_an_interlaced_robotlaser_log(tmp_path):

@@ -1,0 +1,226 @@
+"""Laser graph SLAM: the scan-to-submap front end, loop closure against finished submaps, a GTSAM pose graph.
+
+Front end (:mod:`slamarena.mapping.frontend`). Every scan k is matched against the older of the (at most two)
+active submaps, giving its front-end ("local") pose L_k. A scan the motion filter passes becomes node i
+(scan k_i, pose L_i) and is inserted into every active submap. Submaps (as Cartographer): a new submap is
+started when the newest has ``submap_scans`` insertions, and the older is finished at 2·``submap_scans``, so
+consecutive submaps overlap by half and the one matched against is never nearly empty. A submap is an
+occupancy-grid pyramid in the front-end frame, anchored at its first node (the graph optimises the anchor's
+pose, and with it the submap's).
+
+Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L_{i−1}⁻¹ ⊕ L_i with
+covariance R_{i−1}ᵀ C_i R_{i−1} + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match
+in the front-end frame, R_{i−1} the rotation of node i − 1; the floor σ because a Gauss-Newton Laplace
+covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``search_every`` nodes,
+robustified. iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
+G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
+
+Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) with i(k) the last node at or
+before scan k (relations refer to any scan); the map re-rendered from the nodes' optimised poses
+(``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
+their scores (``diagnostics["loop_*"]``) and the time spent in the front end, the loop search and the
+optimisation (``meta["seconds"]``).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
+
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between, compose
+from slamarena.datasets.sequence import Sequence
+from slamarena.params import Field
+from slamarena.robust import RobustKernelParams
+
+from ..frontend import FrontEnd
+from ..grid_slam import GridSLAMParams
+from ..map_pyramid import MapPyramid, PyramidParams
+from ..occupancy_grid import OccupancyGrid
+from .backend import Backend
+from .loop_closure import LoopCloser
+
+__all__ = ["LaserSLAM", "LaserSLAMParams", "Submap"]
+
+
+class LaserSLAMParams(GridSLAMParams):
+    """Parameters of :class:`LaserSLAM`: the front end's (:class:`~slamarena.mapping.grid_slam.GridSLAMParams`), the
+    submaps, the graph's noise, and the loop-closure search (:mod:`.loop_closure`)."""
+
+    submap_scans: PositiveInt = Field(45, description="insertions after which the next submap starts (a submap holds 2 · submap_scans)")
+    sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
+    sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")
+    search_every: PositiveInt = Field(3, description="search for loop closures at every this-many-th node")
+    search_radius: NonNegativeFloat = Field(5.0, description="candidate submaps within this distance of the node [m] …")
+    search_growth: NonNegativeFloat = Field(0.05, description="… plus this fraction of the distance travelled since the submap [1]")
+    max_candidates: PositiveInt = Field(3, description="most submaps tried per search (the nearest)")
+    exclude_recent: NonNegativeInt = Field(1, description="latest finished submaps not searched (the front end still overlaps them)")
+    loop_linear_window: PositiveFloat = Field(5.0, description="half-width of the loop search in translation [m]")
+    loop_angular_window: PositiveFloat = Field(0.5, description="half-width of the loop search in rotation [rad]")
+    loop_level: NonNegativeInt = Field(1, description="pyramid level of the branch-and-bound loop search")
+    loop_voxel: NonNegativeFloat = Field(0.1, description="the loop search's end points thinned to one per cell of this side [m] (0: all)")
+    loop_max_range: PositiveFloat = Field(15.0, description="the loop search uses the end points within this range [m]")
+    loop_min_search_score: float = Field(-2.5, le=0.0, description="branch-and-bound floor: mean log-likelihood per point below which a candidate is rejected unrefined")
+    min_score: float = Field(0.3, gt=0.0, lt=1.0, description="accept a loop only when the refined match's mean occupancy probability is at least this …")
+    loop_score_ratio: float = Field(0.9, gt=0.0, le=1.5, description="… and at least this times the node's own front-end match score")
+    loop_covariance_window: PositiveFloat = Field(1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]")
+    loop_covariance_angle: PositiveFloat = Field(0.05, description="… and rotation [rad]")
+    loop_sigma_translation: PositiveFloat = Field(0.05, description="added to a loop factor's translation σ [m]")
+    loop_sigma_rotation: PositiveFloat = Field(0.01, description="added to a loop factor's rotation σ [rad]")
+    loop_cache_submaps: PositiveInt = Field(8, description="submaps whose likelihood pyramids are kept for the loop search")
+    robust_kernel: RobustKernelParams = Field(RobustKernelParams(robust="cauchy", robust_k=1.0), description="m-estimator of the loop factors")
+    loop_closure: bool = Field(True, description="search for loop closures (False: the graph holds the front end's chain only)")
+
+
+class Submap:
+    """One submap: its index, its grids in the front-end frame, the nodes inserted into it (the first is its anchor)."""
+
+    def __init__(self, index: int, maps: MapPyramid):
+        self.index = index
+        self.maps = maps
+        self.nodes: list[int] = []
+        self.finished = False
+
+
+class LaserSLAM:
+    """Laser graph SLAM with loop closure (module docstring; :class:`LaserSLAMParams`)."""
+
+    Params = LaserSLAMParams
+
+    def __init__(self, params: LaserSLAMParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.map: OccupancyGrid | None = None
+        self.pose_graph = None
+        self.submaps: list[Submap] = []
+
+    def _new_submap(self, centre, scans) -> Submap:
+        p = self.params
+        maps = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(centre[:2]))
+        submap = Submap(len(self.submaps), maps)
+        self.submaps.append(submap)
+        return submap
+
+    def run(self, sequence: Sequence, progress=None) -> Estimate:
+        """Map ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
+        scans = sequence.scans
+        if scans is None or len(scans) == 0:
+            raise ValueError(f"LaserSLAM needs a sequence with laser scans; {sequence.name!r} has none")
+        p = self.params
+        K = len(scans)
+        front = FrontEnd(p, scans)
+        loops = LoopCloser(p)
+        backend = Backend(p.robust_kernel)
+        self.submaps = []
+        local = np.zeros((K, 3))  # L_k
+        node_of_scan = np.full(K, -1, dtype=np.int64)  # i(k): the last node at or before scan k
+        L: list[np.ndarray] = []  # node poses, front end
+        G = np.zeros((0, 3))  # node poses, world (current estimate)
+        node_scan: list[int] = []
+        node_points: list[np.ndarray] = []
+        travelled = [0.0]
+        diag = {"matched": np.zeros(K, bool), "score": np.full(K, np.nan), "usable_beams": np.zeros(K, np.int64), "bad_beams": np.zeros(K, np.int64)}
+        seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0}
+        active: list[Submap] = []
+        pose = front.start_pose(sequence.start_pose)
+        for k in range(K):
+            tic = time.perf_counter()
+            beams = front.beams(k)
+            diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
+            pose = front.guess(k, local, pose)
+            if active:
+                res = front.match(active[0].maps, beams, pose)
+                if res is not None:
+                    pose = res.pose
+                    diag["matched"][k], diag["score"][k] = True, res.score
+            local[k] = pose
+            new_node = len(beams.points) >= p.min_beams and front.due(pose)
+            if new_node:
+                i = len(L)
+                if not active or len(active[-1].nodes) >= p.submap_scans:
+                    active.append(self._new_submap(pose, scans))
+                for submap in active:
+                    submap.maps.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
+                    submap.nodes.append(i)
+                if len(active[0].nodes) >= 2 * p.submap_scans:
+                    active.pop(0).finished = True
+                front.inserted(pose)
+                cov_match = res.cov if diag["matched"][k] else np.zeros((3, 3))
+                L.append(pose.copy())
+                node_scan.append(k)
+                node_points.append(beams.points)
+                seconds["front_end"] += time.perf_counter() - tic
+                tic = time.perf_counter()
+                if i == 0:
+                    G = pose[None, :].copy()
+                    backend.add_node(0, pose)
+                else:
+                    z = between(L[i - 1], L[i])
+                    R = _rotation(L[i - 1][2])
+                    cov = R.T @ _finite(cov_match) @ R + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
+                    G = np.vstack([G, compose(G[i - 1], z)])
+                    backend.add_node(i, G[i], z, cov)
+                    travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
+                seconds["optimisation"] += time.perf_counter() - tic
+                if p.loop_closure and i % p.search_every == 0:
+                    tic = time.perf_counter()
+                    found = []
+                    Ln = np.asarray(L)
+                    for s in loops.candidates(self.submaps, i, G, np.asarray(travelled)):
+                        constraint = loops.try_close(self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0)
+                        if constraint is not None:
+                            found.append(constraint)
+                    seconds["loop_search"] += time.perf_counter() - tic
+                    tic = time.perf_counter()
+                    for c, z, cov in found:
+                        G = backend.add_loop(c, i, z, cov)
+                    seconds["optimisation"] += time.perf_counter() - tic
+            else:
+                seconds["front_end"] += time.perf_counter() - tic
+            node_of_scan[k] = len(L) - 1
+            if progress is not None:
+                progress(k + 1, K)
+
+        tic = time.perf_counter()
+        G, report = backend.finish()
+        seconds["optimisation"] += time.perf_counter() - tic
+        Ln = np.asarray(L)
+        i_k = np.maximum(node_of_scan, 0)
+        poses = compose(G[i_k], between(Ln[i_k], local))
+        self.pose_graph = backend.pose_graph(sequence.name, G)
+        self.map = self._render(G, node_scan, scans, front.limit)
+        diag.update(loops.record.arrays())
+        diag["node_scan"] = np.asarray(node_scan, dtype=np.int64)
+        accepted = diag["loop_accepted"]
+        meta = {
+            "params": p.canonical(), "scans": int(K), "nodes": len(L), "submaps": len(self.submaps),
+            "loop_candidates": int(accepted.size), "loop_closures": int(accepted.sum()), "loop_rejected": int((~accepted).sum()),
+            "seconds": seconds, "optimisation": report, "odometry_stalled_scans": int(front.stalled.sum()),
+            "map_shape": list(self.map.shape), "map_origin": self.map.origin.tolist(),
+        }
+        return Estimate(method="laser_slam", t=scans.t.copy(), poses=poses, step_time=_spread(seconds, K), diagnostics=diag, meta=meta)
+
+    def _render(self, G, node_scan, scans, limit) -> OccupancyGrid:
+        """The finest grid re-rendered from every node's scan at its optimised pose."""
+        p = self.params
+        grid = OccupancyGrid(p.model_dump(include=set(PyramidParams.model_fields) - {"levels"}), width=1, height=1, origin=tuple(G[0, :2]))
+        front = FrontEnd(p, scans)
+        for i, k in enumerate(node_scan):
+            beams = front.beams(k)
+            grid.integrate(beams.r[beams.mapped], beams.a[beams.mapped], G[i], scans.mount, max_range=limit, clear_range=p.clear_range)
+        return grid
+
+
+def _rotation(theta: float) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _finite(cov: np.ndarray) -> np.ndarray:
+    """The matcher's covariance, or zero where the match gave none (the floor then carries the factor)."""
+    return cov if np.all(np.isfinite(cov)) else np.zeros((3, 3))
+
+
+def _spread(seconds: dict, K: int) -> np.ndarray:
+    """Step times: the whole run's time spread evenly over the scans (the graph's work is not per scan)."""
+    return np.full(K, sum(seconds.values()) / max(K, 1))
