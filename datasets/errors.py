@@ -27,8 +27,9 @@ class DatasetNotFoundError(UserError, FileNotFoundError):
     def __init__(self, name: str, looked_in: list[Path], relative: str):
         self.name = name
         self.looked_in = looked_in
+        self.relative = relative
         places = "\n".join(f"  - {p / relative}" for p in looked_in) or "  (no data root exists)"
         super().__init__(
-            f"dataset {name!r} not found. Looked in:\n{places}\n"
+            f"dataset {name!r} not found: no data root holds {relative}. Looked in:\n{places}\n"
             f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {name}"
         )
