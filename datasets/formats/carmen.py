@@ -65,7 +65,7 @@ from slamarena.params import Field, Params, with_params
 from ..errors import DataFormatError
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
-from ._text import Lines, check_monotonic, fixed, numbers, read_lines, tags
+from ._text import Lines, check_monotonic, fixed, numbers, records
 
 __all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "JITTER_S"]
 
@@ -178,8 +178,7 @@ class CarmenParams(Params):
 @with_params(CarmenParams)
 def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) -> Sequence:
     """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
-    lines = read_lines(path)
-    tag = tags(lines)
+    lines, tag = records(path, "CARMEN messages")
     present = [t for t in np.unique(tag) if t]
     for t in present:
         if not _NAME.match(t):
