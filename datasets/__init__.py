@@ -5,7 +5,7 @@ through :mod:`slamarena.params`) besides the standard library.
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate
-from .errors import DataFormatError, DatasetNotFoundError
+from .errors import DataFormatError, DatasetNotFoundError, DataWarning
 from .posegraph import PoseGraph
 from .registry import available, load
 from .sequence import (
@@ -25,7 +25,7 @@ from .sequence import (
 
 __all__ = [
     "load", "available", "set_data_root", "data_roots",
-    "DataFormatError", "DatasetNotFoundError",
+    "DataFormatError", "DatasetNotFoundError", "DataWarning",
     "Sequence", "PoseGraph", "Event", "Estimate",
     "Twist", "Increments", "RangeBearing", "BeaconRanges", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
 ]

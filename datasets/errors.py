@@ -1,4 +1,4 @@
-"""The errors of the data layer (both are :class:`~slamarena.errors.UserError`: the CLI prints their message alone)."""
+"""The errors of the data layer (both are :class:`~slamarena.errors.UserError`: the CLI prints their message alone) and its warning."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,6 +19,11 @@ class DataFormatError(UserError, ValueError):
         if got is not None:
             message += f", got {got!r}"
         super().__init__(message)
+
+
+class DataWarning(UserWarning):
+    """A reader repaired its input locally (dropped a damaged line, say): the message names the file and the first
+    line; ``meta`` of the result lists them all. Shown on the console by Python's default warning filter."""
 
 
 class DatasetNotFoundError(UserError, FileNotFoundError):

@@ -52,7 +52,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "records", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = ["read_bytes", "read_lines", "records", "binary_lines", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -110,6 +110,24 @@ def records(path: str | Path, what: str, comment: str = "#") -> tuple[Lines, np.
     if not np.any(tag != ""):
         raise DataFormatError(lines.path, None, what, NO_DATA)
     return lines, tag
+
+
+#: the bytes a text line may hold: printable ASCII, tab, carriage return (and the line end)
+_TEXT_BYTES = bytes([9, 10, 13, *range(32, 127)])
+_TEXT = np.zeros(256, dtype=bool)
+_TEXT[list(_TEXT_BYTES)] = True
+
+
+def binary_lines(lines: list[str]) -> np.ndarray:
+    """0-based indices of the lines holding a byte no text line holds (:data:`_TEXT_BYTES`): binary garbage.
+
+    One C pass (``bytes.translate``) decides that there is none; only then are the lines located.
+    """
+    blob = "\n".join(lines).encode("latin-1")
+    if not blob.translate(None, _TEXT_BYTES):
+        return np.zeros(0, dtype=np.int64)
+    b = np.frombuffer(blob, dtype=np.uint8)
+    return np.unique(np.searchsorted(np.flatnonzero(b == 10), np.flatnonzero(~_TEXT[b])))
 
 
 _SPACE = np.zeros(256, dtype=bool)
