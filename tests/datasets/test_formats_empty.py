@@ -10,38 +10,27 @@ from slamarena.datasets.formats import carmen, g2o, isam, kitti, mrclam, plaza, 
 COMMENTS = "# written by hand\n\n   \n\t\n# nothing else\n"
 
 
-def _mrclam(role):
-    """MRCLAM with the file of ``role`` under test and valid files for the others."""
-    good = {"odometry": "# t v w\n1.0 0.1 0.0\n2.0 0.1 0.0\n", "measurement": "# t code r b\n1.5 63 2.0 0.1\n",
-            "barcodes": "# subject code\n6 63\n", "landmarks": "# subject x y sx sy\n6 1.0 2.0 0.01 0.01\n",
-            "groundtruth": "# t x y th\n1.0 0 0 0\n2.0 0.1 0 0\n"}
+#: valid files of the multi-file readers, one per role
+MRCLAM = {"odometry": "# t v w\n1.0 0.1 0.0\n2.0 0.1 0.0\n", "measurement": "# t code r b\n1.5 63 2.0 0.1\n",
+          "barcodes": "# subject code\n6 63\n", "landmarks": "# subject x y sx sy\n6 1.0 2.0 0.01 0.01\n",
+          "groundtruth": "# t x y th\n1.0 0 0 0\n2.0 0.1 0 0\n"}
+PLAZA = {"odometry": "1.0\t0.1\t0.0\n2.0\t0.1\t0.0\n", "ranges": "1.5\t2\t0\t10.0\n"}
 
-    def read(path):
-        files = {}
+
+def _one_role(read, good: dict, role: str):
+    """``read(**files)`` with the file under test in ``role`` and the ``good`` files in the others."""
+    def run(path):
+        files = {name: path if name == role else path.with_name(f"{name}.txt") for name in good}
         for name, text in good.items():
-            files[name] = path if name == role else path.with_name(f"{name}.dat")
             if name != role:
                 files[name].write_text(text)
-        return mrclam.read_robot(**files)
-    return read
-
-
-def _plaza(role):
-    good = {"odometry": "1.0\t0.1\t0.0\n2.0\t0.1\t0.0\n", "ranges": "1.5\t2\t0\t10.0\n"}
-
-    def read(path):
-        files = {}
-        for name, text in good.items():
-            files[name] = path if name == role else path.with_name(f"{name}.txt")
-            if name != role:
-                files[name].write_text(text)
-        return plaza.read_run(files["odometry"], files["ranges"])
-    return read
+        return read(**files)
+    return run
 
 
 READERS = {
-    **{f"mrclam {role}": _mrclam(role) for role in ("odometry", "measurement", "barcodes", "landmarks", "groundtruth")},
-    **{f"plaza {role}": _plaza(role) for role in ("odometry", "ranges")},
+    **{f"mrclam {role}": _one_role(mrclam.read_robot, MRCLAM, role) for role in MRCLAM},
+    **{f"plaza {role}": _one_role(lambda odometry, ranges: plaza.read_run(odometry, ranges), PLAZA, role) for role in PLAZA},
     "plaza mat": lambda p: plaza.read_mat(p, ("GT",)),
     "victoria_park": victoria_park.read,
     "g2o": g2o.read,
