@@ -1,7 +1,9 @@
 """slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
 
 Depends on numpy, scipy (MAT files) and pydantic (the parameter models of readers and simulators,
-through :mod:`slamarena.params`) besides the standard library.
+through :mod:`slamarena.params`) besides the standard library; on gtsam, when installed, only to locate
+the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), and on pooch only to download
+(:mod:`slamarena.datasets.fetch`).
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate
