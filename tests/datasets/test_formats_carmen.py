@@ -11,6 +11,7 @@ import pytest
 
 from slamarena.datasets import DataFormatError, DataWarning, Increments
 from slamarena.datasets.formats import carmen
+from slamarena.datasets.formats._text import read_bytes
 from slamarena.datasets.geometry import accumulate
 from checks import assert_rejected_naming, load_staged, staged
 
@@ -231,7 +232,7 @@ def test_only_a_log_whose_stamps_mostly_carry_no_time_goes_by_the_scan_index(tmp
 
 
 def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel, tmp_path):
-    lines = bz2.decompress(staged("radish_laser_logs/intel.clf.bz2").read_bytes()).split(b"\n")
+    lines = read_bytes(staged("radish_laser_logs/intel.clf.bz2")).split(b"\n")
     odom = [k for k, line in enumerate(lines) if line.startswith(b"ODOM ")][10000]
     scan = [k for k, line in enumerate(lines) if line.startswith(b"FLASER ")]
     lost = 5000
