@@ -293,7 +293,7 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     if params.strict_time:
         check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
         check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
-    timed = np.flatnonzero(keep)  # the scans of the stream, and a raw log's odometry (a corrected log's goes by its scans)
+    timed = np.flatnonzero(keep)  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
     scan_faults = clock_faults(scan_ts[timed])
     odo_faults = clock_faults(odo_ts) if not params.corrected else np.zeros(len(odo), dtype=bool)
     if _carries_time(scan_ts[timed], scan_faults) and (params.corrected or _carries_time(odo_ts, odo_faults)):
