@@ -1,11 +1,13 @@
 """slamarena's shared data layer: geometry, the data model, readers, simulators, the registry.
 
 Depends on numpy, scipy (MAT files) and pydantic (the parameter models of readers and simulators,
-through :mod:`slamarena.params`) besides the standard library.
+through :mod:`slamarena.params`) besides the standard library; on gtsam, when installed, only to locate
+the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), and on pooch only to download
+(:mod:`slamarena.datasets.fetch`).
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate
-from .errors import DataFormatError, DatasetNotFoundError
+from .errors import DataFormatError, DatasetNotFoundError, DataWarning
 from .posegraph import PoseGraph
 from .registry import available, load
 from .sequence import (
@@ -25,7 +27,7 @@ from .sequence import (
 
 __all__ = [
     "load", "available", "set_data_root", "data_roots",
-    "DataFormatError", "DatasetNotFoundError",
+    "DataFormatError", "DatasetNotFoundError", "DataWarning",
     "Sequence", "PoseGraph", "Event", "Estimate",
     "Twist", "Increments", "RangeBearing", "BeaconRanges", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
 ]

@@ -1,22 +1,46 @@
 """Catalogue of the staged real datasets: registry name → files under the data root and reader.
 
-Each entry names its files relative to a data root, the reader (``"module:function"``,
-imported on first use) and its preset options (``arguments``). A reader declares its options as a
-``Params`` model (``@with_params``); :meth:`CatalogueEntry.load` validates the preset with the
-caller's keywords applied through that model (an unknown or bad option is an error naming it)
-and calls ``reader(paths, name, params=…)`` with the resolved paths (a dict ``role → Path``).
+Each entry names its files relative to a data root (:mod:`slamarena.datasets.dataroot`), the role of
+each, the reader (``"module:function"``, imported on first use) and its preset options
+(``arguments``). A reader declares its options as a ``Params`` model (``@with_params``);
+:meth:`CatalogueEntry.load` validates the preset with the caller's keywords applied through that
+model (an unknown or bad option is an error naming it) and calls ``reader(paths, name, params=…)``
+with the entry's :class:`Files`: role → path, each file found when the reader asks for it. A role in
+``optional`` is read only under some options (Victoria Park's iSAM copy, read with
+``variant="isam"``): the dataset is present without it, and asking for it when it is absent raises
+:class:`DatasetNotFoundError` as for any file.
 """
 from __future__ import annotations
 
-import importlib.util
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from slamarena.params import params_model
 from slamarena.targets import import_target
 
-from .dataroot import data_roots, find
+from .dataroot import find, locate
 
-__all__ = ["CatalogueEntry", "CATALOGUE"]
+__all__ = ["CatalogueEntry", "Files", "CATALOGUE"]
+
+
+class Files(Mapping):
+    """Role → path of a dataset's files, each found on access (:func:`~slamarena.datasets.dataroot.find`).
+
+    Iterating gives the required roles and the optional roles whose file is present.
+    """
+
+    def __init__(self, dataset: str, relative: dict[str, str], optional: tuple[str, ...]):
+        self.dataset, self.relative, self.optional = dataset, relative, optional
+
+    def __getitem__(self, role: str) -> Path:
+        return find(self.relative[role], self.dataset)
+
+    def __iter__(self) -> Iterator[str]:
+        return (role for role, rel in self.relative.items() if role not in self.optional or locate(rel) is not None)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
 
 
 @dataclass(frozen=True)
@@ -29,36 +53,25 @@ class CatalogueEntry:
     roles: tuple[str, ...] = ()
     arguments: dict = field(default_factory=dict)
     citation: str = ""
+    optional: tuple[str, ...] = ()
 
-    def paths(self) -> dict:
-        roles = self.roles or tuple(f"file{k}" for k in range(len(self.files)))
-        return {role: find(rel, self.name) for role, rel in zip(roles, self.files)}
+    @property
+    def relative(self) -> dict[str, str]:
+        """Role → path relative to a data root."""
+        return dict(zip(self.roles or (f"file{k}" for k in range(len(self.files))), self.files))
+
+    def paths(self) -> Files:
+        return Files(self.name, self.relative, self.optional)
 
     def present(self) -> bool:
-        return all(any((root / rel).exists() for root in data_roots()) for rel in self.files)
+        """Every file the dataset needs (its optional ones aside) is under a data root or in the GTSAM wheel."""
+        return all(locate(rel) is not None for role, rel in self.relative.items() if role not in self.optional)
 
     def load(self, **params):
         """The dataset read with the preset ``arguments``, ``params`` applied over them (validated before any file is found)."""
         reader = import_target(self.reader)
         options = params_model(reader).of(self.arguments, params)
         return reader(self.paths(), self.name, params=options)
-
-
-class _VictoriaParkEntry(CatalogueEntry):
-    """Victoria Park: the staged iSAM/GTSAM files, or the copy inside the GTSAM wheel."""
-
-    def paths(self) -> dict:
-        out = {}
-        for role, rel in zip(self.roles, self.files):
-            found = [root / rel for root in data_roots() if (root / rel).exists()]
-            if found:
-                out[role] = found[0]
-        return out
-
-    def present(self) -> bool:
-        if super().present() or self.paths():
-            return True
-        return importlib.util.find_spec("gtsam") is not None
 
 
 # ---------------------------------------------------------------------------- citations
@@ -199,10 +212,11 @@ def _carmen() -> dict[str, CatalogueEntry]:
 
 CATALOGUE: dict[str, CatalogueEntry] = {
     **_mrclam(),
-    "victoria_park": _VictoriaParkEntry(
+    "victoria_park": CatalogueEntry(
         name="victoria_park", kind="landmarks (odometry increments + tree observations, real outdoor)",
         ground_truth="none", files=("victoria_park/victoria_park_gtsam.txt", "victoria_park/victoriaPark_isam.txt"),
-        roles=("gtsam", "isam"), reader="slamarena.datasets.formats.victoria_park:load", citation=_VICTORIA),
+        roles=("gtsam", "isam"), reader="slamarena.datasets.formats.victoria_park:load", citation=_VICTORIA,
+        optional=("isam",)),
     **_plaza(),
     **_graphs(),
     **_carmen(),

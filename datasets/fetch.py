@@ -16,7 +16,7 @@ from pathlib import Path
 
 from slamarena.errors import UserError
 
-from .dataroot import cache_dir, data_roots
+from .dataroot import cache_dir, locate
 
 __all__ = ["FILES", "fetch", "url_of", "FetchError"]
 
@@ -136,9 +136,9 @@ def fetch(name: str, force: bool = False) -> list[Path]:
     out = []
     for rel in entry.files:
         target = cache_dir() / rel
-        existing = [root / rel for root in data_roots() if (root / rel).exists()]
-        if existing and not force:
-            out.append(existing[0])
+        existing = locate(rel)
+        if existing is not None and not force:
+            out.append(existing)
             continue
         upstream, sha256, compressed = FILES[rel]
         staging = cache_dir() / ".downloads" / Path(rel).parent

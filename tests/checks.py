@@ -12,26 +12,28 @@ import pytest
 from pydantic import ValidationError
 from scipy import stats
 
-from slamarena.datasets.dataroot import data_roots
+from slamarena.datasets.dataroot import locate
 from slamarena.datasets.geometry import interpolate_poses
 from slamarena.datasets.sequence import BeaconRanges, Sequence
 
 
 def staged(relative: str) -> Path:
-    """Path of a staged dataset file under the data root; skips the test when it is absent."""
-    for root in data_roots():
-        if (root / relative).exists():
-            return root / relative
-    pytest.skip(f"dataset file {relative} is not under any data root (set SLAMARENA_DATA)")
+    """Path of a staged dataset file (under a data root, or the GTSAM wheel's copy); skips the test when it is absent."""
+    path = locate(relative)
+    if path is None:
+        pytest.skip(f"dataset file {relative} is not under any data root (set SLAMARENA_DATA)")
+    return path
 
 
 def load_staged(name: str, **params):
-    """``slamarena.datasets.load(name, **params)`` of a catalogued real dataset; skips the test when its files are absent."""
-    from slamarena.datasets.registry import load, resolve
+    """``slamarena.datasets.load(name, **params)`` of a catalogued real dataset; skips the test when a file it reads is absent."""
+    from slamarena.datasets import DatasetNotFoundError
+    from slamarena.datasets.registry import load
 
-    if not resolve(name).present():
-        pytest.skip(f"dataset {name} is not under any data root (set SLAMARENA_DATA)")
-    return load(name, **params)
+    try:
+        return load(name, **params)
+    except DatasetNotFoundError as missing:
+        pytest.skip(f"dataset file {missing.relative} of {name} is not under any data root (set SLAMARENA_DATA)")
 
 
 def assert_rejected_naming(call, **bad) -> None:

@@ -4,13 +4,16 @@ Every text reader of :mod:`slamarena.datasets.formats` works the same way:
 
 1. :func:`read_lines` reads the whole (optionally ``.gz``/``.bz2``-compressed) file and splits it
    into lines once (:func:`numeric_table` skips even that and works on the raw bytes);
-2. :func:`tags` takes the first token of every line (one cheap string operation per line);
+2. :func:`tags` takes the first token of every line (one cheap string operation per line;
+   :func:`records` does steps 1 and 2);
 3. per record type, :func:`numbers` converts the numeric bodies of all its lines in bulk and counts
    the tokens of every line from the raw bytes, so that a wrong field count or a non-numeric field
    is detected in bulk and then reported with the first offending line number (a slow per-line
    search runs only on that error path).
 
-Python work per line is a few string operations; nothing runs per number.
+Python work per line is a few string operations; nothing runs per number. A file without a
+single record or data row (empty, or only blank and comment lines) is a :class:`DataFormatError`
+(``got 'no data line'``), never an empty dataset.
 
 **How numbers are converted, and why the result is exact.** Tokens are found on the bytes
 (C ``isspace`` separates them, as in numpy's parser). Each token of the form
@@ -49,7 +52,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = ["read_bytes", "read_lines", "records", "binary_lines", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -94,6 +97,37 @@ def tags(lines: list[str], comment: str = "#") -> np.ndarray:
     """First token of each line as a numpy string array; ``""`` for blank and comment lines."""
     first = [s[0] if (s := line.split(None, 1)) and not s[0].startswith(comment) else "" for line in lines]
     return np.array(first, dtype=str) if first else np.zeros(0, dtype="<U1")
+
+
+#: what a file without a record or data row "got"
+NO_DATA = "no data line"
+
+
+def records(path: str | Path, what: str, comment: str = "#") -> tuple[Lines, np.ndarray]:
+    """The lines of a record file and their :func:`tags`; a file without a record raises (``what``: a record)."""
+    lines = read_lines(path)
+    tag = tags(lines, comment)
+    if not np.any(tag != ""):
+        raise DataFormatError(lines.path, None, what, NO_DATA)
+    return lines, tag
+
+
+#: the bytes a text line may hold: printable ASCII, tab, carriage return (and the line end)
+_TEXT_BYTES = bytes([9, 10, 13, *range(32, 127)])
+_TEXT = np.zeros(256, dtype=bool)
+_TEXT[list(_TEXT_BYTES)] = True
+
+
+def binary_lines(lines: list[str]) -> np.ndarray:
+    """0-based indices of the lines holding a byte no text line holds (:data:`_TEXT_BYTES`): binary garbage.
+
+    One C pass (``bytes.translate``) decides that there is none; only then are the lines located.
+    """
+    blob = "\n".join(lines).encode("latin-1")
+    if not blob.translate(None, _TEXT_BYTES):
+        return np.zeros(0, dtype=np.int64)
+    b = np.frombuffer(blob, dtype=np.uint8)
+    return np.unique(np.searchsorted(np.flatnonzero(b == 10), np.flatnonzero(~_TEXT[b])))
 
 
 _SPACE = np.zeros(256, dtype=bool)
@@ -273,7 +307,7 @@ def fixed(path: str, bodies: list[str], line_numbers: np.ndarray, ncols: int, wh
 def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -> tuple[np.ndarray, np.ndarray]:
     """A whitespace-separated numeric table (``comment`` lines and blank lines skipped), fully on bytes.
 
-    Returns the ``(N, ncols)`` values and the 1-based line number of each row. No Python code
+    Returns the ``(N, ncols)`` values (N ≥ 1) and the 1-based line number of each row. No Python code
     runs per line: line bounds, token counts and comment lines are found with numpy on the raw
     bytes, and the tokens of the data lines are converted in bulk.
     """
@@ -291,13 +325,15 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
     lead[has] = b[starts[first[has]]]
     data = has & (lead != ord(comment))
     rows = np.flatnonzero(data)
+    if not rows.size:
+        raise DataFormatError(path, None, what, NO_DATA)
     bad = np.flatnonzero(data & (counts != ncols))
     if bad.size:
         k = int(bad[0])
         got = blob[line_start[k]:line_end[k]].decode("latin-1")
         raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
-    k0 = first[rows[0]] if rows.size else 0
-    run = rows.size > 0 and first[rows[-1]] - k0 == (rows.size - 1) * ncols  # the data tokens are one run
+    k0 = first[rows[0]]
+    run = first[rows[-1]] - k0 == (rows.size - 1) * ncols  # the data tokens are one run
     if run:
         starts, ends = starts[k0:k0 + rows.size * ncols], ends[k0:k0 + rows.size * ncols]
     else:  # comment lines between data lines: drop their tokens

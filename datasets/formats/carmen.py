@@ -12,6 +12,9 @@ One message per line (metres, radians; the last three fields of a message are
 
 Other message names (SYNC, RLASER, TRUEPOS, NMEA…) are counted in ``meta["ignored_messages"]``;
 a first token that is not a message name (upper-case identifier) is a :class:`DataFormatError`.
+A line holding bytes no text has (binary garbage: a message damaged in storage or transfer) is
+dropped, whatever it starts with: listed in ``meta["dropped_lines"]["binary_garbage"]`` and
+reported by a :class:`~slamarena.datasets.errors.DataWarning` naming the file and line.
 
 The :class:`Sequence` of a **raw** log:
 
@@ -44,17 +47,25 @@ and repeats it in an ODOM line with timestamp 0 after each scan; those ODOM line
 (``meta["ground_truth_kind"] = "slam-reference"``: a reference, not independent truth); ``motion``
 is the raw odometry between consecutive scans (the last raw ODOM pose before each scan).
 
-Time: ``t`` is the ipc_timestamp. Real logs contain stamps that step backwards (Intel: 631 scans,
-jitter < 1 s, while the file order is the true order: sorting by stamp makes the odometry path
-30 % longer). Stamps are therefore made non-decreasing in file order by a running maximum over all
-timestamped messages (``meta["time_adjusted_messages"]`` counts the changed ones; ``strict_time=True``
-raises instead). Where stamps are unusable (zero, negative, or stepping back by more than 1 s —
-several corrected logs) ``t`` is the scan index (``meta["time_source"]``). The original stamps are
-always kept in ``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them.
+Time: ``t`` is the ipc_timestamp; the file order is the true order. Per stream (scans; ODOM in a raw
+log) the **clock** is the longest subsequence, in file order, of the positive, finite stamps that
+never steps back (:func:`clock_faults`). Stamps off the clock by at most :data:`JITTER_S` are jitter (Intel: 631
+scans step back by < 0.9 s; sorting by stamp would make the odometry path 30 % longer): kept, and
+made non-decreasing by a running maximum (``meta["time_adjusted_messages"]`` counts the changed ones).
+A message whose stamp is zero, negative, not finite or off the clock by more than that (one ODOM
+stamped 50 s late, say) is dropped — its neighbours carry the motion across — listed in
+``meta["dropped_lines"]["bad_timestamp"]`` and warned about (:class:`DataWarning`); one line never
+changes the time base of the log. Only a log whose stamps carry no time — most of a stream off its
+clock, or all alike (several corrected logs stamp everything 0 or with one value) — gets ``t`` = the
+scan index (``meta["time_source"]``, with a warning). ``strict_time=True`` raises at the first
+stamp stepping back instead. The original stamps of the scans read are kept in
+``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them.
 """
 from __future__ import annotations
 
+import bisect
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -62,14 +73,14 @@ from pydantic import PositiveFloat, PositiveInt
 
 from slamarena.params import Field, Params, with_params
 
-from ..errors import DataFormatError
+from ..errors import DataFormatError, DataWarning
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
-from ._text import Lines, check_monotonic, fixed, numbers, read_lines, tags
+from ._text import Lines, binary_lines, check_monotonic, fixed, numbers, records
 
-__all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "JITTER_S"]
+__all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
 
-#: largest backward step of ipc timestamps treated as clock jitter (clamped), seconds
+#: largest distance of an ipc timestamp from its stream's clock treated as jitter (clamped), seconds
 JITTER_S = 1.0
 _NAME = re.compile(r"^[A-Z][A-Z0-9_\-]*$")
 
@@ -140,12 +151,58 @@ def _robotlaser(lines: Lines, rows: np.ndarray):
     return values, off + 8, n, laser, robot, ts, (start, res), max_range
 
 
-def _usable(ts: np.ndarray) -> bool:
-    """Stamps that are positive, finite, not all equal, and step back by at most :data:`JITTER_S`."""
-    if ts.size == 0:
-        return True
-    back = np.maximum.accumulate(ts) - ts
-    return bool(np.all(np.isfinite(ts)) and np.all(ts > 0) and back.max() <= JITTER_S and (ts.size == 1 or np.ptp(ts) > 0))
+def _longest_non_decreasing(t: np.ndarray) -> np.ndarray:
+    """Mask of a longest subsequence of ``t`` that never decreases (patience sorting, O(n log n))."""
+    tails: list[float] = []  # tails[k]: the smallest last value of a non-decreasing run of length k + 1 so far
+    ends: list[int] = []  # ends[k]: its index
+    prev = np.full(t.size, -1)
+    for i, x in enumerate(t.tolist()):
+        k = bisect.bisect_right(tails, x)
+        if k == len(tails):
+            tails.append(x)
+            ends.append(i)
+        else:
+            tails[k], ends[k] = x, i
+        prev[i] = ends[k - 1] if k else -1
+    on = np.zeros(t.size, dtype=bool)
+    i = ends[-1] if ends else -1
+    while i >= 0:
+        on[i] = True
+        i = prev[i]
+    return on
+
+
+def clock_faults(ts: np.ndarray) -> np.ndarray:
+    """Messages whose stamp is not on their stream's clock (mask): zero, negative or not finite, or more than
+    :data:`JITTER_S` before the clock's last stamp before it or after its first stamp after it. The clock is the
+    longest subsequence of the valid stamps that never steps back in file order."""
+    faults = ~(np.isfinite(ts) & (ts > 0))
+    valid = np.flatnonzero(~faults)
+    t = ts[valid]
+    if t.size == 0 or (np.maximum.accumulate(t) - t).max() <= JITTER_S:
+        return faults  # jitter at most: the running maximum is the clock
+    on = _longest_non_decreasing(t)
+    before = np.maximum.accumulate(np.where(on, t, -np.inf))
+    after = np.minimum.accumulate(np.where(on, t, np.inf)[::-1])[::-1]
+    faults[valid[~on & ((t < before - JITTER_S) | (t > after + JITTER_S))]] = True
+    return faults
+
+
+def _carries_time(ts: np.ndarray, faults: np.ndarray) -> bool:
+    """Most stamps of the stream are on its clock, and the clock advances (not all stamps alike)."""
+    good = ts[~faults]
+    return ts.size == 0 or (2 * good.size > ts.size and (good.size == 1 or np.ptp(good) > 0))
+
+
+def _dropped(path: str, rows: np.ndarray, reason: str) -> list[int]:
+    """The 1-based line numbers of the dropped ``rows``, announced by one warning naming the file and the first lines."""
+    numbers = (np.sort(rows) + 1).tolist()
+    if numbers:
+        shown = ", ".join(map(str, numbers[:5])) + (", …" if len(numbers) > 5 else "")
+        warnings.warn(f"{path}:{numbers[0]}: {len(numbers)} message(s) dropped, {reason} "
+                      f"({'line' if len(numbers) == 1 else 'lines'} {shown}; all in meta['dropped_lines'])",
+                      DataWarning)
+    return numbers
 
 
 def _params(lines: Lines, rows: np.ndarray) -> dict:
@@ -178,8 +235,10 @@ class CarmenParams(Params):
 @with_params(CarmenParams)
 def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) -> Sequence:
     """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
-    lines = read_lines(path)
-    tag = tags(lines)
+    lines, tag = records(path, "CARMEN messages")
+    garbage = binary_lines(lines)
+    tag[garbage] = ""
+    dropped = {"binary_garbage": _dropped(lines.path, garbage, "holding binary garbage")}
     present = [t for t in np.unique(tag) if t]
     for t in present:
         if not _NAME.match(t):
@@ -227,6 +286,35 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     if params.interlaced and params.beams is None:
         members |= _interlaced_with(chosen, n_l, start_l, step_l)
     keep = members[inverse]
+    dropped_other_layout = int((~keep).sum())
+
+    # --- time (per stream: its clock, jitter clamped by a running maximum, faults dropped; else the scan index)
+    meta: dict = {}
+    if params.strict_time:
+        check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
+        check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
+    timed = np.flatnonzero(keep)  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
+    scan_faults = clock_faults(scan_ts[timed])
+    odo_faults = clock_faults(odo_ts) if not params.corrected else np.zeros(len(odo), dtype=bool)
+    if _carries_time(scan_ts[timed], scan_faults) and (params.corrected or _carries_time(odo_ts, odo_faults)):
+        dropped["bad_timestamp"] = _dropped(lines.path, np.concatenate([scan_rows[timed[scan_faults]], odom_rows[odo_faults]]),
+                                            f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log")
+        keep[timed[scan_faults]] = False
+        odo, odo_ts, odom_rows = odo[~odo_faults], odo_ts[~odo_faults], odom_rows[~odo_faults]
+        scan_t = np.maximum.accumulate(scan_ts[keep])
+        odo_t = np.maximum.accumulate(odo_ts) if odo_ts.size else odo_ts
+        meta["time_source"] = "ipc_timestamp (running maximum within each message type)"
+        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum()))
+    else:
+        # the stamps carry no time: the scan index; each ODOM at the index of the next scan in file order
+        scan_t = np.arange(keep.sum(), dtype=float)
+        odo_t = np.searchsorted(scan_rows[keep], odom_rows).astype(float)
+        meta["time_source"] = "scan index (ipc timestamps zero, negative, alike or off their clock in most messages)"
+        meta["time_adjusted_messages"] = 0
+        dropped["bad_timestamp"] = []
+        warnings.warn(f"{lines.path}: the ipc timestamps carry no time (zero, negative, alike or off their clock in most "
+                      "messages): t is the scan index", DataWarning)
+
     B = int(n_l[members].max())
     base = float(start_l[members].min())
     angles = base + step_l[chosen] * np.arange(B)
@@ -238,24 +326,6 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     if members.sum() > 1:
         angle_offset = offset_l[inverse[keep]]
         beam_count = kept_n
-
-    # --- time (per stream: running maximum over jitter; else the scan index)
-    meta: dict = {}
-    if params.strict_time:
-        check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
-        check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
-    streams = [scan_ts[keep]] + ([odo_ts] if not params.corrected else [])
-    if all(_usable(ts) for ts in streams):
-        scan_t = np.maximum.accumulate(scan_ts[keep])
-        odo_t = np.maximum.accumulate(odo_ts) if odo_ts.size else odo_ts
-        meta["time_source"] = "ipc_timestamp (running maximum within each message type)"
-        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum()))
-    else:
-        # unusable stamps: the scan index; each ODOM at the index of the next scan in file order
-        scan_t = np.arange(keep.sum(), dtype=float)
-        odo_t = np.searchsorted(scan_rows[keep], odom_rows).astype(float)
-        meta["time_source"] = "scan index (ipc timestamps zero, negative or stepping back more than 1 s)"
-        meta["time_adjusted_messages"] = 0
 
     # --- poses, mount, motion
     mounts = between(robot_pose[keep], laser_pose[keep])
@@ -299,7 +369,8 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         "skipped_echo_odom": int(echo.sum()),
         "echo_odom_matching_scan_pose": echo_matches,
         "zero_time_odom": zero_odom_count,
-        "dropped_scans_other_layout": int((~keep).sum()),
+        "dropped_scans_other_layout": dropped_other_layout,
+        "dropped_lines": dropped,
         "interlaced": bool(members.sum() > 1),
         "beam_layouts": [{"beams": int(n_l[k]), "start": float(start_l[k]), "step": float(step_l[k]), "scans": int(counts[k]),
                           "chosen": bool(members[k]), "angle_offset": float(offset_l[k]) if members[k] else None}

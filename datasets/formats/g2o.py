@@ -27,7 +27,7 @@ from slamarena.params import Params, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import read_lines, record_values, tags, upper_triangle
+from ._text import record_values, records, upper_triangle
 from . import isam
 
 __all__ = ["read", "write", "load", "G2oParams", "RECORDS_2D", "RECORDS_3D"]
@@ -51,9 +51,8 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     ``ground_truth``: a noise-free iSAM file of the same poses (manhattan, city10000), whose
     odometry chain gives ``true_poses``.
     """
-    lines = read_lines(path)
-    tag = tags(lines)
     known = {**RECORDS_2D, **RECORDS_3D, **OTHER}
+    lines, tag = records(path, f"a g2o record ({', '.join(known)})")
     unknown = np.flatnonzero((tag != "") & ~np.isin(tag, list(known)))
     if unknown.size:
         k = int(unknown[0])

@@ -29,7 +29,7 @@ from ..errors import DataFormatError
 from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
-from ._text import read_lines, record_values, tags, upper_triangle, upper_triangular
+from ._text import record_values, records, upper_triangle, upper_triangular
 
 __all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load", "IsamParams", "NoiseConvention"]
 
@@ -61,8 +61,7 @@ class IsamRecords:
 
 def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE2", "LANDMARK")) -> IsamRecords:
     """Parse the ODOMETRY/EDGE2 and LANDMARK records (any other record type is an error)."""
-    lines = read_lines(path)
-    tag = tags(lines)
+    lines, tag = records(path, f"a record of type {' / '.join(allowed)}")
     unknown = np.flatnonzero((tag != "") & ~np.isin(tag, allowed))
     if unknown.size:
         k = int(unknown[0])

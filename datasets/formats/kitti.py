@@ -14,11 +14,11 @@ __all__ = ["read", "write"]
 
 
 def read(path: str | Path) -> np.ndarray:
-    """The points of one scan as an ``(N, 4)`` float32 array."""
-    data = np.fromfile(path, dtype="<f4")
-    if data.size % 4:
-        raise DataFormatError(path, None, "a multiple of 16 bytes (4 float32 per point)", f"{data.size * 4} bytes")
-    return data.reshape(-1, 4)
+    """The points of one scan as an ``(N, 4)`` float32 array, N ≥ 1."""
+    size = Path(path).stat().st_size
+    if size == 0 or size % 16:
+        raise DataFormatError(path, None, "a positive multiple of 16 bytes (4 float32 per point)", f"{size} bytes")
+    return np.fromfile(path, dtype="<f4").reshape(-1, 4)
 
 
 def write(path: str | Path, points: np.ndarray) -> None:

@@ -3,7 +3,7 @@
 :func:`read` returns the vertex properties as a dict ``name → (N,) array`` (in file order) and
 :func:`points` the ``(N, 3)`` x, y, z. Elements other than ``vertex`` are allowed after the
 vertices in ASCII files and ignored (counted in the result's ``"_ignored_elements"``); list
-properties are not supported (an error says so).
+properties are not supported (an error says so). A cloud without a vertex is an error.
 """
 from __future__ import annotations
 
@@ -61,6 +61,8 @@ def read(path: str | Path) -> dict:
     data = path.read_bytes()
     fmt, elements, start, header_lines = _header(path, data)
     _, n, props = elements[0]
+    if n == 0:
+        raise DataFormatError(path, None, "at least one vertex", "element vertex 0")
     if fmt == "binary_little_endian":
         dtype = np.dtype([(name, "<" + t) for name, t in props])
         need = n * dtype.itemsize

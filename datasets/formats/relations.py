@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFormatError
-from ._text import bodies_of, fixed, read_lines, tags
+from ._text import bodies_of, fixed, records
 
 __all__ = ["Relations", "read", "write"]
 
@@ -44,12 +44,11 @@ class Relations:
 
 
 def read(path: str | Path) -> Relations:
-    lines = read_lines(path)
-    tag = tags(lines)
+    lines, tag = records(path, "a relation: t1 t2 x y z roll pitch yaw")
     rows = np.flatnonzero(tag != "")
     first_numeric = np.array([_is_number(t) for t in tag[rows]], dtype=bool)
-    skip = rows.size > 0 and not first_numeric.any()
-    if rows.size and first_numeric.any() and not first_numeric.all():
+    skip = not first_numeric.any()
+    if first_numeric.any() and not first_numeric.all():
         k = int(rows[np.flatnonzero(~first_numeric)[0]])
         raise DataFormatError(lines.path, k + 1, "a relation: t1 t2 x y z roll pitch yaw", lines[k][:80])
     v = fixed(lines.path, bodies_of(lines, rows, 1 if skip else 0), rows + 1, 8, "a relation (t1 t2 x y z roll pitch yaw)")

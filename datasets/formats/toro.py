@@ -24,7 +24,7 @@ from slamarena.params import Params, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import read_lines, record_values, tags
+from ._text import record_values, records
 
 __all__ = ["read", "load", "ToroParams", "toro_information", "RECORDS"]
 
@@ -39,8 +39,7 @@ def toro_information(values: np.ndarray) -> np.ndarray:
 
 def read(path: str | Path, name: str | None = None) -> PoseGraph:
     """A TORO file as a :class:`PoseGraph`."""
-    lines = read_lines(path)
-    tag = tags(lines)
+    lines, tag = records(path, f"a TORO record ({', '.join(RECORDS)})")
     unknown = np.flatnonzero((tag != "") & ~np.isin(tag, list(RECORDS)))
     if unknown.size:
         k = int(unknown[0])

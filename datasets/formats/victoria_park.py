@@ -36,7 +36,7 @@ from ..posegraph import PoseGraph
 from ..sequence import Increments, Noise, RangeBearing, Sequence
 from . import isam
 
-__all__ = ["read", "read_graph", "load", "VictoriaParkParams", "Variant", "CONVENTION", "gtsam_copy"]
+__all__ = ["read", "read_graph", "load", "VictoriaParkParams", "Variant", "CONVENTION"]
 
 #: the two copies of the file
 Variant = Literal["isam", "gtsam"]
@@ -108,28 +108,16 @@ def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park
     return Sequence(name=name, motion=motion, range_bearing=rb, initial_pose=np.zeros(3), noise=noise, meta=meta)
 
 
-def gtsam_copy() -> Path:
-    """The copy of Victoria Park that ships with the GTSAM wheel (GTSAM's covariance variant)."""
-    import gtsam
-
-    return Path(gtsam.findExampleDataFile("victoria_park.txt"))
-
-
 class VictoriaParkParams(Params):
     """Options of the Victoria Park catalogue reader (:func:`load`)."""
 
-    variant: Variant = Field("gtsam", description="the copy to read: 'gtsam' (covariance noise columns; the GTSAM wheel's copy "
-                                                  "when not staged) or 'isam' (square-root information)")
+    variant: Variant = Field("gtsam", description="the copy to read: 'gtsam' (covariance noise columns; the GTSAM wheel ships "
+                                                  "it) or 'isam' (square-root information)")
     as_graph: bool = Field(False, description="a PoseGraph with landmark edges instead of a Sequence")
 
 
 @with_params(VictoriaParkParams)
 def load(paths: dict, name: str, /, *, params: VictoriaParkParams) -> Sequence | PoseGraph:
-    """Catalogue reader: the staged file of ``variant`` or, for ``"gtsam"``, the wheel's copy."""
-    variant = params.variant
-    path = paths.get(variant)
-    if path is None:
-        if variant != "gtsam":
-            raise FileNotFoundError(f"Victoria Park variant {variant!r} is not staged (only the gtsam copy ships with GTSAM)")
-        path = gtsam_copy()
-    return read_graph(path, variant, name) if params.as_graph else read(path, variant, name)
+    """Catalogue reader: roles ``gtsam`` and ``isam``, one file per variant (the data root finds the GTSAM wheel's copy of the first)."""
+    path = paths[params.variant]
+    return read_graph(path, params.variant, name) if params.as_graph else read(path, params.variant, name)

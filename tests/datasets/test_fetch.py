@@ -11,16 +11,21 @@ import pytest
 
 from slamarena.datasets import catalogue, fetch, load
 from slamarena.datasets.formats import isam
+from slamarena.datasets.formats._text import read_bytes
 from checks import staged
 
 
+def _upstream(rel: str) -> bytes:
+    """The upstream content of a staged file: decompressed where the stager compressed it (by the file's own suffix:
+    the GTSAM wheel's copy of a staged ``.gz`` is plain)."""
+    path = staged(rel)
+    return read_bytes(path) if fetch.FILES[rel][2] else path.read_bytes()
+
+
 def _serve_staged(url: str, output_file, pooch_obj=None):
-    """A pooch downloader that copies the staged file (decompressed where the stager compressed it)."""
+    """A pooch downloader that copies the staged file's upstream content."""
     rel = next(r for r, (up, _, _) in fetch.FILES.items() if url.endswith(up))
-    data = staged(rel).read_bytes()
-    if fetch.FILES[rel][2]:
-        data = gzip.decompress(data)
-    Path(output_file).write_bytes(data)
+    Path(output_file).write_bytes(_upstream(rel))
 
 
 @pytest.fixture
@@ -42,9 +47,8 @@ def test_every_catalogue_file_is_pinned_to_a_commit():
 
 @pytest.mark.realdata
 def test_pinned_hashes_match_the_staged_upstream_content():
-    for rel, (_, sha, compressed) in fetch.FILES.items():
-        data = staged(rel).read_bytes()
-        assert hashlib.sha256(gzip.decompress(data) if compressed else data).hexdigest() == sha, rel
+    for rel, (_, sha, _) in fetch.FILES.items():
+        assert hashlib.sha256(_upstream(rel)).hexdigest() == sha, rel
 
 
 @pytest.mark.realdata
@@ -59,7 +63,7 @@ def test_fetch_plain_file(offline):
 def test_fetch_recompresses_into_the_catalogue_layout(offline):
     (path,) = fetch.fetch("isam:w20000", force=True)
     assert path == offline / "gtsam_examples_data/w20000.txt.gz"
-    assert gzip.decompress(path.read_bytes()) == gzip.decompress(staged("gtsam_examples_data/w20000.txt.gz").read_bytes())
+    assert gzip.decompress(path.read_bytes()) == _upstream("gtsam_examples_data/w20000.txt.gz")
     assert np.array_equal(isam.read(path).edge_z, load("isam:w20000").edge_z)
 
 

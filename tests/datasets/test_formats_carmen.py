@@ -4,14 +4,16 @@ from __future__ import annotations
 import bz2
 import functools
 import gzip
+import re
 
 import numpy as np
 import pytest
 
-from slamarena.datasets import DataFormatError, Increments
+from slamarena.datasets import DataFormatError, DataWarning, Increments
 from slamarena.datasets.formats import carmen
+from slamarena.datasets.formats._text import read_bytes
 from slamarena.datasets.geometry import accumulate
-from checks import assert_rejected_naming, load_staged
+from checks import assert_rejected_naming, load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -168,3 +170,81 @@ def test_a_params_model_and_keywords_read_alike(tmp_path):
 @pytest.mark.parametrize("bad", [dict(max_range=0.0), dict(beams=0), dict(interlaced="maybe"), dict(max_rang=4.0)])
 def test_bad_or_unknown_options_name_the_field(tmp_path, bad):
     assert_rejected_naming(functools.partial(carmen.read, _log(tmp_path, GOOD)), **bad)
+
+
+def _steady_log(n: int = 20) -> list[str]:
+    """n ODOM and n FLASER messages at 5 Hz (ODOM k at 100 + 0.2 k s, its scan 0.1 s later), 0.1 m forward per step:
+    line 1 is a comment, ODOM k is on line 2k + 2 and its FLASER on line 2k + 3."""
+    lines = ["# a steady 5 Hz log"]
+    for k in range(n):
+        t, x = 100 + 0.2 * k, 0.1 * k
+        lines += [f"ODOM {x:.1f} 0 0 0 0 0 {t:.1f} host 0", f"FLASER 4 1 2 3 4 {x:.1f} 0 0 {x:.1f} 0 0 {t + 0.1:.1f} host 0"]
+    return lines
+
+
+def _shift_stamp(line: str, seconds: float) -> str:
+    tag, *fields = line.split()
+    fields[-3] = f"{float(fields[-3]) + seconds:.1f}"
+    return " ".join([tag, *fields])
+
+
+@pytest.mark.parametrize("line, shift", [(6, 50.0), (6, -50.0), (7, 50.0), (7, -50.0), (2, 50.0), (41, -50.0), (8, -100.5)])
+def test_one_stamp_out_of_order_drops_its_message_not_the_time_base(tmp_path, line, shift):
+    lines = _steady_log()
+    lines[line - 1] = _shift_stamp(lines[line - 1], shift)
+    path = _log(tmp_path, "\n".join(lines) + "\n")
+    with pytest.warns(DataWarning, match=re.escape(f"{path}:{line}: 1 message(s) dropped")):
+        s = carmen.read(path)
+    assert s.meta["dropped_lines"] == {"binary_garbage": [], "bad_timestamp": [line]}
+    assert s.meta["time_source"].startswith("ipc_timestamp") and s.meta["time_adjusted_messages"] == 0
+    assert 4.7 < s.summary()["scans"]["rate_hz"] < 5.3  # the log's own 5 Hz, not the scan index's 1 Hz
+    scan_lines = 2 * np.arange(20) + 3
+    assert len(s.scans) == 20 - (line in scan_lines) and np.all(np.diff(s.scans.t) > 0.15)
+    assert len(s.motion) == 19 - (line not in scan_lines)
+    np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], [1.9, 0, 0], atol=1e-12)  # the neighbours carry the motion
+
+
+@pytest.mark.parametrize("garbage", [b"#\xd61$\xd4V\xe1\x99\x9f\xd81\xc3", b"E\t\x06E\x89\x9c\xa7\x99\xe5", b"\x00" * 60, b"\x85\xa0\x1c\x1d",
+                                     b"FLASER 4 1 2 3 4 0.2 0 0 0.2 0 0 \x00\x00\x00\x00 host 0"])
+def test_a_line_of_binary_garbage_is_dropped_counted_and_warned(tmp_path, garbage):
+    lines = [line.encode() for line in _steady_log()]
+    lines[6] = garbage  # line 7, the FLASER of step 2
+    path = tmp_path / "log.clf"
+    path.write_bytes(b"\n".join(lines) + b"\n")
+    with pytest.warns(DataWarning, match=re.escape(f"{path}:7: 1 message(s) dropped, holding binary garbage")):
+        s = carmen.read(path)
+    assert s.meta["dropped_lines"] == {"binary_garbage": [7], "bad_timestamp": []}
+    assert s.meta["ignored_messages"] == {} and len(s.scans) == 19 and s.meta["time_source"].startswith("ipc_timestamp")
+
+
+@pytest.mark.parametrize("zeros, time_source", [(9, "ipc_timestamp"), (11, "scan index")])
+def test_only_a_log_whose_stamps_mostly_carry_no_time_goes_by_the_scan_index(tmp_path, zeros, time_source):
+    lines = _steady_log()
+    for k in range(zeros):  # ODOM stamps 0 (as corrected logs have them)
+        lines[2 * k + 1] = _shift_stamp(lines[2 * k + 1], -(100 + 0.2 * k))
+    with pytest.warns(DataWarning) as caught:
+        s = carmen.read(_log(tmp_path, "\n".join(lines) + "\n"))
+    assert s.meta["time_source"].startswith(time_source)
+    if zeros < 10:
+        assert s.meta["dropped_lines"]["bad_timestamp"] == [2 * k + 2 for k in range(zeros)] and len(s.motion) == 20 - zeros - 1
+    else:
+        assert "carry no time" in str(caught[0].message) and len(s.motion) == 19 and s.meta["dropped_lines"]["bad_timestamp"] == []
+
+
+def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel, tmp_path):
+    lines = read_bytes(staged("radish_laser_logs/intel.clf.bz2")).split(b"\n")
+    odom = [k for k, line in enumerate(lines) if line.startswith(b"ODOM ")][10000]
+    scan = [k for k, line in enumerate(lines) if line.startswith(b"FLASER ")]
+    lost = 5000
+    lines[odom] = _shift_stamp(lines[odom].decode(), 50.0).encode()
+    lines[scan[lost]] = bytes(range(256))[::3]
+    path = tmp_path / "intel.clf"
+    path.write_bytes(b"\n".join(lines))
+    with pytest.warns(DataWarning):
+        s = carmen.read(path, max_range=80.0)
+    assert s.meta["dropped_lines"] == {"binary_garbage": [scan[lost] + 1], "bad_timestamp": [odom + 1]}
+    assert s.meta["time_source"] == intel.meta["time_source"]
+    np.testing.assert_array_equal(s.meta["scan_ipc_timestamp"], np.delete(intel.meta["scan_ipc_timestamp"], lost))
+    assert len(s.motion) == len(intel.motion) - 1
+    np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], accumulate(intel.initial_pose, intel.motion.delta)[-1], atol=1e-9)
+    assert s.summary()["scans"]["rate_hz"] == pytest.approx(intel.summary()["scans"]["rate_hz"], rel=1e-3)

@@ -4,16 +4,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slamarena.datasets import DataFormatError, load
+from slamarena.datasets import DataFormatError
 from slamarena.datasets.formats import g2o, isam, toro
 from slamarena.datasets.geometry import compose
-from checks import staged
+from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
 
 def test_noisy_toy_graph_contents():
-    g = load("g2o:noisyToyGraph")
+    g = load_staged("g2o:noisyToyGraph")
     assert g.node_ids.tolist() == [0, 1, 2, 3] and g.n_edges == 5
     assert np.allclose(g.poses[1], [0.774115, 1.183389, 1.576173])
     assert np.allclose(g.poses[3], [-1.605649, 0.993891, -1.561134])
@@ -29,21 +29,21 @@ def test_noisy_toy_graph_contents():
      ("manhattan", 3500, 5453, 3499, False), ("city10000", 10000, 20687, 9999, True)],
 )
 def test_sesync_2d_counts(name, nodes, edges, odometry, has_vertices):
-    g = load(f"g2o:{name}")
+    g = load_staged(f"g2o:{name}")
     assert (g.n_nodes, g.n_edges, int(g.odometry_mask().sum())) == (nodes, edges, odometry)
     assert (g.poses is not None) == has_vertices
     assert g.initial_poses().shape == (nodes, 3)
 
 
 def test_intel_g2o_first_records():
-    g = load("g2o:intel")
+    g = load_staged("g2o:intel")
     assert np.allclose(g.poses[1], [0.144012, -0.004462, -0.017453])
     I = g.edge_information[0]
     assert np.allclose(I, [[115.187, -9.86523, -7.085], [-9.86523, 347.418, 185.36], [-7.085, 185.36, 224.616]])
 
 
 def test_parking_garage_3d():
-    g = load("g2o:parking-garage")
+    g = load_staged("g2o:parking-garage")
     assert g.dim == 3 and (g.n_nodes, g.n_edges) == (1661, 6275)
     assert np.allclose(g.edge_z[0], [4.15448, -0.0665288, 0.000389663, -0.0107791, 0.00867285, -0.00190021, 0.999902])
     I = g.edge_information[0]
@@ -52,14 +52,14 @@ def test_parking_garage_3d():
 
 
 def test_manhattan_ground_truth_from_isam_noise_free_file():
-    g = load("g2o:manhattan")
+    g = load_staged("g2o:manhattan")
     assert g.true_poses.shape == (3500, 3) and np.allclose(g.true_poses[:3], [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
     # the noisy odometry stays close to the truth over the first steps
     assert np.abs(g.chain_initialisation()[:20, :2] - g.true_poses[:20, :2]).max() < 0.5
 
 
 def test_isam_sqrt_information_and_ground_truth():
-    g = load("isam:cityTrees10000")
+    g = load_staged("isam:cityTrees10000")
     assert (g.n_nodes, g.n_edges, g.landmark_pose.size, np.unique(g.landmark_id).size) == (10000, 9999, 4443, 100)
     assert np.allclose(g.edge_information[0], np.diag([2500.0, 2500.0, 10000.0]))  # R = diag(50, 50, 100)
     assert np.allclose(g.landmark_information[0], np.eye(2) * 100.0)
@@ -76,13 +76,13 @@ def test_isam_sqrt_information_and_ground_truth():
 
 
 def test_manhattan_olson_loop_closures_consistent_with_truth():
-    g = load("isam:manhattanOlson3500")
+    g = load_staged("isam:manhattanOlson3500")
     assert (g.n_nodes, g.n_edges, int((~g.odometry_mask()).sum())) == (3500, 5598, 2099)
     assert np.allclose(g.edge_information[0], np.eye(3) * 44.72135955**2)
 
 
 def test_w20000_is_isam_convention():
-    g = load("isam:w20000")
+    g = load_staged("isam:w20000")
     assert (g.n_nodes, g.n_edges) == (20061, 26831)
     assert np.allclose(g.edge_information[0], np.diag([3.16228**2, 3.16228**2, 25.0]))
 
@@ -97,11 +97,11 @@ def test_isam_noise_option_as_a_params_model_or_keyword():
 
 
 def test_toro_w100_and_example_graph():
-    w = load("g2o:w100")
+    w = load_staged("g2o:w100")
     assert (w.n_nodes, w.n_edges, w.meta["equivalence_count"]) == (100, 300, 40)
     assert w.meta["equivalences"][0] == [21, 1]
     assert (w.edge_i[0], w.edge_j[0]) == (1, 0) and np.allclose(w.edge_information[0], np.eye(3))
-    e = load("g2o:example")
+    e = load_staged("g2o:example")
     assert (e.n_nodes, e.n_edges, e.landmark_pose.size) == (95, 94, 422) and e.landmark_kind == "bearing_range"
     assert np.allclose(e.landmark_z[0], [0.185182458717, 9.13212526936])
     assert np.allclose(e.landmark_information[0], np.diag([1 / 0.0349**2, 1 / 0.1**2]))
@@ -115,7 +115,7 @@ def test_toro_information_order(tmp_path):
 
 
 def test_g2o_round_trip(tmp_path):
-    g = load("g2o:intel")
+    g = load_staged("g2o:intel")
     g2o.write(tmp_path / "intel.g2o", g)
     back = g2o.read(tmp_path / "intel.g2o")
     for key in ("node_ids", "edge_i", "edge_j", "edge_z", "edge_information", "poses"):
@@ -123,7 +123,7 @@ def test_g2o_round_trip(tmp_path):
 
 
 def test_g2o_round_trip_with_landmarks(tmp_path):
-    g = load("victoria_park", variant="isam", as_graph=True)
+    g = load_staged("victoria_park", as_graph=True)
     g2o.write(tmp_path / "vp.g2o", g)
     back = g2o.read(tmp_path / "vp.g2o")
     assert np.array_equal(back.landmark_id, g.landmark_id) and np.array_equal(back.landmark_z, g.landmark_z)

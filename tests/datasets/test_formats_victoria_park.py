@@ -66,14 +66,15 @@ def test_pose_graph_view():
 
 def test_registry_default_is_gtsam_and_falls_back_to_the_gtsam_wheel(monkeypatch):
     pytest.importorskip("gtsam")
-    from slamarena.datasets import catalogue
+    from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot
 
     s = load("victoria_park")
     assert s.meta["variant"] == "gtsam"
-    monkeypatch.setattr(catalogue, "data_roots", lambda existing_only=True: [])
+    monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [])
+    assert catalogue.CATALOGUE["victoria_park"].present()
     s2 = load("victoria_park")
     assert "gtsam" in s2.meta["file"] and np.array_equal(s2.motion.delta, s.motion.delta)
-    with pytest.raises(FileNotFoundError):
+    with pytest.raises(DatasetNotFoundError, match="victoriaPark_isam.txt"):
         load("victoria_park", variant="isam")
 
 
