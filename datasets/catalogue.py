@@ -174,6 +174,8 @@ _CARMEN_RAW = {
     "mit-csail": ("radish_laser_logs/mit-csail.clf.bz2", 80.0, "MIT CSAIL building (C. Stachniss)"),
     "fr-clinic": ("radish_laser_logs/fr-clinic_robotlaser.clf.bz2", 80.0, "Freiburg University Hospital (AIS)"),
 }
+#: the Kümmerle et al. relations files staged beside the raw logs (radish_laser_logs/relations/SOURCE.md)
+_CARMEN_RELATIONS = {name: f"radish_laser_logs/relations/{name}.relations" for name in ("intel", "fr079", "mit-csail", "fr-clinic")}
 _CARMEN_CORRECTED = {
     "acapulco": 50.0, "aces": 50.0, "belgioioso": 80.0, "csail": 80.0, "edmonton": 50.0, "fhw": 50.0,
     "freiburg-079": 80.0, "freiburg-101": 80.0, "freiburg-campus": 80.0, "infinite-corridor": 50.0, "intel": 80.0,
@@ -198,9 +200,12 @@ def _graphs() -> dict[str, CatalogueEntry]:
 def _carmen() -> dict[str, CatalogueEntry]:
     out = {}
     for name, (rel, max_range, owner) in _CARMEN_RAW.items():
+        relations = _CARMEN_RELATIONS.get(name)
         out[f"carmen:{name}"] = CatalogueEntry(
-            f"carmen:{name}", "laser log 2D (scans + odometry), real", "none (relations files not staged)", (rel,),
-            "slamarena.datasets.formats.carmen:load", ("log",), {"max_range": max_range}, f"{owner}; {_RADISH}; {_KUEMMERLE}")
+            f"carmen:{name}", "laser log 2D (scans + odometry), real",
+            "relations (Kümmerle et al. 2009), where staged" if relations else "none", (rel, relations) if relations else (rel,),
+            "slamarena.datasets.formats.carmen:load", ("log", "relations") if relations else ("log",), {"max_range": max_range},
+            f"{owner}; {_RADISH}; {_KUEMMERLE}", optional=("relations",) if relations else ())
     for name, max_range in _CARMEN_CORRECTED.items():
         rel = f"carmen_corrected_logs/{name}-corrected.log.gz"
         out[f"carmen-corrected:{name}"] = CatalogueEntry(

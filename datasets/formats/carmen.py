@@ -59,7 +59,8 @@ changes the time base of the log. Only a log whose stamps carry no time — most
 clock, or all alike (several corrected logs stamp everything 0 or with one value) — gets ``t`` = the
 scan index (``meta["time_source"]``, with a warning). ``strict_time=True`` raises at the first
 stamp stepping back instead. The original stamps of the scans read are kept in
-``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them.
+``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them; the log's relations file, where one is
+staged or given (``relations``), is ``meta["relations"]``, which the relation metric scores by default.
 """
 from __future__ import annotations
 
@@ -230,6 +231,9 @@ class CarmenParams(Params):
     beams: PositiveInt | None = Field(None, description="keep only the most common layout with this many beams (no interlacing); None: the most common layout")
     interlaced: bool = Field(True, description="keep the layouts that interlace with the chosen one (angle_offset, beam_count)")
     strict_time: bool = Field(False, description="raise at the first timestamp stepping back instead of making stamps non-decreasing")
+    relations: Path | None = Field(
+        None, description="a relations file of this log (Kümmerle et al. 2009), recorded as meta['relations'] for the relation metric; "
+                          "None: the catalogue's staged one, if any")
 
 
 @with_params(CarmenParams)
@@ -383,11 +387,16 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         "odom_ipc_timestamp": odo_ts,
         "noise": "not stated by the log",
     })
+    if params.relations is not None:
+        meta["relations"] = str(params.relations)
     return Sequence(name=name or Path(path).name, motion=motion, scans=scans, ground_truth=truth,
                     initial_pose=initial, noise=Noise(), meta=meta)
 
 
 @with_params(CarmenParams)
 def load(paths: dict, name: str, /, *, params: CarmenParams) -> Sequence:
-    """Catalogue reader: role ``log``; the options (:class:`CarmenParams`) from the entry and the caller."""
+    """Catalogue reader: role ``log``, and the optional role ``relations`` (the staged relations file, used unless the
+    options name one); the options (:class:`CarmenParams`) from the entry and the caller."""
+    if params.relations is None and "relations" in paths:
+        params = params.model_copy(update={"relations": paths["relations"]})
     return read(paths["log"], name, params=params)

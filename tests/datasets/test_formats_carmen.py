@@ -12,6 +12,7 @@ import pytest
 from slamarena.datasets import DataFormatError, DataWarning, Increments
 from slamarena.datasets.formats import carmen
 from slamarena.datasets.formats._text import read_bytes
+from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import accumulate
 from checks import assert_rejected_naming, load_staged, staged
 
@@ -248,3 +249,18 @@ def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel,
     assert len(s.motion) == len(intel.motion) - 1
     np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], accumulate(intel.initial_pose, intel.motion.delta)[-1], atol=1e-9)
     assert s.summary()["scans"]["rate_hz"] == pytest.approx(intel.summary()["scans"]["rate_hz"], rel=1e-3)
+
+
+def test_a_staged_relations_file_comes_with_its_log_and_the_metric_uses_it(tmp_path):
+    from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
+
+    relations = staged("radish_laser_logs/relations/mit-csail.relations")
+    seq = load_staged("carmen:mit-csail")
+    assert seq.meta["relations"] == str(relations)
+    est = Estimate("scan poses", seq.scans.t, seq.scans.pose)
+    scores, _ = relation_error_from_file(est, seq, RelationsParams())  # no file named: the dataset's
+    assert scores["used"] == 1172
+    mine = tmp_path / "mine.relations"
+    mine.write_text(relations.read_text().splitlines()[0] + "\n")
+    assert load_staged("carmen:mit-csail", relations=mine).meta["relations"] == str(mine)
+    assert "relations" not in load_staged("carmen:aces").meta
