@@ -40,7 +40,7 @@ from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
-__all__ = ["ExperimentConfig", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
+__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
 FIGURES = ("trajectories", "errors", "nees", "scaling")
@@ -189,6 +189,25 @@ class TableSpec(BaseModel):
         return require_plain(name, "table name", kind="file")
 
 
+class PublishedRow(BaseModel):
+    """A reference row quoted from a paper, printed beside ours in every table that has its columns."""
+
+    model_config = ConfigDict(extra="forbid")
+    label: str = Field(description="the method as the paper names it, e.g. 'graph mapping (Kümmerle 2009)'")
+    citation: str = Field(description="where the numbers are printed (paper, table)")
+    values: dict[str, dict[str, float]] = Field(description="dataset label → column (<metric>.<output>) → the published value")
+
+    @field_validator("values")
+    @classmethod
+    def _known_columns(cls, values):
+        known = output_columns()
+        for dataset, columns in values.items():
+            for c in columns:
+                if c not in known:
+                    raise ValueError(f"values.{dataset}: unknown column {c!r}; columns are <metric>.<output>")
+        return values
+
+
 class ExperimentConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: str
@@ -199,6 +218,7 @@ class ExperimentConfig(BaseModel):
     metrics: MetricsSpec = Field(default_factory=_default_metrics)  # type: ignore[valid-type]
     tables: list[TableSpec] = Field(default_factory=list)
     figures: list[Literal["trajectories", "errors", "nees", "scaling"]] = list(FIGURES)
+    published: list[PublishedRow] = Field(default_factory=list, description="reference rows quoted from papers, shown beside ours")
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
 
@@ -237,6 +257,10 @@ class ExperimentConfig(BaseModel):
             unknown = sorted(set(es.datasets or []) - set(labels))
             if unknown:
                 raise ValueError(f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
+        for k, row in enumerate(self.published):
+            unknown = sorted(set(row.values) - set(labels))
+            if unknown:
+                raise ValueError(f"published.{k} ({row.label}) names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
         enabled = {k for k, v in self.metrics if v is not None}
         for k, table in enumerate(self.tables):
             missing = sorted({c.split(".")[0] for c in table.columns} - enabled)

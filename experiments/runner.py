@@ -387,7 +387,7 @@ def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path)
 
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
     tables = config.tables or [{"name": "summary", "columns": default_columns(config.enabled_metrics())}]
-    written = write_tables(frame, tables, out / "tables")
+    written = write_tables(frame, tables, out / "tables", config.published)
     mc_frame = monte_carlo_table(config, cells)
     if len(mc_frame):
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")

@@ -61,9 +61,34 @@ def aggregate(frame: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, pd
     return means, stds, best
 
 
+PUBLISHED = " (published)"
+
+
+def with_published(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, published) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Append the published reference rows (config ``published:``) for the datasets and columns of a table: each
+    row ``(dataset, "<label> (published)")`` with the quoted values, n = 0, never marked best, after our rows of
+    that dataset."""
+    rows = []
+    for row in published:
+        spec = row if isinstance(row, dict) else row.model_dump()
+        for dataset, values in spec["values"].items():
+            shown = {c: v for c, v in values.items() if c in best.columns}
+            if shown:
+                rows.append(((dataset, spec["label"] + PUBLISHED), shown))
+    if not rows:
+        return means, stds, best
+    index = pd.MultiIndex.from_tuples([key for key, _ in rows], names=means.index.names)
+    extra = pd.DataFrame([{**values, "n": 0} for _, values in rows], index=index).reindex(columns=means.columns)
+    means = pd.concat([means, extra])
+    stds = pd.concat([stds, pd.DataFrame(np.nan, index=index, columns=stds.columns)])
+    best = pd.concat([best, pd.DataFrame(False, index=index, columns=best.columns)])
+    order = sorted(range(len(means)), key=lambda k: (list(dict.fromkeys(means.index.get_level_values(0))).index(means.index[k][0]), k))
+    return means.iloc[order], stds.iloc[order], best.iloc[order]
+
+
 def _cells(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, mark) -> pd.DataFrame:
     out = pd.DataFrame(index=means.index)
-    out["n"] = means["n"].astype(int).astype(str)
+    out["n"] = [str(int(n)) if n else "–" for n in means["n"]]
     for col in best.columns:
         texts = []
         for idx in means.index:
@@ -98,35 +123,39 @@ def _latex(cells: pd.DataFrame, text_columns: int = 2) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_markdown(means, stds, best) -> str:
-    """The table, then what each column is (from the metric's outputs)."""
+def to_markdown(means, stds, best, published=()) -> str:
+    """The table, then what each column is (from the metric's outputs) and where published rows come from."""
     described = output_columns()
     legend = "".join(f"- `{c}`: {described[c][1]}\n" for c in best.columns if c in described)
-    return _markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold.\n\n" + legend
+    sources = "".join(f"- {r['label']}{PUBLISHED}: {r['citation']}\n" for r in (p if isinstance(p, dict) else p.model_dump() for p in published)
+                      if any(r["label"] + PUBLISHED == e for e in means.index.get_level_values(1)))
+    return (_markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold"
+            + ("; rows marked (published) quote the paper, n –" if sources else "") + ".\n\n" + legend + sources)
 
 
-def to_latex(means, stds, best) -> str:
+def to_latex(means, stds, best, published=()) -> str:
     cells = _cells(means, stds, best, lambda s: f"\\textbf{{{s}}}")
     return _latex(cells.map(lambda v: str(v).replace(" ± ", r" $\pm$ ").replace("–", "--")))
 
 
-def to_csv(means, stds, best) -> str:
+def to_csv(means, stds, best, published=()) -> str:
     cells = _cells(means, stds, best, lambda s: f"{s}*")
     raw = pd.concat([means.drop(columns="n").add_suffix("_mean"), stds.add_suffix("_std")], axis=1).reset_index(drop=True)
     return pd.concat([cells, raw], axis=1).to_csv(index=False)
 
 
-def write_tables(frame: pd.DataFrame, tables, directory: Path) -> list[Path]:
-    """Write each table spec (``name``, ``columns``, ``formats``) in its formats; returns the paths."""
+def write_tables(frame: pd.DataFrame, tables, directory: Path, published=()) -> list[Path]:
+    """Write each table spec (``name``, ``columns``, ``formats``) in its formats, with the published reference rows
+    that quote its columns (:func:`with_published`); returns the paths."""
     directory = Path(directory)
     written = []
     for spec in tables:
         spec = spec if isinstance(spec, dict) else spec.model_dump()
-        means, stds, best = aggregate(frame, spec["columns"])
+        means, stds, best = with_published(*aggregate(frame, spec["columns"]), published)
         render = {"md": to_markdown, "csv": to_csv, "tex": to_latex}
         for fmt in spec.get("formats", ["md", "csv", "tex"]):
             path = directory / f"{spec['name']}.{fmt}"
-            atomic_write_text(path, render[fmt](means, stds, best))
+            atomic_write_text(path, render[fmt](means, stds, best, published))
             written.append(path)
     return written
 

@@ -120,3 +120,27 @@ def test_every_shipped_config_is_valid():
         from slamarena.experiments.config import ExperimentConfig
 
         ExperimentConfig.model_validate(yaml.safe_load(p.read_text()))
+
+
+def test_published_rows_are_checked_and_printed_beside_ours_never_best(tmp_path):
+    import pandas as pd
+
+    from slamarena.experiments.tables import to_markdown, with_published, aggregate
+
+    text = GOOD + """published:
+  - label: graph mapping (Kümmerle 2009)
+    citation: Kümmerle et al., Auton. Robots 27(4), 2009, Table 2
+    values: {sim_landmarks: {ate.rmse: 0.001}}
+"""
+    cfg = load_config(_write(tmp_path, text))
+    frame = pd.DataFrame([{"dataset": "sim_landmarks", "estimator": e, "seed": s, "status": "ok", "ate.rmse": v, "cost.wall": 1.0}
+                          for e, vals in (("a", (0.2, 0.3)), ("b", (0.5, 0.4))) for s, v in enumerate(vals)])
+    means, stds, best = with_published(*aggregate(frame, ["ate.rmse", "cost.wall"]), cfg.published)
+    md = to_markdown(means, stds, best, cfg.published)
+    assert "| sim_landmarks | graph mapping (Kümmerle 2009) (published) | – | 0.001 | – |" in md
+    assert "| sim_landmarks | a | 2 | **0.25 ± 0.0707** |" in md  # ours is best although the quoted row is lower
+    assert "Kümmerle et al., Auton. Robots 27(4), 2009, Table 2" in md
+    for bad, message in ((("sim_landmarks: {ate.rmse", "utias_6_robot9: {ate.rmse"), "names unknown dataset labels"),
+                         (("{ate.rmse: 0.001}", "{ate.nope: 0.001}"), "unknown column 'ate.nope'")):
+        with pytest.raises(ConfigError, match=message):
+            load_config(_write(tmp_path, text.replace(*bad)))
