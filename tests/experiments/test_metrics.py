@@ -262,6 +262,12 @@ def test_relation_error_known_answer():
     assert interp["used"] == len(i) and interp["trans_mean"] < 1e-12
     # …whereas the nearest pose is a whole step away from the mid-point: a visible error
     assert relation_error(Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(tolerance=0.06))[0]["trans_mean"] > 1e-3
+    # local relations (stamps closer than local_span) are scored apart from the others
+    a, b = np.arange(0, 100, 10), np.arange(0, 100, 10) + np.where(np.arange(10) < 6, 5, 150)  # 6 short spans, 4 long ones
+    short = (t[b] - t[a]) < (t[155] - t[0]) / 2
+    ref = np.where(short[:, None], between(gt[a], gt[b]), compose(between(gt[a], gt[b]), np.array([0.1, 0.0, 0.0])))
+    split = relation_error(Estimate("x", t, gt), t[a], t[b], ref, RelationsParams(local_span=float((t[155] - t[0]) / 2)))[0]
+    assert split["local"] == 6 and split["local_trans_mean"] < 1e-12 and split["global_trans_mean"] == pytest.approx(0.1)
 
 
 def test_cost_and_evaluate_records_skipped_metrics():
