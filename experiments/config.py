@@ -70,6 +70,14 @@ def method_table() -> dict[str, str]:
     return {**ESTIMATORS, **MAPPERS}
 
 
+def method_requires() -> dict[str, tuple[frozenset[str], ...]]:
+    """Every method's needed input streams (the registries' ``REQUIRES``)."""
+    from slamarena.estimators import REQUIRES as ESTIMATORS
+    from slamarena.mapping import REQUIRES as MAPPERS
+
+    return {**ESTIMATORS, **MAPPERS}
+
+
 def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = ()) -> dict:
     """``params`` validated by the ``Params`` model ``target`` declares (:mod:`slamarena.params`), as its
     canonical JSON form with every default filled in; a ValueError naming each offending ``params.<field>``."""
@@ -257,6 +265,18 @@ class ExperimentConfig(BaseModel):
             unknown = sorted(set(es.datasets or []) - set(labels))
             if unknown:
                 raise ValueError(f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
+        requires = method_requires()
+        from slamarena.datasets.streams import streams_of
+
+        for k, es in enumerate(self.estimators):
+            for label, ds in zip(labels, self.datasets):
+                if es.datasets is not None and label not in es.datasets:
+                    continue
+                have = streams_of(ds.name)
+                missing = [" or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have]
+                if missing:
+                    raise ValueError(f"estimators.{k} ({es.name}) cannot run on dataset {label!r}: it needs {' and '.join(missing)}, which "
+                                     f"{ds.name} does not provide ({', '.join(sorted(have))}); restrict it with 'datasets: [...]'")
         for k, row in enumerate(self.published):
             unknown = sorted(set(row.values) - set(labels))
             if unknown:

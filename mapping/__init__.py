@@ -9,3 +9,6 @@ REGISTRY: dict[str, str] = {
     "grid_slam": "slamarena.mapping.grid_slam:GridSLAM",
     "laser_slam": "slamarena.mapping.laser_slam:LaserSLAM",
 }
+
+#: method → the input streams it needs (as ``slamarena.estimators.REQUIRES``)
+REQUIRES: dict[str, tuple[frozenset[str], ...]] = {name: (frozenset({"scans"}),) for name in REGISTRY}

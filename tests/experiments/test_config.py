@@ -144,3 +144,13 @@ def test_published_rows_are_checked_and_printed_beside_ours_never_best(tmp_path)
                          (("{ate.rmse: 0.001}", "{ate.nope: 0.001}"), "unknown column 'ate.nope'")):
         with pytest.raises(ConfigError, match=message):
             load_config(_write(tmp_path, text.replace(*bad)))
+
+
+def test_a_method_is_refused_on_a_dataset_without_the_streams_it_needs(tmp_path):
+    text = GOOD.replace("  - name: sim:landmarks\n", "  - name: sim:localization\n    params: {duration: 5.0}\n  - name: sim:landmarks\n")
+    with pytest.raises(ConfigError, match="estimators.0 \\(ekf_slam\\) cannot run on dataset 'sim_localization': it needs range_bearing"):
+        load_config(_write(tmp_path, text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam")))
+    with pytest.raises(ConfigError, match="needs scans"):
+        load_config(_write(tmp_path, GOOD.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: grid_slam")))
+    restricted = text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam\n    datasets: [sim_landmarks]")
+    assert load_config(_write(tmp_path, restricted)).estimators[0].name == "ekf_slam"
