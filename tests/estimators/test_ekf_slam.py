@@ -7,11 +7,13 @@ from pydantic import ValidationError
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
-from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence
+from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence, Trajectory, Twist
+from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError, EKFSLAMParams
 from slamarena.estimators.ekf_slam.filter import Linearisation
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 from slamarena.estimators.models import MOTION_MODELS, inverse_observe, observe
+from slamarena.estimators.stepping import twist_pieces
 
 
 @pytest.fixture(scope="module")
@@ -163,6 +165,7 @@ def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
     nis = est.diagnostics["nis"]
     assert abs(nis.mean() - 2.0) < 0.3 and np.all(est.diagnostics["nis_dof"] == 2)
     assert est.step_time.shape == est.t.shape and est.pose_cov.shape == (est.t.size, 3, 3)
+    assert np.all(np.diff(est.t) > 0)  # one pose per stamp (the TUM format and evo require it)
 
 
 def test_run_with_odometry_increments():
@@ -180,6 +183,85 @@ def test_run_with_odometry_increments():
     np.testing.assert_allclose(b.pose_cov[-1], a.pose_cov[-1], atol=1e-12)
     np.testing.assert_array_equal(b.landmark_ids, a.landmark_ids)
     np.testing.assert_allclose(b.landmarks, a.landmarks, atol=1e-9)
+
+
+def _gapped(seq: Sequence) -> Sequence:
+    """``seq``'s Twist input with every fifth row dropped (the robot stands still in the gaps) and an observation
+    set at every seventh stamp only (chains of several rows between them); no ground truth."""
+    mo, rb = seq.motion, seq.range_bearing
+    keep = np.arange(len(mo)) % 5 != 2
+    sel = np.isin(rb.t, np.unique(rb.t)[::7])
+    return Sequence(name="gapped", motion=Twist(t=mo.t[keep], v=mo.v[keep], omega=mo.omega[keep], dt=mo.dt[keep]),
+                    range_bearing=RangeBearing(rb.t[sel], rb.range[sel], rb.bearing[sel], rb.landmark_id[sel]),
+                    initial_pose=seq.start_pose, noise=seq.noise)
+
+
+def _as_increments(seq: Sequence) -> Sequence:
+    """The same motion as odometry increments stamped at the end of each Twist row, with their covariance."""
+    mo, model = seq.motion, MOTION_MODELS["arc"]
+    V = model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]
+    return Sequence(name="increments", motion=Increments(t=mo.t + mo.dt, delta=model.increment(mo.v, mo.omega, mo.dt),
+                                                         cov=V @ seq.noise.twist_cov @ V.transpose(0, 2, 1)),
+                    range_bearing=seq.range_bearing, initial_pose=seq.start_pose, noise=seq.noise)
+
+
+def _by_hand(ekf: EKFSLAM, seq: Sequence) -> dict:
+    """{stamp: (pose, 3 × 3 covariance)} of the step interface driven event by event: motion piece by piece up to
+    each event, an observation set's update at its stamp; the last state at a stamp (the posterior) is kept."""
+    ekf.reset(seq)
+    t_now, at = seq.t0, {}
+    for e in seq.events():
+        if isinstance(seq.motion, Twist):
+            for v, w, dt in zip(*twist_pieces(seq.motion, t_now, e.t)):
+                ekf.predict((v, w), dt)
+        elif e.stream == "motion":
+            ekf.predict_increment(seq.motion.delta[e.start], seq.motion.cov[e.start])
+        if e.stream == "range_bearing":
+            ekf.update(seq.range_bearing.z[e.start:e.stop])
+        t_now = e.t
+        at[e.t] = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
+    return at
+
+
+@pytest.mark.parametrize("motion", ["twist", "increments"])
+def test_the_pose_recorded_at_each_stamp_is_the_filter_pose_there(sim, motion):
+    """run(): one pose per stamp (strictly increasing t), the filter's posterior at that stamp; pose[0] is the start."""
+    seq = _gapped(sim) if motion == "twist" else _as_increments(_gapped(sim))
+    kw = dict(initial_cov=[0.01, 0.02, 0.003])
+    est = EKFSLAM(**kw).run(seq)
+    at = _by_hand(EKFSLAM(**kw), seq)
+    assert np.all(np.diff(est.t) > 0)
+    np.testing.assert_array_equal(est.t, sorted(at))
+    np.testing.assert_allclose(est.poses, [at[t][0] for t in est.t], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(est.pose_cov, [at[t][1] for t in est.t], rtol=0, atol=1e-12)
+    if motion == "twist":  # the first event is the first row's stamp: nothing has moved yet
+        np.testing.assert_array_equal(est.poses[0], sim.start_pose)
+        np.testing.assert_array_equal(est.pose_cov[0], np.diag(kw["initial_cov"]))
+
+
+def test_without_observations_the_trajectory_is_dead_reckoning(sim):
+    """Odometry only (with gaps): the filter's poses and covariances are dead reckoning's at the same stamps."""
+    seq = Sequence(name="odometry", motion=_gapped(sim).motion, initial_pose=sim.start_pose, noise=sim.noise)
+    est, dr = EKFSLAM().run(seq), DeadReckoning().run(seq)
+    np.testing.assert_array_equal(est.t, seq.motion.t)
+    k = np.searchsorted(dr.t, est.t)
+    np.testing.assert_array_equal(dr.t[k], est.t)
+    d = est.poses - dr.poses[k]
+    d[:, 2] = wrap_angle(d[:, 2])
+    assert np.abs(d).max() < 1e-9
+    np.testing.assert_allclose(est.pose_cov, dr.pose_cov[k], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("motion", ["twist", "increments"])
+def test_ideal_jacobians_use_the_true_pose_at_the_start_of_each_piece(sim, motion):
+    """Odometry only, the truth = the noise-free odometry path: the ideal EKF linearises where the standard one does."""
+    twist = Sequence(name="odometry", motion=(_gapped(sim) if motion == "twist" else sim).motion, initial_pose=sim.start_pose, noise=sim.noise)
+    dr = DeadReckoning().run(twist)  # the pose at every row stamp and at the end of the last row
+    odometry = twist if motion == "twist" else _as_increments(twist)
+    seq = Sequence(name="truth is odometry", motion=odometry.motion, ground_truth=Trajectory(dr.t, dr.poses), landmarks=sim.landmarks,
+                   initial_pose=sim.start_pose, noise=sim.noise)
+    ideal, standard = EKFSLAM(jacobians="ideal").run(seq), EKFSLAM().run(seq)
+    np.testing.assert_allclose(ideal.pose_cov, standard.pose_cov, rtol=1e-9, atol=1e-15)
 
 
 def test_bad_measurements_are_rejected_and_counted():
