@@ -10,6 +10,7 @@ from slamarena.datasets.geometry import interpolate_poses, wrap_angle
 from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence, Trajectory, Twist
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError, EKFSLAMParams
+from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.ekf_slam.filter import Linearisation
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 from slamarena.estimators.models import MOTION_MODELS, inverse_observe, observe
@@ -264,6 +265,58 @@ def test_ideal_jacobians_use_the_true_pose_at_the_start_of_each_piece(sim, motio
     np.testing.assert_allclose(ideal.pose_cov, standard.pose_cov, rtol=1e-9, atol=1e-15)
 
 
+def _mapped(**kw) -> EKFSLAM:
+    """A filter that has mapped landmarks 0 and 1 and moved since."""
+    ekf = EKFSLAM(initial_cov=[0.01, 0.01, 0.001], **kw)
+    ekf.update(np.array([[5.0, 0.3, 0], [4.0, -0.5, 1]]))
+    ekf.predict((1.0, 0.1), 0.5)
+    return ekf
+
+
+def _assert_unchanged(ekf: EKFSLAM, before: tuple) -> None:
+    np.testing.assert_array_equal(ekf.x, before[0])
+    np.testing.assert_array_equal(ekf.P, before[1])
+    np.testing.assert_array_equal(ekf.landmark_ids, before[2])
+
+
+@pytest.mark.parametrize("jacobians", ["standard", "fej"])
+def test_a_failing_prediction_leaves_the_state_as_it_was(jacobians):
+    """Controls whose prediction is not finite raise before anything changes; the filter then goes on as if never called."""
+    ekf, twin = _mapped(jacobians=jacobians), _mapped(jacobians=jacobians)
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    cov = 1e-4 * np.eye(3)
+    bad = [lambda: ekf.predict((1e300, 0.0), 0.1),                                  # δ finite, G P Gᵀ overflows
+           lambda: ekf.predict((1.0, 0.0), 1e300),
+           lambda: ekf.predict_twists([1.0, 1e200, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1]),  # the second of three pieces
+           lambda: ekf.predict((np.nan, 0.0), 0.1), lambda: ekf.predict((1.0, 0.0), 0.0),
+           lambda: ekf.predict_increment([1e300, 0.0, 0.0], cov), lambda: ekf.predict_increment([0.1, 0.0, np.inf], cov),
+           lambda: ekf.predict_increments([[0.1, 0.0, 0.0]], [np.diag([1e-4, np.nan, 1e-4])])]
+    for call in bad:
+        with pytest.raises(ValueError):
+            call()
+        _assert_unchanged(ekf, before)
+    for f in (ekf, twin):
+        f.predict((1.0, 0.2), 0.1)
+        f.update(np.array([[4.6, 0.2, 0], [3.5, -0.6, 1]]))
+    np.testing.assert_array_equal(ekf.x, twin.x)
+    np.testing.assert_array_equal(ekf.P, twin.P)
+
+
+@pytest.mark.parametrize("update", ["sequential", "batch"])
+def test_absurd_measurements_are_rejected_counted_and_change_nothing(update):
+    """Even without a gate: a range whose d² overflows, or whose new landmark's covariance overflows, is rejected."""
+    ekf = _mapped(known_confidence=None, update=update)
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    for z in ([1e300, 0.2, 0], [1e200, 0.2, 7], [1e300, 0.2, -1]):  # mapped landmark, a new id, an unlabelled row
+        ekf.update(np.array([z]))
+        _assert_unchanged(ekf, before)
+        assert ekf.assoc_log[-1][0] == Decision.REJECTED
+    assert ekf.rejected["nonfinite"] == 3
+    ekf.update(np.array([[4.6, 0.2, 0], [1e300, 0.2, 1]]))  # a good row of the same set is applied
+    assert ekf.rejected["nonfinite"] == 4 and not np.array_equal(ekf.x, before[0])
+    assert [d for d, *_ in ekf.assoc_log[-2:]] == [Decision.MATCHED, Decision.REJECTED]
+
+
 def test_bad_measurements_are_rejected_and_counted():
     ekf = EKFSLAM()
     z = np.array([[5.0, 0.1, 0], [np.nan, 0.2, 1], [np.inf, 0.0, 2], [-1.0, 0.3, 3], [4.0, np.nan, 4], [3.0, 0.5, 5]])
@@ -352,6 +405,22 @@ def test_loss_of_positive_definiteness_is_detected():
     rec._s.P[3, 3] = rec._s.P[4, 4] = -1.0
     rec.update(np.array([[5.0, 0.1, 0]]))
     assert rec.rejected["indefinite"] >= 1
+
+
+@pytest.mark.parametrize("on_indefinite", ["raise", "record"])
+def test_an_update_that_would_make_P_indefinite_changes_nothing(on_indefinite):
+    """Landmark 1's block is indefinite (positive diagonal): an update of landmark 0 (S positive definite) is checked before it is applied."""
+    ekf = _mapped(known_confidence=None, on_indefinite=on_indefinite)
+    ekf._s.P[5, 6] = ekf._s.P[6, 5] = 2.0 * np.sqrt(ekf.P[5, 5] * ekf.P[6, 6])
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    z = np.array([[4.6, 0.2, 0]])
+    if on_indefinite == "raise":
+        with pytest.raises(CovarianceError, match="landmark slot 1"):
+            ekf.update(z)
+    else:
+        ekf.update(z)
+        assert ekf.rejected["indefinite"] == 1 and ekf.assoc_log[-1][0] == Decision.REJECTED
+    _assert_unchanged(ekf, before)
 
 
 def test_step_interface_defaults_and_noise_from_sequence():
