@@ -76,9 +76,11 @@ Linearisation points (``jacobians=``):
 
 Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
 −1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
-(:mod:`.association`), decided on the estimate before the set is applied. Optionally
-(``known_confidence``) labelled rows are χ²-gated too, rejecting outliers of real sensors; a
-labelled row whose d² is not finite is always rejected.
+(:mod:`.association`), decided on the estimate before the set is applied. A labelled row of a
+mapped landmark is χ²-gated too: applied only if ``d² = νᵀ S⁻¹ ν < χ²₂(known_confidence)``
+(default 0.99999, so a true observation with the stated noise is rejected with probability
+1e-5; an outlier of a real sensor is not applied). ``known_confidence=None`` removes the gate
+(the notes' filter, for oracle comparisons); a row whose d² is not finite is still rejected.
 
 Bad input. Every step computes its result, checks it, and only then changes the state, so a
 rejected or failing step leaves x and P exactly as they were:
@@ -215,8 +217,9 @@ class EKFSLAMParams(Params):
                              "at 0.99999 a true re-observation lands beyond it with probability 1e-5")
     jcbb_confidence: Confidence = Field(0.95, description="χ²_2k gate of a joint hypothesis of k pairings in JCBB")
     known_confidence: Confidence | None = Field(
-        None, description="None: rows with a known id are applied if their d² is finite (as in the notes); else a labelled row of a mapped "
-                          "landmark whose d² exceeds χ²₂(known_confidence) is rejected as an outlier")
+        0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
+                             "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
+                             "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
     jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
         None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")

@@ -48,7 +48,8 @@ ORACLE_CASES = [
 @pytest.mark.parametrize("kw", ORACLE_CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()) or "default")
 def test_efficient_filter_matches_literal_dense_reference(sim, kw):
     """Several hundred predict/update steps with known association: x and P agree to 1e-9."""
-    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw)
+    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov,
+                  known_confidence=None, **kw)  # the reference has no gate
     ref_kw = {k: v for k, v in kw.items() if k in ("motion_model", "motion_noise", "covariance_update", "init", "init_cov", "update")}
     if "Cx" in kw:
         ref_kw["Cx"] = np.diag(kw["Cx"])
@@ -167,6 +168,7 @@ def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
     assert abs(nis.mean() - 2.0) < 0.3 and np.all(est.diagnostics["nis_dof"] == 2)
     assert est.step_time.shape == est.t.shape and est.pose_cov.shape == (est.t.size, 3, 3)
     assert np.all(np.diff(est.t) > 0)  # one pose per stamp (the TUM format and evo require it)
+    assert est.meta["rejected"] == 0  # the default gate on labelled rows rejects no observation of the simulator
 
 
 def test_run_with_odometry_increments():
@@ -315,6 +317,36 @@ def test_absurd_measurements_are_rejected_counted_and_change_nothing(update):
     ekf.update(np.array([[4.6, 0.2, 0], [1e300, 0.2, 1]]))  # a good row of the same set is applied
     assert ekf.rejected["nonfinite"] == 4 and not np.array_equal(ekf.x, before[0])
     assert [d for d, *_ in ekf.assoc_log[-2:]] == [Decision.MATCHED, Decision.REJECTED]
+
+
+def test_labelled_outliers_are_gated_by_default():
+    """A labelled range ×100 is rejected (logged, counted in run()'s diagnostics) and changes nothing; None applies it."""
+    gated, ungated = _mapped(), _mapped(known_confidence=None)
+    assert gated.params.known_confidence is not None
+    z = np.array([[observe(gated.x[:3], gated.x[3:5])[0] * 100, 0.3, 0]])
+    before = gated.x.copy(), gated.P.copy(), gated.landmark_ids
+    gated.update(z)
+    _assert_unchanged(gated, before)
+    assert gated.assoc_log[-1][0] == Decision.REJECTED and gated.assoc_log[-1][2] > gated.gate_known
+    ungated.update(z)
+    assert ungated.assoc_log[-1][0] == Decision.MATCHED and np.abs(ungated.x[:2] - before[0][:2]).max() > 1.0
+    # in a run: one range ×100 among the simulator's observations
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=3)
+    rb, k = seq.range_bearing, seq.range_bearing.t.size // 2
+    r = rb.range.copy()
+    r[k] *= 100
+    keep = np.arange(r.size) != k
+
+    def with_rows(rows, r):
+        return Sequence(name="outlier", motion=seq.motion, range_bearing=RangeBearing(rb.t[rows], r[rows], rb.bearing[rows], rb.landmark_id[rows]),
+                        initial_pose=seq.start_pose, noise=seq.noise)
+
+    est, raw = EKFSLAM().run(with_rows(slice(None), r)), EKFSLAM(known_confidence=None).run(with_rows(slice(None), r))
+    without = EKFSLAM().run(with_rows(keep, r))
+    assert without.meta["rejected"] == 0 and est.meta["rejected"] == 1
+    assert est.diagnostics["assoc_decision"][k] == Decision.REJECTED
+    np.testing.assert_array_equal(est.poses, without.poses)  # as if the row were not there
+    assert raw.meta["rejected"] == 0 and np.hypot(*(raw.poses - without.poses)[:, :2].T).max() > 1.0
 
 
 def test_bad_measurements_are_rejected_and_counted():
