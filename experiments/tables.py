@@ -19,7 +19,7 @@ import pandas as pd
 from .metrics import output_columns
 from .results import atomic_write_text
 
-__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns"]
+__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns", "table_specs"]
 
 _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "nees.mean_over_dof", "nees.in_band", "nis.mean_over_dof", "map.rmse", "relations.trans_mean", "cost.step_median", "cost.wall", "cost.peak_rss_mb")
 
@@ -27,6 +27,13 @@ _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "
 def default_columns(enabled) -> list[str]:
     """The default summary table's columns for the enabled metrics."""
     return [c for c in _DEFAULTS if c.split(".")[0] in enabled] or ["cost.wall"]
+
+
+def table_specs(tables: list, enabled) -> list[dict]:
+    """The tables a run writes: the config's ``tables`` (specs or their dicts), or one ``summary`` table of the
+    default columns of the ``enabled`` metrics."""
+    specs = [t if isinstance(t, dict) else t.model_dump() for t in tables]
+    return specs or [{"name": "summary", "columns": default_columns(enabled)}]
 
 
 def _fmt(x: float) -> str:
@@ -117,11 +124,10 @@ def to_csv(means, stds, best) -> str:
 
 
 def write_tables(frame: pd.DataFrame, tables, directory: Path) -> list[Path]:
-    """Write each table spec (``name``, ``columns``, ``formats``) in its formats; returns the paths."""
+    """Write each table spec (a dict: ``name``, ``columns``, ``formats``; :func:`table_specs`) in its formats; returns the paths."""
     directory = Path(directory)
     written = []
     for spec in tables:
-        spec = spec if isinstance(spec, dict) else spec.model_dump()
         means, stds, best = aggregate(frame, spec["columns"])
         render = {"md": to_markdown, "csv": to_csv, "tex": to_latex}
         for fmt in spec.get("formats", ["md", "csv", "tex"]):
