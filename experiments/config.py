@@ -43,7 +43,7 @@ from .metrics import METRICS, output_columns
 __all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
-FIGURES = ("trajectories", "errors", "nees", "scaling")
+FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
 
 
 class ConfigError(UserError, ValueError):
@@ -225,7 +225,7 @@ class ExperimentConfig(BaseModel):
     seeds: int | list[int] = 1
     metrics: MetricsSpec = Field(default_factory=_default_metrics)  # type: ignore[valid-type]
     tables: list[TableSpec] = Field(default_factory=list)
-    figures: list[Literal["trajectories", "errors", "nees", "scaling"]] = list(FIGURES)
+    figures: list[Literal[FIGURES]] = list(FIGURES)  # type: ignore[valid-type]
     published: list[PublishedRow] = Field(default_factory=list, description="reference rows quoted from papers, shown beside ours")
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")

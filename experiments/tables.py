@@ -19,7 +19,7 @@ import pandas as pd
 from .metrics import output_columns
 from .results import atomic_write_text
 
-__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns"]
+__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns", "table_specs"]
 
 _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "nees.mean_over_dof", "nees.in_band", "nis.mean_over_dof", "map.rmse", "relations.trans_mean", "cost.step_median", "cost.wall", "cost.peak_rss_mb")
 
@@ -27,6 +27,13 @@ _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "
 def default_columns(enabled) -> list[str]:
     """The default summary table's columns for the enabled metrics."""
     return [c for c in _DEFAULTS if c.split(".")[0] in enabled] or ["cost.wall"]
+
+
+def table_specs(tables: list, enabled) -> list[dict]:
+    """The tables a run writes: the config's ``tables`` (specs or their dicts), or one ``summary`` table of the
+    default columns of the ``enabled`` metrics."""
+    specs = [t if isinstance(t, dict) else t.model_dump() for t in tables]
+    return specs or [{"name": "summary", "columns": default_columns(enabled)}]
 
 
 def _fmt(x: float) -> str:
@@ -67,13 +74,14 @@ PUBLISHED = " (published)"
 def with_published(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, published) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Append the published reference rows (config ``published:``) for the datasets and columns of a table: each
     row ``(dataset, "<label> (published)")`` with the quoted values, n = 0, never marked best, after our rows of
-    that dataset."""
+    that dataset (a dataset this run has no row for gets none)."""
+    ours = set(means.index.get_level_values(0))
     rows = []
     for row in published:
         spec = row if isinstance(row, dict) else row.model_dump()
         for dataset, values in spec["values"].items():
             shown = {c: v for c, v in values.items() if c in best.columns}
-            if shown:
+            if shown and dataset in ours:
                 rows.append(((dataset, spec["label"] + PUBLISHED), shown))
     if not rows:
         return means, stds, best
@@ -145,12 +153,11 @@ def to_csv(means, stds, best, published=()) -> str:
 
 
 def write_tables(frame: pd.DataFrame, tables, directory: Path, published=()) -> list[Path]:
-    """Write each table spec (``name``, ``columns``, ``formats``) in its formats, with the published reference rows
-    that quote its columns (:func:`with_published`); returns the paths."""
+    """Write each table spec (a dict: ``name``, ``columns``, ``formats``; :func:`table_specs`) in its formats, with the
+    published reference rows that quote its columns (:func:`with_published`); returns the paths."""
     directory = Path(directory)
     written = []
     for spec in tables:
-        spec = spec if isinstance(spec, dict) else spec.model_dump()
         means, stds, best = with_published(*aggregate(frame, spec["columns"]), published)
         render = {"md": to_markdown, "csv": to_csv, "tex": to_latex}
         for fmt in spec.get("formats", ["md", "csv", "tex"]):

@@ -336,16 +336,22 @@ def test_peak_memory_is_the_cell_process_own():
     del ballast
 
 
-def test_series_names_are_the_ones_the_metrics_write():
+def test_series_names_are_the_ones_the_metrics_write(tmp_path):
     """Every name in Series is written by its metric (the cell's flattening), and figures/runner read only those."""
     from slamarena import datasets
+    from slamarena.datasets.formats import relations
+    from slamarena.datasets.geometry import between
     from slamarena.estimators import create
     from slamarena.experiments.cell import _flatten_series
     from slamarena.experiments.metrics.series import Series
 
     seq = datasets.load("sim:landmarks", n_landmarks=10, laps=1, seed=0)
     est = create("ekf_slam").run(seq)
-    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")}
+    gt = seq.ground_truth
+    i = np.arange(0, len(gt.t) - 10, 10)
+    delta = between(gt.poses[i], gt.poses[i + 10])
+    relations.write(tmp_path / "rel.txt", relations.Relations(gt.t[i], gt.t[i + 10], np.column_stack([delta[:, :2], np.zeros((len(i), 3)), delta[:, 2]])))
+    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")} | {"relations": METRICS["relations"].params(file=tmp_path / "rel.txt")}
     _, series, skipped = evaluate(CellData(est, seq, reference_of(seq)), selected)
     assert not skipped
     assert set(Series) <= set(_flatten_series(series)), set(Series) - set(_flatten_series(series))
