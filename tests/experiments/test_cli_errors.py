@@ -108,3 +108,16 @@ def test_console_headers_keep_their_units_and_names_are_not_squeezed(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "ATE rmse [m]" in result.stderr and "step median [ms]" in result.stderr
     assert "sim_landmarks" in result.stderr and "dead_reckoning" in result.stderr  # not sim_lan… / dead_rec…
+
+
+def test_map_takes_the_names_data_info_takes(tmp_path):
+    """``slamarena map`` reads a log by its family and path like every other command (a bare path is short for it)."""
+    from slamarena.experiments.cli_map import load_log
+
+    log = tmp_path / "small.clf"
+    log.write_text("ODOM 0 0 0 0 0 0 1.0 host 0\nFLASER 4 1 2 3 4 0 0 0 0 0 0 1.1 host 0\n"
+                   "ODOM 1 0 0 0 0 0 1.2 host 0\nFLASER 4 1 2 3 4 1 0 0 1 0 0 1.3 host 0\n")
+    named, bare = load_log(f"carmen:{log}"), load_log(str(log))
+    assert named.name == bare.name == f"carmen:{log}" and len(named.scans) == len(bare.scans) == 2
+    with pytest.raises(Exception, match="corrected cannot be given|not found"):
+        load_log(f"carmen-corrected:{tmp_path / 'missing.log'}")
