@@ -10,6 +10,9 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
       - name: sim:landmarks           # a registry name (slamarena.datasets.load)
         params: {n_landmarks: 50}     # keyword arguments; a simulator's seed is the cell's seed
         label: lm50                   # optional directory/table name (default: sanitised name)
+      - name: utias                   # a format family with the path of a recording (or utias:<dir>/robot<k>)
+        params: {path: /data/MRCLAM_Dataset7, robot: 1}
+        label: mrclam7_robot1
     estimators:
       - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
         params: {motion_model: arc}   # constructor keywords, checked by constructing the class
@@ -87,8 +90,12 @@ def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = 
     try:
         return params_model(target).of(params).canonical()
     except ValidationError as exc:
-        problems = "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
-        raise ValueError(f"{what}: {problems}") from None
+        raise ValueError(f"{what}: {problems(exc)}") from None
+
+
+def problems(exc: ValidationError) -> str:
+    """Each error of a parameter model's validation as ``params.<field>: message``."""
+    return "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
 
 
 class DatasetSpec(BaseModel):
@@ -111,8 +118,7 @@ class DatasetSpec(BaseModel):
 
     @model_validator(mode="after")
     def _registered(self):
-        from slamarena.datasets.catalogue import CATALOGUE
-        from slamarena.datasets.registry import SIMULATORS
+        from slamarena.datasets.registry import SIMULATORS, resolve
 
         if self.name in SIMULATORS:
             try:
@@ -120,16 +126,15 @@ class DatasetSpec(BaseModel):
             except ImportError as exc:
                 raise ValueError(f"simulator {self.name!r} is registered but cannot be imported: {exc}") from None
             self._resolved = resolve_params(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
-        elif self.name in CATALOGUE:
-            entry = CATALOGUE[self.name]
+        else:  # a catalogued name, or a format family with a path (slamarena.datasets.registry.resolve)
             try:
-                reader = import_target(entry.reader)
+                self._resolved = resolve(self.name, self.params).params.canonical()
+            except ValidationError as exc:
+                raise ValueError(f"dataset {self.name!r}: {problems(exc)}") from None
             except ImportError as exc:
-                raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
-            self._resolved = resolve_params(reader, {**entry.arguments, **self.params}, f"dataset {self.name!r}")
-        else:
-            known = sorted(SIMULATORS) + sorted(CATALOGUE)
-            raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
+                raise ValueError(f"dataset {self.name!r}: its reader cannot be imported: {exc}") from None
+            except UserError as exc:  # an unknown name, a location a catalogued name fixes, a path not in the family's form
+                raise ValueError(str(exc)) from None
         require_plain(self.label, "label")
         return self
 

@@ -10,10 +10,11 @@ standard EKF with the reference's zero-cross-covariance ``initP`` landmark initi
 the two-sided 95 % χ² band of an N-run average (Bailey et al. 2006; Huang et al. 2008).
 Uses ``slamarena.experiments.metrics.consistency`` (NEES, Monte Carlo average, band).
 
-``realdata``: UTIAS MRCLAM Dataset 6, every robot, known association (barcodes): ATE against
-Vicon (SE(2)-aligned, ``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error
-(``slamarena.experiments.metrics.landmarks``) next to dead reckoning; Victoria Park with the ids
-withheld (nearest neighbour and JCBB) against the run with ids.
+``realdata``: UTIAS MRCLAM Dataset 6, every robot, known association (barcodes), with the sensor model of
+the shipped config ``mrclam`` (:func:`mrclam_noise`): ATE against Vicon (SE(2)-aligned,
+``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error (``slamarena.experiments.metrics.landmarks``)
+next to dead reckoning, with and without the outlier gate; Victoria Park with the ids withheld (nearest
+neighbour and JCBB) against the run with ids. Every method on every robot: ``slamarena run mrclam``.
 """
 from __future__ import annotations
 
@@ -41,9 +42,16 @@ VARIANTS = {
     "standard + initP": dict(jacobians="standard", init="initP", init_cov=1.0),
 }
 
-#: MRCLAM states no noise: per-row velocity noise and sensor noise chosen from residuals
-#: against Vicon of Dataset 6 (see research/ekf_slam.md)
-MRCLAM_NOISE = dict(twist_cov=[0.1**2, 0.3**2], range_bearing_cov=[0.15**2, 0.02**2])
+
+
+def mrclam_noise() -> dict:
+    """MRCLAM's sensor model (``twist_cov`` per odometry row, ``range_bearing_cov``) as the shipped config
+    ``experiments/configs/mrclam.yaml`` states it, once, for every method (its comments say how it was identified)."""
+    from .config import load_config
+
+    config = load_config("mrclam")
+    ekf = config.estimators[config.estimator_labels().index("ekf_slam")]
+    return {key: ekf.params[key] for key in ("twist_cov", "range_bearing_cov")}
 
 
 def _nees_run(variant: str, seed: int, laps: int, sim: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -99,8 +107,8 @@ def _plot(results: dict, seeds: int, laps: int, path: str, sim: dict) -> None:
     print(f"wrote {path}")
 
 
-def _true_d2(seq) -> np.ndarray:
-    """Per range-bearing row: νᵀ R⁻¹ ν of the row against Vicon and the surveyed landmark (R: MRCLAM_NOISE; NaN if unsurveyed)."""
+def _true_d2(seq, noise: dict) -> np.ndarray:
+    """Per range-bearing row: νᵀ R⁻¹ ν of the row against Vicon and the surveyed landmark (R: the noise's; NaN if unsurveyed)."""
     rb, gt, lm = seq.range_bearing, seq.ground_truth, seq.landmarks
     xy = np.full((rb.t.size, 2), np.nan)
     known = np.isin(rb.landmark_id, lm.ids)
@@ -108,7 +116,7 @@ def _true_d2(seq) -> np.ndarray:
     xy[known] = lm.xy[order[np.searchsorted(lm.ids[order], rb.landmark_id[known])]]
     nu = rb.z[:, :2] - observe(interpolate_poses(gt.t, gt.poses, rb.t), xy)
     nu[:, 1] = wrap_angle(nu[:, 1])
-    return np.einsum("ki,ij,kj->k", nu, np.linalg.inv(np.diag(MRCLAM_NOISE["range_bearing_cov"])), nu)
+    return np.einsum("ki,ij,kj->k", nu, np.linalg.inv(np.diag(noise["range_bearing_cov"])), nu)
 
 
 def _rows_of(seq, t: np.ndarray, ids: np.ndarray) -> np.ndarray:
@@ -119,7 +127,8 @@ def _rows_of(seq, t: np.ndarray, ids: np.ndarray) -> np.ndarray:
 
 
 def realdata() -> None:
-    print("UTIAS MRCLAM Dataset 6, known association; noise", MRCLAM_NOISE)
+    noise = mrclam_noise()
+    print("UTIAS MRCLAM Dataset 6, known association; noise (experiments/configs/mrclam.yaml)", noise)
     print("rejected: rows not applied / all rows; outliers: of the rejected rows, those whose residual against Vicon and the "
           "surveyed landmark is beyond the same χ²₂ gate under R")
     print(f"{'robot':7s} {'method':20s} {'ATE rmse [m]':>12s} {'ATE max [m]':>11s} {'map rmse [m]':>12s} {'NEES mean':>9s} "
@@ -127,10 +136,10 @@ def realdata() -> None:
     for robot in range(1, 6):
         seq = datasets.load(f"utias:6/robot{robot}")
         ref = reference_of(seq)
-        true_d2 = _true_d2(seq)
-        methods = {"dead reckoning": DeadReckoning(), "EKF-SLAM, no gate": EKFSLAM(**MRCLAM_NOISE, known_confidence=None),
-                   "EKF-SLAM": EKFSLAM(**MRCLAM_NOISE), "EKF-SLAM, gate 0.999": EKFSLAM(**MRCLAM_NOISE, known_confidence=0.999),
-                   "FEJ-EKF": EKFSLAM(**MRCLAM_NOISE, jacobians="fej")}
+        true_d2 = _true_d2(seq, noise)
+        methods = {"dead reckoning": DeadReckoning(), "EKF-SLAM, no gate": EKFSLAM(**noise, known_confidence=None),
+                   "EKF-SLAM": EKFSLAM(**noise), "EKF-SLAM, gate 0.999": EKFSLAM(**noise, known_confidence=0.999),
+                   "FEJ-EKF": EKFSLAM(**noise, jacobians="fej")}
         for name, method in methods.items():
             start = time.time()
             est = method.run(seq)

@@ -113,13 +113,13 @@ def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def dataset_checksums(name: str) -> dict[str, str]:
+def dataset_checksums(name: str, params: dict) -> dict[str, str]:
     """SHA-256 of each file of a real dataset (empty for simulators)."""
-    from slamarena.datasets.catalogue import CATALOGUE
+    from slamarena.datasets.registry import SIMULATORS, resolve
 
-    if name not in CATALOGUE:
+    if name in SIMULATORS:
         return {}
-    return {role: _sha256_file(path) for role, path in CATALOGUE[name].paths().items()}
+    return {role: _sha256_file(path) for role, path in resolve(name, params).files().items()}
 
 
 def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
@@ -130,7 +130,7 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
     seeds = config.seed_list()
     cells = []
     for i, ds in enumerate(config.datasets):
-        checksums = dataset_checksums(ds.name)
+        checksums = dataset_checksums(ds.name, ds.params)
         for j, es in enumerate(config.estimators):
             if es.datasets is not None and ds_labels[i] not in es.datasets:
                 continue

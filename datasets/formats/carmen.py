@@ -69,6 +69,7 @@ import bisect
 import re
 import warnings
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 from pydantic import PositiveFloat, PositiveInt
@@ -78,9 +79,10 @@ from slamarena.params import Field, Params, with_params
 from ..errors import DataFormatError, DataWarning
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
+from ..source import Layout, SourceParams
 from ._text import Lines, binary_lines, check_monotonic, fixed, numbers, records
 
-__all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
+__all__ = ["read", "load", "CarmenParams", "CarmenSource", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
 
 #: largest distance of an ipc timestamp from its stream's clock treated as jitter (clamped), seconds
 JITTER_S = 1.0
@@ -411,10 +413,21 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
                     initial_pose=initial, noise=Noise(), meta=meta)
 
 
-@with_params(CarmenParams)
-def load(paths: dict, name: str, /, *, params: CarmenParams) -> Sequence:
-    """Catalogue reader: role ``log``, and the optional role ``relations`` (the staged relations file, used unless the
-    options name one); the options (:class:`CarmenParams`) from the entry and the caller."""
-    if params.relations is None and "relations" in paths:
-        params = params.model_copy(update={"relations": paths["relations"]})
-    return read(paths["log"], name, params=params)
+class CarmenSource(CarmenParams, SourceParams):
+    """A CARMEN log (raw or SLAM-corrected: a property of the file) and the reader's options."""
+
+    location: ClassVar[tuple[str, ...]] = ("path", "corrected")
+    path: str = Field(description="a CARMEN log file (.clf or .log, optionally .gz or .bz2)")
+
+    def layout(self) -> Layout:
+        return Layout({"log": (self.path,)})
+
+
+@with_params(CarmenSource)
+def load(files: dict, name: str, /, *, params: CarmenSource) -> Sequence:
+    """The family reader: role ``log``, and the optional role ``relations`` (a catalogued log's staged relations file,
+    used unless the options name one)."""
+    options = params.options(CarmenParams)
+    if options.relations is None and "relations" in files:
+        options = options.model_copy(update={"relations": files["relations"]})
+    return read(files["log"], name, params=options)

@@ -19,6 +19,7 @@ gtsam = pytest.importorskip("gtsam")
 
 from slamarena import datasets  # noqa: E402
 from slamarena.estimators.gtsam_smoother import BatchSmoother, ISAM2Smoother, OptimizationError, PoseGraphOptimizer  # noqa: E402
+from slamarena.experiments.ekf_slam_study import mrclam_noise  # noqa: E402
 from slamarena.experiments.metrics.consistency import NEESParams, chi2_band, monte_carlo, nees  # noqa: E402
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error  # noqa: E402
 from slamarena.experiments.metrics.reference import reference_of  # noqa: E402
@@ -33,13 +34,6 @@ POSE_GRAPHS = [
     "g2o:intel", "g2o:MIT", "g2o:CSAIL", "g2o:ais2klinik", "g2o:manhattan", "g2o:city10000", "g2o:w100", "g2o:example",
     "g2o:pose2example", "g2o:noisyToyGraph", "isam:manhattanOlson3500", "isam:city10000", "isam:cityTrees10000", "isam:w20000",
 ]
-
-#: MRCLAM states no noise. Identified once against Vicon and the surveyed map (robot 1…5, Dataset 6): range
-#: residual std ≈ 0.15 m, bearing ≈ 0.02 rad (with outliers: robust kernel), odometry error over 1 s ≈ 0.013 m and
-#: 0.05 rad, i.e. per row (mean period 1/69.6 s) twist_cov = S / T (the simulators' convention).
-MRCLAM_T = 1 / 69.6
-MRCLAM_NOISE = dict(twist_cov=np.diag([0.013**2 / MRCLAM_T, 0.05**2 / MRCLAM_T]).tolist(),
-                    range_bearing_cov=np.diag([0.15**2, 0.02**2]).tolist())
 
 
 def _write(name: str, header: list[str], rows: list[list], note: str = "") -> str:
@@ -82,6 +76,7 @@ def test_pose_graph_study():
 
 
 def test_mrclam_dataset6_study():
+    noise = mrclam_noise()  # identified once against Vicon and the surveyed map: experiments/configs/mrclam.yaml
     rows = []
     for robot in range(1, 6):
         name = f"utias:6/robot{robot}"
@@ -90,7 +85,7 @@ def test_mrclam_dataset6_study():
         seq = datasets.load(name)
         ref = reference_of(seq)
         tic = time.perf_counter()
-        est = BatchSmoother(max_interval=1.0, robust="huber", max_iterations=500, **MRCLAM_NOISE).run(seq)
+        est = BatchSmoother(max_interval=1.0, robust="huber", max_iterations=500, **noise).run(seq)
         elapsed = time.perf_counter() - tic
         raw = ate(est, ref, ATEParams(align="none"))[0]
         aligned = ate(est, ref)[0]
@@ -104,7 +99,7 @@ def test_mrclam_dataset6_study():
                        "landmark RMSE [m] (start-anchored)", "landmark RMSE [m] (trajectory SE(2)-aligned)", "mean NEES (3 if consistent)",
                        "iterations", "time [s]"], rows,
            "Batch smoother, Huber kernel (k = 1.345 σ) on the observations, pose keys at every observation set and every 1 s, "
-           f"noise {MRCLAM_NOISE} (identified against Vicon, see the module docstring); start pose = Vicon at the first "
+           f"noise {noise} (identified against Vicon, experiments/configs/mrclam.yaml); start pose = Vicon at the first "
            "odometry stamp; landmark error against the surveyed map, as estimated (start-anchored) and after the SE(2) "
            "alignment that best fits the trajectory to Vicon.")
     assert all(float(r[4]) < 0.3 and float(r[5]) < 1.0 for r in rows)

@@ -44,6 +44,14 @@ def test_good_config_and_derived_values(tmp_path):
     "change,path,message",
     [
         (("name: tiny", "name: tiny\nbogus: 1"), "bogus", "Extra inputs"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias:6/robot1\n    params: {path: /data/MRCLAM_Dataset7}"), "datasets.0",
+         "path cannot be given"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias\n    params: {path: /data/MRCLAM_Dataset7, robt: 1}"), "datasets.0",
+         "params.robot: Field required; params.robt: Extra inputs are not permitted"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "victoria_park\n    params: {varient: isam}"), "datasets.0",
+         "params.varient: Extra inputs are not permitted"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "mrclam:/data/MRCLAM_Dataset7/robot1"), "datasets.0",
+         "unknown dataset 'mrclam:/data/MRCLAM_Dataset7/robot1'"),
         (("seeds: [0, 3]", "seeds: 0"), "seeds", "≥ 1"),
         (("seeds: [0, 3]", "seeds: [1, 1]"), "seeds", "distinct"),
         (("sim:landmarks", "sim:nowhere"), "datasets.0", "unknown dataset 'sim:nowhere'"),
@@ -71,6 +79,23 @@ def test_mistakes_are_rejected_with_their_path(tmp_path, change, path, message):
     text = str(err.value)
     assert message in text
     assert f"  {path}" in text if path else True
+
+
+def test_a_recording_at_a_path_by_name_or_by_params(tmp_path):
+    """Any recording of a known format, without editing code: the family and its path, in either form."""
+    text = GOOD.replace("  - name: sim:landmarks\n    params: {n_landmarks: 10}\n", """\
+  - name: utias:/data/MRCLAM_Dataset7/robot1
+  - name: utias
+    params: {path: /data/MRCLAM_Dataset7, robot: 2}
+    label: mrclam7_robot2
+  - name: carmen:/data/new.clf
+    params: {max_range: 50.0}
+""")
+    cfg = load_config(_write(tmp_path, text))
+    assert cfg.dataset_labels() == ["utias_data_MRCLAM_Dataset7_robot1", "mrclam7_robot2", "carmen_data_new.clf"]
+    assert cfg.datasets[0].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 1}
+    assert cfg.datasets[1].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 2}
+    assert cfg.datasets[2].resolved_params()["max_range"] == 50.0 and cfg.datasets[2].resolved_params()["path"] == "/data/new.clf"
 
 
 def test_duplicate_labels_need_a_label(tmp_path):
