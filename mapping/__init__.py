@@ -7,4 +7,5 @@ from __future__ import annotations
 
 REGISTRY: dict[str, str] = {
     "grid_slam": "slamarena.mapping.grid_slam:GridSLAM",
+    "rbpf": "slamarena.mapping.rbpf.filter:RBPF",
 }
