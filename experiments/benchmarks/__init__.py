@@ -22,6 +22,7 @@ BENCHMARKS: dict[str, str] = {
     "isam2": "slamarena.experiments.benchmarks.isam2:main",
     "grid": "slamarena.experiments.benchmarks.grid:main",
     "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
+    "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
 }
 
 
