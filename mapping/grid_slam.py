@@ -40,6 +40,7 @@ from slamarena.datasets.geometry import between, compose, transform_points, wrap
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field, params_model
 
+from .beams import classify, scan_counts
 from .map_pyramid import MapPyramid, PyramidParams
 from .scan_matching import MATCHERS, make_matcher, matcher_class
 
@@ -122,10 +123,7 @@ class GridSLAM:
             t0 = time.perf_counter()
             r, a = scans.beams(k)
             n_beams[k] = r.size
-            finite = np.isfinite(r)
-            bad = ~finite | (np.where(finite, r, 1.0) <= 0)
-            no_return = ~bad & (r >= scans.max_range)
-            usable = ~bad & (r < limit)
+            bad, no_return, usable = classify(r, scans.max_range, limit)
             diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = bad.sum(), no_return.sum(), usable.sum()
 
             if k > 0 and odom is not None and np.all(np.isfinite(odom[k - 1 : k + 1])):
@@ -155,11 +153,7 @@ class GridSLAM:
             "params": p.canonical(),
             "scans": int(K),
             "beams": int(B),
-            "bad_beams": int(diag["bad_beams"].sum()),
-            "scans_with_bad_beams": int((diag["bad_beams"] > 0).sum()),
-            "scans_not_matched": int((~diag["matched"]).sum()),
-            "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == n_beams).sum()),
-            "scans_all_bad": int((diag["bad_beams"] == n_beams).sum()),
+            **scan_counts(diag, n_beams),
             "map_updates": int(diag["map_updated"].sum()),
             "map_shape": list(self.map.shape),
             "map_origin": self.map.origin.tolist(),

@@ -41,6 +41,7 @@ from slamarena.datasets.geometry import between, compose, transform_points, wrap
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field
 
+from ..beams import classify, scan_counts
 from ..map_pyramid import PyramidParams
 from ..occupancy_grid import CellModelParams, OccupancyGrid
 from ..odometry import fresh_readings
@@ -65,10 +66,10 @@ class RBPFParams(PyramidParams):
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < resample_threshold · P")
     sigma_likelihood: PositiveFloat = Field(1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)")
     weight_tempering: float = Field(1.0, gt=0.0, le=1.0, description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)")
-    sigma_t_min: PositiveFloat = Field(0.01, description="σ_t of the motion model at rest [m]")
+    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
     sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
     sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
-    sigma_r_min: PositiveFloat = Field(0.005, description="σ_r of the motion model at rest [rad]")
+    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
     sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
     sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
     update_distance: NonNegativeFloat = Field(0.5, description="a filter step after the odometry moved this far since the last one [m]")
@@ -158,10 +159,7 @@ class RBPF:
             parent = np.arange(P)
             r, a = scans.beams(k)
             n_beams[k] = r.size
-            finite = np.isfinite(r)
-            bad = ~finite | (np.where(finite, r, 1.0) <= 0)
-            no_return = ~bad & (r >= scans.max_range)
-            usable = ~bad & (r < limit)
+            bad, no_return, usable = classify(r, scans.max_range, limit)
             diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = bad.sum(), no_return.sum(), usable.sum()
 
             motion = np.zeros(3)
@@ -225,11 +223,7 @@ class RBPF:
             "scans": int(K),
             "beams": int(B),
             "particles": int(P),
-            "bad_beams": int(diag["bad_beams"].sum()),
-            "scans_with_bad_beams": int((diag["bad_beams"] > 0).sum()),
-            "scans_not_matched": int((~diag["matched"]).sum()),
-            "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == n_beams).sum()),
-            "scans_all_bad": int((diag["bad_beams"] == n_beams).sum()),
+            **scan_counts(diag, n_beams),
             "filter_steps": int(diag["filter_step"].sum()),
             "map_updates": int(diag["filter_step"].sum()),
             "resampling_events": int(diag["resampled"].sum()),

@@ -42,7 +42,7 @@ from numba import njit
 
 from slamarena.datasets.geometry import wrap_angle
 
-from ..scan_matching.gauss_newton import _p, _solve3
+from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, take_step
 from .tiled_grid import TiledPyramid
 
 __all__ = ["gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
@@ -82,14 +82,8 @@ def _interp(pool, table, shift, l0, ox, oy, res, wx, wy):
     l01 = _cell(pool, table, shift, l0, x0, y0 + 1)
     l11 = _cell(pool, table, shift, l0, x0 + 1, y0 + 1)
     observed = l00 != l0 or l10 != l0 or l01 != l0 or l11 != l0
-    m00 = _p(l00)
-    m10 = _p(l10)
-    m01 = _p(l01)
-    m11 = _p(l11)
-    M = (1.0 - fy) * ((1.0 - fx) * m00 + fx * m10) + fy * ((1.0 - fx) * m01 + fx * m11)
-    dx = (1.0 - fy) * (m10 - m00) + fy * (m11 - m01)
-    dy = (1.0 - fx) * (m01 - m00) + fx * (m11 - m10)
-    return M, dx / res, dy / res, observed
+    M, dx, dy = bilinear(l00, l10, l01, l11, fx, fy, res, False)
+    return M, dx, dy, observed
 
 
 @njit(cache=True)
@@ -105,20 +99,7 @@ def _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th):
         sx = pts[i, 0]
         sy = pts[i, 1]
         M, dMx, dMy, obs = _interp(pool, table, shift, l0, ox, oy, res, x + c * sx - s * sy, y + s * sx + c * sy)
-        r = 1.0 - M
-        J0 = dMx
-        J1 = dMy
-        J2 = dMx * (-s * sx - c * sy) + dMy * (c * sx - s * sy)
-        H[0, 0] += J0 * J0
-        H[0, 1] += J0 * J1
-        H[0, 2] += J0 * J2
-        H[1, 1] += J1 * J1
-        H[1, 2] += J1 * J2
-        H[2, 2] += J2 * J2
-        g[0] += J0 * r
-        g[1] += J1 * r
-        g[2] += J2 * r
-        ssr += r * r
+        ssr += accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s)
         known += obs
     H[1, 0] = H[0, 1]
     H[2, 0] = H[0, 2]
@@ -150,16 +131,8 @@ def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesse
             d, ok = _solve3(A, b)
             if not ok:
                 break
-            t = np.hypot(d[0], d[1])
-            if t > max_t:
-                d[0] *= max_t / t
-                d[1] *= max_t / t
-            if abs(d[2]) > max_r:
-                d[2] = max_r * np.sign(d[2])
-            x += d[0]
-            y += d[1]
-            th += d[2]
-            if np.hypot(d[0], d[1]) < tol_t and abs(d[2]) < tol_r:
+            x, y, th, converged = take_step(d, x, y, th, max_t, max_r, tol_t, tol_r)
+            if converged:
                 break
         poses[p, 0] = x
         poses[p, 1] = y
