@@ -105,11 +105,14 @@ class RBPF:
         self.params = self.Params.of(params, overrides)
         self.maps: TiledPyramid | None = None
         self.best: int | None = None
+        self._map: OccupancyGrid | None = None
 
     @property
     def map(self) -> OccupancyGrid | None:
-        """The finest grid of the best particle after :meth:`run` (a dense copy)."""
-        return None if self.maps is None else self.maps.finest.dense(self.best)
+        """The finest grid of the best particle after :meth:`run` (a dense copy, made on first use)."""
+        if self._map is None and self.maps is not None:
+            self._map = self.maps.finest.dense(self.best)
+        return self._map
 
     def motion_cov(self, motion: np.ndarray) -> np.ndarray:
         """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)`` (:class:`RBPFParams`)."""
@@ -210,7 +213,7 @@ class RBPF:
             if progress is not None:
                 progress(k + 1, K)
 
-        self.best = int(np.argmax(evidence))
+        self.best, self._map = int(np.argmax(evidence)), None
         trajectory = np.zeros((K, 3))
         i = self.best
         for k in range(K - 1, -1, -1):

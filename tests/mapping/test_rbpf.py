@@ -162,7 +162,10 @@ def test_room_drive_is_seeded_and_beats_odometry(room_sequence):
     from slamarena.experiments.metrics.reference import reference_of
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
-    a = RBPF(particles=6, seed=3).run(room_sequence)
+    slam = RBPF(particles=6, seed=3)
+    a = slam.run(room_sequence)
+    assert list(slam.map.shape) == a.meta["map_shape"] and slam.map is slam.map  # the best particle's finest grid, one copy
+    assert np.array_equal(slam.map.log_odds, slam.maps.finest.dense(a.meta["best_particle"]).log_odds)
     b = RBPF(particles=6, seed=3).run(room_sequence)
     c = RBPF(particles=6, seed=4).run(room_sequence)
     assert np.array_equal(a.poses, b.poses) and not np.array_equal(a.poses, c.poses)
