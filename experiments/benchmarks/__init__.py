@@ -23,6 +23,7 @@ BENCHMARKS: dict[str, str] = {
     "grid": "slamarena.experiments.benchmarks.grid:main",
     "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
+    "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
 }
 
 
