@@ -6,7 +6,7 @@ import pytest
 
 from slamarena.datasets import DataFormatError, Increments, load
 from slamarena.datasets.formats import victoria_park as vp
-from checks import staged
+from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -86,7 +86,7 @@ def test_the_variant_belongs_to_the_file():
 
     with pytest.raises(DatasetNameError, match="variant cannot be given.*victoria_park:isam"):
         load("victoria_park", variant="isam")
-    isam = load("victoria_park:isam")
+    isam = load_staged("victoria_park:isam")
     assert isam.meta["variant"] == "isam" and isam.meta["file"].endswith("victoriaPark_isam.txt")
     at_path = load(f"victoria_park:{isam.meta['file']}", variant="isam")
     np.testing.assert_array_equal(at_path.motion.cov, isam.motion.cov)
