@@ -147,13 +147,14 @@ def _predictive(xbar, Sx, mu, S, z, R, use_pose):
 
 
 @njit(cache=True)
-def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, gate, log_p0, max_range, half_fov,
+def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, max_range, half_fov,
                      depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
                      free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
     """One observation set z (k, 2) for every particle (module docstring).
 
     known: slots (k,) are the landmarks' slots (the same in every particle; a slot ≥ n_slots[m] is new).
     Otherwise slots are ignored and each particle associates by maximum likelihood; n_slots (M,) grows.
+    n_live (M,): each particle's live landmarks, kept up to date (new +1, removed −1).
     xhat (M, 3), P (M, 3, 3): predicted poses and their covariances; eps (M, 3) standard normals.
     R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0: the
     new-landmark log-likelihood added to a particle's weight when an observation starts a landmark.
@@ -167,10 +168,13 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
     Hm = np.empty((2, 2))
     for m in range(M):
         n = n_slots[m]
-        # the particle's live landmarks (unknown association reads them all)
-        mus = np.zeros((n, 2))
-        Ss = np.zeros((n, 3))
-        states = np.zeros(n, dtype=np.int64)
+        # unknown association reads the particle's whole map; known association touches only the
+        # observed slots' paths (no scratch of size n: a step is O(k log n) per particle)
+        scratch = 0 if known else n
+        mus = np.zeros((scratch, 2))
+        Ss = np.zeros((scratch, 3))
+        states = np.zeros(scratch, dtype=np.int64)
+        taken = np.zeros(scratch, dtype=np.bool_)
         if not known:
             for s in range(n):
                 leaf, off = find(roots[m], s, depth, inner_child)
@@ -178,7 +182,6 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                     mus[s] = leaf_mu[leaf, off]
                     Ss[s] = leaf_S[leaf, off]
                     states[s] = leaf_state[leaf, off]
-        taken = np.zeros(n, dtype=np.bool_)
         target = np.full(k, -1, dtype=np.int64)  # slot matched (≥ 0) or −1: new
         xbar = xhat[m].copy()
         Sx = P[m].copy()
@@ -239,6 +242,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                 state = leaf_state[leaf, off] + 1
             else:
                 s = slots[j] if known else n_slots[m]
+                n_live[m] += 1
                 if not known:
                     n_slots[m] += 1
                 elif s >= n_slots[m]:
@@ -261,3 +265,5 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                     leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
                                          free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
                     leaf_state[leaf, off] -= 1
+                    if leaf_state[leaf, off] == 0:
+                        n_live[m] -= 1
