@@ -7,7 +7,7 @@ the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), and on po
 """
 from .dataroot import data_roots, set_data_root
 from .estimate import Estimate
-from .errors import DataFormatError, DatasetNotFoundError, DataWarning
+from .errors import DataFormatError, DatasetNameError, DatasetNotFoundError, DataWarning
 from .posegraph import PoseGraph
 from .registry import available, load
 from .sequence import (
@@ -27,7 +27,7 @@ from .sequence import (
 
 __all__ = [
     "load", "available", "set_data_root", "data_roots",
-    "DataFormatError", "DatasetNotFoundError", "DataWarning",
+    "DataFormatError", "DatasetNameError", "DatasetNotFoundError", "DataWarning",
     "Sequence", "PoseGraph", "Event", "Estimate",
     "Twist", "Increments", "RangeBearing", "BeaconRanges", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
 ]

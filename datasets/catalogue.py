@@ -1,77 +1,84 @@
-"""Catalogue of the staged real datasets: registry name → files under the data root and reader.
+"""Catalogue: the format families, and the staged real datasets as locations of those families.
 
-Each entry names its files relative to a data root (:mod:`slamarena.datasets.dataroot`), the role of
-each, the reader (``"module:function"``, imported on first use) and its preset options
-(``arguments``). A reader declares its options as a ``Params`` model (``@with_params``);
-:meth:`CatalogueEntry.load` validates the preset with the caller's keywords applied through that
-model (an unknown or bad option is an error naming it) and calls ``reader(paths, name, params=…)``
-with the entry's :class:`Files`: role → path, each file found when the reader asks for it. A role in
-``optional`` is read only under some options (Victoria Park's iSAM copy, read with
-``variant="isam"``): the dataset is present without it, and asking for it when it is absent raises
-:class:`DatasetNotFoundError` as for any file.
+:data:`FORMATS` maps a family name to its reader (``"module:function"``, imported on first use) and the
+fields the family fixes (``carmen-corrected`` is the CARMEN reader with ``corrected=True``). Every reader
+is called as ``reader(files, name, params=…)`` with ``files`` role → path, and declares its parameters as
+a :class:`~slamarena.datasets.source.SourceParams` model: location fields (``path`` and, for MRCLAM,
+``robot``), whose :meth:`~slamarena.datasets.source.SourceParams.layout` names the files, and options.
+
+:data:`CATALOGUE` maps a registry name to a :class:`CatalogueEntry`: its family and ``arguments`` — the
+location, relative to a data root, and preset options — and what it is (kind, ground truth, citation).
+An entry may require a role its family's layout leaves optional (``need``: Dataset 6's Vicon files) and
+add optional files (``extra``: a CARMEN log's staged relations, read when present). The files of an entry
+are all read from one data root (:func:`slamarena.datasets.dataroot.one_root`);
+:func:`slamarena.datasets.registry.resolve` turns a name (catalogued, or ``<family>:<path>``) into them.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from slamarena.params import params_model
 from slamarena.targets import import_target
 
-from .dataroot import find, locate
+from .source import Layout, SourceParams
 
-__all__ = ["CatalogueEntry", "Files", "CATALOGUE"]
+__all__ = ["Format", "FORMATS", "CatalogueEntry", "CATALOGUE"]
 
 
-class Files(Mapping):
-    """Role → path of a dataset's files, each found on access (:func:`~slamarena.datasets.dataroot.find`).
+@dataclass(frozen=True)
+class Format:
+    """A format family: its reader, the fields it fixes, and a name that reads a recording at a path (for messages)."""
 
-    Iterating gives the required roles and the optional roles whose file is present.
-    """
+    reader: str
+    example: str
+    fixed: dict = field(default_factory=dict)
 
-    def __init__(self, dataset: str, relative: dict[str, str], optional: tuple[str, ...]):
-        self.dataset, self.relative, self.optional = dataset, relative, optional
+    def model(self) -> type[SourceParams]:
+        return params_model(import_target(self.reader))
 
-    def __getitem__(self, role: str) -> Path:
-        return find(self.relative[role], self.dataset)
+    def params(self, arguments: dict) -> SourceParams:
+        """The reader's validated parameters: ``arguments`` with the family's fixed fields."""
+        return self.model().of(arguments, self.fixed)
 
-    def __iter__(self) -> Iterator[str]:
-        return (role for role, rel in self.relative.items() if role not in self.optional or locate(rel) is not None)
 
-    def __len__(self) -> int:
-        return sum(1 for _ in self)
+#: family → reader; ``<family>:<path>`` (or ``<family>`` with ``params.path``) reads the files at a path
+FORMATS: dict[str, Format] = {
+    "utias": Format("slamarena.datasets.formats.mrclam:read", "utias:/data/MRCLAM_Dataset7/robot1"),
+    "victoria_park": Format("slamarena.datasets.formats.victoria_park:load", "victoria_park:/data/victoria_park.txt"),
+    "plaza": Format("slamarena.datasets.formats.plaza:read", "plaza:/data/Plaza3 (for Plaza3_DR.txt, Plaza3_TD.txt, Plaza3_.mat)"),
+    "g2o": Format("slamarena.datasets.formats.g2o:load", "g2o:/data/graph.g2o"),
+    "toro": Format("slamarena.datasets.formats.toro:load", "toro:/data/graph.graph"),
+    "isam": Format("slamarena.datasets.formats.isam:load", "isam:/data/graph.txt"),
+    "carmen": Format("slamarena.datasets.formats.carmen:load", "carmen:/data/log.clf"),
+    "carmen-corrected": Format("slamarena.datasets.formats.carmen:load", "carmen-corrected:/data/log-corrected.log", {"corrected": True}),
+}
 
 
 @dataclass(frozen=True)
 class CatalogueEntry:
     name: str
+    family: str
     kind: str
     ground_truth: str
-    files: tuple[str, ...]
-    reader: str
-    roles: tuple[str, ...] = ()
-    arguments: dict = field(default_factory=dict)
+    arguments: dict
     citation: str = ""
-    optional: tuple[str, ...] = ()
+    need: dict[str, bool] = field(default_factory=dict)
+    extra: dict[str, str] = field(default_factory=dict)
 
     @property
-    def relative(self) -> dict[str, str]:
-        """Role → path relative to a data root."""
-        return dict(zip(self.roles or (f"file{k}" for k in range(len(self.files))), self.files))
+    def reader(self) -> str:
+        return FORMATS[self.family].reader
 
-    def paths(self) -> Files:
-        return Files(self.name, self.relative, self.optional)
+    def layout(self) -> Layout:
+        """The entry's files: its family's layout at its location, ``need`` applied, ``extra`` added as optional roles."""
+        base = FORMATS[self.family].params(self.arguments).layout()
+        return Layout({**base.files, **{role: (rel,) for role, rel in self.extra.items()}},
+                      base.optional | frozenset(self.extra)).needing(self.need)
 
-    def present(self) -> bool:
-        """Every file the dataset needs (its optional ones aside) is under a data root or in the GTSAM wheel."""
-        return all(locate(rel) is not None for role, rel in self.relative.items() if role not in self.optional)
-
-    def load(self, **params):
-        """The dataset read with the preset ``arguments``, ``params`` applied over them (validated before any file is found)."""
-        reader = import_target(self.reader)
-        options = params_model(reader).of(self.arguments, params)
-        return reader(self.paths(), self.name, params=options)
+    @property
+    def files(self) -> tuple[str, ...]:
+        """Every candidate path of every role, relative to a data root."""
+        return tuple(c for candidates in self.layout().files.values() for c in candidates)
 
 
 # ---------------------------------------------------------------------------- citations
@@ -97,31 +104,21 @@ _KUEMMERLE = ("R. Kuemmerle et al., \"On measuring the accuracy of SLAM algorith
 def _mrclam() -> dict[str, CatalogueEntry]:
     out = {}
     for dataset in (1, 6):
-        d = f"utias_mrclam/MRCLAM_Dataset{dataset}"
         for robot in range(1, 6):
-            roles = ["odometry", "measurement", "barcodes", "landmarks"]
-            files = [f"{d}/Robot{robot}_Odometry.dat.gz", f"{d}/Robot{robot}_Measurement.dat.gz", f"{d}/Barcodes.dat",
-                     f"{d}/Landmark_Groundtruth.dat"]
-            if dataset == 6:
-                roles.append("groundtruth")
-                files.append(f"{d}/Robot{robot}_Groundtruth.dat.gz")
             name = f"utias:{dataset}/robot{robot}"
             out[name] = CatalogueEntry(
-                name=name, kind="landmarks (range-bearing, velocity odometry, real indoor)",
-                ground_truth="Vicon poses + surveyed landmarks" if dataset == 6 else "surveyed landmarks only",
-                files=tuple(files), roles=tuple(roles), reader="slamarena.datasets.formats.mrclam:read", citation=_MRCLAM)
+                name, "utias", "landmarks (range-bearing, velocity odometry, real indoor)",
+                "Vicon poses + surveyed landmarks" if dataset == 6 else "surveyed landmarks only",
+                {"path": f"utias_mrclam/MRCLAM_Dataset{dataset}", "robot": robot}, _MRCLAM,
+                need={"groundtruth": True} if dataset == 6 else {})
     return out
 
 
 def _plaza() -> dict[str, CatalogueEntry]:
-    out = {}
-    for run in ("Plaza1", "Plaza2"):
-        d = f"plaza_range_only/{run}"
-        out[f"plaza:{run}"] = CatalogueEntry(
-            name=f"plaza:{run}", kind="range-only (beacon ranges + odometry increments, real outdoor)",
-            ground_truth="GPS-based poses + surveyed beacons", files=(f"{d}_DR.txt", f"{d}_TD.txt", f"{d}_.mat"),
-            roles=("odometry", "ranges", "truth"), reader="slamarena.datasets.formats.plaza:read", citation=_PLAZA)
-    return out
+    return {f"plaza:{run}": CatalogueEntry(
+        f"plaza:{run}", "plaza", "range-only (beacon ranges + odometry increments, real outdoor)",
+        "GPS-based poses + surveyed beacons", {"path": f"plaza_range_only/{run}"}, _PLAZA, need={"truth": True})
+        for run in ("Plaza1", "Plaza2")}
 
 
 _G2O = {
@@ -186,14 +183,12 @@ _CARMEN_CORRECTED = {
 def _graphs() -> dict[str, CatalogueEntry]:
     out = {}
     for name, (rel, kind, truth, gt, cite) in _G2O.items():
-        files, roles = ((rel, gt), ("graph", "ground_truth")) if gt else ((rel,), ("graph",))
-        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, files, "slamarena.datasets.formats.g2o:load", roles, citation=cite)
+        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", "g2o", kind, truth, {"path": rel, "ground_truth": gt}, cite)
     for name, (rel, kind, truth) in _TORO.items():
-        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", kind, truth, (rel,), "slamarena.datasets.formats.toro:load", ("graph",), citation=_GTSAM)
+        out[f"g2o:{name}"] = CatalogueEntry(f"g2o:{name}", "toro", kind, truth, {"path": rel}, _GTSAM)
     for name, (rel, gt, kind, cite) in _ISAM_FILES.items():
-        files, roles = ((rel, gt), ("graph", "ground_truth")) if gt else ((rel,), ("graph",))
         truth = "true poses" + (" and landmarks" if "Trees" in name else "") + " (noise-free file)" if gt else "none"
-        out[f"isam:{name}"] = CatalogueEntry(f"isam:{name}", kind, truth, files, "slamarena.datasets.formats.isam:load", roles, citation=cite)
+        out[f"isam:{name}"] = CatalogueEntry(f"isam:{name}", "isam", kind, truth, {"path": rel, "ground_truth": gt}, cite)
     return out
 
 
@@ -202,26 +197,27 @@ def _carmen() -> dict[str, CatalogueEntry]:
     for name, (rel, max_range, owner) in _CARMEN_RAW.items():
         relations = _CARMEN_RELATIONS.get(name)
         out[f"carmen:{name}"] = CatalogueEntry(
-            f"carmen:{name}", "laser log 2D (scans + odometry), real",
-            "relations (Kümmerle et al. 2009), where staged" if relations else "none", (rel, relations) if relations else (rel,),
-            "slamarena.datasets.formats.carmen:load", ("log", "relations") if relations else ("log",), {"max_range": max_range},
-            f"{owner}; {_RADISH}; {_KUEMMERLE}", optional=("relations",) if relations else ())
+            f"carmen:{name}", "carmen", "laser log 2D (scans + odometry), real",
+            "relations (Kümmerle et al. 2009), where staged" if relations else "none", {"path": rel, "max_range": max_range},
+            f"{owner}; {_RADISH}; {_KUEMMERLE}", extra={"relations": relations} if relations else {})
     for name, max_range in _CARMEN_CORRECTED.items():
-        rel = f"carmen_corrected_logs/{name}-corrected.log.gz"
         out[f"carmen-corrected:{name}"] = CatalogueEntry(
-            f"carmen-corrected:{name}", "laser log 2D with SLAM-corrected poses", "SLAM reference poses (not independent)",
-            (rel,), "slamarena.datasets.formats.carmen:load", ("log",), {"max_range": max_range, "corrected": True},
+            f"carmen-corrected:{name}", "carmen-corrected", "laser log 2D with SLAM-corrected poses",
+            "SLAM reference poses (not independent)", {"path": f"carmen_corrected_logs/{name}-corrected.log.gz", "max_range": max_range},
             f"{_RADISH}; data owners per log (via acschaefer/ple)")
     return out
 
 
+_VICTORIA_KIND = "landmarks (odometry increments + tree observations, real outdoor)"
+
 CATALOGUE: dict[str, CatalogueEntry] = {
     **_mrclam(),
     "victoria_park": CatalogueEntry(
-        name="victoria_park", kind="landmarks (odometry increments + tree observations, real outdoor)",
-        ground_truth="none", files=("victoria_park/victoria_park_gtsam.txt", "victoria_park/victoriaPark_isam.txt"),
-        roles=("gtsam", "isam"), reader="slamarena.datasets.formats.victoria_park:load", citation=_VICTORIA,
-        optional=("isam",)),
+        "victoria_park", "victoria_park", _VICTORIA_KIND + ", GTSAM's copy (covariance noise columns)", "none",
+        {"path": "victoria_park/victoria_park_gtsam.txt", "variant": "gtsam"}, _VICTORIA),
+    "victoria_park:isam": CatalogueEntry(
+        "victoria_park:isam", "victoria_park", _VICTORIA_KIND + ", iSAM's copy (square-root information noise columns)", "none",
+        {"path": "victoria_park/victoriaPark_isam.txt", "variant": "isam"}, _VICTORIA),
     **_plaza(),
     **_graphs(),
     **_carmen(),

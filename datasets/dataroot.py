@@ -16,16 +16,25 @@ first place that holds the requested file wins):
    to the wheel's file name. So the GTSAM toy graphs, CMU Plaza and Victoria Park load on any
    machine with ``gtsam`` installed, while a staged copy, when there is one, is read first.
 
+A dataset's files all come from ONE root (:func:`one_root`): the first, in this order, that holds every
+file the dataset requires; its optional files are read from that root or not at all. Mixing roots
+would pair one recording's odometry with another's ground truth (or leave the ground truth out
+silently). A path a user gives for a format family is searched the same way, with the working
+directory as the first root (an absolute path is the same file under every root).
+
 Files are never copied into the repository.
 """
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import DatasetNotFoundError
+from .source import Layout
 
-__all__ = ["set_data_root", "data_roots", "locate", "find", "cache_dir", "gtsam_example", "GTSAM_WHEEL"]
+__all__ = ["set_data_root", "data_roots", "locate", "cache_dir", "gtsam_example", "GTSAM_WHEEL", "Directory", "GtsamWheel",
+           "roots", "one_root"]
 
 _explicit: list[Path] = []
 
@@ -88,17 +97,55 @@ def gtsam_example(relative: str | Path) -> Path | None:
 
 
 def locate(relative: str | Path) -> Path | None:
-    """Absolute path of ``relative`` in the first place of the search order that has it (``None``: nowhere)."""
-    for root in data_roots():
-        path = root / relative
-        if path.exists():
-            return path
-    return gtsam_example(relative)
+    """The file ``relative`` in the first place of :func:`roots` that has it (``None``: nowhere): one file on its own."""
+    return next((path for place in roots() if (path := place.file(str(relative))) is not None), None)
 
 
-def find(relative: str | Path, dataset: str) -> Path:
-    """:func:`locate`, raising :class:`DatasetNotFoundError` (every place searched and the fetch command) when nowhere."""
-    path = locate(relative)
-    if path is None:
-        raise DatasetNotFoundError(dataset, data_roots(existing_only=False), str(relative))
-    return path
+@dataclass(frozen=True)
+class Directory:
+    """A data root folder (or, for a user's path, the working directory)."""
+
+    path: Path
+
+    def file(self, relative: str) -> Path | None:
+        path = self.path / relative
+        return path if path.is_file() else None
+
+    def lacks(self, missing: list[tuple[str, ...]]) -> list[str]:
+        """Lines of a message naming the ``missing`` files (each its candidates) here; an absolute path is itself."""
+        lines = []
+        for candidates in missing:
+            if not (self.path.is_dir() or Path(candidates[0]).is_absolute()):
+                return [f"  - {self.path} (does not exist)"]
+            lines.append(f"  - {' or '.join(str(self.path / c) for c in candidates)}")
+        return lines
+
+
+class GtsamWheel:
+    """The GTSAM wheel's example data as a root: the staged paths of :data:`GTSAM_WHEEL`, nothing else."""
+
+    def file(self, relative: str) -> Path | None:
+        return gtsam_example(relative)
+
+    def lacks(self, missing: list[tuple[str, ...]]) -> list[str]:
+        relative = [candidates[0] for candidates in missing if not Path(candidates[0]).is_absolute()]
+        return [f"  - the GTSAM wheel's example data: no copy of {', '.join(relative)}"] if relative else []
+
+
+def roots(first: tuple[Path, ...] = ()) -> list[Directory | GtsamWheel]:
+    """The places searched, in order: ``first``, the data roots (existing or not: a message lists them all), the wheel."""
+    places = [*(Path(p).resolve() for p in first), *data_roots(existing_only=False)]
+    return [Directory(p) for p in dict.fromkeys(places)] + [GtsamWheel()]
+
+
+def one_root(layout: Layout, places: list, dataset: str, advice: str) -> dict[str, Path]:
+    """Role → path of the files of ``layout``, every one from the first of ``places`` that holds all the required ones
+    (an optional file only from that place); :class:`DatasetNotFoundError` naming what each place lacks otherwise."""
+    lacking = []
+    for place in places:
+        found = {role: next((p for p in map(place.file, candidates) if p is not None), None) for role, candidates in layout.files.items()}
+        missing = [role for role in layout.required() if found[role] is None]
+        if not missing:
+            return {role: path for role, path in found.items() if path is not None}
+        lacking.append((place, [layout.files[role] for role in missing]))
+    raise DatasetNotFoundError(dataset, lacking, advice)

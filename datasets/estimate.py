@@ -5,7 +5,7 @@ side) and the experiment runner share one type.
 
 ``Estimate`` fields (K estimated poses, L landmarks)
     method          registry name of the method
-    t (K,)          pose times [s]
+    t (K,)          pose times [s], strictly increasing: one pose per stamp (a filter keeps its posterior)
     poses (K, 3)    (x, y, θ) in the world frame
     pose_cov        (K, 3, 3) world-frame covariance of (x, y, θ), or ``None``
     landmark_ids    (L,) int, landmarks (L, 2), landmark_cov (L, 2, 2) or ``None``
@@ -44,6 +44,9 @@ class Estimate:
         self.poses = np.asarray(self.poses, dtype=float).reshape(-1, 3)
         if self.poses.shape[0] != self.t.shape[0]:
             raise ValueError(f"Estimate: {self.poses.shape[0]} poses but {self.t.shape[0]} times")
+        if self.t.size > 1 and not np.all(np.diff(self.t) > 0):
+            k = int(np.flatnonzero(np.diff(self.t) <= 0)[0])
+            raise ValueError(f"Estimate ({self.method}): times must increase strictly — one pose per stamp — but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}")
         if self.pose_cov is not None:
             self.pose_cov = np.asarray(self.pose_cov, dtype=float).reshape(-1, 3, 3)
         if self.landmarks is not None:

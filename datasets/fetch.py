@@ -4,7 +4,9 @@ Every file is pinned to the exact commit named in its ``SOURCE.md`` (raw.githubu
 and checked against the sha256 of the upstream content. Files that the stager gzip-compressed
 (``compressed=True`` below) are published uncompressed: the hash is that of the published file,
 and after verification the file is gzip-compressed into the cache at the path the catalogue
-expects. Downloads go to :func:`slamarena.datasets.dataroot.cache_dir`, which is itself a data root.
+expects. Downloads go to :func:`slamarena.datasets.dataroot.cache_dir`, which is itself a data root;
+as a dataset is read from one root, every file of it goes there unless some place already holds the
+dataset (its required files), whatever other roots hold a part of it.
 
 pooch is imported inside :func:`fetch` only (the data layer depends on numpy + stdlib).
 """
@@ -16,7 +18,7 @@ from pathlib import Path
 
 from slamarena.errors import UserError
 
-from .dataroot import cache_dir, locate
+from .dataroot import cache_dir
 
 __all__ = ["FILES", "fetch", "url_of", "FetchError"]
 
@@ -128,21 +130,28 @@ def _downloader():
 
 
 def fetch(name: str, force: bool = False) -> list[Path]:
-    """Download the files of catalogue entry ``name`` that no data root holds; return their paths."""
+    """Download the files of catalogue entry ``name`` into the cache data root, unless some place already holds all of
+    them (a dataset is read from one place: a file or two fetched beside another root's files would not be read);
+    return the paths of its files."""
     import pooch
 
+    from .catalogue import CATALOGUE
     from .registry import resolve
 
-    entry = resolve(name)
-    unknown = [rel for rel in entry.files if rel not in FILES]
+    dataset = resolve(name)
+    if name not in CATALOGUE:
+        raise FetchError(f"{name}: only a catalogued dataset can be fetched (slamarena data list)")
+    if not force and dataset.present():
+        return list(dataset.files().values())
+    pinned = {role: [c for c in candidates if c in FILES] for role, candidates in dataset.layout.files.items()}
+    unknown = [role for role, rels in pinned.items() if len(rels) > 1 or not rels and role in dataset.layout.required()]
     if unknown:
-        raise FetchError(f"{name}: no pinned download for {', '.join(unknown)}")
+        raise FetchError(f"{name}: no pinned download for {', '.join(' or '.join(dataset.layout.files[r]) for r in unknown)}")
     out = []
-    for rel in entry.files:
+    for rel in (rels[0] for rels in pinned.values() if rels):
         target = cache_dir() / rel
-        existing = locate(rel)
-        if existing is not None and not force:
-            out.append(existing)
+        if target.is_file() and not force:
+            out.append(target)
             continue
         upstream, sha256, compressed = FILES[rel]
         staging = cache_dir() / ".downloads" / Path(rel).parent

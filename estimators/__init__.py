@@ -11,7 +11,7 @@ from slamarena.targets import import_target
 
 from .base import Estimate, Estimator
 
-__all__ = ["REGISTRY", "create", "Estimate", "Estimator"]
+__all__ = ["REGISTRY", "REQUIRES", "create", "Estimate", "Estimator"]
 
 REGISTRY: dict[str, str] = {
     "dead_reckoning": "slamarena.estimators.dead_reckoning:DeadReckoning",
@@ -22,6 +22,19 @@ REGISTRY: dict[str, str] = {
     "gtsam_isam2": "slamarena.estimators.gtsam_smoother:ISAM2Smoother",
     "gtsam_fixed_lag": "slamarena.estimators.gtsam_smoother:FixedLagLocalizer",
     "gtsam_pose_graph": "slamarena.estimators.gtsam_smoother:PoseGraphOptimizer",
+}
+
+#: method → the input streams it needs (slamarena.datasets.streams): each entry is a set of alternatives, one of
+#: which the dataset must provide; the experiment config refuses a method on a dataset without them
+REQUIRES: dict[str, tuple[frozenset[str], ...]] = {
+    "dead_reckoning": (frozenset({"motion"}),),
+    "ekf_slam": (frozenset({"motion"}), frozenset({"range_bearing"})),
+    "ekf_localizer": (frozenset({"motion"}),),
+    "fastslam": (frozenset({"motion"}), frozenset({"range_bearing"})),
+    "gtsam_batch": (frozenset({"motion"}), frozenset({"range_bearing", "beacon_ranges"})),
+    "gtsam_isam2": (frozenset({"motion"}), frozenset({"range_bearing", "beacon_ranges"})),
+    "gtsam_fixed_lag": (frozenset({"motion"}),),
+    "gtsam_pose_graph": (frozenset({"graph", "range_bearing", "beacon_ranges"}),),
 }
 
 

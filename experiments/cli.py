@@ -5,6 +5,7 @@ Commands delegate to the modules that own the work, imported inside each command
 
     slamarena run [CONFIG]            slamarena.experiments.runner
     slamarena figures RESULTS_DIR     slamarena.paper_figures.make
+    slamarena report RESULTS_DIR [B]  slamarena.experiments.report
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
@@ -66,13 +67,14 @@ def run(
     out: Optional[Path] = typer.Option(None, "--out", help="Results directory (default: the config's output directory)."),
     force: bool = typer.Option(False, "--force", help="Recompute cells that are already cached."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
+    report: bool = typer.Option(False, "--report", help="At the end, write the HTML report and its Markdown twin (report.html, report.md)."),
 ):
     """Run an experiment: every method on every dataset and seed; write tables and figures."""
     from slamarena.paper_figures.make import make_all
 
     from .runner import run_from_cli
 
-    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all))
+    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all, report=report))
 
 
 @app.command()
@@ -85,6 +87,19 @@ def figures(results_dir: Path = typer.Argument(..., exists=True, file_okay=False
     if not written:
         reasons = "; ".join(f"{kind}: {why}" for kind, why in skipped.items())
         raise UserError(f"{results_dir}: no figure could be drawn ({reasons})")
+
+
+@app.command()
+def report(
+    results_dir: Path = typer.Argument(..., exists=True, file_okay=False, help="A results/<experiment> directory."),
+    other: Optional[Path] = typer.Argument(None, exists=True, file_okay=False, help="A second results directory of the same config: A and B side by side, differences highlighted."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Where to write (suffix replaced by .html and .md); default RESULTS_DIR/report or RESULTS_DIR/report_vs_<B>."),
+):
+    """Write one self-contained HTML report (figures embedded; open it in any browser, offline) and its Markdown twin."""
+    from .report import write_report
+
+    html, md = write_report(results_dir, other, out)
+    typer.echo(f"wrote {html}\nwrote {md}\nopen it in a browser: {html.resolve().as_uri()}")
 
 
 @app.command()

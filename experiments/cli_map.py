@@ -1,7 +1,8 @@
 """``slamarena map LOG [--method M] [--param key=value …]``: a laser mapping method over a log, with its outputs.
 
-LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``) or the path of a CARMEN log
-(``.clf``/``.log``, optionally ``.gz``/``.bz2``). M is a name of ``slamarena.mapping.REGISTRY`` (``grid_slam``, the
+LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``, a log at a path as
+``carmen:<path>`` or ``carmen-corrected:<path>``) or the path of a CARMEN log (``.clf``/``.log``, optionally
+``.gz``/``.bz2``; short for ``carmen:<path>``). M is a name of ``slamarena.mapping.REGISTRY`` (``grid_slam``, the
 front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built with the ``--param`` values (its
 ``Params`` model validates them). Writes into ``--out``:
 
@@ -25,21 +26,18 @@ __all__ = ["map_command", "load_log", "parse_params", "write_loop_closures"]
 
 
 def load_log(log: str):
-    """A registry name, or a path to a CARMEN log, as a Sequence."""
+    """A dataset name (``slamarena.datasets.load``: catalogued, ``carmen:<path>`` and the other family forms, a
+    simulator), or the path of a CARMEN log (short for ``carmen:<path>``), as a Sequence."""
     from slamarena import datasets
-    from slamarena.datasets.catalogue import CATALOGUE
-    from slamarena.datasets.registry import SIMULATORS
+    from slamarena.errors import UnknownNameError, UserError
 
-    if log in SIMULATORS or log in CATALOGUE:
+    try:
         return datasets.load(log)
-    path = Path(log)
-    if path.is_file():
-        from slamarena.datasets.formats.carmen import read
-
-        return read(path)
-    from slamarena.errors import UserError
-
-    raise UserError(f"{log!r} is neither a dataset name (see `slamarena data list`) nor a file")
+    except UnknownNameError:
+        if not Path(log).is_file():
+            raise UserError(f"{log!r} is neither a dataset name (see `slamarena data list`, or <family>:<path> for a "
+                            f"recording at a path) nor a file") from None
+    return datasets.load(f"carmen:{log}")
 
 
 def parse_params(pairs: list[str]) -> dict:

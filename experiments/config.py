@@ -10,6 +10,9 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
       - name: sim:landmarks           # a registry name (slamarena.datasets.load)
         params: {n_landmarks: 50}     # keyword arguments; a simulator's seed is the cell's seed
         label: lm50                   # optional directory/table name (default: sanitised name)
+      - name: utias                   # a format family with the path of a recording (or utias:<dir>/robot<k>)
+        params: {path: /data/MRCLAM_Dataset7, robot: 1}
+        label: mrclam7_robot1
     estimators:
       - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
         params: {motion_model: arc}   # constructor keywords, checked by constructing the class
@@ -40,10 +43,10 @@ from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
-__all__ = ["ExperimentConfig", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
+__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
-FIGURES = ("trajectories", "errors", "nees", "scaling")
+FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
 
 
 class ConfigError(UserError, ValueError):
@@ -70,6 +73,14 @@ def method_table() -> dict[str, str]:
     return {**ESTIMATORS, **MAPPERS}
 
 
+def method_requires() -> dict[str, tuple[frozenset[str], ...]]:
+    """Every method's needed input streams (the registries' ``REQUIRES``)."""
+    from slamarena.estimators import REQUIRES as ESTIMATORS
+    from slamarena.mapping import REQUIRES as MAPPERS
+
+    return {**ESTIMATORS, **MAPPERS}
+
+
 def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = ()) -> dict:
     """``params`` validated by the ``Params`` model ``target`` declares (:mod:`slamarena.params`), as its
     canonical JSON form with every default filled in; a ValueError naming each offending ``params.<field>``."""
@@ -79,8 +90,12 @@ def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = 
     try:
         return params_model(target).of(params).canonical()
     except ValidationError as exc:
-        problems = "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
-        raise ValueError(f"{what}: {problems}") from None
+        raise ValueError(f"{what}: {problems(exc)}") from None
+
+
+def problems(exc: ValidationError) -> str:
+    """Each error of a parameter model's validation as ``params.<field>: message``."""
+    return "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
 
 
 class DatasetSpec(BaseModel):
@@ -103,8 +118,7 @@ class DatasetSpec(BaseModel):
 
     @model_validator(mode="after")
     def _registered(self):
-        from slamarena.datasets.catalogue import CATALOGUE
-        from slamarena.datasets.registry import SIMULATORS
+        from slamarena.datasets.registry import SIMULATORS, resolve
 
         if self.name in SIMULATORS:
             try:
@@ -112,16 +126,15 @@ class DatasetSpec(BaseModel):
             except ImportError as exc:
                 raise ValueError(f"simulator {self.name!r} is registered but cannot be imported: {exc}") from None
             self._resolved = resolve_params(simulate, self.params, f"dataset {self.name!r}", reserved=("seed",))
-        elif self.name in CATALOGUE:
-            entry = CATALOGUE[self.name]
+        else:  # a catalogued name, or a format family with a path (slamarena.datasets.registry.resolve)
             try:
-                reader = import_target(entry.reader)
+                self._resolved = resolve(self.name, self.params).params.canonical()
+            except ValidationError as exc:
+                raise ValueError(f"dataset {self.name!r}: {problems(exc)}") from None
             except ImportError as exc:
-                raise ValueError(f"dataset {self.name!r}: its reader {entry.reader} cannot be imported: {exc}") from None
-            self._resolved = resolve_params(reader, {**entry.arguments, **self.params}, f"dataset {self.name!r}")
-        else:
-            known = sorted(SIMULATORS) + sorted(CATALOGUE)
-            raise ValueError(f"unknown dataset {self.name!r}; registered: {', '.join(known)}")
+                raise ValueError(f"dataset {self.name!r}: its reader cannot be imported: {exc}") from None
+            except UserError as exc:  # an unknown name, a location a catalogued name fixes, a path not in the family's form
+                raise ValueError(str(exc)) from None
         require_plain(self.label, "label")
         return self
 
@@ -189,6 +202,25 @@ class TableSpec(BaseModel):
         return require_plain(name, "table name", kind="file")
 
 
+class PublishedRow(BaseModel):
+    """A reference row quoted from a paper, printed beside ours in every table that has its columns."""
+
+    model_config = ConfigDict(extra="forbid")
+    label: str = Field(description="the method as the paper names it, e.g. 'graph mapping (Kümmerle 2009)'")
+    citation: str = Field(description="where the numbers are printed (paper, table)")
+    values: dict[str, dict[str, float]] = Field(description="dataset label → column (<metric>.<output>) → the published value")
+
+    @field_validator("values")
+    @classmethod
+    def _known_columns(cls, values):
+        known = output_columns()
+        for dataset, columns in values.items():
+            for c in columns:
+                if c not in known:
+                    raise ValueError(f"values.{dataset}: unknown column {c!r}; columns are <metric>.<output>")
+        return values
+
+
 class ExperimentConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: str
@@ -198,7 +230,8 @@ class ExperimentConfig(BaseModel):
     seeds: int | list[int] = 1
     metrics: MetricsSpec = Field(default_factory=_default_metrics)  # type: ignore[valid-type]
     tables: list[TableSpec] = Field(default_factory=list)
-    figures: list[Literal["trajectories", "errors", "nees", "scaling"]] = list(FIGURES)
+    figures: list[Literal[FIGURES]] = list(FIGURES)  # type: ignore[valid-type]
+    published: list[PublishedRow] = Field(default_factory=list, description="reference rows quoted from papers, shown beside ours")
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
 
@@ -237,6 +270,22 @@ class ExperimentConfig(BaseModel):
             unknown = sorted(set(es.datasets or []) - set(labels))
             if unknown:
                 raise ValueError(f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
+        requires = method_requires()
+        from slamarena.datasets.streams import streams_of
+
+        for k, es in enumerate(self.estimators):
+            for label, ds in zip(labels, self.datasets):
+                if es.datasets is not None and label not in es.datasets:
+                    continue
+                have = streams_of(ds.name)
+                missing = [" or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have]
+                if missing:
+                    raise ValueError(f"estimators.{k} ({es.name}) cannot run on dataset {label!r}: it needs {' and '.join(missing)}, which "
+                                     f"{ds.name} does not provide ({', '.join(sorted(have))}); restrict it with 'datasets: [...]'")
+        for k, row in enumerate(self.published):
+            unknown = sorted(set(row.values) - set(labels))
+            if unknown:
+                raise ValueError(f"published.{k} ({row.label}) names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
         enabled = {k for k, v in self.metrics if v is not None}
         for k, table in enumerate(self.tables):
             missing = sorted({c.split(".")[0] for c in table.columns} - enabled)

@@ -10,10 +10,11 @@ standard EKF with the reference's zero-cross-covariance ``initP`` landmark initi
 the two-sided 95 % χ² band of an N-run average (Bailey et al. 2006; Huang et al. 2008).
 Uses ``slamarena.experiments.metrics.consistency`` (NEES, Monte Carlo average, band).
 
-``realdata``: UTIAS MRCLAM Dataset 6, every robot, known association (barcodes): ATE against
-Vicon (SE(2)-aligned, ``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error
-(``slamarena.experiments.metrics.landmarks``) next to dead reckoning; Victoria Park with the ids
-withheld (nearest neighbour and JCBB) against the run with ids.
+``realdata``: UTIAS MRCLAM Dataset 6, every robot, known association (barcodes), with the sensor model of
+the shipped config ``mrclam`` (:func:`mrclam_noise`): ATE against Vicon (SE(2)-aligned,
+``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error (``slamarena.experiments.metrics.landmarks``)
+next to dead reckoning, with and without the outlier gate; Victoria Park with the ids withheld (nearest
+neighbour and JCBB) against the run with ids. Every method on every robot: ``slamarena run mrclam``.
 """
 from __future__ import annotations
 
@@ -24,9 +25,11 @@ import time
 import numpy as np
 
 from slamarena import datasets
+from slamarena.datasets.geometry import interpolate_poses, wrap_angle
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.ekf_slam import EKFSLAM
-from slamarena.estimators.ekf_slam.association import Decision
+from slamarena.estimators.ekf_slam.association import Decision, chi2_gate
+from slamarena.estimators.models import observe
 from slamarena.experiments.metrics import MetricUnavailable, reference_of
 from slamarena.experiments.metrics.consistency import monte_carlo, nees
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
@@ -39,9 +42,16 @@ VARIANTS = {
     "standard + initP": dict(jacobians="standard", init="initP", init_cov=1.0),
 }
 
-#: MRCLAM states no noise: per-row velocity noise and sensor noise chosen from residuals
-#: against Vicon of Dataset 6 (see research/ekf_slam.md)
-MRCLAM_NOISE = dict(twist_cov=[0.1**2, 0.3**2], range_bearing_cov=[0.15**2, 0.02**2])
+
+
+def mrclam_noise() -> dict:
+    """MRCLAM's sensor model (``twist_cov`` per odometry row, ``range_bearing_cov``) as the shipped config
+    ``experiments/configs/mrclam.yaml`` states it, once, for every method (its comments say how it was identified)."""
+    from .config import load_config
+
+    config = load_config("mrclam")
+    ekf = config.estimators[config.estimator_labels().index("ekf_slam")]
+    return {key: ekf.params[key] for key in ("twist_cov", "range_bearing_cov")}
 
 
 def _nees_run(variant: str, seed: int, laps: int, sim: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -97,15 +107,39 @@ def _plot(results: dict, seeds: int, laps: int, path: str, sim: dict) -> None:
     print(f"wrote {path}")
 
 
+def _true_d2(seq, noise: dict) -> np.ndarray:
+    """Per range-bearing row: νᵀ R⁻¹ ν of the row against Vicon and the surveyed landmark (R: the noise's; NaN if unsurveyed)."""
+    rb, gt, lm = seq.range_bearing, seq.ground_truth, seq.landmarks
+    xy = np.full((rb.t.size, 2), np.nan)
+    known = np.isin(rb.landmark_id, lm.ids)
+    order = np.argsort(lm.ids)
+    xy[known] = lm.xy[order[np.searchsorted(lm.ids[order], rb.landmark_id[known])]]
+    nu = rb.z[:, :2] - observe(interpolate_poses(gt.t, gt.poses, rb.t), xy)
+    nu[:, 1] = wrap_angle(nu[:, 1])
+    return np.einsum("ki,ij,kj->k", nu, np.linalg.inv(np.diag(noise["range_bearing_cov"])), nu)
+
+
+def _rows_of(seq, t: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Range-bearing rows (indices) of the observations stamped t with landmark ids."""
+    rb = seq.range_bearing
+    key = {(float(a), int(b)): k for k, (a, b) in enumerate(zip(rb.t, rb.landmark_id))}
+    return np.array([key[(float(a), int(b))] for a, b in zip(t, ids)], dtype=np.int64)
+
+
 def realdata() -> None:
-    print("UTIAS MRCLAM Dataset 6, known association; noise", MRCLAM_NOISE)
-    print(f"{'robot':7s} {'method':16s} {'ATE rmse [m]':>12s} {'ATE max [m]':>11s} {'map rmse [m]':>12s} {'NEES mean':>9s} {'rejected':>8s} {'time [s]':>8s}")
+    noise = mrclam_noise()
+    print("UTIAS MRCLAM Dataset 6, known association; noise (experiments/configs/mrclam.yaml)", noise)
+    print("rejected: rows not applied / all rows; outliers: of the rejected rows, those whose residual against Vicon and the "
+          "surveyed landmark is beyond the same χ²₂ gate under R")
+    print(f"{'robot':7s} {'method':20s} {'ATE rmse [m]':>12s} {'ATE max [m]':>11s} {'map rmse [m]':>12s} {'NEES mean':>9s} "
+          f"{'rejected':>11s} {'outliers':>8s} {'time [s]':>8s}")
     for robot in range(1, 6):
         seq = datasets.load(f"utias:6/robot{robot}")
         ref = reference_of(seq)
-        methods = {"dead reckoning": DeadReckoning(), "EKF-SLAM": EKFSLAM(**MRCLAM_NOISE),
-                   "EKF-SLAM gated": EKFSLAM(**MRCLAM_NOISE, known_confidence=0.999),
-                   "FEJ-EKF gated": EKFSLAM(**MRCLAM_NOISE, known_confidence=0.999, jacobians="fej")}
+        true_d2 = _true_d2(seq, noise)
+        methods = {"dead reckoning": DeadReckoning(), "EKF-SLAM, no gate": EKFSLAM(**noise, known_confidence=None),
+                   "EKF-SLAM": EKFSLAM(**noise), "EKF-SLAM, gate 0.999": EKFSLAM(**noise, known_confidence=0.999),
+                   "FEJ-EKF": EKFSLAM(**noise, jacobians="fej")}
         for name, method in methods.items():
             start = time.time()
             est = method.run(seq)
@@ -116,17 +150,30 @@ def realdata() -> None:
                 n = nees(est, ref)[0]["mean"]
             except MetricUnavailable:  # dead reckoning without stated noise has no covariance
                 n = float("nan")
-            rej = est.meta.get("rejected", 0)
-            print(f"robot{robot:<2d} {name:16s} {a['rmse']:12.3f} {a['max']:11.3f} {m:12.3f} {n:9.1f} {rej:8d} {spent:8.1f}")
+            rejected, outliers = "", ""
+            if "assoc_decision" in est.diagnostics:
+                d = est.diagnostics
+                out = d["assoc_decision"] == Decision.REJECTED
+                confidence = method.params.known_confidence
+                rejected = f"{out.sum()} / {out.size}"
+                if confidence is not None:
+                    outliers = str(int(np.sum(true_d2[_rows_of(seq, d["assoc_t"][out], d["assoc_given_id"][out])] > chi2_gate(confidence, 2))))
+            print(f"robot{robot:<2d} {name:20s} {a['rmse']:12.3f} {a['max']:11.3f} {m:12.3f} {n:9.1f} {rejected:>11s} {outliers:>8s} {spent:8.1f}")
+        confidence = EKFSLAM.Params().known_confidence
+        print(f"robot{robot:<2d} {np.sum(true_d2 > chi2_gate(confidence, 2))} of {true_d2.size} rows have a residual against Vicon "
+              f"beyond the default gate χ²₂({confidence}) = {chi2_gate(confidence, 2):.1f} under R")
 
     print("\nVictoria Park (6969 poses, 151 trees, stated Cartesian tree noise): ids withheld vs with ids")
     seq = datasets.load("victoria_park")
-    with_ids = EKFSLAM(range_bearing_noise="cartesian").run(seq)
+    with_ids = EKFSLAM(range_bearing_noise="cartesian", known_confidence=None).run(seq)  # every labelled row applied
     ref_traj = with_ids.poses
     print(f"with ids: {with_ids.meta['n_landmarks']} landmarks, NIS mean/dof {np.mean(with_ids.diagnostics['nis'] / with_ids.diagnostics['nis_dof']):.2f}")
     from slamarena.experiments.metrics.reference import Reference
 
     ref = Reference(with_ids.t, ref_traj, with_ids.landmark_ids, with_ids.landmarks, None)
+    gated = EKFSLAM(range_bearing_noise="cartesian").run(seq)
+    print(f"with ids and the default gate on labelled rows: {gated.meta['rejected']} of {gated.diagnostics['assoc_decision'].size} rows "
+          f"rejected; trajectory vs the ungated run: ATE rmse {ate(gated, ref)[0]['rmse']:.2f} m")
     for method, gates in (("nn", {}), ("jcbb", {}), ("nn", dict(new_confidence=0.96))):
         start = time.time()
         est = EKFSLAM(use_ids=False, association=method, range_bearing_noise="cartesian", **gates).run(seq)

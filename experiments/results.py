@@ -14,7 +14,8 @@
         error.json                           a failed cell's error and traceback
       summary.csv                            one row per cell
       tables/<name>.md .csv .tex
-      figures/<name>.png .pdf
+      figures/<name>.png .pdf .caption      a figure and its caption (plain text, read by the report)
+      report.html report.md                  the report (slamarena report; run --report)
 
 Every file is written to a temporary name in the same directory and renamed over the target
 (``os.replace`` is atomic on POSIX), so a killed run never leaves a half-written file behind.
@@ -28,9 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "save_npz", "load_npz", "write_trajectory_tum", "cell_dir", "MANIFEST", "SUMMARY"]
+__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "save_npz", "load_npz", "write_trajectory_tum", "cell_dir", "MANIFEST", "SUMMARY", "CAPTION_SUFFIX"]
 
 MANIFEST = "manifest.json"
+CAPTION_SUFFIX = ".caption"  # figures/<stem>.caption beside figures/<stem>.png
 SUMMARY = "summary.csv"
 
 

@@ -1,6 +1,6 @@
 """The experiment runner: the grid of cells, the cache, parallel execution, summary and tables.
 
-``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force] [--dry-run]``
+``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force] [--dry-run] [--report]``
 
 1. The config is validated (:mod:`slamarena.experiments.config`) before anything runs.
 2. The grid datasets × methods × seeds is expanded into cells (a method with a ``datasets:``
@@ -21,7 +21,8 @@
    and says how to resume (exit code 130); a SIGKILL of the runner takes its cells with it.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
    (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
-   and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`).
+   and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`); with ``--report``, then
+   the report (:mod:`slamarena.experiments.report`).
 """
 from __future__ import annotations
 
@@ -112,13 +113,13 @@ def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def dataset_checksums(name: str) -> dict[str, str]:
+def dataset_checksums(name: str, params: dict) -> dict[str, str]:
     """SHA-256 of each file of a real dataset (empty for simulators)."""
-    from slamarena.datasets.catalogue import CATALOGUE
+    from slamarena.datasets.registry import SIMULATORS, resolve
 
-    if name not in CATALOGUE:
+    if name in SIMULATORS:
         return {}
-    return {role: _sha256_file(path) for role, path in CATALOGUE[name].paths().items()}
+    return {role: _sha256_file(path) for role, path in resolve(name, params).files().items()}
 
 
 def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
@@ -129,7 +130,7 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
     seeds = config.seed_list()
     cells = []
     for i, ds in enumerate(config.datasets):
-        checksums = dataset_checksums(ds.name)
+        checksums = dataset_checksums(ds.name, ds.params)
         for j, es in enumerate(config.estimators):
             if es.datasets is not None and ds_labels[i] not in es.datasets:
                 continue
@@ -276,6 +277,18 @@ def collect(config: ExperimentConfig, cells: list[Cell], failures: dict[str, dic
     return pd.DataFrame(rows)
 
 
+#: the columns of ``tables/monte_carlo.*`` (:func:`monte_carlo_table`) and what each is
+MONTE_CARLO_COLUMNS = {
+    "dataset": "dataset label",
+    "estimator": "method label",
+    "statistic": "nees (pose NEES, 3 degrees of freedom) or nis (the innovations of one stamp summed)",
+    "runs": "N, the seeds averaged",
+    "stamps": "stamps all N runs share (with equal dimension), where the average is taken",
+    "mean_over_dof": "mean over those stamps of the N-run average divided by its degrees of freedom (1 for a consistent filter)",
+    "in_band": "fraction of those stamps whose N-run average lies inside the two-sided N-run χ² band",
+}
+
+
 def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
     """Per (dataset, method): NEES and NIS averaged over the seeds at shared stamps, with the
     N-run χ² band (:func:`slamarena.experiments.metrics.consistency.monte_carlo`); one row per statistic."""
@@ -383,11 +396,10 @@ def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, schedule
 
 def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path) -> list[Path]:
     """``summary.csv``, the configured tables (or the default one) and the Monte Carlo table."""
-    from .tables import default_columns, write_frame, write_tables
+    from .tables import table_specs, write_frame, write_tables
 
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
-    tables = config.tables or [{"name": "summary", "columns": default_columns(config.enabled_metrics())}]
-    written = write_tables(frame, tables, out / "tables")
+    written = write_tables(frame, table_specs(config.tables, config.enabled_metrics()), out / "tables", config.published)
     mc_frame = monte_carlo_table(config, cells)
     if len(mc_frame):
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
@@ -411,13 +423,15 @@ def record_interruption(manifest: dict, out: Path, cells: list[Cell], console) -
     console.print(f"resume with the same command (finished cells are skipped): {escape(command)}", highlight=False)
 
 
-def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None, make_figures: FigureMaker | None = None) -> int:
-    """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures.
+def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None,
+                   make_figures: FigureMaker | None = None, report: bool = False) -> int:
+    """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
     Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
     CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
-    they are handed in rather than imported).
+    they are handed in rather than imported). ``report`` writes ``report.html`` and ``report.md`` at the end
+    (:mod:`slamarena.experiments.report`).
     """
     from rich.console import Console
 
@@ -444,6 +458,11 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     for name, err in figure_errors.items():
         console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
     console.print(f"results: {escape(str(out))}", highlight=False)
+    if report:
+        from .report import write_report
+
+        html, _ = write_report(out)
+        console.print(f"report: {escape(str(html))} (open it in a browser)", highlight=False)
     return 0 if (frame["status"] == "ok").all() else 1
 
 
@@ -498,7 +517,8 @@ def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
             break
 
 
-def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None) -> int:
+def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None,
+                 report: bool = False) -> int:
     """``slamarena run``: validate, then run (or list) the grid.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
@@ -517,7 +537,7 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     if dry_run:
         return print_grid(cfg, target, force, Console())
     try:
-        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures)
+        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures, report=report)
     except SchedulerUnreachable as exc:
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2

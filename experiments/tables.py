@@ -19,7 +19,7 @@ import pandas as pd
 from .metrics import output_columns
 from .results import atomic_write_text
 
-__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns"]
+__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns", "table_specs"]
 
 _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "nees.mean_over_dof", "nees.in_band", "nis.mean_over_dof", "map.rmse", "relations.trans_mean", "cost.step_median", "cost.wall", "cost.peak_rss_mb")
 
@@ -27,6 +27,13 @@ _DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "
 def default_columns(enabled) -> list[str]:
     """The default summary table's columns for the enabled metrics."""
     return [c for c in _DEFAULTS if c.split(".")[0] in enabled] or ["cost.wall"]
+
+
+def table_specs(tables: list, enabled) -> list[dict]:
+    """The tables a run writes: the config's ``tables`` (specs or their dicts), or one ``summary`` table of the
+    default columns of the ``enabled`` metrics."""
+    specs = [t if isinstance(t, dict) else t.model_dump() for t in tables]
+    return specs or [{"name": "summary", "columns": default_columns(enabled)}]
 
 
 def _fmt(x: float) -> str:
@@ -61,9 +68,35 @@ def aggregate(frame: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, pd
     return means, stds, best
 
 
+PUBLISHED = " (published)"
+
+
+def with_published(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, published) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Append the published reference rows (config ``published:``) for the datasets and columns of a table: each
+    row ``(dataset, "<label> (published)")`` with the quoted values, n = 0, never marked best, after our rows of
+    that dataset (a dataset this run has no row for gets none)."""
+    ours = set(means.index.get_level_values(0))
+    rows = []
+    for row in published:
+        spec = row if isinstance(row, dict) else row.model_dump()
+        for dataset, values in spec["values"].items():
+            shown = {c: v for c, v in values.items() if c in best.columns}
+            if shown and dataset in ours:
+                rows.append(((dataset, spec["label"] + PUBLISHED), shown))
+    if not rows:
+        return means, stds, best
+    index = pd.MultiIndex.from_tuples([key for key, _ in rows], names=means.index.names)
+    extra = pd.DataFrame([{**values, "n": 0} for _, values in rows], index=index).reindex(columns=means.columns)
+    means = pd.concat([means, extra])
+    stds = pd.concat([stds, pd.DataFrame(np.nan, index=index, columns=stds.columns)])
+    best = pd.concat([best, pd.DataFrame(False, index=index, columns=best.columns)])
+    order = sorted(range(len(means)), key=lambda k: (list(dict.fromkeys(means.index.get_level_values(0))).index(means.index[k][0]), k))
+    return means.iloc[order], stds.iloc[order], best.iloc[order]
+
+
 def _cells(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, mark) -> pd.DataFrame:
     out = pd.DataFrame(index=means.index)
-    out["n"] = means["n"].astype(int).astype(str)
+    out["n"] = [str(int(n)) if n else "–" for n in means["n"]]
     for col in best.columns:
         texts = []
         for idx in means.index:
@@ -98,35 +131,38 @@ def _latex(cells: pd.DataFrame, text_columns: int = 2) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_markdown(means, stds, best) -> str:
-    """The table, then what each column is (from the metric's outputs)."""
+def to_markdown(means, stds, best, published=()) -> str:
+    """The table, then what each column is (from the metric's outputs) and where published rows come from."""
     described = output_columns()
     legend = "".join(f"- `{c}`: {described[c][1]}\n" for c in best.columns if c in described)
-    return _markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold.\n\n" + legend
+    sources = "".join(f"- {r['label']}{PUBLISHED}: {r['citation']}\n" for r in (p if isinstance(p, dict) else p.model_dump() for p in published)
+                      if any(r["label"] + PUBLISHED == e for e in means.index.get_level_values(1)))
+    return (_markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold"
+            + ("; rows marked (published) quote the paper, n –" if sources else "") + ".\n\n" + legend + sources)
 
 
-def to_latex(means, stds, best) -> str:
+def to_latex(means, stds, best, published=()) -> str:
     cells = _cells(means, stds, best, lambda s: f"\\textbf{{{s}}}")
     return _latex(cells.map(lambda v: str(v).replace(" ± ", r" $\pm$ ").replace("–", "--")))
 
 
-def to_csv(means, stds, best) -> str:
+def to_csv(means, stds, best, published=()) -> str:
     cells = _cells(means, stds, best, lambda s: f"{s}*")
     raw = pd.concat([means.drop(columns="n").add_suffix("_mean"), stds.add_suffix("_std")], axis=1).reset_index(drop=True)
     return pd.concat([cells, raw], axis=1).to_csv(index=False)
 
 
-def write_tables(frame: pd.DataFrame, tables, directory: Path) -> list[Path]:
-    """Write each table spec (``name``, ``columns``, ``formats``) in its formats; returns the paths."""
+def write_tables(frame: pd.DataFrame, tables, directory: Path, published=()) -> list[Path]:
+    """Write each table spec (a dict: ``name``, ``columns``, ``formats``; :func:`table_specs`) in its formats, with the
+    published reference rows that quote its columns (:func:`with_published`); returns the paths."""
     directory = Path(directory)
     written = []
     for spec in tables:
-        spec = spec if isinstance(spec, dict) else spec.model_dump()
-        means, stds, best = aggregate(frame, spec["columns"])
+        means, stds, best = with_published(*aggregate(frame, spec["columns"]), published)
         render = {"md": to_markdown, "csv": to_csv, "tex": to_latex}
         for fmt in spec.get("formats", ["md", "csv", "tex"]):
             path = directory / f"{spec['name']}.{fmt}"
-            atomic_write_text(path, render[fmt](means, stds, best))
+            atomic_write_text(path, render[fmt](means, stds, best, published))
             written.append(path)
     return written
 

@@ -30,6 +30,7 @@ import numpy as np
 from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
 from slamarena.datasets.sequence import Scans
 
+from .beams import classify
 from .scan_matching import MatchResult, make_matcher
 
 __all__ = ["FrontEnd", "ScanBeams"]
@@ -75,10 +76,7 @@ class FrontEnd:
 
     def beams(self, k: int) -> ScanBeams:
         r, a = self.scans.beams(k)
-        finite = np.isfinite(r)
-        bad = ~finite | (np.where(finite, r, 1.0) <= 0)
-        no_return = ~bad & (r >= self.scans.max_range)
-        usable = ~bad & (r < self.limit)
+        bad, no_return, usable = classify(r, self.scans.max_range, self.limit)
         points = transform_points(self.scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
         return ScanBeams(r, a, bad, no_return, usable, points)
 

@@ -26,6 +26,7 @@ from slamarena.datasets.geometry import transform_points
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field, params_model
 
+from .beams import scan_counts
 from .frontend import FrontEnd
 from .map_pyramid import MapPyramid, PyramidParams
 from .scan_matching import MATCHERS, make_matcher, matcher_class
@@ -129,12 +130,8 @@ class GridSLAM:
             "params": p.canonical(),
             "scans": int(K),
             "beams": int(B),
-            "bad_beams": int(diag["bad_beams"].sum()),
-            "scans_with_bad_beams": int((diag["bad_beams"] > 0).sum()),
-            "scans_not_matched": int((~diag["matched"]).sum()),
+            **scan_counts(diag, n_beams),
             "odometry_stalled_scans": int(front.stalled.sum()),
-            "scans_all_no_return": int((diag["no_return_beams"] + diag["bad_beams"] == n_beams).sum()),
-            "scans_all_bad": int((diag["bad_beams"] == n_beams).sum()),
             "map_updates": int(diag["map_updated"].sum()),
             "map_shape": list(self.map.shape),
             "map_origin": self.map.origin.tolist(),

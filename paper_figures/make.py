@@ -2,14 +2,15 @@
 
 ``FIGURES`` maps the figure kinds an experiment config may list (``slamarena.experiments.config.FIGURES``)
 to the module function that draws them; each reads the results directory and writes PNG and
-PDF into ``<results>/figures``.
+PDF into ``<results>/figures``, with the figure's caption beside them (``<stem>.caption``, read by the
+report, :mod:`slamarena.experiments.report`).
 """
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Callable
 
-from . import errors, nees, scaling, trajectories
+from . import errors, maps, nees, neff, relations, scaling, trajectories
 from .runs import FigureSkipped
 
 __all__ = ["FIGURES", "make_all"]
@@ -19,6 +20,9 @@ FIGURES: dict[str, Callable[[Path, Path], list[Path]]] = {
     "errors": errors.plot,
     "nees": nees.plot,
     "scaling": scaling.plot,
+    "relations": relations.plot,
+    "neff": neff.plot,
+    "maps": maps.plot,
 }
 
 

@@ -1,4 +1,4 @@
-"""Log-log scaling of cost with problem size, with fitted slopes.
+"""Log-log scaling of cost with problem size, with fitted exponents and crossovers.
 
 A sweep is a dataset name that appears in the experiment with several parameter sets that
 differ in exactly one numeric parameter (e.g. ``sim:landmarks`` with ``n_landmarks`` 50, 100,
@@ -6,6 +6,11 @@ differ in exactly one numeric parameter (e.g. ``sim:landmarks`` with ``n_landmar
 plotted against that parameter on log-log axes, with the least-squares line
 ``log y = a + b log x``; the slope ``b`` is the empirical exponent (EKF-SLAM's update is
 O(n²) per observation: b ≈ 2 at large n).
+
+Crossovers: two methods' fitted lines meet where ``a₁ + b₁ log x = a₂ + b₂ log x``, at
+``x* = exp((a₂ − a₁) / (b₁ − b₂))``; beyond it the method with the larger exponent is the slower. A crossover
+inside the swept range is marked on the axes; one outside it (an extrapolation of the fits) is only named in the
+caption, and only within a factor ``EXTRAPOLATE`` of the range.
 """
 from __future__ import annotations
 
@@ -17,17 +22,32 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from .runs import FigureSkipped, by, load_runs
-from .style import WIDTH, apply, method_style, plt, save
+from .style import PAGE, MethodStyles, figure, save
 
-__all__ = ["plot", "find_sweeps", "fit_slope"]
+__all__ = ["plot", "find_sweeps", "fit_slope", "crossovers", "EXTRAPOLATE"]
 
 COSTS = (("cost/step_median", "median step time [s]"), ("cost/wall", "wall time [s]"))
+EXTRAPOLATE = 10.0
 
 
 def fit_slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """(slope b, intercept a) of the least-squares line log y = a + b log x."""
     b, a = np.polyfit(np.log(x), np.log(y), 1)
     return float(b), float(a)
+
+
+def crossovers(fits: dict[str, tuple[float, float]]) -> list[tuple[str, str, float]]:
+    """Every pair of fitted lines (name → (slope b, intercept a)) that meet at a positive x: (name₁, name₂, x*),
+    name₁ the method with the larger exponent (the slower one beyond x*)."""
+    out = []
+    names = list(fits)
+    for i, m in enumerate(names):
+        for n in names[i + 1:]:
+            (b1, a1), (b2, a2) = fits[m], fits[n]
+            if np.isclose(b1, b2):
+                continue
+            out.append((m, n, float(np.exp((a2 - a1) / (b1 - b2)))) if b1 > b2 else (n, m, float(np.exp((a1 - a2) / (b2 - b1)))))
+    return out
 
 
 def find_sweeps(runs) -> dict[tuple[str, str], dict[str, float]]:
@@ -59,14 +79,16 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
     sweeps = find_sweeps(runs)
     if not sweeps:
         raise FigureSkipped("no parameter sweep (a dataset listed with one numeric parameter varied)")
-    apply()
-    methods = sorted({r.estimator for r in runs})
+    styles = MethodStyles.of(results_dir, runs)
     written = []
     for (name, param), values in sweeps.items():
-        fig, axes = plt.subplots(1, len(COSTS), figsize=(WIDTH, WIDTH * 0.45), squeeze=False, layout="constrained")
+        fig, axes = figure(PAGE, 2.6, ncols=len(COSTS))
         swept = [r for r in runs if r.dataset in values]
+        lo, hi = min(values.values()), max(values.values())
+        notes = []
         for ax, (key, label) in zip(axes[0], COSTS):
             metric, output = key.split("/")
+            fits = {}
             for (estimator,), group in by(swept, "estimator").items():
                 points = {}
                 for r in group:
@@ -78,16 +100,25 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 x = np.array(sorted(points))
                 y = np.array([np.mean(points[k]) for k in x])
                 b, a = fit_slope(x, y)
-                style = method_style(estimator, methods)
-                ax.loglog(x, y, marker="o", color=style["color"], linestyle="none")
-                ax.loglog(x, np.exp(a) * x**b, color=style["color"], linestyle=style["linestyle"], label=f"{estimator}: slope {b:.2f}")
+                fits[estimator] = (b, a)
+                style = styles(estimator)
+                ax.loglog(x, y, marker="o", markersize=3, color=style["color"], linestyle="none")
+                ax.loglog(x, np.exp(a) * x**b, color=style["color"], linestyle=style["linestyle"], label=estimator)
+                ax.annotate(f"{b:.2f}", (x[-1], np.exp(a) * x[-1] ** b), xytext=(3, 0), textcoords="offset points", fontsize=6, color=style["color"], va="center")
+            for slower, faster, x_star in crossovers(fits):
+                if lo <= x_star <= hi:
+                    b, a = fits[slower]
+                    ax.plot([x_star], [np.exp(a) * x_star**b], marker="D", markersize=4, markerfacecolor="none", color="black", linestyle="none", label="crossover of two fits")
+                    notes.append(f"{label.split(' [')[0]}: {slower} passes {faster} at {param} ≈ {x_star:.3g}")
+                elif lo / EXTRAPOLATE <= x_star <= hi * EXTRAPOLATE:
+                    notes.append(f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, outside the sweep (extrapolated)")
             ticks = sorted(set(values.values()))
             ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
             ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel(param)
             ax.set_ylabel(label)
-            if ax.lines:
-                ax.legend(loc="upper left")
-        fig.suptitle(f"{name}: cost vs {param} (log-log, least-squares slopes)")
-        written += save(fig, out_dir, f"scaling_{name.replace(':', '_')}_{param}")
+        caption = (f"{name}: cost against {param} on log-log axes, mean over seeds (points) and the least-squares line "
+                   f"log y = a + b log {param} per method, its exponent b written at the line's end. Crossovers (◇) are where two "
+                   f"fitted lines meet inside the sweep. " + ("; ".join(notes) + "." if notes else "No two fits cross within the sweep."))
+        written += save(fig, out_dir, f"scaling_{name.replace(':', '_')}_{param}", caption)
     return written

@@ -1,10 +1,15 @@
-"""Trajectory overlays: ground truth, dead reckoning and every estimate of one seed per dataset,
-with the true landmarks and the estimated ones with their 95 % covariance ellipses.
+"""Trajectory overlays: ground truth and every estimate of one seed per dataset, with the true landmarks and the
+estimated ones with their 95 % covariance ellipses; an error-over-time panel where the estimates overlap.
 
 Estimates are drawn after the ATE alignment of their cell (``series.npz`` ``ate/aligned_poses``
 and ``metrics.json`` ``alignment``), so they sit in the ground-truth frame; the landmark
 covariance is carried by the same similarity: ``Σ' = s² R Σ Rᵀ``. The 95 % ellipse of a 2D
 Gaussian is ``{x : (x − m)ᵀ Σ⁻¹ (x − m) ≤ χ²₂(0.95) = 5.991}``.
+
+Two curves cannot be told apart on the map when they lie closer than ``RESOLVABLE`` (1 %) of the plotted extent
+— a line is ≈ 0.4 % of a column-wide panel. When two of the drawn curves (the ground truth included) stay that
+close over half their length (:func:`overlapping`), a second panel shows each estimate's ATE position error over
+time on a log axis, where the methods separate.
 """
 from __future__ import annotations
 
@@ -15,11 +20,12 @@ import numpy as np
 from slamarena.experiments.metrics.series import Series
 
 from .runs import FigureSkipped, by, load_runs
-from .style import TRUTH, WIDTH, apply, method_style, plt, save
+from .style import COLUMN, TRUTH, MethodStyles, figure, log_axis, robust_limits, save
 
-__all__ = ["plot", "ellipse_points"]
+__all__ = ["plot", "ellipse_points", "overlapping", "RESOLVABLE"]
 
 CHI2_2_95 = 5.991464547107979
+RESOLVABLE = 0.01  # fraction of the plotted extent below which two curves merge on the map
 
 
 def ellipse_points(mean: np.ndarray, cov: np.ndarray, scale2: float = CHI2_2_95, n: int = 48) -> np.ndarray:
@@ -34,10 +40,7 @@ def _aligned_landmarks(run):
     est = run.estimate
     if est.landmarks is None or len(est.landmarks) == 0:
         return None, None
-    from slamarena.experiments.metrics.alignment import Alignment
-
-    a = run.info.get("alignment") or {}
-    A = Alignment(a.get("angle", 0.0), (a.get("tx", 0.0), a.get("ty", 0.0)), a.get("scale", 1.0))
+    A = run.alignment
     xy = A.points(est.landmarks)
     cov = None
     if est.landmark_cov is not None:
@@ -47,43 +50,87 @@ def _aligned_landmarks(run):
     return xy, cov
 
 
+def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray]], extent: float, resolvable: float = RESOLVABLE) -> list[tuple[str, str]]:
+    """Pairs of curves (name → (t, xy)) whose median distance, at the first one's stamps inside the second's
+    span, is below ``resolvable · extent``: on the map they are one line."""
+    pairs = []
+    names = list(curves)
+    for i, a in enumerate(names):
+        ta, pa = curves[a]
+        for b in names[i + 1:]:
+            tb, pb = curves[b]
+            inside = (ta >= tb[0]) & (ta <= tb[-1])
+            if inside.sum() < 2:
+                continue
+            other = np.column_stack([np.interp(ta[inside], tb, pb[:, k]) for k in (0, 1)])
+            if np.median(np.linalg.norm(pa[inside] - other, axis=1)) < resolvable * extent:
+                pairs.append((a, b))
+    return pairs
+
+
 def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
     runs = load_runs(results_dir)
-    apply()
-    methods = sorted({r.estimator for r in runs})
+    styles = MethodStyles.of(results_dir, runs)
     written = []
     for (dataset,), group in by(runs, "dataset").items():
         seed = min(r.seed for r in group)
         shown = [r for r in group if r.seed == seed]
         truth = next((r.truth for r in shown if "poses" in r.truth), None)
-        fig, ax = plt.subplots(figsize=(WIDTH, WIDTH * 0.8))
+        curves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         if truth is not None:
-            ax.plot(truth["poses"][:, 0], truth["poses"][:, 1], **TRUTH)
-            if "landmarks" in truth:
-                ax.scatter(truth["landmarks"][:, 0], truth["landmarks"][:, 1], marker="x", s=18, color="black", linewidths=0.8, label="true landmarks", zorder=3)
+            curves[TRUTH["label"]] = (truth["t"], truth["poses"][:, :2])
         for run in shown:
             poses = run.series.get(Series.ATE_ALIGNED_POSES)
             if poses is None:
                 poses = run.estimate.poses
-            style = method_style(run.estimator, methods)
-            ax.plot(poses[:, 0], poses[:, 1], **style)
-            xy, cov = _aligned_landmarks(run)
-            if xy is not None:
-                ax.scatter(xy[:, 0], xy[:, 1], s=10, color=style["color"], zorder=4)
-                if cov is not None:
-                    for m, C in zip(xy, cov):
-                        e = ellipse_points(m, C)
-                        ax.plot(e[:, 0], e[:, 1], color=style["color"], linewidth=0.6)
-        if not ax.lines:
-            plt.close(fig)
+            t = run.series.get(Series.ATE_T, run.estimate.t)
+            curves[run.estimator] = (t, poses[:, :2])
+        if not any(name != TRUTH["label"] for name in curves):
             continue
+        xy = np.vstack([c[1] for c in curves.values()])
+        extent = float(np.max(np.ptp(xy, axis=0)))
+        merged = overlapping(curves, extent)
+        with_errors = bool(merged) and any(Series.ATE_POSITION_ERROR in r.series for r in shown)
+        fig, axes = figure(COLUMN, COLUMN * (1.25 if with_errors else 0.9) + 0.15 * (len(shown) + 2) / 2 + 0.3,
+                           nrows=2 if with_errors else 1, height_ratios=[2.6, 1] if with_errors else None)
+        ax = axes[0, 0]
+        if truth is not None:
+            ax.plot(truth["poses"][:, 0], truth["poses"][:, 1], **TRUTH)
+            if "landmarks" in truth:
+                ax.scatter(truth["landmarks"][:, 0], truth["landmarks"][:, 1], marker="x", s=12, color="black", linewidths=0.6, label="true landmarks", zorder=3)
+        ellipses = False
+        for run in shown:
+            style = styles(run.estimator)
+            ax.plot(*curves[run.estimator][1].T, **style)
+            lm, cov = _aligned_landmarks(run)
+            if lm is not None:
+                ax.scatter(lm[:, 0], lm[:, 1], s=6, color=style["color"], zorder=4)
+                if cov is not None:
+                    ellipses = True
+                    for m, C in zip(lm, cov):
+                        e = ellipse_points(m, C)
+                        ax.plot(e[:, 0], e[:, 1], color=style["color"], linewidth=0.4)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        ellipses = "; landmark ellipses 95 %" if any(r.estimate.landmark_cov is not None for r in shown) else ""
-        ax.set_title(f"{dataset} (seed {seed}; estimates aligned as for the ATE{ellipses})")
-        ax.legend(loc="best")
-        written += save(fig, out_dir, f"trajectories_{dataset}")
+        caption = (f"{dataset}, seed {seed}: ground truth (black) and each method's estimate after its ATE alignment "
+                   f"(estimates are in the ground-truth frame)" + ("; true landmarks ×, estimated landmarks • with their 95 % "
+                   "covariance ellipses (χ²₂(0.95) = 5.99)" if ellipses else "") + ".")
+        if with_errors:
+            ax_e = axes[1, 0]
+            values = []
+            for run in shown:
+                if Series.ATE_POSITION_ERROR in run.series:
+                    e = run.series[Series.ATE_POSITION_ERROR]
+                    ax_e.plot(run.series[Series.ATE_T], e, **styles(run.estimator))
+                    values.append(e)
+            log_axis(ax_e, "y", robust_limits(values, log=True))
+            ax_e.set_xlabel("time [s]")
+            ax_e.set_ylabel("position error [m]")
+            caption += (" Lower panel: ATE position error over time (log scale), because "
+                        + "; ".join(f"{a} and {b}" for a, b in merged)
+                        + f" lie within {RESOLVABLE:.0%} of the plot's extent of each other on the map.")
+        written += save(fig, out_dir, f"trajectories_{dataset}", caption)
     if not written:
         raise FigureSkipped("no trajectory to draw")
     return written

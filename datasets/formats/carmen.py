@@ -51,7 +51,8 @@ Time: ``t`` is the ipc_timestamp; the file order is the true order. Per stream (
 log) the **clock** is the longest subsequence, in file order, of the positive, finite stamps that
 never steps back (:func:`clock_faults`). Stamps off the clock by at most :data:`JITTER_S` are jitter (Intel: 631
 scans step back by < 0.9 s; sorting by stamp would make the odometry path 30 % longer): kept, and
-made non-decreasing by a running maximum (``meta["time_adjusted_messages"]`` counts the changed ones).
+made increasing by a running maximum whose runs of equal values are spread evenly to the next value
+(:func:`strictly_increasing`; ``meta["time_adjusted_messages"]`` counts the changed ones).
 A message whose stamp is zero, negative, not finite or off the clock by more than that (one ODOM
 stamped 50 s late, say) is dropped — its neighbours carry the motion across — listed in
 ``meta["dropped_lines"]["bad_timestamp"]`` and warned about (:class:`DataWarning`); one line never
@@ -68,6 +69,7 @@ import bisect
 import re
 import warnings
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 from pydantic import PositiveFloat, PositiveInt
@@ -77,9 +79,10 @@ from slamarena.params import Field, Params, with_params
 from ..errors import DataFormatError, DataWarning
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
+from ..source import Layout, SourceParams
 from ._text import Lines, binary_lines, check_monotonic, fixed, numbers, records
 
-__all__ = ["read", "load", "CarmenParams", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
+__all__ = ["read", "load", "CarmenParams", "CarmenSource", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
 
 #: largest distance of an ipc timestamp from its stream's clock treated as jitter (clamped), seconds
 JITTER_S = 1.0
@@ -171,6 +174,23 @@ def _longest_non_decreasing(t: np.ndarray) -> np.ndarray:
         on[i] = True
         i = prev[i]
     return on
+
+
+def strictly_increasing(t: np.ndarray) -> np.ndarray:
+    """The running maximum of ``t`` with every run of equal values spread evenly over the interval to the next value,
+    at most one median step of the stream (so a stamp moves at most that much beyond the running maximum), so that a
+    stream's stamps increase strictly: jitter clamped to the same stamp would otherwise give two poses at one time
+    (Intel: 1612 scans), which trajectories cannot hold."""
+    t = np.maximum.accumulate(np.asarray(t, dtype=float))
+    if t.size < 2 or np.all(np.diff(t) > 0):
+        return t
+    starts = np.flatnonzero(np.r_[True, np.diff(t) > 0])           # first index of each run of equal values
+    length = np.diff(np.r_[starts, t.size])
+    steps = np.diff(t[starts])
+    median = np.median(steps) if steps.size else 1.0
+    step = np.minimum(np.r_[steps, median], median) / length  # each run's share of the gap to the next, at most one median step
+    run = np.repeat(np.arange(starts.size), length)
+    return t[starts][run] + (np.arange(t.size) - starts[run]) * step[run]
 
 
 def clock_faults(ts: np.ndarray) -> np.ndarray:
@@ -305,9 +325,9 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
                                             f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log")
         keep[timed[scan_faults]] = False
         odo, odo_ts, odom_rows = odo[~odo_faults], odo_ts[~odo_faults], odom_rows[~odo_faults]
-        scan_t = np.maximum.accumulate(scan_ts[keep])
-        odo_t = np.maximum.accumulate(odo_ts) if odo_ts.size else odo_ts
-        meta["time_source"] = "ipc_timestamp (running maximum within each message type)"
+        scan_t = strictly_increasing(scan_ts[keep])
+        odo_t = strictly_increasing(odo_ts) if odo_ts.size else odo_ts
+        meta["time_source"] = "ipc_timestamp (running maximum within each message type, equal stamps spread to the next)"
         meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum()))
     else:
         # the stamps carry no time: the scan index; each ODOM at the index of the next scan in file order
@@ -393,10 +413,21 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
                     initial_pose=initial, noise=Noise(), meta=meta)
 
 
-@with_params(CarmenParams)
-def load(paths: dict, name: str, /, *, params: CarmenParams) -> Sequence:
-    """Catalogue reader: role ``log``, and the optional role ``relations`` (the staged relations file, used unless the
-    options name one); the options (:class:`CarmenParams`) from the entry and the caller."""
-    if params.relations is None and "relations" in paths:
-        params = params.model_copy(update={"relations": paths["relations"]})
-    return read(paths["log"], name, params=params)
+class CarmenSource(CarmenParams, SourceParams):
+    """A CARMEN log (raw or SLAM-corrected: a property of the file) and the reader's options."""
+
+    location: ClassVar[tuple[str, ...]] = ("path", "corrected")
+    path: str = Field(description="a CARMEN log file (.clf or .log, optionally .gz or .bz2)")
+
+    def layout(self) -> Layout:
+        return Layout({"log": (self.path,)})
+
+
+@with_params(CarmenSource)
+def load(files: dict, name: str, /, *, params: CarmenSource) -> Sequence:
+    """The family reader: role ``log``, and the optional role ``relations`` (a catalogued log's staged relations file,
+    used unless the options name one)."""
+    options = params.options(CarmenParams)
+    if options.relations is None and "relations" in files:
+        options = options.model_copy(update={"relations": files["relations"]})
+    return read(files["log"], name, params=options)

@@ -23,14 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
-from slamarena.params import Params, with_params
+from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ._text import record_values, records, upper_triangle
 from . import isam
 
-__all__ = ["read", "write", "load", "G2oParams", "RECORDS_2D", "RECORDS_3D"]
+__all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
 RECORDS_2D = {"VERTEX_SE2": 4, "VERTEX_XY": 3, "EDGE_SE2": 11, "EDGE_SE2_XY": 7}
 RECORDS_3D = {"VERTEX_SE3:QUAT": 8, "EDGE_SE3:QUAT": 30}
@@ -149,11 +149,13 @@ def write(path: str | Path, graph: PoseGraph) -> None:
     Path(path).write_text("\n".join(out) + "\n")
 
 
-class G2oParams(Params):
-    """The g2o catalogue reader (:func:`load`) takes no options."""
+class G2oSource(isam.GraphSource):
+    """A g2o file and, where there is one, its noise-free iSAM counterpart; the reader has no options."""
+
+    path: str = Field(description="a g2o file (2D or 3D)")
 
 
-@with_params(G2oParams)
-def load(paths: dict, name: str, /, *, params: G2oParams) -> PoseGraph:
-    """Catalogue reader: role ``graph`` and optional ``ground_truth`` (a noise-free iSAM file)."""
-    return read(paths["graph"], name=name, ground_truth=paths.get("ground_truth"))
+@with_params(G2oSource)
+def load(files: dict, name: str, /, *, params: G2oSource) -> PoseGraph:
+    """The family reader: roles ``graph`` and, with ``ground_truth``, ``ground_truth`` (a noise-free iSAM file)."""
+    return read(files["graph"], name=name, ground_truth=files.get("ground_truth"))

@@ -19,19 +19,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, get_args
+from typing import ClassVar, Literal, get_args
 
 import numpy as np
 
-from slamarena.params import Field, Params, with_params
+from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
+from ..source import Layout, SourceParams
 from ._text import record_values, records, upper_triangle, upper_triangular
 
-__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load", "IsamParams", "NoiseConvention"]
+__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load", "GraphSource", "IsamSource", "NoiseConvention"]
 
 POSE_TAGS = ("ODOMETRY", "EDGE2")
 #: what a record's noise columns hold (:func:`information`)
@@ -173,13 +174,27 @@ def true_poses_and_landmarks(path: str | Path, node_ids: np.ndarray) -> tuple[np
     return poses[row], landmarks
 
 
-class IsamParams(Params):
-    """Options of the iSAM catalogue reader (:func:`load`)."""
+class GraphSource(SourceParams):
+    """A graph file and, where there is one, the noise-free iSAM file of the same graph (its true poses)."""
 
+    location: ClassVar[tuple[str, ...]] = ("path", "ground_truth")
+    path: str = Field(description="a graph file")
+    ground_truth: str | None = Field(None, description="the noise-free iSAM file of the same graph, found where the graph is; "
+                                                       "None: no ground truth")
+
+    def layout(self) -> Layout:
+        return Layout({"graph": (self.path,), **({"ground_truth": (self.ground_truth,)} if self.ground_truth else {})})
+
+
+class IsamSource(GraphSource):
+    """An iSAM file (what its noise columns hold belongs to the file)."""
+
+    location: ClassVar[tuple[str, ...]] = ("path", "ground_truth", "noise")
+    path: str = Field(description="a file in the iSAM text format (ODOMETRY/EDGE2 and LANDMARK lines)")
     noise: NoiseConvention = Field("sqrt_information", description="what the noise columns hold (iSAM files: the square-root information)")
 
 
-@with_params(IsamParams)
-def load(paths: dict, name: str, /, *, params: IsamParams) -> PoseGraph:
-    """Catalogue reader: roles ``graph`` and optional ``ground_truth``."""
-    return read(paths["graph"], noise=params.noise, ground_truth=paths.get("ground_truth"), name=name)
+@with_params(IsamSource)
+def load(files: dict, name: str, /, *, params: IsamSource) -> PoseGraph:
+    """The family reader: roles ``graph`` and, with ``ground_truth``, ``ground_truth``."""
+    return read(files["graph"], noise=params.noise, ground_truth=files.get("ground_truth"), name=name)

@@ -4,6 +4,8 @@ A dataset directory holds ``Barcodes.dat``, ``Landmark_Groundtruth.dat`` and per
 ``Robot<k>_Odometry.dat``, ``Robot<k>_Measurement.dat`` and (where recorded)
 ``Robot<k>_Groundtruth.dat``; each may be gzip-compressed (``.dat.gz``). All files have ``#``
 header lines and whitespace-separated numeric columns; times are UNIX seconds on one clock.
+Any directory in this layout is read as ``utias:<directory>/robot<k>`` (:class:`MrclamSource`;
+Datasets 1 and 6 are catalogued as ``utias:1/robot<k>``, ``utias:6/robot<k>``).
 
 - Odometry ``t v ω`` → :class:`Twist` (each command holds until the next stamp;
   :meth:`Twist.from_stamps`, which drops zero-length commands at repeated stamps: counted).
@@ -18,18 +20,22 @@ The dataset states no sensor noise, so :class:`Noise` is left empty (``meta["noi
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
+from pydantic import PositiveInt
 
-from slamarena.params import Params, with_params
+from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..geometry import interpolate_poses
 from ..sequence import LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
+from ..source import Layout, SourceParams, joined
 from ._text import check_monotonic, numeric_table
 
-__all__ = ["read_table", "read_robot", "read_directory", "read", "MrclamParams", "ROBOT_SUBJECTS"]
+__all__ = ["read_table", "read_robot", "read", "MrclamSource", "ROBOT_SUBJECTS"]
 
 #: subjects 1..5 are the robots; 6..20 the landmarks
 ROBOT_SUBJECTS = range(1, 6)
@@ -38,13 +44,6 @@ ROBOT_SUBJECTS = range(1, 6)
 def read_table(path: str | Path, ncols: int, what: str) -> tuple[np.ndarray, np.ndarray]:
     """All data rows of one MRCLAM file as an ``(N, ncols)`` array and their line numbers."""
     return numeric_table(path, ncols, what)
-
-
-def _file(directory: Path, stem: str) -> Path | None:
-    for name in (f"{stem}.dat", f"{stem}.dat.gz"):
-        if (directory / name).exists():
-            return directory / name
-    return None
 
 
 def read_robot(
@@ -109,27 +108,36 @@ def read_robot(
                     initial_pose=initial, noise=Noise(), meta=meta)
 
 
-def read_directory(directory: str | Path, robot: int, name: str | None = None) -> Sequence:
-    """Robot ``robot`` of any directory in the MRCLAM layout (plain or ``.gz`` files)."""
-    directory = Path(directory)
-    files = {
-        "odometry": _file(directory, f"Robot{robot}_Odometry"),
-        "measurement": _file(directory, f"Robot{robot}_Measurement"),
-        "barcodes": _file(directory, "Barcodes"),
-        "landmarks": _file(directory, "Landmark_Groundtruth"),
-    }
-    missing = [k for k, v in files.items() if v is None]
-    if missing:
-        raise FileNotFoundError(f"{directory}: no MRCLAM file(s) for {', '.join(missing)} of robot {robot}")
-    return read_robot(**files, groundtruth=_file(directory, f"Robot{robot}_Groundtruth"),
-                      name=name or f"{directory.name}/robot{robot}")
+class MrclamSource(SourceParams):
+    """Where one robot's MRCLAM files are; the reader has no options."""
+
+    location: ClassVar[tuple[str, ...]] = ("path", "robot")
+    form: ClassVar[str] = "<path>/robot<k>"
+    path: str = Field(description="a directory in the MRCLAM layout: Barcodes.dat, Landmark_Groundtruth.dat, Robot<k>_Odometry.dat, "
+                                  "Robot<k>_Measurement.dat and, where recorded, Robot<k>_Groundtruth.dat (each plain or .gz)")
+    robot: PositiveInt = Field(description="k, the robot whose Robot<k>_*.dat files are read")
+
+    @classmethod
+    def shorthand(cls, text: str) -> dict:
+        match = re.fullmatch(r"(.+)/robot(\d+)", text)
+        if match is None:
+            raise ValueError(f"expected utias:{cls.form}")
+        return {"path": match[1], "robot": int(match[2])}
+
+    def spelled(self) -> str:
+        return f"{self.path}/robot{self.robot}"
+
+    def layout(self) -> Layout:
+        def dat(stem: str) -> tuple[str, str]:
+            return joined(self.path, f"{stem}.dat"), joined(self.path, f"{stem}.dat.gz")
+
+        k = self.robot
+        return Layout({"odometry": dat(f"Robot{k}_Odometry"), "measurement": dat(f"Robot{k}_Measurement"),
+                       "barcodes": dat("Barcodes"), "landmarks": dat("Landmark_Groundtruth"),
+                       "groundtruth": dat(f"Robot{k}_Groundtruth")}, frozenset({"groundtruth"}))
 
 
-class MrclamParams(Params):
-    """The MRCLAM catalogue reader (:func:`read`) takes no options."""
-
-
-@with_params(MrclamParams)
-def read(paths: dict, name: str, /, *, params: MrclamParams) -> Sequence:
-    """Catalogue reader: ``paths`` has roles odometry, measurement, barcodes, landmarks[, groundtruth]."""
-    return read_robot(name=name, **paths)
+@with_params(MrclamSource)
+def read(files: dict, name: str, /, *, params: MrclamSource) -> Sequence:
+    """The family reader: ``files`` has roles odometry, measurement, barcodes, landmarks[, groundtruth]."""
+    return read_robot(name=name, **files)

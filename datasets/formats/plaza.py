@@ -34,10 +34,14 @@ What the reader does about the files' quirks (each counted in ``meta``):
 
 ``initial_pose`` is the first ground-truth pose (at the stamp before the first odometry row:
 ``GT[k+1].t == DR[k].t`` exactly); ``landmarks`` holds the beacons under their ids.
+
+Catalogued: ``plaza:Plaza1``, ``plaza:Plaza2``; any run in this layout: ``plaza:<dir>/<run>`` (its path
+without the suffixes, :class:`PlazaSource`; the ``.mat`` file is optional there).
 """
 from __future__ import annotations
 
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -46,9 +50,10 @@ from slamarena.params import Field, Params, with_params
 from ..errors import DataFormatError
 from ..geometry import wrap_angle
 from ..sequence import BeaconRanges, Increments, LandmarkMap, Noise, Sequence, Trajectory
+from ..source import Layout, SourceParams
 from ._text import check_monotonic, numeric_table
 
-__all__ = ["read_run", "read", "read_mat", "PlazaParams", "heading_offset"]
+__all__ = ["read_run", "read", "read_mat", "PlazaParams", "PlazaSource", "heading_offset"]
 
 #: a ground-truth step shorter than this [m] says nothing about the direction of travel
 _MOVING = 0.05
@@ -151,7 +156,19 @@ def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None 
                     ground_truth=ground_truth, landmarks=landmarks, initial_pose=initial, noise=Noise(), meta=meta)
 
 
-@with_params(PlazaParams)
-def read(paths: dict, name: str, /, *, params: PlazaParams) -> Sequence:
-    """Catalogue reader: ``paths`` has roles odometry, ranges and (optional) truth."""
-    return read_run(paths["odometry"], paths["ranges"], paths.get("truth"), name, params=params)
+class PlazaSource(PlazaParams, SourceParams):
+    """Where a Plaza run's files are, and the reader's options."""
+
+    location: ClassVar[tuple[str, ...]] = ("path",)
+    path: str = Field(description="a run's path without its suffixes: <dir>/PlazaN names PlazaN_DR.txt (odometry), PlazaN_TD.txt "
+                                  "(ranges) and, where there is one, PlazaN_.mat (ground truth and beacons)")
+
+    def layout(self) -> Layout:
+        return Layout({"odometry": (f"{self.path}_DR.txt",), "ranges": (f"{self.path}_TD.txt",), "truth": (f"{self.path}_.mat",)},
+                      frozenset({"truth"}))
+
+
+@with_params(PlazaSource)
+def read(files: dict, name: str, /, *, params: PlazaSource) -> Sequence:
+    """The family reader: ``files`` has roles odometry, ranges and (optional) truth."""
+    return read_run(files["odometry"], files["ranges"], files.get("truth"), name, params=params.options(PlazaParams))

@@ -20,13 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-from slamarena.params import Params, with_params
+from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
+from ..source import Layout, SourceParams
 from ._text import record_values, records
 
-__all__ = ["read", "load", "ToroParams", "toro_information", "RECORDS"]
+__all__ = ["read", "load", "ToroSource", "toro_information", "RECORDS"]
 
 RECORDS = {"VERTEX2": 4, "EDGE2": 11, "EQUIV": 2, "BR": 6}
 
@@ -83,11 +84,16 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
                      meta=meta, **landmarks)
 
 
-class ToroParams(Params):
-    """The TORO catalogue reader (:func:`load`) takes no options."""
+class ToroSource(SourceParams):
+    """A TORO file; the reader has no options."""
+
+    path: str = Field(description="a TORO graph file (VERTEX2, EDGE2, EQUIV, BR lines)")
+
+    def layout(self) -> Layout:
+        return Layout({"graph": (self.path,)})
 
 
-@with_params(ToroParams)
-def load(paths: dict, name: str, /, *, params: ToroParams) -> PoseGraph:
-    """Catalogue reader: role ``graph``."""
-    return read(paths["graph"], name=name)
+@with_params(ToroSource)
+def load(files: dict, name: str, /, *, params: ToroSource) -> PoseGraph:
+    """The family reader: role ``graph``."""
+    return read(files["graph"], name=name)

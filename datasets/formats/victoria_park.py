@@ -21,22 +21,26 @@ diag(σ², σ²/r̃²) at the median observed range r̃, and the exact per-obser
 in ``meta["range_bearing_cov_per_observation"]`` (M, 2, 2).
 
 As a :class:`PoseGraph` (:func:`read_graph`): odometry edges and landmark edges of kind ``"xy"``.
+
+Catalogued: ``victoria_park`` (GTSAM's copy; the GTSAM wheel ships it) and ``victoria_park:isam``; any
+file in the format: ``victoria_park:<file>`` with its ``variant`` (:class:`VictoriaParkSource`).
 """
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
-from slamarena.params import Field, Params, with_params
+from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ..sequence import Increments, Noise, RangeBearing, Sequence
+from ..source import Layout, SourceParams
 from . import isam
 
-__all__ = ["read", "read_graph", "load", "VictoriaParkParams", "Variant", "CONVENTION"]
+__all__ = ["read", "read_graph", "load", "VictoriaParkSource", "Variant", "CONVENTION"]
 
 #: the two copies of the file
 Variant = Literal["isam", "gtsam"]
@@ -108,16 +112,21 @@ def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park
     return Sequence(name=name, motion=motion, range_bearing=rb, initial_pose=np.zeros(3), noise=noise, meta=meta)
 
 
-class VictoriaParkParams(Params):
-    """Options of the Victoria Park catalogue reader (:func:`load`)."""
+class VictoriaParkSource(SourceParams):
+    """A Victoria Park file (what its noise columns hold belongs to the file) and the reader's option."""
 
-    variant: Variant = Field("gtsam", description="the copy to read: 'gtsam' (covariance noise columns; the GTSAM wheel ships "
-                                                  "it) or 'isam' (square-root information)")
+    location: ClassVar[tuple[str, ...]] = ("path", "variant")
+    path: str = Field(description="a file in the iSAM text format with ODOMETRY and LANDMARK lines (one odometry chain)")
+    variant: Variant = Field("gtsam", description="what its noise columns hold: 'gtsam' covariance (GTSAM's copy) or "
+                                                  "'isam' square-root information (iSAM's copy)")
     as_graph: bool = Field(False, description="a PoseGraph with landmark edges instead of a Sequence")
 
+    def layout(self) -> Layout:
+        return Layout({"file": (self.path,)})
 
-@with_params(VictoriaParkParams)
-def load(paths: dict, name: str, /, *, params: VictoriaParkParams) -> Sequence | PoseGraph:
-    """Catalogue reader: roles ``gtsam`` and ``isam``, one file per variant (the data root finds the GTSAM wheel's copy of the first)."""
-    path = paths[params.variant]
-    return read_graph(path, params.variant, name) if params.as_graph else read(path, params.variant, name)
+
+@with_params(VictoriaParkSource)
+def load(files: dict, name: str, /, *, params: VictoriaParkSource) -> Sequence | PoseGraph:
+    """The family reader: role ``file``, read with the convention of ``variant``."""
+    reader = read_graph if params.as_graph else read
+    return reader(files["file"], params.variant, name)

@@ -83,7 +83,8 @@ def _mahalanobis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     if not np.all((det > 0) & (a > 0)):
         raise CovarianceError("an innovation covariance is not positive definite")
     n0, n1 = nu[..., 0], nu[..., 1]
-    return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
+    with np.errstate(over="ignore", invalid="ignore"):  # an absurd innovation gives d² = ∞ or NaN, inside no gate
+        return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
 
 
 def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,16 +1,18 @@
 """Positive-definiteness checks of the EKF-SLAM covariance (cheap necessary conditions).
 
 A full test that the N × N covariance is positive semi-definite costs O(N³); the filter
-instead checks, after every step, what can be checked in O(N): no negative diagonal entry,
-the 3 × 3 robot block and every 2 × 2 landmark block positive semi-definite, and that every
-innovation covariance S admits a Cholesky factor. A failure raises :class:`CovarianceError`
-(or is counted, when the filter is told to record instead of raise).
+instead checks what can be checked in O(N): no negative diagonal entry, the 3 × 3 robot block
+and every 2 × 2 landmark block positive semi-definite, and that every innovation covariance S
+admits a Cholesky factor. The checks read only those entries, so a step's result is checked
+before it is committed (:func:`check_update` for ``P + C diag(s) Cᵀ``, :func:`check_augmented`
+for a new landmark), and a failing step leaves P as it was. A failure raises
+:class:`CovarianceError` (or is counted, when the filter is told to record instead of raise).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CovarianceError", "check_innovation_cov", "check_covariance"]
+__all__ = ["CovarianceError", "check_innovation_cov", "check_covariance", "check_update", "check_augmented"]
 
 #: relative tolerance for "negative" (round-off of a semi-definite zero block is not an error)
 _TOL = 1e-12
@@ -39,21 +41,34 @@ def _psd3(A: np.ndarray, tol: float) -> bool:
 
 def check_covariance(P: np.ndarray, n_robot: int = 3) -> None:
     """Raise CovarianceError if P has a negative diagonal entry or an indefinite robot/landmark block."""
-    d = np.diagonal(P)
+    _check_entries(np.diagonal(P), P[:n_robot, :n_robot], np.diagonal(P, offset=1)[n_robot::2], n_robot)
+
+
+def check_update(P: np.ndarray, C: np.ndarray, s: np.ndarray, n_robot: int = 3) -> None:
+    """:func:`check_covariance` of ``P + C diag(s) Cᵀ`` (C N × d) before it is formed: only the checked entries, O(N d)."""
+    Cs = C * s
+    _check_entries(np.diagonal(P) + np.einsum("ik,ik->i", Cs, C), P[:n_robot, :n_robot] + Cs[:n_robot] @ C[:n_robot].T,
+                   np.diagonal(P, offset=1)[n_robot::2] + np.einsum("ik,ik->i", Cs[n_robot::2], C[n_robot + 1::2]), n_robot)
+
+
+def check_augmented(P: np.ndarray, block: np.ndarray, n_robot: int = 3) -> None:
+    """:func:`check_covariance` of P grown by a landmark whose 2 × 2 covariance is ``block``, before it is grown."""
+    _check_entries(np.r_[np.diagonal(P), np.diagonal(block)], P[:n_robot, :n_robot],
+                   np.r_[np.diagonal(P, offset=1)[n_robot::2], block[0, 1]], n_robot)
+
+
+def _check_entries(d: np.ndarray, robot: np.ndarray, off: np.ndarray, n_robot: int) -> None:
+    """The checks on the entries they read: the diagonal d, the robot block, and ``off[k] = P[s, s + 1]`` of landmark k."""
     scale = max(float(d.max(initial=0.0)), 1.0)
     if not np.all(np.isfinite(d)):
         raise CovarianceError("covariance has non-finite diagonal entries")
     if d.min(initial=0.0) < -_TOL * scale:
         k = int(np.argmin(d))
         raise CovarianceError(f"covariance diagonal entry {k} is negative: {d[k]!r}")
-    if not _psd3(P[:n_robot, :n_robot], _TOL * scale):
+    if not _psd3(robot, _TOL * scale):
         raise CovarianceError("robot covariance block is not positive semi-definite")
-    n = (P.shape[0] - n_robot) // 2
-    if n:
-        a = d[n_robot::2]
-        c = d[n_robot + 1::2]
-        b = np.diagonal(P, offset=1)[n_robot::2]
-        det = a * c - b * b
+    if off.size:
+        det = d[n_robot::2] * d[n_robot + 1::2] - off * off
         if det.min() < -_TOL * scale * scale:
             k = int(np.argmin(det))
             raise CovarianceError(f"covariance block of landmark slot {k} is not positive semi-definite (det {det[k]!r})")

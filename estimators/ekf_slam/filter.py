@@ -76,14 +76,26 @@ Linearisation points (``jacobians=``):
 
 Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
 −1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
-(:mod:`.association`), decided on the estimate before the set is applied. Optionally
-(``known_confidence``) labelled rows are χ²-gated too, rejecting outliers of real sensors.
+(:mod:`.association`), decided on the estimate before the set is applied. A labelled row of a
+mapped landmark is χ²-gated too: applied only if ``d² = νᵀ S⁻¹ ν < χ²₂(known_confidence)``
+(default 0.99999, so a true observation with the stated noise is rejected with probability
+1e-5; an outlier of a real sensor is not applied). ``known_confidence=None`` removes the gate
+(the notes' filter, for oracle comparisons); a row whose d² is not finite is still rejected.
 
-Bad input: rows with a non-finite value or a negative range are rejected and counted;
-``dt <= 0`` or a non-finite control raise ``ValueError``; after every step the covariance is
-checked (:mod:`.checks`), and a loss of positive definiteness raises
-:class:`~.checks.CovarianceError` (``on_indefinite="record"``: the step is counted and, for an
-indefinite S, the observation skipped).
+Bad input. Every step computes its result, checks it, and only then changes the state, so a
+rejected or failing step leaves x and P exactly as they were:
+
+* observations: rows with a non-finite value or a negative range are rejected and counted; a row
+  is also rejected (counted in ``rejected["nonfinite"]``) when its update is not representable —
+  a non-finite d², gain step or covariance term, or a new landmark whose mean or covariance is
+  not finite (e.g. a range of 1e200 m: ``G_z R G_zᵀ`` overflows);
+* motion: ``dt <= 0``, a non-finite control or increment, or a chain whose predicted poses or
+  covariances (``G P Gᵀ + Q``, ``Φ P_rm``) are not finite raise ``ValueError``. This is the
+  definition of an absurd control: one whose prediction the model cannot represent (e.g.
+  ``v = 1e300``: the step is finite but ``G P Gᵀ`` overflows), not a bound on speed;
+* the covariance is checked in O(N) (:mod:`.checks`) before each step is committed; a loss of
+  positive definiteness raises :class:`~.checks.CovarianceError` (``on_indefinite="record"``:
+  counted in ``rejected["indefinite"]``; an observation is then skipped, a prediction applied).
 """
 from __future__ import annotations
 
@@ -101,7 +113,7 @@ from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODEL
                       inverse_observe, observation_jacobians, observe)
 from . import association as assoc
 from .association import Decision
-from .checks import CovarianceError, check_covariance, check_innovation_cov
+from .checks import CovarianceError, check_augmented, check_innovation_cov, check_update
 from .kernels import robot_chain, symmetric_update
 from .storage import GrowingState
 
@@ -168,7 +180,7 @@ class OnIndefinite(StrEnum):
     """What a loss of positive definiteness does."""
 
     RAISE = "raise"          # raise CovarianceError
-    RECORD = "record"        # count it (rejected["indefinite"]) and skip the observation
+    RECORD = "record"        # count it (rejected["indefinite"]); skip the observation (a prediction is applied)
 
 
 #: a χ² gate's confidence, strictly inside (0, 1)
@@ -205,13 +217,15 @@ class EKFSLAMParams(Params):
                              "at 0.99999 a true re-observation lands beyond it with probability 1e-5")
     jcbb_confidence: Confidence = Field(0.95, description="χ²_2k gate of a joint hypothesis of k pairings in JCBB")
     known_confidence: Confidence | None = Field(
-        None, description="None: rows with a known id are always applied (as in the notes); else a labelled row of a mapped landmark "
-                          "whose d² exceeds χ²₂(known_confidence) is rejected as an outlier")
+        0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
+                             "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
+                             "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
     jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
         None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")
     initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame")
-    on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError or 'record' (count it, skip the observation)")
+    on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError (the state unchanged) "
+                                                                        "or 'record' (count it; skip the observation, apply the prediction)")
     capacity: int = Field(64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full")
 
     @model_validator(mode="after")
@@ -223,6 +237,10 @@ class EKFSLAMParams(Params):
         if self.jacobians == Linearisation.IDEAL and not self.use_ids:
             raise ValueError("jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)")
         return self
+
+
+#: absurd inputs overflow to inf/NaN inside a step; the step checks its result before the state changes
+_OVERFLOW_IS_CHECKED = np.errstate(over="ignore", invalid="ignore")
 
 
 def _matrix(value) -> np.ndarray | None:
@@ -245,7 +263,7 @@ class EKFSLAM:
         self._initial_cov = _matrix(p.initial_cov)
         self.gate_match = assoc.chi2_gate(p.match_confidence, 2)
         self.gate_new = assoc.chi2_gate(p.new_confidence, 2)
-        self.gate_known = None if p.known_confidence is None else assoc.chi2_gate(p.known_confidence, 2)
+        self.gate_known = np.inf if p.known_confidence is None else assoc.chi2_gate(p.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -311,6 +329,7 @@ class EKFSLAM:
         u = np.asarray(u, dtype=float).reshape(2)
         self.predict_twists(u[:1], u[1:], np.array([dt], dtype=float))
 
+    @_OVERFLOW_IS_CHECKED
     def predict_twists(self, v, omega, dt, true_poses=None) -> tuple[np.ndarray, np.ndarray]:
         """A chain of K predictions with (v_k, ω_k) held for dt_k; returns the K robot poses and 3×3 covariances.
 
@@ -331,6 +350,7 @@ class EKFSLAM:
         """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""
         self.predict_increments(np.asarray(delta, dtype=float).reshape(1, 3), None if cov is None else np.asarray(cov, dtype=float).reshape(1, 3, 3))
 
+    @_OVERFLOW_IS_CHECKED
     def predict_increments(self, delta, cov=None, true_poses=None) -> tuple[np.ndarray, np.ndarray]:
         """A chain of K odometry increments (K, 3) with covariances (K, 3, 3) (default: increment_cov)."""
         delta = np.asarray(delta, dtype=float).reshape(-1, 3)
@@ -349,6 +369,10 @@ class EKFSLAM:
         with D_k the world-frame displacement at the linearisation point, and the product of
         the chain is ``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]`` (the correction terms commute).
         Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
+
+        The whole result is computed and checked before the state changes: a chain whose poses, robot
+        covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
+        is indefinite raises :class:`CovarianceError` (``on_indefinite="record"``: counted and applied).
         """
         x, P = self._s.x, self._s.P
         if len(delta) == 0:
@@ -366,14 +390,19 @@ class EKFSLAM:
             Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
         covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
         Dsum = D.sum(axis=0)
-        P[:3, 3:] += np.outer([-Dsum[1], Dsum[0], 0.0], P[2, 3:])      # Φ P_rm, Φ = I + [0 0 −ΣD_y; 0 0 ΣD_x; 0]
-        P[3:, :3] = P[:3, 3:].T
+        P_rm = P[:3, 3:] + np.outer([-Dsum[1], Dsum[0], 0.0], P[2, 3:])  # Φ P_rm, Φ = I + [0 0 −ΣD_y; 0 0 ΣD_x; 0]
+        finite = np.isfinite(poses[1:]).all(axis=1) & np.isfinite(covs).all(axis=(1, 2))
+        if not (finite.all() and np.isfinite(P_rm).all()):
+            k = int(np.argmin(finite)) if not finite.all() else len(delta) - 1
+            raise ValueError(f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
+                             "is beyond what the model can represent); the state is unchanged")
+        if not np.all(np.linalg.eigvalsh(covs)[:, 0] >= -1e-12 * max(1.0, float(np.abs(covs).max()))):
+            self._indefinite(CovarianceError("robot covariance lost positive semi-definiteness during prediction"))
+        P[:3, 3:] = P_rm
+        P[3:, :3] = P_rm.T
         P[:3, :3] = covs[-1]
         x[:3] = poses[-1]
         self._robot_prior = poses[-1].copy()
-        if not np.all(np.linalg.eigvalsh(covs)[:, 0] >= -1e-12 * max(1.0, float(np.abs(covs).max()))):
-            self._fail("robot covariance lost positive semi-definiteness during prediction")
-        self._check()
         return poses[1:], covs
 
     def _linearisation_pose(self) -> np.ndarray:
@@ -384,8 +413,15 @@ class EKFSLAM:
         return self._s.x[:3]
 
     # ------------------------------------------------------------------ update
+    @_OVERFLOW_IS_CHECKED
     def update(self, z) -> None:
-        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown)."""
+        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown).
+
+        Rows with a non-finite value or a negative range are counted and dropped. Every other row gets a
+        decision (``assoc_log``, decided on the estimate before the set); a row that is not applied —
+        ambiguous, outside a gate, or whose update would not be finite (counted in ``rejected["nonfinite"]``)
+        or would make P indefinite (``on_indefinite="record"``) — is logged as rejected and changes nothing.
+        """
         z = np.asarray(z, dtype=float)
         if z.ndim != 2 or z.shape[1] != 3:
             raise ValueError(f"z must be an (M, 3) array [range, bearing, id], got shape {z.shape}")
@@ -400,26 +436,25 @@ class EKFSLAM:
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
-        self.assoc_log.extend(zip(decision.tolist(), [-1] * len(z), d2.tolist(), given.tolist()))
-        log0 = len(self.assoc_log) - len(z)
-        pending = np.flatnonzero(decision != Decision.REJECTED)
         if self.params.update == UpdateForm.BATCH:
-            matched = pending[decision[pending] == Decision.MATCHED]
-            if matched.size:
-                self._update_batch(slot[matched], z[matched, :2], Rz[matched])
-            pending = pending[decision[pending] != Decision.MATCHED]
+            matched = np.flatnonzero(decision == Decision.MATCHED)
+            if matched.size and not self._update_batch(slot[matched], z[matched, :2], Rz[matched]):
+                decision[matched], slot[matched] = Decision.REJECTED, -1
+            pending = np.flatnonzero(decision == Decision.NEW)
+        else:
+            pending = np.flatnonzero(decision != Decision.REJECTED)
         for j in pending:
+            if decision[j] == Decision.NEW and ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
+                decision[j], slot[j] = Decision.MATCHED, self._slot[int(ids[j])]
             if decision[j] == Decision.MATCHED:
-                self._update_one(int(slot[j]), z[j, :2], Rz[j])
-            elif ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
-                slot[j] = self._slot[int(ids[j])]
-                self.assoc_log[log0 + j] = (Decision.MATCHED, -1, np.nan, int(given[j]))
-                self._update_one(int(slot[j]), z[j, :2], Rz[j])
+                applied = self._update_one(int(slot[j]), z[j, :2], Rz[j])
             else:
                 slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None, Rz[j])
-        for j in range(len(z)):
-            dec, _, dist, gid = self.assoc_log[log0 + j]
-            self.assoc_log[log0 + j] = (dec, self._ids[slot[j]] if slot[j] >= 0 else -1, dist, gid)
+                applied = slot[j] >= 0
+            if not applied:
+                decision[j], slot[j] = Decision.REJECTED, -1
+        landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
+        self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
@@ -440,11 +475,14 @@ class EKFSLAM:
             s = self._slot.get(int(ids[j]), -1)
             if s >= 0:
                 decision[j], slot[j] = Decision.MATCHED, s
-        if self.gate_known is not None:
-            labelled = np.flatnonzero(slot >= 0)
+        labelled = np.flatnonzero(slot >= 0)
+        try:
             d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, Rz[labelled], z[labelled], slot[labelled])
-            outlier = labelled[d2[labelled] > self.gate_known]
-            decision[outlier], slot[outlier] = Decision.REJECTED, -1
+            self.rejected["nonfinite"] += int((~np.isfinite(d2[labelled])).sum())
+        except CovarianceError as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
+            self._indefinite(exc, labelled.size)
+        outside = labelled[~(d2[labelled] < self.gate_known)]  # gate_known = ∞ without a gate: only a non-finite d² is outside
+        decision[outside], slot[outside] = Decision.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
             x, P = self._s.x, self._s.P
@@ -476,8 +514,8 @@ class EKFSLAM:
     def _landmarks(self) -> np.ndarray:
         return self._s.x[3:].reshape(-1, 2)
 
-    def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> None:
-        """One observation of landmark ``slot``: H has the five non-zero columns idx."""
+    def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
+        """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
         x, P = self._s.x, self._s.P
         s = 3 + 2 * slot
         idx = [0, 1, 2, s, s + 1]
@@ -487,9 +525,9 @@ class EKFSLAM:
         S = H @ PHt[idx] + R                                           # (2, 2)
         nu = z - observe(x[:3], x[s:s + 2])
         nu[1] = wrap_angle(nu[1])
-        self._correct(PHt, 0.5 * (S + S.T), nu)
+        return self._correct(PHt, 0.5 * (S + S.T), nu)
 
-    def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> None:
+    def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
         x, P = self._s.x, self._s.P
         m = slots.size
@@ -502,79 +540,94 @@ class EKFSLAM:
         S = 0.5 * (S + S.T) + block_diag(*R)
         nu = z - observe(x[:3], self._landmarks()[slots])
         nu[:, 1] = wrap_angle(nu[:, 1])
-        self._correct(PHt, S, nu.ravel())
+        return self._correct(PHt, S, nu.ravel())
 
-    def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> None:
-        """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²)."""
-        x = self._s.x
+    def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> bool:
+        """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²).
+
+        Computed and checked before the state changes; returns whether it was applied. Not applied: a
+        non-finite NIS, state step or covariance term (counted per row in ``rejected["nonfinite"]``), an
+        indefinite S or posterior (``on_indefinite``: raise, or count per row and skip).
+        """
+        d = nu.size
         try:
             L = check_innovation_cov(S)
-        except CovarianceError:
-            if self.params.on_indefinite == OnIndefinite.RAISE:
-                raise
-            self.rejected["indefinite"] += nu.size // 2
-            return
-        Linv = np.linalg.inv(L)                                        # d × d triangular factor only
-        W = PHt @ Linv.T                                               # W = PHᵀ L⁻ᵀ (N, d)
-        K = W @ Linv                                                   # K = PHᵀ S⁻¹ (N, d)
-        e = Linv @ nu
-        self.nis_log.append((float(e @ e), nu.size))                   # νᵀ S⁻¹ ν
-        x += K @ nu
+            Linv = np.linalg.inv(L)                                    # d × d triangular factor only
+            W = PHt @ Linv.T                                           # W = PHᵀ L⁻ᵀ (N, d)
+            K = W @ Linv                                               # K = PHᵀ S⁻¹ (N, d)
+            e = Linv @ nu
+            nis = float(e @ e)                                         # νᵀ S⁻¹ ν
+            dx = K @ nu
+            # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
+            # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
+            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
+            if self.params.covariance_update == CovarianceUpdate.STANDARD:
+                C, signs = W, np.full(d, -1.0)
+            else:
+                D = K @ S - PHt
+                C, signs = np.hstack([W, K + D, K - D]), np.r_[np.full(d, -1.0), np.full(d, 0.5), np.full(d, -0.5)]
+            if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
+                self.rejected["nonfinite"] += d // 2
+                return False
+            check_update(self._s.P, C, signs)
+        except CovarianceError as exc:
+            self._indefinite(exc, d // 2)
+            return False
+        x = self._s.x
+        x += dx
         x[2] = wrap_angle(x[2])
-        # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
-        # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
-        # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
-        d = nu.size
-        if self.params.covariance_update == CovarianceUpdate.STANDARD:
-            C, signs = W, np.full(d, -1.0)
-        else:
-            D = K @ S - PHt
-            C, signs = np.hstack([W, K + D, K - D]), np.r_[np.full(d, -1.0), np.full(d, 0.5), np.full(d, -0.5)]
         symmetric_update(self._s.buffer, self._s.n, C, signs)
-        self._check()
+        self.nis_log.append((nis, d))
+        return True
 
     # ------------------------------------------------------------------ new landmarks
     def _add_landmark(self, z: np.ndarray, landmark_id: int | None, R: np.ndarray) -> int:
-        if landmark_id is None:
-            landmark_id = self._next_id
-            self._next_id += 1
+        """Initialise a landmark from observation z; its slot, or −1 if its mean or covariance is not finite
+        (counted in ``rejected["nonfinite"]``) or indefinite (``on_indefinite="record"``) — then nothing changes."""
+        new_id = self._next_id if landmark_id is None else landmark_id
         xr = self._s.x[:3].copy()
         m = inverse_observe(xr, z)
         if self.params.jacobians == Linearisation.IDEAL:
-            x_true, m_true = self._linearisation_pose(), self._true_landmark(landmark_id)
+            x_true, m_true = self._linearisation_pose(), self._true_landmark(new_id)
             Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
         else:
             Gx, Gz = inverse_observation_jacobians(xr, z)
+        P = self._s.P
+        if self.params.init == LandmarkInit.JACOBIAN:
+            cross = Gx @ P[:3, :]                                       # P_new,: (2, N)
+            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
+            Pnn = 0.5 * (Pnn + Pnn.T)
+        else:
+            cross, Pnn = np.zeros((2, self._s.n)), self.params.init_cov * np.eye(2)
+        if not (np.isfinite(m).all() and np.isfinite(cross).all() and np.isfinite(Pnn).all()):
+            self.rejected["nonfinite"] += 1
+            return -1
+        try:
+            check_augmented(P, Pnn)
+        except CovarianceError as exc:
+            self._indefinite(exc)
+            return -1
         N = self._s.n
         new = self._s.grow(2)
         x, P = self._s.x, self._s.P
         x[new] = m
-        if self.params.init == LandmarkInit.JACOBIAN:
-            P[new, :N] = Gx @ P[:3, :N]
-            P[:N, new] = P[new, :N].T
-            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
-            P[new, new] = 0.5 * (Pnn + Pnn.T)
-        else:
-            P[new, new] = self.params.init_cov * np.eye(2)
+        P[new, :N] = cross
+        P[:N, new] = cross.T
+        P[new, new] = Pnn
         slot = len(self._ids)
         if slot == self._first.shape[0]:
             self._first = np.concatenate([self._first, np.zeros_like(self._first)])
         self._first[slot] = m
-        self._ids.append(landmark_id)
-        self._slot[landmark_id] = slot
-        self._check()
+        self._ids.append(new_id)
+        self._slot[new_id] = slot
+        self._next_id += landmark_id is None
         return slot
 
-    def _check(self) -> None:
-        try:
-            check_covariance(self._s.P)
-        except CovarianceError as exc:
-            self._fail(str(exc))
-
-    def _fail(self, message: str) -> None:
+    def _indefinite(self, error: CovarianceError, count: int = 1) -> None:
+        """A loss of positive definiteness: raise ``error`` (``on_indefinite="raise"``), or count it."""
         if self.params.on_indefinite == OnIndefinite.RAISE:
-            raise CovarianceError(message)
-        self.rejected["indefinite"] += 1
+            raise error
+        self.rejected["indefinite"] += count
 
     # ------------------------------------------------------------------ runner
     def run(self, sequence):

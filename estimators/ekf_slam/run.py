@@ -15,16 +15,22 @@ The motion between two observation sets is applied as one chain
 3 × 3 robot recursion per piece, the cross-covariances once), which gives the same result as
 piece-by-piece prediction and the pose and covariance after every piece.
 
-One pose and its 3 × 3 covariance are recorded per processed event, with the wall time spent
-since the previous record (a chain's time is shared evenly by its motion events). With
+Recorded: the filter's pose and 3 × 3 covariance at every stamp, one per stamp — at a motion
+event, the state after the pieces of the rows before it (a Twist row moves the robot from its
+stamp on, an increment has moved it by its stamp; the start pose and its initial covariance
+before the first piece); at an observation set, the posterior. Where events share a stamp the
+last, the posterior, is kept (:func:`slamarena.estimators.stepping.last_per_stamp`), so ``t``
+increases strictly. Each record carries the wall time spent since the previous one (a chain's
+time is shared evenly by its motion events; records merged at one stamp add theirs). With
 ``jacobians="ideal"`` the true pose (SE(2)-interpolated ground truth, clipped to its span) is
-handed to the filter for every prediction piece and update.
+handed to the filter for every prediction piece (at its start) and update.
 
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
     assoc_t, assoc_decision     every observation's decision (association.Decision): 0 matched, 1 new, 2 rejected
+                                (ambiguous, outside the χ² gate of a labelled row, or an update that is not finite)
     assoc_landmark              id of the landmark matched or created (−1 if rejected)
-    assoc_d2                    Mahalanobis d² to the nearest landmark (NaN when associated by id)
+    assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
     rejected_nonfinite, rejected_negative_range, rejected_motion, rejected_indefinite   counts
 """
@@ -38,7 +44,7 @@ from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import interpolate_poses
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 
-from ..stepping import twist_pieces
+from ..stepping import last_per_stamp, twist_pieces
 from .association import Decision
 from .filter import Linearisation
 
@@ -54,6 +60,10 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         gt = sequence.ground_truth
         ekf.set_truth(landmarks=sequence.landmarks)
 
+    def truth(times: np.ndarray) -> np.ndarray | None:
+        """The true poses at ``times`` (jacobians="ideal"), else None."""
+        return interpolate_poses(gt.t, gt.poses, np.clip(times, gt.t[0], gt.t[-1])) if ideal and len(times) else None
+
     motion, rb = sequence.motion, sequence.range_bearing
     table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
     times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
@@ -68,40 +78,39 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             j += 1
         chain = table[i:j]
         t_end = table[j].t if j < len(table) else (chain[-1].t if chain else t_now)
+        start = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
         if isinstance(motion, Twist):
-            v, w, dts = twist_pieces(motion, t_now, t_end)
-            ends = t_now + np.cumsum(dts)
+            v, w, dts, rows = twist_pieces(motion, t_now, t_end, with_rows=True)
             ok = np.isfinite(v) & np.isfinite(w)
             rejected_motion += int((~ok).sum())
-            starts = (ends - dts)[ok]
-            truth = interpolate_poses(gt.t, gt.poses, np.clip(starts, gt.t[0], gt.t[-1])) if ideal and ok.any() else None
-            done = ekf.predict_twists(v[ok], w[ok], dts[ok], true_poses=truth) if ok.any() else None
-            ends = ends[ok]
+            v, w, dts, rows = v[ok], w[ok], dts[ok], rows[ok]
+            done = ekf.predict_twists(v, w, dts, true_poses=truth(np.maximum(motion.t[rows], t_now)))
+            upto = [event.start for event in chain]  # a Twist row moves the robot from its stamp on
         elif isinstance(motion, Increments):
             rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
             ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
             rejected_motion += int((~ok).sum())
             rows = rows[ok]
-            truth = interpolate_poses(gt.t, gt.poses, np.clip(motion.t[rows], gt.t[0], gt.t[-1])) if ideal and rows.size else None
             cov = None if motion.cov is None or ekf.params.increment_cov is not None else motion.cov[rows]
-            done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth) if rows.size else None
-            ends = motion.t[rows]
+            starts = np.r_[-np.inf, motion.t][rows]  # an increment starts at the previous stamp, the first at the truth's start
+            done = ekf.predict_increments(motion.delta[rows], cov, true_poses=truth(starts))
+            upto = [event.stop for event in chain]   # an increment has moved the robot by its stamp
         else:  # no motion input: the robot stands still
-            done, ends = None, np.zeros(0)
-        before_pose, before_cov = (poses[-1], covs[-1]) if poses else (ekf.x[:3].copy(), ekf.P[:3, :3].copy())
+            rows, done, upto = np.zeros(0, dtype=int), (np.zeros((0, 3)), np.zeros((0, 3, 3))), []
+        # the pose at a motion event's stamp: after the pieces of the rows before it (the start pose if none)
+        chain_poses, chain_covs = np.concatenate([start[0][None], done[0]]), np.concatenate([start[1][None], done[1]])
         now = time.perf_counter()
-        for event in chain:  # poses at the motion events, from the chain
-            k = int(np.searchsorted(ends, event.t + 1e-9, side="right"))
+        for event, k in zip(chain, np.searchsorted(rows, upto)):
             times.append(event.t)
-            poses.append(done[0][k - 1] if k else before_pose)
-            covs.append(done[1][k - 1] if k else before_cov)
-            steps.append((now - clock) / max(len(chain), 1))
+            poses.append(chain_poses[k])
+            covs.append(chain_covs[k])
+            steps.append((now - clock) / len(chain))
         clock = now if chain else clock
         t_now = t_end
         if j < len(table):
             event = table[j]
             if ideal:
-                ekf.set_truth(pose=interpolate_poses(gt.t, gt.poses, np.clip([event.t], gt.t[0], gt.t[-1]))[0])
+                ekf.set_truth(pose=truth([event.t])[0])
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
             ekf.update(rb.z[event.start:event.stop])
             nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
@@ -113,6 +122,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             steps.append(now - clock)
             clock = now
         i = j + 1
+    t, steps, poses, covs = last_per_stamp(np.asarray(times), np.asarray(steps), np.asarray(poses).reshape(-1, 3),
+                                           np.asarray(covs).reshape(-1, 3, 3))
 
     n = ekf.n_landmarks
     P = ekf.P
@@ -135,7 +146,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     }
     return Estimate(
         method="ekf_slam" if ekf.params.jacobians == Linearisation.STANDARD else f"ekf_slam_{ekf.params.jacobians}",
-        t=np.asarray(times), poses=np.asarray(poses).reshape(-1, 3), pose_cov=np.asarray(covs).reshape(-1, 3, 3),
+        t=t, poses=poses, pose_cov=covs,
         landmark_ids=ekf.landmark_ids, landmarks=ekf.x[3:].reshape(-1, 2).copy(), landmark_cov=landmark_cov.reshape(-1, 2, 2),
-        step_time=np.asarray(steps), diagnostics=diagnostics, meta=meta,
+        step_time=steps, diagnostics=diagnostics, meta=meta,
     )

@@ -49,6 +49,7 @@ __all__ = [
     "X", "L", "RobustKernelParams", "OptimizerParams", "RelinearizationParams", "RelativeErrorTol", "AbsoluteErrorTol",
     "RelinearizeSkip", "ComputeCovariances", "noise_model", "information_model", "robustify", "observation_noise",
     "range_noise", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "OptimizationError", "gtsam_errors", "finite_error",
+    "remaining_decrease", "NEGLIGIBLE_DECREASE",
     "poses_of", "points_of",
 ]
 
@@ -116,15 +117,16 @@ def range_noise(variance: float, kernel: RobustKernelParams | None = None):
     return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), kernel)
 
 
-def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, obs_noise, rows: slice,
+def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, between_cov: np.ndarray, obs_noise, rows: slice,
                           rng_noise=None, range_rows: slice = slice(0, 0)) -> gtsam.NonlinearFactorGraph:
-    """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k, pose k's observations
-    and its beacon ranges."""
+    """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k with covariance
+    ``between_cov[k − 1]`` (``between_cov`` (K − 1, 3, 3): ``problem.cov``, or what the smoother made of it),
+    pose k's observations and its beacon ranges."""
     graph = gtsam.NonlinearFactorGraph()
     if k == 0:
         graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*problem.start), noise_model(prior_cov)))
     else:
-        graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(problem.cov[k - 1])))
+        graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(between_cov[k - 1])))
     for j, r, b in zip(problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows]):
         graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r), obs_noise))
     for j, r in zip(problem.rng_id[range_rows], problem.rng_range[range_rows]):
@@ -192,7 +194,7 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
     else:
         return OptimizeResult(values, initial_error, final_error, n, elapsed)
     # stopped without converging: an error unless the answer is the optimum of its own linearisation all the same
-    remaining = _remaining_decrease(graph, values, f"{name}: the linearisation at its answer")
+    remaining = remaining_decrease(graph, values, f"{name}: the linearisation at its answer")
     if final_error > initial_error or remaining > max(tol, NEGLIGIBLE_DECREASE):
         raise OptimizationError(f"{ran}: {stop}; its linearisation at the answer still promises a decrease of {remaining:.3g}")
     return OptimizeResult(values, initial_error, final_error, n, elapsed)
@@ -203,12 +205,12 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
 NEGLIGIBLE_DECREASE = 0.5 * 0.01**2
 
 
-def _remaining_decrease(graph, values, where: str) -> float:
+def remaining_decrease(graph, values, where: str) -> float:
     """The decrease of the error that one Gauss-Newton step from ``values`` promises (the linearised model's ½‖b‖²
     minus its minimum): ½ d² with d the Mahalanobis distance of ``values`` from the optimum of the linearisation."""
     with gtsam_errors(where):
         linear = graph.linearize(values)
-        step = linear.optimize()
+        step = linear.optimize(gtsam.EliminateQR)  # QR: Cholesky's pivot test (2⁻²⁴ of the diagonal) rejects stiff, determined systems
     return float(linear.error(gtsam.VectorValues.Zero(step)) - linear.error(step))
 
 

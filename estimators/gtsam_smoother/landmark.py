@@ -19,7 +19,7 @@ noise overrides, beacon-range noise and offset), the robust kernel on the observ
 factors (:class:`~.graph.RobustKernelParams`), whether to compute marginals, and ``beacon_prior_sigma``:
 anchor every ranged beacon that ``sequence.landmarks`` locates (localization against surveyed beacons),
 or ``None``: leave the beacons free (range-only SLAM; batch only, beacons initialised by trilateration
-from the dead-reckoned poses, :meth:`LandmarkProblem.trilaterate`). :class:`LandmarkSmoother` is the
+from the batch smoother's initial poses, :meth:`LandmarkProblem.trilaterate`). :class:`LandmarkSmoother` is the
 behaviour both smoothers share.
 """
 from __future__ import annotations
@@ -63,6 +63,10 @@ class LandmarkSmoother:
         """Ids of the ranged beacons held at their surveyed positions (none when beacon_prior_sigma is None)."""
         ids = np.unique(problem.rng_id)
         return np.zeros(0, np.int64) if self.params.beacon_prior_sigma is None else ids[problem.known_positions(ids)]
+
+    def free_beacons(self, problem: LandmarkProblem) -> np.ndarray:
+        """Ids of the ranged beacons neither anchored nor observed by a bearing and range: only their ranges place them."""
+        return np.setdiff1d(problem.rng_id, np.union1d(self.anchored_beacons(problem), problem.obs_id))
 
     def beacon_prior(self, problem: LandmarkProblem, j: int) -> gtsam.PriorFactorPoint2:
         sigma = gtsam.noiseModel.Isotropic.Sigma(2, float(self.params.beacon_prior_sigma))

@@ -22,6 +22,8 @@ BENCHMARKS: dict[str, str] = {
     "isam2": "slamarena.experiments.benchmarks.isam2:main",
     "grid": "slamarena.experiments.benchmarks.grid:main",
     "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
+    "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
+    "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
 }
 
 
@@ -45,12 +47,12 @@ def loglog_slope(rows: list[dict], key: str, lo: float, hi: float, size: str = "
 
 
 def measure_single_threaded(module: str, **kwargs) -> dict:
-    """Run ``module``'s ``measure(**kwargs)`` in a child process whose BLAS uses one thread.
+    """Run ``module``'s ``measure(**kwargs)`` in a child process whose BLAS and numba use one thread.
 
     The module prints ``json.dumps(measure(**json.loads(argv[1])))`` as its last line when run
     with ``python -m``; one thread keeps per-step CPU times comparable on a shared machine.
     """
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
     done = subprocess.run([sys.executable, "-m", module, json.dumps(kwargs)], env=env, capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 

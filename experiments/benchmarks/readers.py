@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from slamarena.datasets import load
-from slamarena.datasets.catalogue import CATALOGUE
+from slamarena.datasets.registry import resolve
 from slamarena.datasets.formats import _text
 from slamarena.datasets.formats._text import read_bytes
 from slamarena.experiments.benchmarks import write_rows
@@ -159,8 +159,8 @@ def _split_only(paths: list[Path]) -> None:
 def cases() -> dict[str, tuple[list[str], list[Path]]]:
     mrclam = [f"utias:6/robot{k}" for k in range(1, 6)]
     return {
-        "carmen:intel": (["carmen:intel"], list(CATALOGUE["carmen:intel"].paths().values())),
-        "utias:6 (5 robots)": (mrclam, [p for n in mrclam for p in CATALOGUE[n].paths().values()]),
+        "carmen:intel": (["carmen:intel"], [resolve("carmen:intel").files()["log"]]),
+        "utias:6 (5 robots)": (mrclam, [p for n in mrclam for p in resolve(n).files().values()]),
     }
 
 

@@ -7,7 +7,9 @@ The estimate's relation is ``δ_ij = p_i⁻¹ p_j`` with ``p_i`` the estimated p
 The error of one relation is ``ε_ij = δ*_ij⁻¹ δ_ij`` (``between(δ*, δ)``) and::
 
     trans_ij = ||ε_ij.xy||,  rot_ij = |ε_ij.θ|
-    reported: mean ± std of trans and rot, and the mean squared errors (the paper's ε(δ))
+    reported: mean ± std of trans and rot, and the mean squared errors (the paper's ε(δ)); and the translational
+    error of the local relations (stamps less than ``local_span`` apart; FR-Clinic's published rows use only
+    those) and of the others (revisits, "global")
 
 Relations whose stamps cannot be matched are dropped and counted. The relations come from
 ``slamarena.datasets.formats.relations`` (stamps of the original log, mapped to the
@@ -35,6 +37,7 @@ class RelationsParams(BaseModel):
     file: Path | None = Field(None, description="relations file (Kümmerle et al. format); default: the dataset's")
     match: Literal["nearest", "interpolate"] = "nearest"
     tolerance: float = Field(0.05, ge=0, description="seconds, for match: nearest")
+    local_span: float = Field(600.0, gt=0, description="a relation is local when its two stamps are less than this apart [s] (the local_* outputs)")
 
     @field_validator("file")
     @classmethod
@@ -51,6 +54,10 @@ RELATION_OUTPUTS = {
     "rot_std": (None, "std of the rotational relation error [rad]"),
     "trans_sq_mean": ("lower", "mean squared translational error [m²]"),
     "rot_sq_mean": ("lower", "mean squared rotational error [rad²]"),
+    "local_trans_mean": ("lower", "mean translational error of the local relations (stamps < local_span apart) [m]"),
+    "local_trans_std": (None, "std of the translational error of the local relations [m]"),
+    "global_trans_mean": ("lower", "mean translational error of the other relations (revisits) [m]"),
+    "local": (None, "local relations matched to the estimate"),
     "used": ("higher", "relations matched to the estimate"),
     "dropped": ("lower", "relations whose stamps had no estimate pose"),
 }
@@ -79,10 +86,14 @@ def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_r
         raise MetricUnavailable("no relation's stamps match the estimate")
     eps = between(delta_ref[ok], between(p_i[ok], p_j[ok]))
     trans, rot = np.linalg.norm(eps[:, :2], axis=1), np.abs(eps[:, 2])
+    local = np.abs(t_j[ok] - t_i[ok]) < params.local_span
+    nan = float("nan")
     out = {
         "trans_mean": float(trans.mean()), "trans_std": float(trans.std()),
         "rot_mean": float(rot.mean()), "rot_std": float(rot.std()),
         "trans_sq_mean": float(np.mean(trans**2)), "rot_sq_mean": float(np.mean(rot**2)),
+        "local_trans_mean": float(trans[local].mean()) if local.any() else nan, "local_trans_std": float(trans[local].std()) if local.any() else nan,
+        "global_trans_mean": float(trans[~local].mean()) if (~local).any() else nan, "local": int(local.sum()),
         "used": int(ok.sum()), "dropped": int((~ok).sum()),
     }
     return out, {"t": t_i[ok], "trans_error": trans, "rot_error": rot}

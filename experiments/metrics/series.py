@@ -26,3 +26,6 @@ class Series(StrEnum):
     NIS_T = "nis/t"                              # stamps of the innovations [s]
     NIS = "nis/nis"                              # NIS of each innovation
     NIS_DOF = "nis/dof"                          # its degrees of freedom
+    RELATIONS_T = "relations/t"                  # first stamp t_i of each matched relation [s]
+    RELATIONS_TRANS_ERROR = "relations/trans_error"  # ‖ε_ij.xy‖ of each matched relation [m]
+    RELATIONS_ROT_ERROR = "relations/rot_error"  # |ε_ij.θ| of each matched relation [rad]

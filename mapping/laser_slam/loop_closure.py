@@ -1,10 +1,9 @@
 """Loop-closure search of laser graph SLAM: which finished submaps a new node is matched against, and the match.
 
-Candidates. For node n (world estimate G_n) a finished submap s (anchored at node a_s, its nodes' world
-positions c_s on average) is a candidate when it is not among the ``exclude_recent`` latest finished
-submaps and
+Candidates. For node n (world estimate G_n) a finished submap s is a candidate when it is not among the
+``exclude_recent`` latest finished submaps and its nearest node is within
 
-    ‖c_s − G_n.xy‖ ≤ r_s = search_radius + search_growth · d(s, n)
+    min_{c ∈ s} ‖G_c.xy − G_n.xy‖ ≤ r_s = search_radius + search_growth · d(s, n)
 
 with d(s, n) the distance the front end travelled from the submap's last node to node n: odometry-like
 drift grows with the path, so the older a submap the wider the search. At most ``max_candidates`` (the
@@ -119,8 +118,7 @@ class LoopCloser:
         pool = finished[: max(len(finished) - p.exclude_recent, 0)]
         if not pool:
             return []
-        centres = np.array([G[s.nodes].mean(axis=0)[:2] for s in pool])
-        d = np.hypot(*(centres - G[n, :2]).T)
+        d = np.array([np.hypot(*(G[s.nodes, :2] - G[n, :2]).T).min() for s in pool])
         radius = p.search_radius + p.search_growth * (travelled[n] - travelled[[s.nodes[-1] for s in pool]])
         near = np.flatnonzero(d <= radius)
         return [pool[i].index for i in near[np.argsort(d[near])][: p.max_candidates]]

@@ -1,7 +1,9 @@
 """Laser graph SLAM: the scan-to-submap front end, loop closure against finished submaps, a GTSAM pose graph.
 
-Front end (:mod:`slamarena.mapping.frontend`). Every scan k is matched against the older of the (at most two)
-active submaps, giving its front-end ("local") pose L_k. A scan the motion filter passes becomes node i
+Front end (:mod:`slamarena.mapping.frontend`). Every scan k is matched against one map of every node so far
+(``tracking="global"``, as grid SLAM) or against the older of the (at most two) active submaps (``"submap"``, as
+Cartographer), giving its front-end ("local") pose L_k. The global map keeps the heading along the long corridors
+of FR-Clinic, where the submap front end drifts by ~10° over 300 m and no loop closes it (research/mapping.md). A scan the motion filter passes becomes node i
 (scan k_i, pose L_i) and is inserted into every active submap. Submaps (as Cartographer): a new submap is
 started when the newest has ``submap_scans`` insertions, and the older is finished at 2·``submap_scans``, so
 consecutive submaps overlap by half and the one matched against is never nearly empty. A submap is an
@@ -24,6 +26,7 @@ optimisation (``meta["seconds"]``).
 from __future__ import annotations
 
 import time
+from typing import Literal
 
 import numpy as np
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
@@ -49,6 +52,8 @@ class LaserSLAMParams(GridSLAMParams):
     submaps, the graph's noise, and the loop-closure search (:mod:`.loop_closure`)."""
 
     submap_scans: PositiveInt = Field(45, description="insertions after which the next submap starts (a submap holds 2 · submap_scans)")
+    tracking: Literal["submap", "global"] = Field(
+        "global", description="what the front end matches each scan against: one map of every node (Hector), or the older active submap (Cartographer)")
     sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")
     search_every: PositiveInt = Field(3, description="search for loop closures at every this-many-th node")
@@ -123,13 +128,16 @@ class LaserSLAM:
         seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0}
         active: list[Submap] = []
         pose = front.start_pose(sequence.start_pose)
+        tracking = None
+        if p.tracking == "global":
+            tracking = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
         for k in range(K):
             tic = time.perf_counter()
             beams = front.beams(k)
             diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
             pose = front.guess(k, local, pose)
             if active:
-                res = front.match(active[0].maps, beams, pose)
+                res = front.match(active[0].maps if tracking is None else tracking, beams, pose)
                 if res is not None:
                     pose = res.pose
                     diag["matched"][k], diag["score"][k] = True, res.score
@@ -139,8 +147,9 @@ class LaserSLAM:
                 i = len(L)
                 if not active or len(active[-1].nodes) >= p.submap_scans:
                     active.append(self._new_submap(pose, scans))
+                for grids in [s.maps for s in active] + ([tracking] if tracking is not None else []):
+                    grids.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
                 for submap in active:
-                    submap.maps.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
                     submap.nodes.append(i)
                 if len(active[0].nodes) >= 2 * p.submap_scans:
                     active.pop(0).finished = True

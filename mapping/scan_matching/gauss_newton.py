@@ -70,10 +70,17 @@ def _interp(L, ox, oy, res, wx, wy, bug):
         return 0.0, 0.0, 0.0, False
     fx = gx - x0
     fy = gy - y0
-    m00 = _p(L[y0, x0])
-    m10 = _p(L[y0, x0 + 1])
-    m01 = _p(L[y0 + 1, x0])
-    m11 = _p(L[y0 + 1, x0 + 1])
+    M, dx, dy = bilinear(L[y0, x0], L[y0, x0 + 1], L[y0 + 1, x0], L[y0 + 1, x0 + 1], fx, fy, res, bug)
+    return M, dx, dy, True
+
+
+@njit(cache=True, inline="always")
+def bilinear(l00, l10, l01, l11, fx, fy, res, bug):
+    """(M, ∂M/∂x, ∂M/∂y) from the log-odds of the 2 × 2 cells around a point at fractions (fx, fy) (module docstring)."""
+    m00 = _p(l00)
+    m10 = _p(l10)
+    m01 = _p(l01)
+    m11 = _p(l11)
     M = (1.0 - fy) * ((1.0 - fx) * m00 + fx * m10) + fy * ((1.0 - fx) * m01 + fx * m11)
     if bug:
         dx = (1.0 - fx) * (m10 - m00) + fx * (m11 - m01)
@@ -81,7 +88,7 @@ def _interp(L, ox, oy, res, wx, wy, bug):
     else:
         dx = (1.0 - fy) * (m10 - m00) + fy * (m11 - m01)
         dy = (1.0 - fx) * (m01 - m00) + fx * (m11 - m10)
-    return M, dx / res, dy / res, True
+    return M, dx / res, dy / res
 
 
 @njit(cache=True)
@@ -111,26 +118,33 @@ def _normal_equations(L, ox, oy, res, pts, x, y, th, bug):
         M, dMx, dMy, inside = _interp(L, ox, oy, res, x + c * sx - s * sy, y + s * sx + c * sy, bug)
         if not inside:
             continue
-        r = 1.0 - M
-        J0 = dMx
-        J1 = dMy
-        J2 = dMx * (-s * sx - c * sy) + dMy * (c * sx - s * sy)
-        H[0, 0] += J0 * J0
-        H[0, 1] += J0 * J1
-        H[0, 2] += J0 * J2
-        H[1, 1] += J1 * J1
-        H[1, 2] += J1 * J2
-        H[2, 2] += J2 * J2
-        g[0] += J0 * r
-        g[1] += J1 * r
-        g[2] += J2 * r
-        ssr += r * r
+        ssr += accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s)
         msum += M
         n += 1
     H[1, 0] = H[0, 1]
     H[2, 0] = H[0, 2]
     H[2, 1] = H[1, 2]
     return H, g, ssr, msum, n
+
+
+@njit(cache=True, inline="always")
+def accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s):
+    """Add one end point s = (sx, sy) with map value M and gradient ∇M at S(ξ) (c, s = cos ψ, sin ψ) to the upper
+    triangle of H = Σ JᵀJ and to g = Σ Jᵀr; returns r² (r = 1 − M, J = ∇M ∂S/∂ξ)."""
+    r = 1.0 - M
+    J0 = dMx
+    J1 = dMy
+    J2 = dMx * (-s * sx - c * sy) + dMy * (c * sx - s * sy)
+    H[0, 0] += J0 * J0
+    H[0, 1] += J0 * J1
+    H[0, 2] += J0 * J2
+    H[1, 1] += J1 * J1
+    H[1, 2] += J1 * J2
+    H[2, 2] += J2 * J2
+    g[0] += J0 * r
+    g[1] += J1 * r
+    g[2] += J2 * r
+    return r * r
 
 
 @njit(cache=True)
@@ -151,6 +165,19 @@ def _solve3(H, g):
     d[1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) / det
     d[2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) / det
     return d, True
+
+
+@njit(cache=True, inline="always")
+def take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r):
+    """The pose moved by the step d (3,) clamped to (max_step_t, max_step_r), and whether the step was below
+    (tol_t, tol_r) (converged)."""
+    t = np.hypot(d[0], d[1])
+    if t > max_step_t:
+        d[0] *= max_step_t / t
+        d[1] *= max_step_t / t
+    if abs(d[2]) > max_step_r:
+        d[2] = max_step_r * np.sign(d[2])
+    return x + d[0], y + d[1], th + d[2], np.hypot(d[0], d[1]) < tol_t and abs(d[2]) < tol_r
 
 
 @njit(cache=True)
@@ -174,16 +201,8 @@ def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t,
         d, ok = _solve3(H, g)
         if not ok:
             break
-        t = np.hypot(d[0], d[1])
-        if t > max_step_t:
-            d[0] *= max_step_t / t
-            d[1] *= max_step_t / t
-        if abs(d[2]) > max_step_r:
-            d[2] = max_step_r * np.sign(d[2])
-        x += d[0]
-        y += d[1]
-        th += d[2]
-        if np.hypot(d[0], d[1]) < tol_t and abs(d[2]) < tol_r:
+        x, y, th, converged = take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r)
+        if converged:
             break
     H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
     return np.array([x, y, th]), H, ssr, msum, n, it

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot
+from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot, load
 from slamarena.datasets.formats._text import read_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -47,7 +47,7 @@ def test_the_data_roots_come_before_the_wheel(monkeypatch, tmp_path):
     assert dataroot.locate(rel) == tmp_path / rel
     assert dataroot.locate("sesync_g2o/intel.g2o") is None
     with pytest.raises(DatasetNotFoundError, match="g2o:intel"):
-        dataroot.find("sesync_g2o/intel.g2o", "g2o:intel")
+        load("g2o:intel")
 
 
 def test_without_gtsam_the_wheel_holds_nothing(monkeypatch):

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slamarena.datasets import catalogue, fetch, load
+from slamarena.datasets import catalogue, dataroot, fetch, load
 from slamarena.datasets.formats import isam
 from slamarena.datasets.formats._text import read_bytes
 from checks import staged
@@ -37,10 +37,15 @@ def offline(tmp_path, monkeypatch):
 
 def test_every_catalogue_file_is_pinned_to_a_commit():
     for entry in catalogue.CATALOGUE.values():
-        for rel in entry.files:
-            upstream, sha, _ = fetch.FILES[rel]
+        layout = entry.layout()
+        for role, candidates in layout.files.items():
+            pinned = [rel for rel in candidates if rel in fetch.FILES]
+            assert len(pinned) == 1 or not pinned and role in layout.optional, (entry.name, role)
+            if not pinned:
+                continue
+            upstream, sha, _ = fetch.FILES[pinned[0]]
             assert re.fullmatch(r"[0-9a-f]{64}", sha)
-            assert re.match(r"https://raw\.githubusercontent\.com/[^/]+/[^/]+/[0-9a-f]{40}/", fetch.url_of(rel))
+            assert re.match(r"https://raw\.githubusercontent\.com/[^/]+/[^/]+/[0-9a-f]{40}/", fetch.url_of(pinned[0]))
     assert "/curow/multi-robot-localization/adf9111354153f5bf3fc55ecc0c348c222241f37/MRCLAM/" in fetch.url_of(
         "utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
 
@@ -85,6 +90,24 @@ def test_fetch_skips_files_already_under_a_data_root(offline, monkeypatch):
     assert fetch.fetch("g2o:pose2example")[0].exists()
 
 
+@pytest.mark.realdata
+def test_fetch_puts_every_file_in_the_cache_when_no_root_holds_them_all(offline, monkeypatch, tmp_path):
+    """A data root with one of Dataset 1's files: all four of robot 1 go to the cache (one root), which then reads them."""
+    upstream = {up: _upstream(rel) for rel, (up, _, _) in fetch.FILES.items() if rel.startswith("utias_mrclam/MRCLAM_Dataset1/")}
+    monkeypatch.setattr(fetch, "_downloader", lambda: lambda url, output_file, pooch_obj=None: Path(output_file).write_bytes(
+        next(content for up, content in upstream.items() if url.endswith(up))))
+    partial = tmp_path / "partial"
+    (partial / "utias_mrclam/MRCLAM_Dataset1").mkdir(parents=True)
+    (partial / "utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").write_bytes(staged("utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").read_bytes())
+    monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [partial, offline])
+    paths = fetch.fetch("utias:1/robot1")
+    assert sorted(p.name for p in paths) == ["Barcodes.dat", "Landmark_Groundtruth.dat", "Robot1_Measurement.dat.gz", "Robot1_Odometry.dat.gz"]
+    assert all(p.is_relative_to(offline) for p in paths)
+    assert all(f.startswith(str(offline)) for f in load("utias:1/robot1").meta["files"])
+
+
 def test_unknown_name():
     with pytest.raises(KeyError, match="unknown dataset"):
-        fetch.fetch("g2o:nope")
+        fetch.fetch("nope:1")
+    with pytest.raises(fetch.FetchError, match="only a catalogued dataset"):
+        fetch.fetch("g2o:/data/mine.g2o")

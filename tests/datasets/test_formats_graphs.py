@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slamarena.datasets import DataFormatError
+from slamarena.datasets import DataFormatError, load
 from slamarena.datasets.formats import g2o, isam, toro
 from slamarena.datasets.geometry import compose
 from checks import load_staged, staged
@@ -88,10 +88,10 @@ def test_w20000_is_isam_convention():
 
 
 def test_isam_noise_option_as_a_params_model_or_keyword():
-    paths = {"graph": staged("isam_data/manhattanOlson3500.txt")}
-    given = isam.load(paths, "m3500", params=isam.IsamParams(noise="information"))
-    keywords = isam.load(paths, "m3500", noise="information")
-    assert isam.load.Params is isam.IsamParams and given.meta["noise_convention"] == "information"
+    path = staged("isam_data/manhattanOlson3500.txt")
+    given = isam.load({"graph": path}, "m3500", params=isam.IsamSource(path=str(path), noise="information"))
+    keywords = load(f"isam:{path}", noise="information")
+    assert isam.load.Params is isam.IsamSource and given.meta["noise_convention"] == "information"
     np.testing.assert_allclose(given.edge_information[0], np.eye(3) * 44.72135955)  # the R columns read as Λ itself
     np.testing.assert_array_equal(given.edge_information, keywords.edge_information)
 

@@ -6,8 +6,7 @@ import gzip
 import numpy as np
 import pytest
 
-from slamarena.datasets import DataFormatError
-from slamarena.datasets.formats import mrclam
+from slamarena.datasets import DataFormatError, load
 from checks import load_staged
 
 pytestmark = pytest.mark.realdata
@@ -66,17 +65,53 @@ def _write(path, header_lines, rows):
     path.write_text("\n".join(["# header"] * header_lines + rows) + "\n")
 
 
-def test_any_directory_in_the_format_and_repeated_stamps(tmp_path):
-    _write(tmp_path / "Barcodes.dat", 4, ["1 5", "2 14", "6 63", "7 81"])
-    _write(tmp_path / "Landmark_Groundtruth.dat", 4, ["6 1.0 2.0 0.01 0.02", "7 3.0 4.0 0.01 0.02"])
-    _write(tmp_path / "Robot2_Odometry.dat", 4, ["10.0 0.1 0.0", "10.0 0.2 0.0", "10.5 0.3 0.1", "11.0 0.0 0.0"])
-    with gzip.open(tmp_path / "Robot2_Measurement.dat.gz", "wt") as f:
+def _recording(directory, truth=False):
+    """Robot 2 of a small recording in the MRCLAM layout (one file compressed), with or without its ground truth."""
+    directory.mkdir(parents=True, exist_ok=True)
+    _write(directory / "Barcodes.dat", 4, ["1 5", "2 14", "6 63", "7 81"])
+    _write(directory / "Landmark_Groundtruth.dat", 4, ["6 1.0 2.0 0.01 0.02", "7 3.0 4.0 0.01 0.02"])
+    _write(directory / "Robot2_Odometry.dat", 4, ["10.0 0.1 0.0", "10.0 0.2 0.0", "10.5 0.3 0.1", "11.0 0.0 0.0"])
+    with gzip.open(directory / "Robot2_Measurement.dat.gz", "wt") as f:
         f.write("# h\n10.2 63 1.5 0.1\n10.2 5 2.0 0.0\n10.7 99 1.0 0.0\n10.9 81 2.5 -0.2\n")
-    s = mrclam.read_directory(tmp_path, 2)
-    assert s.range_bearing.landmark_id.tolist() == [6, 7]
+    if truth:
+        _write(directory / "Robot2_Groundtruth.dat", 4, ["9.0 0.0 0.0 0.0", "12.0 1.0 0.0 0.0"])
+
+
+def test_any_directory_in_the_format_and_repeated_stamps(tmp_path):
+    _recording(tmp_path)
+    s = load(f"utias:{tmp_path}/robot2")
+    assert s.name == f"utias:{tmp_path}/robot2" and s.range_bearing.landmark_id.tolist() == [6, 7]
     assert s.meta["dropped_robot_observations"] == 1 and s.meta["misread_barcodes"] == [99]
     assert s.meta["odometry_zero_length_commands"] == 1 and len(s.motion) == 3
-    assert s.ground_truth is None
+    assert s.ground_truth is None and s.initial_pose is None and s.meta["ground_truth_kind"].startswith("none")
+
+
+def test_a_recording_by_name_by_params_and_relative_to_the_working_directory(tmp_path, monkeypatch):
+    directory = tmp_path / "MRCLAM_Dataset7"
+    _recording(directory, truth=True)
+    by_name = load(f"utias:{directory}/robot2")
+    by_params = load("utias", path=str(directory), robot=2)
+    monkeypatch.chdir(tmp_path)
+    relative = load("utias:MRCLAM_Dataset7/robot2")
+    assert by_params.name == by_name.name
+    assert by_name.ground_truth is not None and np.allclose(by_name.initial_pose, [1 / 3, 0, 0])
+    for s in (by_params, relative):
+        np.testing.assert_array_equal(s.motion.t, by_name.motion.t)
+        np.testing.assert_array_equal(s.range_bearing.range, by_name.range_bearing.range)
+        np.testing.assert_array_equal(s.ground_truth.poses, by_name.ground_truth.poses)
+
+
+def test_a_directory_without_a_file_the_format_needs_names_it(tmp_path):
+    from slamarena.datasets import DatasetNotFoundError
+    from slamarena.errors import UserError
+
+    _recording(tmp_path)
+    (tmp_path / "Landmark_Groundtruth.dat").unlink()
+    with pytest.raises(DatasetNotFoundError) as err:
+        load(f"utias:{tmp_path}/robot2")
+    message = str(err.value)
+    assert isinstance(err.value, UserError) and str(tmp_path / "Landmark_Groundtruth.dat") in message
+    assert str(tmp_path / "Barcodes.dat") not in message and "utias:<path>/robot<k>" in message
 
 
 @pytest.mark.parametrize(
@@ -94,5 +129,5 @@ def test_malformed_odometry_names_file_and_line(tmp_path, rows, line, fragment):
     _write(tmp_path / "Robot1_Measurement.dat", 4, [])
     _write(tmp_path / "Robot1_Odometry.dat", 4, rows)
     with pytest.raises(DataFormatError) as err:
-        mrclam.read_directory(tmp_path, 1)
+        load(f"utias:{tmp_path}/robot1")
     assert err.value.line == line and "Robot1_Odometry.dat" in str(err.value) and fragment in str(err.value)

@@ -66,16 +66,30 @@ def test_pose_graph_view():
 
 def test_registry_default_is_gtsam_and_falls_back_to_the_gtsam_wheel(monkeypatch):
     pytest.importorskip("gtsam")
-    from slamarena.datasets import DatasetNotFoundError, catalogue, dataroot
+    from slamarena.datasets import DatasetNotFoundError, dataroot
+    from slamarena.datasets.registry import resolve
 
     s = load("victoria_park")
     assert s.meta["variant"] == "gtsam"
     monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [])
-    assert catalogue.CATALOGUE["victoria_park"].present()
+    assert resolve("victoria_park").present()
     s2 = load("victoria_park")
     assert "gtsam" in s2.meta["file"] and np.array_equal(s2.motion.delta, s.motion.delta)
     with pytest.raises(DatasetNotFoundError, match="victoriaPark_isam.txt"):
+        load("victoria_park:isam")
+
+
+def test_the_variant_belongs_to_the_file():
+    """Each catalogued name is one file with its noise convention; a variant given to it would read the other copy's
+    numbers with the wrong convention (a covariance as a square-root information), so it is an error."""
+    from slamarena.datasets import DatasetNameError
+
+    with pytest.raises(DatasetNameError, match="variant cannot be given.*victoria_park:isam"):
         load("victoria_park", variant="isam")
+    isam = load("victoria_park:isam")
+    assert isam.meta["variant"] == "isam" and isam.meta["file"].endswith("victoriaPark_isam.txt")
+    at_path = load(f"victoria_park:{isam.meta['file']}", variant="isam")
+    np.testing.assert_array_equal(at_path.motion.cov, isam.motion.cov)
 
 
 def test_broken_odometry_chain_is_reported(tmp_path):
@@ -97,9 +111,9 @@ def test_singular_noise_is_reported(tmp_path, variant, noise, fragment):
 
 
 def test_catalogue_reader_options_as_a_params_model_or_keywords():
-    paths = {"isam": staged("victoria_park/victoriaPark_isam.txt")}
-    given = vp.load(paths, "vp", params=vp.VictoriaParkParams(variant="isam", as_graph=True))
-    keywords = vp.load(paths, "vp", variant="isam", as_graph=True)
-    assert vp.load.Params is vp.VictoriaParkParams
+    path = str(staged("victoria_park/victoriaPark_isam.txt"))
+    given = vp.load({"file": path}, "vp", params=vp.VictoriaParkSource(path=path, variant="isam", as_graph=True))
+    keywords = vp.load({"file": path}, "vp", path=path, variant="isam", as_graph=True)
+    assert vp.load.Params is vp.VictoriaParkSource
     assert given.meta["variant"] == keywords.meta["variant"] == "isam" and given.n_edges == keywords.n_edges == 6968
     np.testing.assert_array_equal(given.edge_information, keywords.edge_information)

@@ -7,11 +7,14 @@ from pydantic import ValidationError
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
-from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence
+from slamarena.datasets.sequence import Increments, Noise, RangeBearing, Sequence, Trajectory, Twist
+from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError, EKFSLAMParams
+from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.ekf_slam.filter import Linearisation
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 from slamarena.estimators.models import MOTION_MODELS, inverse_observe, observe
+from slamarena.estimators.stepping import twist_pieces
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +48,8 @@ ORACLE_CASES = [
 @pytest.mark.parametrize("kw", ORACLE_CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()) or "default")
 def test_efficient_filter_matches_literal_dense_reference(sim, kw):
     """Several hundred predict/update steps with known association: x and P agree to 1e-9."""
-    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw)
+    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov,
+                  known_confidence=None, **kw)  # the reference has no gate
     ref_kw = {k: v for k, v in kw.items() if k in ("motion_model", "motion_noise", "covariance_update", "init", "init_cov", "update")}
     if "Cx" in kw:
         ref_kw["Cx"] = np.diag(kw["Cx"])
@@ -163,6 +167,8 @@ def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
     nis = est.diagnostics["nis"]
     assert abs(nis.mean() - 2.0) < 0.3 and np.all(est.diagnostics["nis_dof"] == 2)
     assert est.step_time.shape == est.t.shape and est.pose_cov.shape == (est.t.size, 3, 3)
+    assert np.all(np.diff(est.t) > 0)  # one pose per stamp (the TUM format and evo require it)
+    assert est.meta["rejected"] == 0  # the default gate on labelled rows rejects no observation of the simulator
 
 
 def test_run_with_odometry_increments():
@@ -180,6 +186,167 @@ def test_run_with_odometry_increments():
     np.testing.assert_allclose(b.pose_cov[-1], a.pose_cov[-1], atol=1e-12)
     np.testing.assert_array_equal(b.landmark_ids, a.landmark_ids)
     np.testing.assert_allclose(b.landmarks, a.landmarks, atol=1e-9)
+
+
+def _gapped(seq: Sequence) -> Sequence:
+    """``seq``'s Twist input with every fifth row dropped (the robot stands still in the gaps) and an observation
+    set at every seventh stamp only (chains of several rows between them); no ground truth."""
+    mo, rb = seq.motion, seq.range_bearing
+    keep = np.arange(len(mo)) % 5 != 2
+    sel = np.isin(rb.t, np.unique(rb.t)[::7])
+    return Sequence(name="gapped", motion=Twist(t=mo.t[keep], v=mo.v[keep], omega=mo.omega[keep], dt=mo.dt[keep]),
+                    range_bearing=RangeBearing(rb.t[sel], rb.range[sel], rb.bearing[sel], rb.landmark_id[sel]),
+                    initial_pose=seq.start_pose, noise=seq.noise)
+
+
+def _as_increments(seq: Sequence) -> Sequence:
+    """The same motion as odometry increments stamped at the end of each Twist row, with their covariance."""
+    mo, model = seq.motion, MOTION_MODELS["arc"]
+    V = model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]
+    return Sequence(name="increments", motion=Increments(t=mo.t + mo.dt, delta=model.increment(mo.v, mo.omega, mo.dt),
+                                                         cov=V @ seq.noise.twist_cov @ V.transpose(0, 2, 1)),
+                    range_bearing=seq.range_bearing, initial_pose=seq.start_pose, noise=seq.noise)
+
+
+def _by_hand(ekf: EKFSLAM, seq: Sequence) -> dict:
+    """{stamp: (pose, 3 × 3 covariance)} of the step interface driven event by event: motion piece by piece up to
+    each event, an observation set's update at its stamp; the last state at a stamp (the posterior) is kept."""
+    ekf.reset(seq)
+    t_now, at = seq.t0, {}
+    for e in seq.events():
+        if isinstance(seq.motion, Twist):
+            for v, w, dt in zip(*twist_pieces(seq.motion, t_now, e.t)):
+                ekf.predict((v, w), dt)
+        elif e.stream == "motion":
+            ekf.predict_increment(seq.motion.delta[e.start], seq.motion.cov[e.start])
+        if e.stream == "range_bearing":
+            ekf.update(seq.range_bearing.z[e.start:e.stop])
+        t_now = e.t
+        at[e.t] = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
+    return at
+
+
+@pytest.mark.parametrize("motion", ["twist", "increments"])
+def test_the_pose_recorded_at_each_stamp_is_the_filter_pose_there(sim, motion):
+    """run(): one pose per stamp (strictly increasing t), the filter's posterior at that stamp; pose[0] is the start."""
+    seq = _gapped(sim) if motion == "twist" else _as_increments(_gapped(sim))
+    kw = dict(initial_cov=[0.01, 0.02, 0.003])
+    est = EKFSLAM(**kw).run(seq)
+    at = _by_hand(EKFSLAM(**kw), seq)
+    assert np.all(np.diff(est.t) > 0)
+    np.testing.assert_array_equal(est.t, sorted(at))
+    np.testing.assert_allclose(est.poses, [at[t][0] for t in est.t], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(est.pose_cov, [at[t][1] for t in est.t], rtol=0, atol=1e-12)
+    if motion == "twist":  # the first event is the first row's stamp: nothing has moved yet
+        np.testing.assert_array_equal(est.poses[0], sim.start_pose)
+        np.testing.assert_array_equal(est.pose_cov[0], np.diag(kw["initial_cov"]))
+
+
+def test_without_observations_the_trajectory_is_dead_reckoning(sim):
+    """Odometry only (with gaps): the filter's poses and covariances are dead reckoning's at the same stamps."""
+    seq = Sequence(name="odometry", motion=_gapped(sim).motion, initial_pose=sim.start_pose, noise=sim.noise)
+    est, dr = EKFSLAM().run(seq), DeadReckoning().run(seq)
+    np.testing.assert_array_equal(est.t, seq.motion.t)
+    k = np.searchsorted(dr.t, est.t)
+    np.testing.assert_array_equal(dr.t[k], est.t)
+    d = est.poses - dr.poses[k]
+    d[:, 2] = wrap_angle(d[:, 2])
+    assert np.abs(d).max() < 1e-9
+    np.testing.assert_allclose(est.pose_cov, dr.pose_cov[k], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("motion", ["twist", "increments"])
+def test_ideal_jacobians_use_the_true_pose_at_the_start_of_each_piece(sim, motion):
+    """Odometry only, the truth = the noise-free odometry path: the ideal EKF linearises where the standard one does."""
+    twist = Sequence(name="odometry", motion=(_gapped(sim) if motion == "twist" else sim).motion, initial_pose=sim.start_pose, noise=sim.noise)
+    dr = DeadReckoning().run(twist)  # the pose at every row stamp and at the end of the last row
+    odometry = twist if motion == "twist" else _as_increments(twist)
+    seq = Sequence(name="truth is odometry", motion=odometry.motion, ground_truth=Trajectory(dr.t, dr.poses), landmarks=sim.landmarks,
+                   initial_pose=sim.start_pose, noise=sim.noise)
+    ideal, standard = EKFSLAM(jacobians="ideal").run(seq), EKFSLAM().run(seq)
+    np.testing.assert_allclose(ideal.pose_cov, standard.pose_cov, rtol=1e-9, atol=1e-15)
+
+
+def _mapped(**kw) -> EKFSLAM:
+    """A filter that has mapped landmarks 0 and 1 and moved since."""
+    ekf = EKFSLAM(initial_cov=[0.01, 0.01, 0.001], **kw)
+    ekf.update(np.array([[5.0, 0.3, 0], [4.0, -0.5, 1]]))
+    ekf.predict((1.0, 0.1), 0.5)
+    return ekf
+
+
+def _assert_unchanged(ekf: EKFSLAM, before: tuple) -> None:
+    np.testing.assert_array_equal(ekf.x, before[0])
+    np.testing.assert_array_equal(ekf.P, before[1])
+    np.testing.assert_array_equal(ekf.landmark_ids, before[2])
+
+
+@pytest.mark.parametrize("jacobians", ["standard", "fej"])
+def test_a_failing_prediction_leaves_the_state_as_it_was(jacobians):
+    """Controls whose prediction is not finite raise before anything changes; the filter then goes on as if never called."""
+    ekf, twin = _mapped(jacobians=jacobians), _mapped(jacobians=jacobians)
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    cov = 1e-4 * np.eye(3)
+    bad = [lambda: ekf.predict((1e300, 0.0), 0.1),                                  # δ finite, G P Gᵀ overflows
+           lambda: ekf.predict((1.0, 0.0), 1e300),
+           lambda: ekf.predict_twists([1.0, 1e200, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1]),  # the second of three pieces
+           lambda: ekf.predict((np.nan, 0.0), 0.1), lambda: ekf.predict((1.0, 0.0), 0.0),
+           lambda: ekf.predict_increment([1e300, 0.0, 0.0], cov), lambda: ekf.predict_increment([0.1, 0.0, np.inf], cov),
+           lambda: ekf.predict_increments([[0.1, 0.0, 0.0]], [np.diag([1e-4, np.nan, 1e-4])])]
+    for call in bad:
+        with pytest.raises(ValueError):
+            call()
+        _assert_unchanged(ekf, before)
+    for f in (ekf, twin):
+        f.predict((1.0, 0.2), 0.1)
+        f.update(np.array([[4.6, 0.2, 0], [3.5, -0.6, 1]]))
+    np.testing.assert_array_equal(ekf.x, twin.x)
+    np.testing.assert_array_equal(ekf.P, twin.P)
+
+
+@pytest.mark.parametrize("update", ["sequential", "batch"])
+def test_absurd_measurements_are_rejected_counted_and_change_nothing(update):
+    """Even without a gate: a range whose d² overflows, or whose new landmark's covariance overflows, is rejected."""
+    ekf = _mapped(known_confidence=None, update=update)
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    for z in ([1e300, 0.2, 0], [1e200, 0.2, 7], [1e300, 0.2, -1]):  # mapped landmark, a new id, an unlabelled row
+        ekf.update(np.array([z]))
+        _assert_unchanged(ekf, before)
+        assert ekf.assoc_log[-1][0] == Decision.REJECTED
+    assert ekf.rejected["nonfinite"] == 3
+    ekf.update(np.array([[4.6, 0.2, 0], [1e300, 0.2, 1]]))  # a good row of the same set is applied
+    assert ekf.rejected["nonfinite"] == 4 and not np.array_equal(ekf.x, before[0])
+    assert [d for d, *_ in ekf.assoc_log[-2:]] == [Decision.MATCHED, Decision.REJECTED]
+
+
+def test_labelled_outliers_are_gated_by_default():
+    """A labelled range ×100 is rejected (logged, counted in run()'s diagnostics) and changes nothing; None applies it."""
+    gated, ungated = _mapped(), _mapped(known_confidence=None)
+    assert gated.params.known_confidence is not None
+    z = np.array([[observe(gated.x[:3], gated.x[3:5])[0] * 100, 0.3, 0]])
+    before = gated.x.copy(), gated.P.copy(), gated.landmark_ids
+    gated.update(z)
+    _assert_unchanged(gated, before)
+    assert gated.assoc_log[-1][0] == Decision.REJECTED and gated.assoc_log[-1][2] > gated.gate_known
+    ungated.update(z)
+    assert ungated.assoc_log[-1][0] == Decision.MATCHED and np.abs(ungated.x[:2] - before[0][:2]).max() > 1.0
+    # in a run: one range ×100 among the simulator's observations
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=3)
+    rb, k = seq.range_bearing, seq.range_bearing.t.size // 2
+    r = rb.range.copy()
+    r[k] *= 100
+    keep = np.arange(r.size) != k
+
+    def with_rows(rows, r):
+        return Sequence(name="outlier", motion=seq.motion, range_bearing=RangeBearing(rb.t[rows], r[rows], rb.bearing[rows], rb.landmark_id[rows]),
+                        initial_pose=seq.start_pose, noise=seq.noise)
+
+    est, raw = EKFSLAM().run(with_rows(slice(None), r)), EKFSLAM(known_confidence=None).run(with_rows(slice(None), r))
+    without = EKFSLAM().run(with_rows(keep, r))
+    assert without.meta["rejected"] == 0 and est.meta["rejected"] == 1
+    assert est.diagnostics["assoc_decision"][k] == Decision.REJECTED
+    np.testing.assert_array_equal(est.poses, without.poses)  # as if the row were not there
+    assert raw.meta["rejected"] == 0 and np.hypot(*(raw.poses - without.poses)[:, :2].T).max() > 1.0
 
 
 def test_bad_measurements_are_rejected_and_counted():
@@ -270,6 +437,22 @@ def test_loss_of_positive_definiteness_is_detected():
     rec._s.P[3, 3] = rec._s.P[4, 4] = -1.0
     rec.update(np.array([[5.0, 0.1, 0]]))
     assert rec.rejected["indefinite"] >= 1
+
+
+@pytest.mark.parametrize("on_indefinite", ["raise", "record"])
+def test_an_update_that_would_make_P_indefinite_changes_nothing(on_indefinite):
+    """Landmark 1's block is indefinite (positive diagonal): an update of landmark 0 (S positive definite) is checked before it is applied."""
+    ekf = _mapped(known_confidence=None, on_indefinite=on_indefinite)
+    ekf._s.P[5, 6] = ekf._s.P[6, 5] = 2.0 * np.sqrt(ekf.P[5, 5] * ekf.P[6, 6])
+    before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
+    z = np.array([[4.6, 0.2, 0]])
+    if on_indefinite == "raise":
+        with pytest.raises(CovarianceError, match="landmark slot 1"):
+            ekf.update(z)
+    else:
+        ekf.update(z)
+        assert ekf.rejected["indefinite"] == 1 and ekf.assoc_log[-1][0] == Decision.REJECTED
+    _assert_unchanged(ekf, before)
 
 
 def test_step_interface_defaults_and_noise_from_sequence():

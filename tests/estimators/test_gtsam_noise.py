@@ -7,8 +7,9 @@ import pytest
 gtsam = pytest.importorskip("gtsam")
 
 from slamarena.datasets.geometry import compose, wrap_angle  # noqa: E402
-from slamarena.estimators.gtsam_smoother.graph import X, observation_noise  # noqa: E402
-from slamarena.estimators.gtsam_smoother.noise import body_to_world, increments_relative, regularise, twist_relative, world_to_body  # noqa: E402
+from slamarena.estimators.gtsam_smoother.graph import X, observation_noise, remaining_decrease  # noqa: E402
+from slamarena.estimators.gtsam_smoother.noise import (body_to_world, floor_to_uncertainty, increments_relative, regularise,  # noqa: E402
+                                                      twist_relative, world_to_body)
 from slamarena.estimators.models import ARC, EULER  # noqa: E402
 from checks import assert_covariances_close  # noqa: E402
 
@@ -102,6 +103,57 @@ def test_regularise_lifts_only_the_null_direction():
     lam = np.linalg.eigvalsh(Q)
     np.testing.assert_allclose(lam, [4e-6, 0.01, 0.04], rtol=1e-9)
     np.testing.assert_allclose(regularise(P, 0.0), P)
+
+
+def _two_poses(pose_cov: np.ndarray, delta: np.ndarray, C: np.ndarray, offset=(0.0, 0.0, 0.0)):
+    """x_0 ~ N(0, pose_cov), x_1 = x_0 δ ⊕ C: the graph and values (x_0 moved by ``offset``, x_1 = x_0 δ)."""
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(), gtsam.noiseModel.Gaussian.Covariance(pose_cov)))
+    graph.add(gtsam.BetweenFactorPose2(X(0), X(1), gtsam.Pose2(*delta), gtsam.noiseModel.Gaussian.Covariance(C)))
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose2(*offset))
+    values.insert(X(1), gtsam.Pose2(*offset).compose(gtsam.Pose2(*delta)))
+    return graph, values
+
+
+def _two_pose_cholesky(pose_cov: np.ndarray, delta: np.ndarray, C: np.ndarray) -> bool:
+    """Eliminate [x_0, x_1] in one Cholesky clique (iSAM2's root at a step)."""
+    graph, values = _two_poses(pose_cov, delta, C)
+    ordering = gtsam.Ordering()
+    ordering.push_back(X(0))
+    ordering.push_back(X(1))
+    try:
+        graph.linearize(values).eliminateMultifrontal(ordering)
+        return True
+    except RuntimeError:  # IndeterminantLinearSystemException
+        return False
+
+
+def test_floor_to_uncertainty_keeps_cholesky_determinate():
+    """A 0.1 s step (σ_min = 1 % of σ_max = 0.1 mm) of a pose 0.5 m uncertain sideways: GTSAM's Cholesky calls the
+    two-pose clique indeterminate (a pivot below 2⁻²⁴ of its diagonal) although it is determined; lifted by the rule it
+    is accepted, the lift is small, and a factor that already satisfies the rule is returned unchanged."""
+    delta = np.array([0.1, 0.0, 0.005])
+    C = regularise(np.diag([1e-4, 0.0, 2.5e-5]), 1e-4)
+    pose_cov = np.diag([0.05**2, 0.5**2, 0.02**2])
+    assert not _two_pose_cholesky(pose_cov, delta, C)
+    lifted = floor_to_uncertainty(C, pose_cov, delta, 2.0**-22)
+    assert _two_pose_cholesky(pose_cov, delta, lifted)
+    assert np.linalg.eigvalsh(lifted - C)[0] > -1e-18  # only raised
+    assert np.sqrt(np.linalg.eigvalsh(lifted)[0]) < 5 * np.sqrt(np.linalg.eigvalsh(C)[0])
+    small = np.diag([0.01**2, 0.01**2, 0.005**2])
+    assert floor_to_uncertainty(C, small, delta, 2.0**-22) is C
+
+
+def test_the_remaining_decrease_of_a_stiff_determined_system_is_solved_by_qr():
+    """graph.optimize's convergence guard solves the linearisation at the answer; GTSAM's default Cholesky raised
+    'indeterminate linear system' on the stiff two-pose graph above (MRCLAM-like 1 ms steps make such graphs), QR solves it:
+    the graph fits both factors exactly, so the remaining decrease is the whole error."""
+    delta = np.array([0.1, 0.0, 0.005])
+    graph, values = _two_poses(np.diag([0.05**2, 0.5**2, 0.02**2]), delta, regularise(np.diag([1e-4, 0.0, 2.5e-5]), 1e-4), (0.01, 0.02, 0.0))
+    with pytest.raises(RuntimeError, match="Indeterminant|Indeterminate"):
+        graph.linearize(values).optimize()
+    assert remaining_decrease(graph, values, "two poses") == pytest.approx(graph.error(values), rel=1e-6)
 
 
 

@@ -61,7 +61,7 @@ def test_batch_beats_dead_reckoning(seq, batch):
     assert rmse(batch.poses) < 0.15
     true_xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, batch.landmark_ids)]
     assert np.sqrt(np.mean(np.sum((batch.landmarks - true_xy) ** 2, axis=1))) < 0.2
-    assert batch.diagnostics["final_error"] < 0.2 * batch.diagnostics["initial_error"]
+    assert batch.diagnostics["final_error"] < batch.diagnostics["initial_error"]
     assert batch.meta["params"] == BatchSmoother.Params().canonical()
     # ½ χ² of the residuals at the optimum ≈ ½ (measurements − unknowns)
     dof = 2 * len(seq.range_bearing) + 3 * (len(batch.t) - 1) + 3 - 3 * len(batch.t) - 2 * len(batch.landmarks)
@@ -168,7 +168,7 @@ def test_nonfinite_absurd_negative_and_unknown_observations_are_rejected_and_cou
     assert est.diagnostics["rejected_nonfinite_observations"] == 3
     assert est.diagnostics["rejected_negative_range_observations"] == 1
     assert est.diagnostics["skipped_unknown_id_observations"] == 3
-    assert np.isfinite(est.diagnostics["final_error"]) and est.diagnostics["final_error"] < 0.2 * est.diagnostics["initial_error"]
+    assert np.isfinite(est.diagnostics["final_error"]) and est.diagnostics["final_error"] < est.diagnostics["initial_error"]
     assert np.all(np.isfinite(est.poses)) and np.abs(_world_error(est.poses, batch.poses)).max() < 0.05
 
 
@@ -196,25 +196,37 @@ def test_a_singular_motion_covariance_is_rejected_before_the_graph(seq):
         BatchSmoother(regularisation=0.0, motion_model="euler").run(seq)
 
 
-@pytest.mark.parametrize("row,stop", [(40, "gave up, no damping"), (8, "not converged within max_iterations = 100")])
-def test_a_gross_outlier_without_a_kernel_is_an_error_and_a_huber_kernel_absorbs_it(seq, row, stop):
+@pytest.mark.parametrize("row,stop,update", [(40, "gave up, no damping", 99), (8, "not converged within max_iterations = 100", 19)])
+def test_a_gross_outlier_without_a_kernel_is_an_error_and_a_huber_kernel_absorbs_it(seq, row, stop, update):
     """One range ×100: finite and positive, so no input check rejects it. Plain least squares (robust='none', the
-    default) stopped at ½χ² ≈ 10⁷ and returned that as the result; now Levenberg-Marquardt giving up (row 40) or running
-    out of iterations (row 8, a first sighting: the landmark starts 100× too far) is an OptimizationError. A Huber kernel
-    3σ wide down-weights the outlier and gives the clean answer (research/graph_slam.md, robust kernels)."""
+    default) stopped at ½χ² ≈ 10⁷ and returned that as the result; now, from dead reckoning, Levenberg-Marquardt giving up
+    (row 40) or running out of iterations (row 8, a first sighting: the landmark starts 100× too far) is an
+    OptimizationError. A Huber kernel 3σ wide down-weights the outlier and gives the clean answer (research/graph_slam.md,
+    robust kernels). From iSAM2's estimate (the default start) the error is iSAM2's: undamped, it diverges on the outlier."""
     bad = _with_ranges(seq, [row], [100 * seq.range_bearing.range[row]])
+    from_dead_reckoning = dict(covariances=False, initial="dead_reckoning")
     with pytest.raises(OptimizationError, match=f"Levenberg-Marquardt, .*: {stop}.*still promises a decrease of"):
+        BatchSmoother(**from_dead_reckoning).run(bad)
+    with pytest.raises(OptimizationError, match=rf"start \(initial='isam2'\): iSAM2 update {update} .*initial='dead_reckoning'"):
         BatchSmoother(covariances=False).run(bad)
-    huber = dict(covariances=False, robust="huber", robust_k=3.0)
+    huber = dict(from_dead_reckoning, robust="huber", robust_k=3.0)
     clean = BatchSmoother(**huber).run(seq)
     assert np.abs(_world_error(BatchSmoother(**huber).run(bad).poses, clean.poses)[:, :2]).max() < 0.05
 
 
+def test_a_diverging_isam2_is_an_error_before_the_stiffness_rule_uses_its_marginal(seq):
+    """iSAM2 with QR on a range ×100 at a first sighting diverges (½χ² 10³⁶); the marginal covariance the stiffness rule
+    reads is then not positive definite, which made numpy's eigendecomposition fail ('did not converge')."""
+    bad = _with_ranges(seq, [8], [100 * seq.range_bearing.range[8]])
+    with pytest.raises(OptimizationError, match=r"iSAM2 update \d+ .*: the marginal covariance of x\d+ is not positive definite"):
+        ISAM2Smoother(factorization="QR", covariances=False).run(bad)
+
+
 def test_a_diverging_optimisation_is_an_error(seq):
-    """Gauss-Newton on a stiff graph (regularisation 1e-6, research/graph_slam.md §2) multiplies the error by 50 in its
-    first step and stops there (GTSAM: 'error increased'); that was returned as the result."""
+    """Gauss-Newton on a stiff graph (regularisation 1e-6, research/graph_slam.md §2) from dead reckoning multiplies the
+    error by 50 in its first step and stops there (GTSAM: 'error increased'); that was returned as the result."""
     with pytest.raises(OptimizationError, match="Gauss-Newton, 1 iterations, .*: diverging"):
-        BatchSmoother(optimizer="gauss_newton", regularisation=1e-6, covariances=False).run(seq)
+        BatchSmoother(optimizer="gauss_newton", regularisation=1e-6, initial="dead_reckoning", covariances=False).run(seq)
 
 
 def test_a_nonfinite_error_is_an_error_naming_the_factor():
@@ -230,10 +242,79 @@ def test_a_nonfinite_error_is_an_error_naming_the_factor():
 
 def test_isam2_indeterminate_system_is_an_optimization_error_naming_the_update(seq):
     """GTSAM's raw RuntimeError ('Indeterminate linear system') becomes OptimizationError with the update, its time and
-    the variable GTSAM names. Trigger: a between factor whose lateral variance is 1e-12 of its largest (the Euler model
-    has no lateral noise)."""
+    the variable GTSAM names. Trigger: with the stiffness rule off, a between factor whose lateral variance is 1e-12 of
+    its largest (the Euler model has no lateral noise); with the rule (the default) the same graph is solved."""
+    stiff = dict(regularisation=1e-12, motion_model="euler", covariances=False)
     with pytest.raises(OptimizationError, match=r"iSAM2 update 1 \(t = 0\.1 s\): GTSAM: Indeterminate linear system .* variable x1"):
-        ISAM2Smoother(regularisation=1e-12, motion_model="euler").run(seq)
+        ISAM2Smoother(uncertainty_floor=None, **stiff).run(seq)
+    assert ISAM2Smoother(**stiff).run(seq).diagnostics["lifted_between"] > 0
+
+
+@pytest.mark.slow  # ≈ 15–30 s on the shared 2-core machine
+def test_isam2_finishes_where_cholesky_called_the_newest_pose_indeterminate():
+    """sim:landmarks with 200 landmarks, seed 0: at update 754 the pose is 0.4 m = 2¹² σ_min of a 0.1 s step uncertain
+    sideways, GTSAM's Cholesky finds x_k's lateral pivot below 2⁻²⁴ of its diagonal and raised 'indeterminate linear
+    system near l10' (the clique's first key). The stiffness rule (uncertainty_floor) lifts such between factors to 2⁻²² of
+    the pose's uncertainty, and the run finishes (research/graph_slam.md §2)."""
+    seq = simulate(seed=0, n_landmarks=200)
+    est = ISAM2Smoother(covariances=False).run(seq)
+    assert est.diagnostics["lifted_between"] > 0 and est.diagnostics["final_change"] < 1e-6
+    truth = _truth_at(seq, est.t)
+    dead_reckoning = build_problem(seq).dead_reckoning()
+    rmse = lambda p: np.sqrt(np.mean(np.sum(_world_error(p, truth)[:, :2] ** 2, axis=1)))  # noqa: E731
+    assert rmse(est.poses) < 0.3 * rmse(dead_reckoning)
+
+
+def test_batch_given_isam2s_between_covariances_solves_isam2s_graph():
+    """iSAM2 lifts 87 of 292 between factors here (a 4 m sensor range leaves the pose uncertain between sightings): its
+    optimum differs from the batch optimum of the problem's graph by 6·10⁻⁶, and equals the batch optimum of its own graph
+    (diagnostics["between_cov"] given to BatchSmoother.run) — poses, landmarks and covariances."""
+    seq = simulate(seed=0, n_landmarks=30, max_range=4.0)
+    inc = ISAM2Smoother().run(seq)
+    assert inc.diagnostics["lifted_between"] > 50
+    own = BatchSmoother().run(seq)
+    assert np.abs(_world_error(inc.poses, own.poses)).max() > 1e-6
+    same = BatchSmoother().run(seq, between_cov=inc.diagnostics["between_cov"])
+    assert np.abs(_world_error(inc.poses, same.poses)).max() < 1e-6
+    np.testing.assert_allclose(inc.landmarks, same.landmarks, atol=1e-6)
+    assert_covariances_close(inc.pose_cov, same.pose_cov, rtol=1e-3)
+    assert_covariances_close(inc.landmark_cov, same.landmark_cov, rtol=1e-3)
+    assert same.diagnostics["final_error"] == pytest.approx(inc.diagnostics["final_error"], rel=1e-9)
+
+
+@pytest.mark.parametrize("between_cov,match", [(np.zeros((3, 3, 3)), "shape"), ("negative", "between_cov\\[4\\]")])
+def test_between_covariances_of_the_wrong_shape_or_not_positive_definite_are_rejected(seq, between_cov, match):
+    problem = build_problem(seq)
+    if isinstance(between_cov, str):
+        between_cov = problem.cov.copy()
+        between_cov[4] = -between_cov[4]
+    with pytest.raises(ValueError, match=match):
+        BatchSmoother(covariances=False).run(seq, between_cov=between_cov)
+
+
+def test_isam2_final_updates_that_run_out_at_the_optimum_of_their_linearisation_are_the_answer(seq, batch):
+    """final_tol below round-off (MRCLAM: a heading between 1 ms steps moves by 10⁻⁵ rad from update to update at ½χ²
+    constant to 10⁻⁸) ran the updates out and raised; the answer is the optimum all the same when a Gauss-Newton step
+    from it promises a negligible decrease (graph.optimize's rule). Updates that stop far from it still raise."""
+    est = ISAM2Smoother(final_tol=1e-12, covariances=False).run(seq)
+    assert est.diagnostics["final_updates_used"] == 10 and est.diagnostics["final_change"] > 1e-12
+    assert np.abs(_world_error(est.poses, batch.poses)).max() < 1e-6
+    with pytest.raises(OptimizationError, match="after 1 a variable still moved by .* still promises a decrease of"):
+        ISAM2Smoother(relinearize_threshold=100.0, final_updates=1, covariances=False).run(seq)
+
+
+def test_batch_from_isam2s_estimate_converges_where_dead_reckoning_does_not():
+    """100 landmarks, σ_ω = 0.2 rad/s, seed 1: from dead reckoning Levenberg-Marquardt is still descending after 100
+    iterations (½χ² 3.2·10⁶ → 8 652.6, an OptimizationError); from iSAM2's estimate (initial="isam2", the default) it
+    reaches the optimum 8 624.6 in a few."""
+    seq = simulate(seed=1, n_landmarks=100, sigma_omega=0.2)
+    est = BatchSmoother(covariances=False).run(seq)
+    assert est.diagnostics["iterations"] <= 10
+    dof = 2 * len(seq.range_bearing) - 2 * len(est.landmarks)  # the between factors and the prior fit the poses
+    assert 0.5 * chi2_band(dof, 1, 0.999)[0] < est.diagnostics["final_error"] < 0.5 * chi2_band(dof, 1, 0.999)[1]
+    truth = _truth_at(seq, est.t)
+    rmse = lambda p: np.sqrt(np.mean(np.sum(_world_error(p, truth)[:, :2] ** 2, axis=1)))  # noqa: E731
+    assert rmse(est.poses) < 0.3 * rmse(build_problem(seq).dead_reckoning())
 
 
 def test_the_runner_reports_a_failed_optimisation_as_a_failed_cell(tmp_path):
@@ -256,9 +337,9 @@ def test_the_runner_reports_a_failed_optimisation_as_a_failed_cell(tmp_path):
             params: {n_landmarks: 30, laps: 1}
         estimators:
           - name: gtsam_batch
-            params: {optimizer: gauss_newton, regularisation: 1.0e-6, covariances: false}
+            params: {optimizer: gauss_newton, regularisation: 1.0e-6, initial: dead_reckoning, covariances: false}
           - name: gtsam_isam2
-            params: {regularisation: 1.0e-12, motion_model: euler}
+            params: {regularisation: 1.0e-12, motion_model: euler, uncertainty_floor: null}
         metrics: [ate]
         figures: []
     """))

@@ -72,7 +72,19 @@ def test_data_info_on_a_malformed_file_prints_the_file_and_line(tmp_path):
 
 
 def test_unknown_dataset_name(tmp_path):
-    assert_user_error(_cli("data", "info", "utias:7/robot1"), "unknown dataset 'utias:7/robot1'")
+    assert_user_error(_cli("data", "info", "mrclam:7/robot1"), "unknown dataset 'mrclam:7/robot1'", "<family>:<path>")
+    assert_user_error(_cli("data", "info", "utias:7/robot1", cwd=tmp_path), "dataset 'utias:7/robot1' not found",
+                      str(tmp_path / "7/Robot1_Odometry.dat"), "utias:<path>/robot<k>")
+
+
+def test_data_info_reads_a_recording_at_a_path(tmp_path):
+    directory = tmp_path / "MRCLAM_Dataset7"
+    directory.mkdir()
+    for name, rows in {"Barcodes.dat": "6 63\n", "Landmark_Groundtruth.dat": "6 1 2 0 0\n", "Robot1_Odometry.dat": "1.0 0.1 0\n2.0 0 0\n",
+                       "Robot1_Measurement.dat": "1.5 63 2.0 0.1\n"}.items():
+        (directory / name).write_text("# header\n" + rows)
+    result = _cli("data", "info", f"utias:{directory}/robot1")
+    assert result.returncode == 0 and '"landmark_observations": 1' in result.stdout, result.stderr[-2000:]
 
 
 def test_run_on_a_dataset_whose_files_are_missing(tmp_path):
@@ -96,3 +108,16 @@ def test_console_headers_keep_their_units_and_names_are_not_squeezed(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "ATE rmse [m]" in result.stderr and "step median [ms]" in result.stderr
     assert "sim_landmarks" in result.stderr and "dead_reckoning" in result.stderr  # not sim_lan… / dead_rec…
+
+
+def test_map_takes_the_names_data_info_takes(tmp_path):
+    """``slamarena map`` reads a log by its family and path like every other command (a bare path is short for it)."""
+    from slamarena.experiments.cli_map import load_log
+
+    log = tmp_path / "small.clf"
+    log.write_text("ODOM 0 0 0 0 0 0 1.0 host 0\nFLASER 4 1 2 3 4 0 0 0 0 0 0 1.1 host 0\n"
+                   "ODOM 1 0 0 0 0 0 1.2 host 0\nFLASER 4 1 2 3 4 1 0 0 1 0 0 1.3 host 0\n")
+    named, bare = load_log(f"carmen:{log}"), load_log(str(log))
+    assert named.name == bare.name == f"carmen:{log}" and len(named.scans) == len(bare.scans) == 2
+    with pytest.raises(Exception, match="corrected cannot be given|not found"):
+        load_log(f"carmen-corrected:{tmp_path / 'missing.log'}")

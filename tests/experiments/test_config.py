@@ -44,6 +44,14 @@ def test_good_config_and_derived_values(tmp_path):
     "change,path,message",
     [
         (("name: tiny", "name: tiny\nbogus: 1"), "bogus", "Extra inputs"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias:6/robot1\n    params: {path: /data/MRCLAM_Dataset7}"), "datasets.0",
+         "path cannot be given"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias\n    params: {path: /data/MRCLAM_Dataset7, robt: 1}"), "datasets.0",
+         "params.robot: Field required; params.robt: Extra inputs are not permitted"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "victoria_park\n    params: {varient: isam}"), "datasets.0",
+         "params.varient: Extra inputs are not permitted"),
+        (("sim:landmarks\n    params: {n_landmarks: 10}", "mrclam:/data/MRCLAM_Dataset7/robot1"), "datasets.0",
+         "unknown dataset 'mrclam:/data/MRCLAM_Dataset7/robot1'"),
         (("seeds: [0, 3]", "seeds: 0"), "seeds", "≥ 1"),
         (("seeds: [0, 3]", "seeds: [1, 1]"), "seeds", "distinct"),
         (("sim:landmarks", "sim:nowhere"), "datasets.0", "unknown dataset 'sim:nowhere'"),
@@ -71,6 +79,23 @@ def test_mistakes_are_rejected_with_their_path(tmp_path, change, path, message):
     text = str(err.value)
     assert message in text
     assert f"  {path}" in text if path else True
+
+
+def test_a_recording_at_a_path_by_name_or_by_params(tmp_path):
+    """Any recording of a known format, without editing code: the family and its path, in either form."""
+    text = GOOD.replace("  - name: sim:landmarks\n    params: {n_landmarks: 10}\n", """\
+  - name: utias:/data/MRCLAM_Dataset7/robot1
+  - name: utias
+    params: {path: /data/MRCLAM_Dataset7, robot: 2}
+    label: mrclam7_robot2
+  - name: carmen:/data/new.clf
+    params: {max_range: 50.0}
+""")
+    cfg = load_config(_write(tmp_path, text))
+    assert cfg.dataset_labels() == ["utias_data_MRCLAM_Dataset7_robot1", "mrclam7_robot2", "carmen_data_new.clf"]
+    assert cfg.datasets[0].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 1}
+    assert cfg.datasets[1].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 2}
+    assert cfg.datasets[2].resolved_params()["max_range"] == 50.0 and cfg.datasets[2].resolved_params()["path"] == "/data/new.clf"
 
 
 def test_duplicate_labels_need_a_label(tmp_path):
@@ -120,3 +145,37 @@ def test_every_shipped_config_is_valid():
         from slamarena.experiments.config import ExperimentConfig
 
         ExperimentConfig.model_validate(yaml.safe_load(p.read_text()))
+
+
+def test_published_rows_are_checked_and_printed_beside_ours_never_best(tmp_path):
+    import pandas as pd
+
+    from slamarena.experiments.tables import to_markdown, with_published, aggregate
+
+    text = GOOD + """published:
+  - label: graph mapping (Kümmerle 2009)
+    citation: Kümmerle et al., Auton. Robots 27(4), 2009, Table 2
+    values: {sim_landmarks: {ate.rmse: 0.001}}
+"""
+    cfg = load_config(_write(tmp_path, text))
+    frame = pd.DataFrame([{"dataset": "sim_landmarks", "estimator": e, "seed": s, "status": "ok", "ate.rmse": v, "cost.wall": 1.0}
+                          for e, vals in (("a", (0.2, 0.3)), ("b", (0.5, 0.4))) for s, v in enumerate(vals)])
+    means, stds, best = with_published(*aggregate(frame, ["ate.rmse", "cost.wall"]), cfg.published)
+    md = to_markdown(means, stds, best, cfg.published)
+    assert "| sim_landmarks | graph mapping (Kümmerle 2009) (published) | – | 0.001 | – |" in md
+    assert "| sim_landmarks | a | 2 | **0.25 ± 0.0707** |" in md  # ours is best although the quoted row is lower
+    assert "Kümmerle et al., Auton. Robots 27(4), 2009, Table 2" in md
+    for bad, message in ((("sim_landmarks: {ate.rmse", "utias_6_robot9: {ate.rmse"), "names unknown dataset labels"),
+                         (("{ate.rmse: 0.001}", "{ate.nope: 0.001}"), "unknown column 'ate.nope'")):
+        with pytest.raises(ConfigError, match=message):
+            load_config(_write(tmp_path, text.replace(*bad)))
+
+
+def test_a_method_is_refused_on_a_dataset_without_the_streams_it_needs(tmp_path):
+    text = GOOD.replace("  - name: sim:landmarks\n", "  - name: sim:localization\n    params: {duration: 5.0}\n  - name: sim:landmarks\n")
+    with pytest.raises(ConfigError, match="estimators.0 \\(ekf_slam\\) cannot run on dataset 'sim_localization': it needs range_bearing"):
+        load_config(_write(tmp_path, text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam")))
+    with pytest.raises(ConfigError, match="needs scans"):
+        load_config(_write(tmp_path, GOOD.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: grid_slam")))
+    restricted = text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam\n    datasets: [sim_landmarks]")
+    assert load_config(_write(tmp_path, restricted)).estimators[0].name == "ekf_slam"

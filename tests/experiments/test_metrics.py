@@ -262,6 +262,12 @@ def test_relation_error_known_answer():
     assert interp["used"] == len(i) and interp["trans_mean"] < 1e-12
     # …whereas the nearest pose is a whole step away from the mid-point: a visible error
     assert relation_error(Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(tolerance=0.06))[0]["trans_mean"] > 1e-3
+    # local relations (stamps closer than local_span) are scored apart from the others
+    a, b = np.arange(0, 100, 10), np.arange(0, 100, 10) + np.where(np.arange(10) < 6, 5, 150)  # 6 short spans, 4 long ones
+    short = (t[b] - t[a]) < (t[155] - t[0]) / 2
+    ref = np.where(short[:, None], between(gt[a], gt[b]), compose(between(gt[a], gt[b]), np.array([0.1, 0.0, 0.0])))
+    split = relation_error(Estimate("x", t, gt), t[a], t[b], ref, RelationsParams(local_span=float((t[155] - t[0]) / 2)))[0]
+    assert split["local"] == 6 and split["local_trans_mean"] < 1e-12 and split["global_trans_mean"] == pytest.approx(0.1)
 
 
 def test_cost_and_evaluate_records_skipped_metrics():
@@ -330,16 +336,22 @@ def test_peak_memory_is_the_cell_process_own():
     del ballast
 
 
-def test_series_names_are_the_ones_the_metrics_write():
+def test_series_names_are_the_ones_the_metrics_write(tmp_path):
     """Every name in Series is written by its metric (the cell's flattening), and figures/runner read only those."""
     from slamarena import datasets
+    from slamarena.datasets.formats import relations
+    from slamarena.datasets.geometry import between
     from slamarena.estimators import create
     from slamarena.experiments.cell import _flatten_series
     from slamarena.experiments.metrics.series import Series
 
     seq = datasets.load("sim:landmarks", n_landmarks=10, laps=1, seed=0)
     est = create("ekf_slam").run(seq)
-    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")}
+    gt = seq.ground_truth
+    i = np.arange(0, len(gt.t) - 10, 10)
+    delta = between(gt.poses[i], gt.poses[i + 10])
+    relations.write(tmp_path / "rel.txt", relations.Relations(gt.t[i], gt.t[i + 10], np.column_stack([delta[:, :2], np.zeros((len(i), 3)), delta[:, 2]])))
+    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")} | {"relations": METRICS["relations"].params(file=tmp_path / "rel.txt")}
     _, series, skipped = evaluate(CellData(est, seq, reference_of(seq)), selected)
     assert not skipped
     assert set(Series) <= set(_flatten_series(series)), set(Series) - set(_flatten_series(series))

@@ -212,3 +212,25 @@ def test_dry_run_lists_the_grid(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("name: x\n")
     assert run_from_cli(config=bad, jobs=1, scheduler=None, out=None, force=False, dry_run=False) == 2
+
+
+def test_a_recording_at_a_path_runs_and_its_files_are_in_the_cache_key(tmp_path):
+    """``utias:<dir>/robot<k>`` in a config: the cell reads that directory, and changing a file there recomputes it."""
+    directory = tmp_path / "MRCLAM_Dataset7"
+    directory.mkdir()
+    files = {"Barcodes.dat": "6 63\n7 81\n", "Landmark_Groundtruth.dat": "6 1 2 0 0\n7 3 4 0 0\n",
+             "Robot2_Odometry.dat": "".join(f"{10 + 0.1 * k:.1f} 0.2 0.05\n" for k in range(40)),
+             "Robot2_Measurement.dat": "10.5 63 1.5 0.1\n11.5 81 2.5 -0.2\n",
+             "Robot2_Groundtruth.dat": "".join(f"{10 + 0.1 * k:.1f} {0.02 * k:.3f} 0 0\n" for k in range(40))}
+    for name, rows in files.items():
+        (directory / name).write_text("# header\n" + rows)
+    text = TINY.replace("  - name: sim:landmarks\n    params: {n_landmarks: 8, laps: 1}\n", f"  - name: utias:{directory}/robot2\n    label: mrclam7\n")
+    cfg, _ = _config(tmp_path, text.replace("[ate, rpe, nees, map, cost]", "[ate, cost]").replace(
+        "[ate.rmse, rpe.trans_rmse, nees.in_band, cost.step_median]", "[ate.rmse, cost.step_median]"))
+    out = tmp_path / "out"
+    assert run_experiment(cfg, out, jobs=1, console=_quiet()) == 0
+    [cell] = plan(cfg, out)
+    assert cell.finished() and json.loads((cell.dir / "metrics.json").read_text())["metrics"]["ate"]["matched"] == 40
+    (directory / "Robot2_Measurement.dat").write_text("# header\n10.5 63 1.5 0.1\n")
+    [changed] = plan(cfg, out)
+    assert changed.key != cell.key and not changed.finished()

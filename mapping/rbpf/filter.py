@@ -1,0 +1,263 @@
+"""The grid-based Rao-Blackwellised particle filter (GMapping-style; the package docstring has the model).
+
+Per scan k (every scan of ``sequence.scans``; P particles, each with a pose ξ_i, a log-weight and a map):
+
+1. Beams as in :mod:`slamarena.mapping.grid_slam` (bad readings rejected and counted; no-returns clear up to
+   ``clear_range``; usable returns are matched and mapped).
+2. Odometry (:mod:`slamarena.mapping.odometry`): at a fresh reading o_k every particle's guess is
+   ``ĝ_i = ξ_i(f) ⊕ (⊖o_f ⊕ o_k)``, f the scan of the last fresh reading; otherwise ``ĝ_i = ξ_i``.
+3. A **filter step** when the odometry moved ``update_distance`` or turned ``update_angle`` since the last
+   filter step (and at the first ``initial_updates`` usable scans): the improved proposal
+   (:mod:`slamarena.mapping.rbpf.proposal`) with Σ_u of the odometry motion since the last filter step,
+   a draw per particle, log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
+   scan at its drawn pose, and when ``N_eff < resample_threshold · P`` systematic resampling (tables copied,
+   tiles shared: :mod:`slamarena.mapping.rbpf.tiled_grid`), weights reset.
+   Between filter steps each particle **tracks**: its pose becomes the mode of the same target with Σ_u of
+   the scan's own odometry increment (no draw, no weight, no map update), so every scan stamp has a pose
+   consistent with the particle's map.
+4. Scans with fewer than ``min_beams`` usable beams keep the guesses (not matched, counted).
+
+Output: an :class:`~slamarena.datasets.estimate.Estimate` with the trajectory of the best particle after the
+last scan, traced back through the resampling ancestry, at every scan stamp. The best particle is the one
+whose lineage has the largest ``Σ log η`` over all filter steps (GMapping's choice): right after resampling
+every weight is equal, while the lineage's evidence still tells the particles apart.
+``diagnostics`` (per scan): ``bad_beams``, ``no_return_beams``, ``usable_beams``, ``matched``, ``iterations``
+(Gauss-Newton iterations summed over levels and particles),
+``filter_step``, ``n_eff`` (NaN off filter steps), ``resampled``, ``proposal_fallbacks`` (particles drawn
+from the motion model), ``memory_per_particle`` [bytes, NaN off filter steps]. ``meta``: the counts of
+GridSLAM's, ``particles``, ``filter_steps``, ``resampling_events``, ``memory_per_particle`` (final and peak),
+``memory_unshared_per_particle`` (what unshared maps of the same tiles would take). After ``run``
+``self.map`` is the best particle's finest grid (an :class:`~slamarena.mapping.occupancy_grid.OccupancyGrid`).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
+
+from slamarena.datasets.estimate import Estimate
+from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
+from slamarena.datasets.sequence import Sequence
+from slamarena.params import Field
+
+from ..beams import classify, scan_counts
+from ..map_pyramid import PyramidParams
+from ..occupancy_grid import CellModelParams, OccupancyGrid
+from ..odometry import fresh_readings
+from .proposal import gauss_newton, quadrature, residuals
+from .tiled_grid import TiledPyramid
+
+__all__ = ["RBPF", "RBPFParams", "systematic_resampling"]
+
+
+class RBPFParams(PyramidParams):
+    """Parameters of :class:`RBPF` (module docstring): particles and resampling, the scan likelihood, the
+    odometry motion model, when filter steps happen, the matcher's iterations, the maps (the pyramid and cell
+    model of :class:`~slamarena.mapping.map_pyramid.PyramidParams`, tile size) and the beams used.
+
+    Motion model: Σ_u = diag(σ_t², σ_t², σ_r²) with ``σ_t = sigma_t_min + sigma_t_per_m·d + sigma_t_per_rad·|Δθ|``
+    and ``σ_r = sigma_r_min + sigma_r_per_rad·|Δθ| + sigma_r_per_m·d`` for an odometry motion of d metres and
+    Δθ radians (isotropic in translation, hence the same in every frame).
+    """
+
+    particles: PositiveInt = Field(30, description="number of particles P")
+    seed: NonNegativeInt = Field(0, description="seed of the draws and of resampling (numpy.random.default_rng)")
+    resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < resample_threshold · P")
+    sigma_likelihood: PositiveFloat = Field(1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)")
+    weight_tempering: float = Field(1.0, gt=0.0, le=1.0, description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)")
+    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
+    sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
+    sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
+    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
+    sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
+    sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
+    update_distance: NonNegativeFloat = Field(0.5, description="a filter step after the odometry moved this far since the last one [m]")
+    update_angle: NonNegativeFloat = Field(0.25, description="a filter step after the odometry turned this much since the last one [rad]")
+    initial_updates: NonNegativeInt = Field(10, description="every usable scan is a filter step until the maps hold this many scans")
+    iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
+    tol_translation: NonNegativeFloat = Field(5e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)")
+    tol_rotation: NonNegativeFloat = Field(5e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
+    max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
+    max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
+    tile: PositiveInt = Field(64, description="side of the copy-on-write map tiles [cells]")
+    clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
+    max_usable_range: PositiveFloat | None = Field(15.0, description="longer returns are neither matched nor mapped [m]; None: all returns")
+    hit_guard: NonNegativeInt = Field(1, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off")
+    min_beams: int = Field(10, ge=3, description="fewest usable beams (and end points on observed cells) for a match")
+
+
+def systematic_resampling(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Ancestor indices (P,) by systematic (low-variance) resampling of normalised ``weights`` (P,)."""
+    P = weights.size
+    u = (rng.uniform() + np.arange(P)) / P
+    c = np.cumsum(weights)
+    c[-1] = 1.0
+    return np.searchsorted(c, u, side="right").astype(np.int64)
+
+
+class RBPF:
+    """Grid-based Rao-Blackwellised particle filter with the improved proposal (module docstring, :class:`RBPFParams`)."""
+
+    Params = RBPFParams
+
+    def __init__(self, params: RBPFParams | None = None, /, **overrides):
+        self.params = self.Params.of(params, overrides)
+        self.maps: TiledPyramid | None = None
+        self.best: int | None = None
+        self._map: OccupancyGrid | None = None
+
+    @property
+    def map(self) -> OccupancyGrid | None:
+        """The finest grid of the best particle after :meth:`run` (a dense copy, made on first use)."""
+        if self._map is None and self.maps is not None:
+            self._map = self.maps.finest.dense(self.best)
+        return self._map
+
+    def motion_cov(self, motion: np.ndarray) -> np.ndarray:
+        """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)`` (:class:`RBPFParams`)."""
+        p = self.params
+        d, a = float(np.hypot(motion[0], motion[1])), abs(float(wrap_angle(motion[2])))
+        st = p.sigma_t_min + p.sigma_t_per_m * d + p.sigma_t_per_rad * a
+        sr = p.sigma_r_min + p.sigma_r_per_rad * a + p.sigma_r_per_m * d
+        return np.diag([st**2, st**2, sr**2])
+
+    def run(self, sequence: Sequence, progress=None) -> Estimate:
+        """Filter ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
+        scans = sequence.scans
+        if scans is None or len(scans) == 0:
+            raise ValueError(f"RBPF needs a sequence with laser scans; {sequence.name!r} has none")
+        if scans.pose is None:
+            raise ValueError(f"RBPF needs the odometry poses attached to the scans (Scans.pose); {sequence.name!r} has none")
+        p = self.params
+        K, B = scans.ranges.shape
+        P = p.particles
+        rng = np.random.default_rng(p.seed)
+        odom = scans.pose
+        fresh = fresh_readings(odom)
+        limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
+        start = odom[0] if fresh[0] else np.asarray(sequence.start_pose, dtype=float)
+        self.maps = TiledPyramid(P, p.model_dump(include=set(CellModelParams.model_fields)), p.resolution, p.levels, p.tile,
+                                 size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(start[:2]))
+        gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
+                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+
+        poses = np.tile(np.asarray(start, dtype=float), (P, 1))
+        anchor, odom_anchor = poses.copy(), (odom[0] if fresh[0] else None)
+        odom_filter = odom_anchor
+        logw = np.zeros(P)
+        evidence = np.zeros(P)  # Σ log η along each particle's lineage, never reset (the best particle's criterion)
+        hist_pose = np.zeros((K, P, 3))
+        hist_parent = np.zeros((K, P), np.int64)
+        step_time = np.zeros(K)
+        diag = {
+            "bad_beams": np.zeros(K, np.int64), "no_return_beams": np.zeros(K, np.int64), "usable_beams": np.zeros(K, np.int64),
+            "matched": np.zeros(K, bool), "iterations": np.zeros(K, np.int64), "filter_step": np.zeros(K, bool), "n_eff": np.full(K, np.nan), "resampled": np.zeros(K, bool),
+            "proposal_fallbacks": np.zeros(K, np.int64), "memory_per_particle": np.full(K, np.nan),
+        }
+        n_beams = np.zeros(K, np.int64)
+        updates = 0
+        for k in range(K):
+            t0 = time.perf_counter()
+            parent = np.arange(P)
+            r, a = scans.beams(k)
+            n_beams[k] = r.size
+            bad, no_return, usable = classify(r, scans.max_range, limit)
+            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = bad.sum(), no_return.sum(), usable.sum()
+
+            motion = np.zeros(3)
+            if fresh[k] and odom_anchor is not None:
+                motion = between(odom_anchor, odom[k])
+                poses = compose(anchor, motion)
+            if usable.sum() >= p.min_beams:
+                pts = transform_points(scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
+                since = between(odom_filter, odom[k]) if (fresh[k] and odom_filter is not None) else np.zeros(3)
+                step = updates < max(p.initial_updates, 1) or np.hypot(since[0], since[1]) >= p.update_distance or abs(wrap_angle(since[2])) >= p.update_angle
+                if updates > 0 and not step:
+                    poses, diag["iterations"][k] = gauss_newton(self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn)
+                    diag["matched"][k] = True
+                elif step:
+                    if updates > 0:
+                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(pts, poses, self.motion_cov(since), rng)
+                        logw += p.weight_tempering * log_eta
+                        evidence += log_eta
+                        logw -= logw.max()
+                        w = np.exp(logw)
+                        w /= w.sum()
+                        diag["n_eff"][k] = 1.0 / np.sum(w**2)
+                        diag["proposal_fallbacks"][k] = fallbacks
+                        diag["matched"][k] = fallbacks < P
+                    mapped = ~bad & ((r < limit) | no_return)
+                    hit = r[mapped] < limit
+                    reach = np.where(hit, r[mapped], np.minimum(r[mapped], p.clear_range))
+                    sensors = compose(poses, scans.mount)
+                    if updates == 0:  # every particle starts from the same map: integrate once, share it
+                        self.maps.integrate(sensors, reach, a[mapped], hit, which=[0])
+                        self.maps.resample(np.zeros(P, np.int64))
+                    else:
+                        self.maps.integrate(sensors, reach, a[mapped], hit)
+                    if updates > 0 and diag["n_eff"][k] < p.resample_threshold * P:
+                        parent = systematic_resampling(w, rng)
+                        self.maps.resample(parent)
+                        poses, logw, evidence = poses[parent], np.zeros(P), evidence[parent]
+                        diag["resampled"][k] = True
+                    odom_filter = odom[k] if fresh[k] else odom_filter
+                    updates += 1
+                    diag["filter_step"][k] = True
+                    diag["memory_per_particle"][k] = self.maps.memory()["per_particle"]
+            if fresh[k]:
+                anchor, odom_anchor = poses.copy(), odom[k]
+                odom_filter = odom[k] if odom_filter is None else odom_filter
+            hist_pose[k], hist_parent[k] = poses, parent
+            step_time[k] = time.perf_counter() - t0
+            if progress is not None:
+                progress(k + 1, K)
+
+        self.best, self._map = int(np.argmax(evidence)), None
+        trajectory = np.zeros((K, 3))
+        i = self.best
+        for k in range(K - 1, -1, -1):
+            trajectory[k] = hist_pose[k, i]
+            i = hist_parent[k, i]
+        memory = self.maps.memory()
+        finest = self.maps.finest
+        meta = {
+            "params": p.canonical(),
+            "scans": int(K),
+            "beams": int(B),
+            "particles": int(P),
+            **scan_counts(diag, n_beams),
+            "filter_steps": int(diag["filter_step"].sum()),
+            "map_updates": int(diag["filter_step"].sum()),
+            "resampling_events": int(diag["resampled"].sum()),
+            "proposal_fallbacks": int(diag["proposal_fallbacks"].sum()),
+            "best_particle": self.best,
+            "memory_per_particle": float(memory["per_particle"]),
+            "memory_per_particle_peak": float(np.nanmax(diag["memory_per_particle"])) if diag["filter_step"].any() else 0.0,
+            "memory_unshared_per_particle": float(memory["unshared"] / P),
+            "map_shape": list(finest.shape),
+            "map_origin": finest.origin.tolist(),
+        }
+        return Estimate(method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta)
+
+    def _propose(self, pts, guesses, motion_cov, rng):
+        """Draws (P, 3), the number drawn from the motion model, log η (P,) (:mod:`.proposal`) and the matcher's iterations."""
+        p = self.params
+        P = guesses.shape[0]
+        info = np.linalg.inv(motion_cov)
+        modes, iterations = gauss_newton(self.maps, pts, guesses, info, sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation,
+                             tol_r=p.tol_rotation, max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+        mu, cov, log_eta, known = quadrature(self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood)
+        ok = (known >= p.min_beams) & np.isfinite(log_eta) & np.all(np.isfinite(mu), axis=1)
+        cov = cov + 1e-12 * np.eye(3)
+        draws = np.empty((P, 3))
+        eps = rng.standard_normal((P, 3))
+        draws[ok] = mu[ok] + np.einsum("pij,pj->pi", np.linalg.cholesky(cov[ok]), eps[ok])
+        bad = ~ok
+        if bad.any():
+            draws[bad] = guesses[bad] + eps[bad] @ np.linalg.cholesky(motion_cov).T
+            ssr, _, _ = residuals(self.maps, pts, draws[bad][:, None, :])
+            log_eta = log_eta.copy()
+            log_eta[bad] = -0.5 * ssr[:, 0] / p.sigma_likelihood**2
+        draws[:, 2] = wrap_angle(draws[:, 2])
+        return draws, int(bad.sum()), log_eta, iterations

@@ -1,0 +1,213 @@
+"""The improved proposal (Grisetti, Stachniss & Burgard 2007) on the particles' tiled maps.
+
+Target of particle i at a filter step (pose ξ ∈ ℝ³, scan end points s_n (N, 2) in the robot frame):
+
+    τ_i(ξ) = p(z | m_i, ξ) · N(ξ; ĝ_i, Σ_u)                                              (scalar)
+
+* scan likelihood  ``p(z | m, ξ) = exp(−Σ_n r_n(ξ)² / 2σ_z²)``, ``r_n = 1 − M(R(ψ) s_n + t)`` with M the
+  bilinearly interpolated occupancy probability of the particle's map (the Gauss-Newton matcher's residual,
+  :mod:`slamarena.mapping.scan_matching.gauss_newton`; cells never observed have M = 0.5);
+* motion model  ``N(ξ; ĝ_i, Σ_u)``: ĝ_i the particle's pose moved by the odometry, Σ_u (3, 3) from the
+  odometry motion since the last filter step (the same for every particle).
+
+**Mode.** Gauss-Newton on −log τ, coarse to fine over the map pyramid: with ``J_n = ∇M ∂S_n/∂ξ`` (1, 3),
+``H = Σ J_nᵀ J_n`` (3, 3), ``g = Σ J_nᵀ r_n`` (3,) and ``Λ = Σ_u⁻¹``,
+
+    A = H / σ_z² + Λ                    Δξ = A⁻¹ (g / σ_z² + Λ (ĝ − ξ))                   (3, 3), (3,)
+
+(the matcher's step with the motion model as its prior), giving the mode ξ*_i and ``A_i`` at ξ*_i on the
+finest level.
+
+**K points.** With ``L_i L_iᵀ = A_i⁻¹`` (Laplace covariance) the K = 27 points ``ξ_ij = ξ*_i + L_i u_j`` on the
+tensor 3-point Gauss–Hermite rule (``u_j ∈ {−√3, 0, √3}³``, weights ``w_j = Π (1/6, 2/3, 1/6)``, exact for
+polynomials of degree ≤ 5 under the standard normal density φ) are evaluated with τ_i. Substituting
+``ξ = ξ*_i + L_i u``:
+
+    η_i = ∫ τ_i(ξ) dξ = |L_i| ∫ [τ_i(ξ*_i + L_i u) / φ(u)] φ(u) du ≈ |L_i| Σ_j c_ij,   c_ij = w_j τ_i(ξ_ij) / φ(u_j)
+    μ_i = Σ_j c_ij ξ_ij / Σ_j c_ij,     Σ_i = Σ_j c_ij (ξ_ij − μ_i)(ξ_ij − μ_i)ᵀ / Σ_j c_ij         (3,), (3, 3)
+
+(Grisetti 2007, eqs. 13–16, with the points placed and weighted by the rule instead of a fixed lattice:
+when τ_i is Gaussian the sums are exact — μ_i = ξ*_i, Σ_i = A_i⁻¹, η_i its integral — and where τ_i is not,
+the points measure how it departs.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
+η_i. When the match fails (too few end points on observed cells) the pose is drawn from the motion model and
+the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
+estimate of the same η_i).
+
+The per-particle loops over end points are numba kernels over all particles at once.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from slamarena.datasets.geometry import wrap_angle
+
+from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, take_step
+from .tiled_grid import TiledPyramid
+
+__all__ = ["gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
+
+_U1 = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])
+_W1 = np.array([1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0])
+#: the 27 Gauss–Hermite points u_j (27, 3) and weights w_j (27,) of the module docstring
+NODES = np.stack(np.meshgrid(_U1, _U1, _U1, indexing="ij"), axis=-1).reshape(-1, 3)
+NODE_WEIGHTS = np.prod(np.stack(np.meshgrid(_W1, _W1, _W1, indexing="ij"), axis=-1).reshape(-1, 3), axis=1)
+
+
+@njit(cache=True, inline="always")
+def _cell(pool, table, shift, l0, x, y):
+    """Log-odds of cell (x, y) of the particle with tile table ``table``; tiles of side ``1 << shift``."""
+    ty = y >> shift
+    tx = x >> shift
+    if x < 0 or y < 0 or ty >= table.shape[0] or tx >= table.shape[1]:
+        return l0
+    c = table[ty, tx]
+    if c < 0:
+        return l0
+    mask = (1 << shift) - 1
+    return pool[c, y & mask, x & mask]
+
+
+@njit(cache=True)
+def _interp(pool, table, shift, l0, ox, oy, res, wx, wy):
+    """(M, ∂M/∂x, ∂M/∂y, observed) at a world point: bilinear on the cell centres (gauss_newton._interp)."""
+    gx = (wx - ox) / res - 0.5
+    gy = (wy - oy) / res - 0.5
+    x0 = int(np.floor(gx))
+    y0 = int(np.floor(gy))
+    fx = gx - x0
+    fy = gy - y0
+    l00 = _cell(pool, table, shift, l0, x0, y0)
+    l10 = _cell(pool, table, shift, l0, x0 + 1, y0)
+    l01 = _cell(pool, table, shift, l0, x0, y0 + 1)
+    l11 = _cell(pool, table, shift, l0, x0 + 1, y0 + 1)
+    observed = l00 != l0 or l10 != l0 or l01 != l0 or l11 != l0
+    M, dx, dy = bilinear(l00, l10, l01, l11, fx, fy, res, False)
+    return M, dx, dy, observed
+
+
+@njit(cache=True)
+def _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th):
+    """H = Σ JᵀJ (3, 3), g = Σ Jᵀr (3,), Σ r², and the end points on observed cells."""
+    c = np.cos(th)
+    s = np.sin(th)
+    H = np.zeros((3, 3))
+    g = np.zeros(3)
+    ssr = 0.0
+    known = 0
+    for i in range(pts.shape[0]):
+        sx = pts[i, 0]
+        sy = pts[i, 1]
+        M, dMx, dMy, obs = _interp(pool, table, shift, l0, ox, oy, res, x + c * sx - s * sy, y + s * sx + c * sy)
+        ssr += accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s)
+        known += obs
+    H[1, 0] = H[0, 1]
+    H[2, 0] = H[0, 2]
+    H[2, 1] = H[1, 2]
+    return H, g, ssr, known
+
+
+@njit(cache=True)
+def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesses, info, inv_var, iterations, tol_t, tol_r, max_t, max_r):
+    """Gauss-Newton on −log τ (module docstring) for every particle from ``poses`` (P, 3), in place; returns
+    the iterations taken (summed over the particles)."""
+    total = 0
+    for p in range(poses.shape[0]):
+        table = tables[p]
+        x = poses[p, 0]
+        y = poses[p, 1]
+        th = poses[p, 2]
+        for _ in range(iterations):
+            total += 1
+            H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
+            e0 = guesses[p, 0] - x
+            e1 = guesses[p, 1] - y
+            e2 = guesses[p, 2] - th
+            e2 = (e2 + np.pi) % (2.0 * np.pi) - np.pi
+            A = H * inv_var + info
+            b = np.empty(3)
+            for r in range(3):
+                b[r] = g[r] * inv_var + info[r, 0] * e0 + info[r, 1] * e1 + info[r, 2] * e2
+            d, ok = _solve3(A, b)
+            if not ok:
+                break
+            x, y, th, converged = take_step(d, x, y, th, max_t, max_r, tol_t, tol_r)
+            if converged:
+                break
+        poses[p, 0] = x
+        poses[p, 1] = y
+        poses[p, 2] = th
+    return total
+
+
+@njit(cache=True)
+def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
+    """Σ r² (P, K) at the poses X (P, K, 3), and H (P, 3, 3) and the observed end points (P,) at X[:, 0]."""
+    P, K = X.shape[0], X.shape[1]
+    ssr = np.empty((P, K))
+    Hs = np.empty((P, 3, 3))
+    known = np.empty(P, np.int64)
+    for p in range(P):
+        for k in range(K):
+            H, g, s, n = _normal_equations(pool, tables[p], shift, l0, ox, oy, res, pts, X[p, k, 0], X[p, k, 1], X[p, k, 2])
+            ssr[p, k] = s
+            if k == 0:
+                Hs[p] = H
+                known[p] = n
+    return ssr, Hs, known
+
+
+def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
+                 max_step_t: float, max_step_r: float) -> tuple[np.ndarray, int]:
+    """Modes (P, 3) of −log τ for every particle, coarse to fine from the guesses (P, 3) (``info`` = Σ_u⁻¹ (3, 3)),
+    and the iterations taken (summed over levels and particles)."""
+    poses = np.array(guesses, dtype=np.float64)
+    pts = np.ascontiguousarray(pts, dtype=np.float64)
+    fine = maps.finest.resolution
+    iterations_taken = 0
+    for grid in reversed(maps.levels):
+        iterations_taken += _gauss_newton_level(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution, pts,
+                            poses, np.ascontiguousarray(guesses, dtype=np.float64), np.ascontiguousarray(info, dtype=np.float64),
+                            1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r)
+    poses[:, 2] = wrap_angle(poses[:, 2])
+    return poses, iterations_taken
+
+
+def residuals(maps: TiledPyramid, pts, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """On the finest level: Σ r² (P, K) at poses X (P, K, 3); H (P, 3, 3) and observed end points (P,) at X[:, 0]."""
+    grid = maps.finest
+    return _at(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution,
+               np.ascontiguousarray(pts, dtype=np.float64), np.ascontiguousarray(X, dtype=np.float64))
+
+
+def log_gaussian(d, cov) -> np.ndarray:
+    """log N(d; 0, cov) for differences d (…, 3) (angle already wrapped) and one covariance (3, 3)."""
+    L = np.linalg.cholesky(cov)
+    z = np.linalg.solve(L, d.reshape(-1, 3).T).T.reshape(d.shape)
+    return -0.5 * np.sum(z**2, axis=-1) - np.log(np.diag(L)).sum() - 1.5 * np.log(2 * np.pi)
+
+
+def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float):
+    """μ (P, 3), Σ (P, 3, 3), log η (P,) and the observed end points (P,) of the module docstring."""
+    info = np.linalg.inv(motion_cov)
+    ssr0, H, known = residuals(maps, pts, modes[:, None, :])
+    A = H / sigma**2 + info
+    L = np.linalg.cholesky(np.linalg.inv(A))  # (P, 3, 3)
+    D = np.einsum("pij,kj->pki", L, NODES)  # ξ_ij − ξ*_i (P, K, 3)
+    X = modes[:, None, :] + D
+    ssr, _, _ = residuals(maps, pts, X)
+    e = X - guesses[:, None, :]
+    e[..., 2] = wrap_angle(e[..., 2])
+    log_tau = -0.5 * ssr / sigma**2 + log_gaussian(e, motion_cov)
+    log_c = np.log(NODE_WEIGHTS) + log_tau + 0.5 * np.sum(NODES**2, axis=1) + 1.5 * np.log(2 * np.pi)
+    top = log_c.max(axis=1, keepdims=True)
+    c = np.exp(log_c - top)
+    total = c.sum(axis=1)
+    log_eta = np.log(np.abs(np.linalg.det(L))) + top[:, 0] + np.log(total)
+    w = c / total[:, None]
+    dm = np.einsum("pk,pki->pi", w, D)
+    R = D - dm[:, None, :]
+    cov = np.einsum("pk,pki,pkj->pij", w, R, R)
+    mu = modes + dm
+    mu[:, 2] = wrap_angle(mu[:, 2])
+    return mu, cov, log_eta, known

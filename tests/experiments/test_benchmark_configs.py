@@ -1,0 +1,66 @@
+"""The shipped real-data benchmarks (mrclam, victoria_park): every method, the sensor model stated once, and the two
+studies that used to carry their own MRCLAM noise reading the config's."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from slamarena.experiments.config import load_config
+from slamarena.experiments.ekf_slam_study import mrclam_noise
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _covariance(value) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    return np.diag(a) if a.ndim == 1 else a
+
+
+def test_the_mrclam_sensor_model_is_the_identified_one_and_every_method_reads_it():
+    config = load_config("mrclam")
+    noise = {k: _covariance(v) for k, v in mrclam_noise().items()}
+    # odometry error over 1 s: 0.013 m, 0.05 rad; one row lasts 1/69.6 s; range 0.15 m, bearing 0.02 rad
+    np.testing.assert_allclose(noise["twist_cov"], np.diag([0.013**2, 0.05**2]) * 69.6, rtol=1e-12)
+    np.testing.assert_allclose(noise["range_bearing_cov"], np.diag([0.15**2, 0.02**2]), rtol=1e-12)
+    assert {e.name for e in config.estimators} == {"dead_reckoning", "ekf_slam", "ekf_localizer", "gtsam_batch", "gtsam_isam2", "fastslam"}
+    assert {e.resolved_params().get("jacobians") for e in config.estimators if e.name == "ekf_slam"} == {"standard", "fej"}
+    for spec in config.estimators:
+        if spec.name == "dead_reckoning":
+            continue
+        params = spec.resolved_params()
+        np.testing.assert_array_equal(params["twist_cov"], noise["twist_cov"], err_msg=spec.label or spec.name)
+        np.testing.assert_array_equal(params.get("range_bearing_cov", params.get("R_landmark")), noise["range_bearing_cov"])
+    assert [d.resolved_params() for d in config.datasets] == [{"path": "utias_mrclam/MRCLAM_Dataset6", "robot": k} for k in range(1, 6)]
+
+
+def test_the_gtsam_study_reads_the_configs_mrclam_noise():
+    pytest.importorskip("gtsam")
+    spec = importlib.util.spec_from_file_location("gtsam_studies", ROOT / "tests/estimators/test_gtsam_studies.py")
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    assert study.mrclam_noise is mrclam_noise and not hasattr(study, "MRCLAM_NOISE")
+
+
+def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model():
+    config = load_config("victoria_park")
+    methods = {(e.name, e.resolved_params().get("use_ids"), e.resolved_params().get("association")) for e in config.estimators}
+    assert methods == {("dead_reckoning", None, None), ("ekf_slam", True, "nn"), ("ekf_slam", False, "nn"), ("ekf_slam", False, "jcbb"),
+                       ("gtsam_isam2", None, None), ("gtsam_batch", None, None), ("fastslam", True, None), ("fastslam", False, None)}
+    filters = [e.resolved_params() for e in config.estimators if e.name in ("ekf_slam", "fastslam")]
+    assert {p["range_bearing_noise"] for p in filters} == {"cartesian"}
+    assert all(p["range_bearing_cov"] is None for p in filters)  # σ² from the file's stated noise
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name,cells", [("mrclam", 35), ("victoria_park", 8)])
+def test_the_benchmarks_plan_on_the_staged_data(name, cells, tmp_path, capsys):
+    from slamarena.experiments.runner import run_from_cli
+
+    code = run_from_cli(config=name, jobs=1, scheduler=None, out=tmp_path / "o", force=False, dry_run=True)
+    text = capsys.readouterr().out
+    if code == 2 and "not found" in text:
+        pytest.skip(f"{name}: the data is not staged")
+    assert code == 0 and f"{cells} cells" in text

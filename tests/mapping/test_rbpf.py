@@ -1,0 +1,238 @@
+"""The grid RBPF: copy-on-write tiles, resampling, the proposal, parameters, and the filter on simulated drives."""
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+import numpy as np
+import pytest
+from conftest import make_sequence
+from pydantic import ValidationError
+
+from slamarena.datasets.geometry import compose
+from slamarena.mapping.occupancy_grid import OccupancyGrid
+from slamarena.mapping.odometry import fresh_readings
+from slamarena.mapping.rbpf import RBPF
+from slamarena.mapping.rbpf.filter import systematic_resampling
+from slamarena.mapping.rbpf.proposal import NODE_WEIGHTS, NODES
+from slamarena.mapping.rbpf.tiled_grid import TiledGrid
+
+
+def _scan(seq, k, limit=15.0, clear=5.0):
+    r, a = seq.scans.beams(k)
+    hit = r < limit
+    return np.where(hit, r, np.minimum(r, clear)), a, hit, r
+
+
+def _same_cells(tiled: OccupancyGrid, ref: OccupancyGrid) -> bool:
+    """Cell for cell on the reference's lattice (the tiled grid is l0 wherever it does not reach)."""
+    off = np.round((ref.origin - tiled.origin) / ref.params.resolution).astype(int)
+    pad = 1000
+    big = np.pad(tiled.log_odds, pad, constant_values=tiled.l0)
+    h, w = ref.shape
+    window = big[off[1] + pad : off[1] + pad + h, off[0] + pad : off[0] + pad + w]
+    return np.array_equal(window, ref.log_odds) and np.count_nonzero(tiled.log_odds != tiled.l0) == np.count_nonzero(ref.log_odds != ref.l0)
+
+
+@pytest.mark.parametrize("hit_guard", [0, 1])
+def test_every_particle_map_equals_its_own_occupancy_grid_through_writes_and_resampling(room_sequence, hit_guard):
+    """Random partial writes and resamplings: each particle's tiles equal a private OccupancyGrid (deep-copied
+    at resampling) cell for cell, and the reference counts are the number of table entries naming a tile."""
+    P = 4
+    rng = np.random.default_rng(1)
+    grid = TiledGrid(P, {"hit_guard": hit_guard}, 0.05, tile=16, size=2.0)
+    refs = [OccupancyGrid(hit_guard=hit_guard, resolution=0.05, width=40, height=40, origin=tuple(grid.origin)) for _ in range(P)]
+    for k in range(0, 80, 3):
+        reach, a, hit, r = _scan(room_sequence, k)
+        poses = room_sequence.ground_truth.poses[k] + rng.normal(0, [0.05, 0.05, 0.02], (P, 3))
+        which = rng.choice(P, size=rng.integers(1, P + 1), replace=False)
+        grid.integrate(poses, reach, a, hit, which=which)
+        for i in which:
+            refs[i].integrate(r, a, poses[i], max_range=15.0, clear_range=5.0)
+        if k % 9 == 0:
+            ancestors = rng.integers(0, P, P)
+            grid.resample(ancestors)
+            refs = [copy.deepcopy(refs[i]) for i in ancestors]
+        for i in range(P):
+            assert _same_cells(grid.dense(i), refs[i]), (k, i)
+        assert np.array_equal(grid.refs, np.bincount(grid.table[grid.table >= 0], minlength=grid.pool.shape[0]))
+        assert grid.n_free[0] == np.count_nonzero(grid.refs == 0)
+
+
+def test_a_write_to_one_particle_never_changes_another(room_sequence):
+    P = 5
+    grid = TiledGrid(P, {}, 0.05, tile=32, size=4.0)
+    truth = room_sequence.ground_truth.poses
+    reach, a, hit, _ = _scan(room_sequence, 0)
+    grid.integrate(np.tile(truth[0], (P, 1)), reach, a, hit, which=[0])
+    grid.resample(np.zeros(P, np.int64))  # every particle shares particle 0's tiles
+    shared = grid.memory()
+    assert shared["used"] * P < 1.1 * shared["unshared"]  # one copy of the tiles, P tables
+    before = [grid.dense(i).log_odds.copy() for i in range(P)]
+    reach, a, hit, _ = _scan(room_sequence, 30)
+    grid.integrate(np.tile(truth[30], (P, 1)), reach, a, hit, which=[2])
+    after = [grid.dense(i).log_odds for i in range(P)]
+    for i in range(P):
+        assert np.array_equal(after[i], before[i]) == (i != 2), i
+    copied = np.flatnonzero((grid.table[2] != grid.table[0]).ravel())
+    assert copied.size > 0 and np.all(grid.refs[grid.table[0].ravel()[copied][grid.table[0].ravel()[copied] >= 0]] == P - 1)
+    assert grid.memory()["used"] > shared["used"]
+
+
+def test_resampling_frees_tiles_nobody_names_and_reuses_them(room_sequence):
+    P = 3
+    grid = TiledGrid(P, {}, 0.05, tile=16, size=2.0)
+    truth = room_sequence.ground_truth.poses
+    for k in (0, 10, 20):
+        reach, a, hit, _ = _scan(room_sequence, k)
+        grid.integrate(truth[k] + np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]]), reach, a, hit)
+    tiles = grid.pool.shape[0]
+    private = np.setdiff1d(grid.table[1], np.concatenate([grid.table[0].ravel(), grid.table[2].ravel(), [-1]]))
+    free = grid.n_free[0]
+    grid.resample([0, 0, 2])  # particle 1's map is gone
+    assert private.size > 0 and grid.n_free[0] == free + private.size
+    reach, a, hit, _ = _scan(room_sequence, 30)
+    grid.integrate(np.tile(truth[30], (P, 1)), reach, a, hit, which=[1])
+    assert grid.pool.shape[0] == tiles  # the copies went into freed tiles
+
+
+def test_tiles_must_be_a_power_of_two():
+    with pytest.raises(ValueError, match="power of two"):
+        TiledGrid(2, {}, 0.05, tile=48)
+
+
+def test_systematic_resampling():
+    rng = np.random.default_rng(0)
+    assert np.array_equal(systematic_resampling(np.eye(6)[4], rng), np.full(6, 4))
+    assert np.array_equal(systematic_resampling(np.full(6, 1 / 6), rng), np.arange(6))
+    w = rng.dirichlet(np.ones(10))
+    for _ in range(20):
+        counts = np.bincount(systematic_resampling(w, rng), minlength=10)
+        assert np.all((counts >= np.floor(10 * w)) & (counts <= np.ceil(10 * w)))  # low variance: ⌊Pw⌋ or ⌈Pw⌉ copies
+
+
+def test_gauss_hermite_points_integrate_a_gaussian_exactly():
+    """The 27 points and weights: Σ w = 1, Σ w u = 0, Σ w u uᵀ = I and fourth moments 3 (degree-5 exactness)."""
+    assert NODES.shape == (27, 3) and np.isclose(NODE_WEIGHTS.sum(), 1.0)
+    assert np.allclose(NODE_WEIGHTS @ NODES, 0.0)
+    assert np.allclose(np.einsum("k,ki,kj->ij", NODE_WEIGHTS, NODES, NODES), np.eye(3))
+    assert np.allclose(NODE_WEIGHTS @ NODES**4, 3.0)
+
+
+def test_fresh_odometry_readings():
+    odom = np.array([[0, 0, 0], [0.1, 0, 0], [0.1, 0, 0], [0.1, 0, 0], [np.nan, 0, 0], [0.5, 0, 0], [0.5, 0, 0.1]])
+    assert fresh_readings(odom).tolist() == [True, True, False, False, False, True, True]
+
+
+def _frozen(seq, first, n):
+    """The odometry of scans first … first + n − 1 repeats the reading of scan first − 1 (mit-csail's fault)."""
+    pose = seq.scans.pose.copy()
+    pose[first : first + n] = pose[first - 1]
+    return dataclasses.replace(seq, scans=dataclasses.replace(seq.scans, pose=pose))
+
+
+def test_a_frozen_odometry_stretch_moves_the_pose_once():
+    """Odometry frozen for four scans, then its jump: the pose after the jump is where the jump puts it,
+    not that motion added on top of the poses the filter tracked meanwhile."""
+    seq = make_sequence(n=60, odo_sigma=(0.0, 0.0, 0.0))
+    frozen = _frozen(seq, 30, 4)
+    truth = seq.ground_truth.poses
+    est = RBPF(particles=3).run(frozen)
+    err = np.hypot(*(est.poses[:, :2] - truth[:, :2]).T)
+    assert err[34:].max() < 0.05, err[30:40]
+
+
+def test_filter_reports_resampling_neff_and_memory(room_sequence):
+    P = 8
+    est = RBPF(particles=P, resample_threshold=1.0).run(room_sequence)
+    d = est.diagnostics
+    steps = d["filter_step"]
+    assert est.meta["filter_steps"] == steps.sum() > 5
+    # N_eff < P · threshold at a step ⇔ it resampled (threshold 1: every step whose weights are not all equal)
+    assert np.array_equal(d["resampled"][steps][1:], d["n_eff"][steps][1:] < P)
+    assert est.meta["resampling_events"] == d["resampled"].sum() > 0
+    assert np.all(np.isfinite(d["n_eff"][steps][1:])) and np.all(np.isnan(d["n_eff"][~steps]))
+    assert np.all(d["memory_per_particle"][steps] > 0) and est.meta["memory_per_particle"] < est.meta["memory_unshared_per_particle"]
+    never = RBPF(particles=P, resample_threshold=1e-9).run(room_sequence)
+    assert never.meta["resampling_events"] == 0
+
+
+def test_room_drive_is_seeded_and_beats_odometry(room_sequence):
+    from slamarena.datasets.estimate import Estimate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
+
+    slam = RBPF(particles=6, seed=3)
+    a = slam.run(room_sequence)
+    assert list(slam.map.shape) == a.meta["map_shape"] and slam.map is slam.map  # the best particle's finest grid, one copy
+    assert np.array_equal(slam.map.log_odds, slam.maps.finest.dense(a.meta["best_particle"]).log_odds)
+    b = RBPF(particles=6, seed=3).run(room_sequence)
+    c = RBPF(particles=6, seed=4).run(room_sequence)
+    assert np.array_equal(a.poses, b.poses) and not np.array_equal(a.poses, c.poses)
+    odometry = Estimate("odometry", room_sequence.scans.t, room_sequence.scans.pose)
+    A = lambda e: ate(e, reference_of(room_sequence), ATEParams())[0]["rmse"]
+    assert A(a) < 0.02 < 0.05 < A(odometry)
+    assert a.t.shape == room_sequence.scans.t.shape and a.step_time.shape == a.t.shape
+
+
+def test_bad_beams_are_counted_and_a_sequence_without_odometry_is_refused(room_sequence):
+    ranges = room_sequence.scans.ranges.copy()
+    ranges[5, :20] = np.nan
+    ranges[6, :] = -1.0
+    seq = dataclasses.replace(room_sequence, scans=dataclasses.replace(room_sequence.scans, ranges=ranges))
+    est = RBPF(particles=2).run(seq)
+    assert est.meta["bad_beams"] == 20 + ranges.shape[1] and est.meta["scans_all_bad"] == 1
+    assert not est.diagnostics["matched"][6] and np.all(np.isfinite(est.poses))
+    blind = dataclasses.replace(room_sequence, scans=dataclasses.replace(room_sequence.scans, pose=None))
+    with pytest.raises(ValueError, match="odometry"):
+        RBPF().run(blind)
+
+
+def test_parameters_bad_values_unknown_keys_and_the_model_form():
+    for bad in ({"particles": 0}, {"resample_threshold": 1.5}, {"weight_tempering": 0.0}, {"sigma_likelihood": -1.0}):
+        with pytest.raises(ValidationError, match=next(iter(bad))):
+            RBPF(**bad)
+    with pytest.raises(ValidationError, match="particels"):
+        RBPF(particels=30)
+    assert RBPF(RBPF.Params(particles=7)).params == RBPF(particles=7).params
+
+
+def test_rbpf_is_a_registered_method_taking_particles_and_seed():
+    from slamarena.experiments.config import method_table
+    from slamarena.mapping import REGISTRY
+    from slamarena.params import params_model
+    from slamarena.targets import import_target
+
+    assert import_target(REGISTRY["rbpf"]) is RBPF and "rbpf" in method_table()
+    fields = params_model(RBPF).model_fields
+    assert "particles" in fields and "seed" in fields
+
+
+def _sim_ate(world: dict, **rbpf):
+    from slamarena.datasets.sim.laser import simulate
+    from slamarena.experiments.metrics.reference import reference_of
+    from slamarena.experiments.metrics.trajectory import ATEParams, ate
+    from slamarena.mapping.grid_slam import GridSLAM
+
+    seq = simulate(**world)
+    A = lambda e: ate(e, reference_of(seq), ATEParams())[0]["rmse"]
+    est = RBPF(**rbpf).run(seq)
+    return A(est), A(GridSLAM().run(seq)), est
+
+
+def test_sim_loop_with_30_particles_maps_as_well_as_grid_slam():
+    """One lap of the loop world (181 beams, 12 m, 2.5 Hz): the best particle's ATE is within 1.5× GridSLAM's
+    (about 3 cm both) — the filter does not break a loop that scan matching already closes."""
+    rbpf, grid, est = _sim_ate({"n_beams": 181, "scan_rate": 2.5}, particles=30)
+    assert rbpf < 0.05 and rbpf < 1.5 * grid, (rbpf, grid)
+    assert est.meta["resampling_events"] > 0 and est.meta["proposal_fallbacks"] == 0
+
+
+@pytest.mark.xfail(strict=True, reason="goal not met (research/mapping.md §6): with a 4 m laser the particles' lineages "
+                   "coalesce through resampling before the loop closes, so every particle carries GridSLAM-like drift")
+def test_sim_loop_closed_implicitly_by_the_best_particle():
+    """The issue's test: two laps of the loop world with a 4 m laser and noisy heading odometry; the best of 30
+    particles should close the loop implicitly and beat GridSLAM's ATE (0.20 m)."""
+    world = {"max_range": 4.0, "n_beams": 91, "sigma_range": 0.02, "k_r": 0.06, "k_rt": 0.03, "scan_rate": 2.5, "laps": 2}
+    rbpf, grid, _ = _sim_ate(world, particles=30)
+    assert rbpf < grid, (rbpf, grid)
