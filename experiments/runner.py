@@ -286,6 +286,8 @@ MONTE_CARLO_COLUMNS = {
     "stamps": "stamps all N runs share (with equal dimension), where the average is taken",
     "mean_over_dof": "mean over those stamps of the N-run average divided by its degrees of freedom (1 for a consistent filter)",
     "in_band": "fraction of those stamps whose N-run average lies inside the two-sided N-run χ² band",
+    "early_over_dof": "the same mean over the first 10 % of the time those stamps span (before any drift)",
+    "late_over_dof": "the same mean over the last 10 % of that time (a filter that degrades over the run rises here)",
 }
 
 
@@ -317,8 +319,11 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
             mc = monte_carlo(runs, probability=enabled[stat].probability)
         except MetricUnavailable:
             continue
-        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(mc["t"].size),
-                     "mean_over_dof": float(np.mean(mc["mean"] / mc["dof"])), "in_band": mc["in_band"]})
+        ratio, t = mc["mean"] / mc["dof"], mc["t"]
+        span = t[-1] - t[0]
+        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(t.size),
+                     "mean_over_dof": float(np.mean(ratio)), "in_band": mc["in_band"],
+                     "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])), "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span]))})
     return pd.DataFrame(rows)
 
 

@@ -14,6 +14,8 @@ State layout (M particles, n_m landmarks of particle m)
                      sampling, and its covariance — the same for every particle (the controls are)
     log w   (M,)     log weights (normalised to max 0 after every update)
     maps             copy-on-write landmark trees shared between particles (:mod:`.storage`)
+    n_slots, n_live  (M,) each particle's slots in use and live landmarks (kept by the update, resampled
+                     with the particles, so no per-step count walks a map)
 
 Prediction (between samplings)
 ------------------------------
@@ -130,6 +132,7 @@ class FastSLAM:
         self.log_w = np.zeros(M)
         self.store = LandmarkStore(M)
         self.n_slots = np.zeros(M, dtype=np.int64)
+        self.n_live = np.zeros(M, dtype=np.int64)
         self._slot_of_id: dict[int, int] = {}
         self._id_of_slot: list[int] = []
         self.rejected = {"nonfinite": 0, "negative_range": 0}
@@ -237,7 +240,7 @@ class FastSLAM:
             log_p0 = -0.5 * self.gate - 0.5 * math.log(np.linalg.det(R).max()) - math.log(2 * math.pi)
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
-            update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots,
+            update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, self.n_live,
                              R, self.gate, log_p0, max_range, half_fov, self.store.depth, *self.store.kernel_args(), poses, assoc)
         else:
             poses = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)
@@ -275,6 +278,7 @@ class FastSLAM:
         ancestors = np.searchsorted(cumulative, pointers, side="right").astype(np.int64)
         self.x0 = self.x0[ancestors]
         self.n_slots = self.n_slots[ancestors]
+        self.n_live = self.n_live[ancestors]
         self.store.resample(ancestors)
         self.log_w = np.zeros(self.M)
         self.resamplings += 1
@@ -287,17 +291,15 @@ class FastSLAM:
 
         Ids are the data's ids with known association, the particle's slot numbers otherwise."""
         m = int(np.argmax(self.log_w)) if particle is None else int(particle)
-        n = int(self.n_slots[m])
-        mu, S, state = self.store.gather(n)
-        live = np.flatnonzero(state[m] > 0)
-        cov = np.stack([S[m, live, 0], S[m, live, 1], S[m, live, 1], S[m, live, 2]], axis=-1).reshape(-1, 2, 2)
+        mu, S, state = (a[0] for a in self.store.gather(int(self.n_slots[m]), particles=[m]))
+        live = np.flatnonzero(state > 0)
+        cov = np.stack([S[live, 0], S[live, 1], S[live, 1], S[live, 2]], axis=-1).reshape(-1, 2, 2)
         ids = np.asarray(self._id_of_slot, dtype=np.int64)[live] if self.params.use_ids else live.astype(np.int64)
-        return ids, mu[m, live], cov
+        return ids, mu[live], cov
 
     def landmark_counts(self) -> np.ndarray:
-        """Live landmarks of every particle (M,)."""
-        _, _, state = self.store.gather(int(self.n_slots.max()) if self.n_slots.size else 0)
-        return (state > 0).sum(axis=1)
+        """Live landmarks of every particle (M,), kept by the update (O(M))."""
+        return self.n_live.copy()
 
     def run(self, sequence):
         """Run over a sequence (:mod:`.run`)."""

@@ -51,6 +51,37 @@ def _wrap(a):
 
 
 @njit(cache=True)
+def _mm(A, B):
+    """A B for a small matrix A and a small matrix or vector B, as plain loops (numba's matrix product
+    calls BLAS, whose call overhead dominates at 2 × 2 and 3 × 3)."""
+    if B.ndim == 1:
+        v = np.zeros(A.shape[0])
+        for i in range(A.shape[0]):
+            for k in range(A.shape[1]):
+                v[i] += A[i, k] * B[k]
+        return v
+    out = np.zeros((A.shape[0], B.shape[1]))
+    for i in range(A.shape[0]):
+        for k in range(A.shape[1]):
+            a = A[i, k]
+            for j in range(B.shape[1]):
+                out[i, j] += a * B[k, j]
+    return out
+
+
+@njit(cache=True)
+def _sandwich(A, S):
+    """A S Aᵀ."""
+    return _mm(_mm(A, S), A.T)
+
+
+@njit(cache=True)
+def _quad(v, S):
+    """vᵀ S v."""
+    return np.dot(v, _mm(S, v))
+
+
+@njit(cache=True)
 def sqrt_psd(P):
     """A square root A of a symmetric positive semi-definite P (A Aᵀ = P), by eigen-decomposition
     (P may be singular: the motion noise of a twist is rank 2 in the pose)."""
@@ -102,14 +133,14 @@ def _landmark_update(x, mu, S, z, R, out_mu, out_S):
     Hm = np.empty((2, 2))
     _observe(x, mu, zhat, Hx, Hm)
     Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
-    Q = Hm @ Sig @ Hm.T + R
+    Q = _sandwich(Hm, Sig) + R
     Qi, det = _inv2(Q)
     nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
-    d2 = nu @ Qi @ nu
-    K = Sig @ Hm.T @ Qi
-    new_mu = mu + K @ nu
-    A = np.eye(2) - K @ Hm
-    new_S = A @ Sig @ A.T + K @ R @ K.T
+    d2 = _quad(nu, Qi)
+    K = _mm(_mm(Sig, Hm.T), Qi)
+    new_mu = mu + _mm(K, nu)
+    A = np.eye(2) - _mm(K, Hm)
+    new_S = _sandwich(A, Sig) + _sandwich(K, R)
     out_mu[0] = new_mu[0]
     out_mu[1] = new_mu[1]
     out_S[0] = new_S[0, 0]
@@ -126,7 +157,7 @@ def _new_landmark(x, z, R, out_mu, out_S):
     out_mu[0] = x[0] + z[0] * c
     out_mu[1] = x[1] + z[0] * s
     G = np.array([[c, -z[0] * s], [s, z[0] * c]])
-    Sig = G @ R @ G.T
+    Sig = _sandwich(G, R)
     out_S[0] = Sig[0, 0]
     out_S[1] = 0.5 * (Sig[0, 1] + Sig[1, 0])
     out_S[2] = Sig[1, 1]
@@ -140,20 +171,21 @@ def _predictive(xbar, Sx, mu, S, z, R, use_pose):
     Hm = np.empty((2, 2))
     _observe(xbar, mu, zhat, Hx, Hm)
     Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
-    Q = Hm @ Sig @ Hm.T + R
-    L = Hx @ Sx @ Hx.T + Q if use_pose else Q.copy()
+    Q = _sandwich(Hm, Sig) + R
+    L = _sandwich(Hx, Sx) + Q if use_pose else Q.copy()
     nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
     return nu, L, Hx, Q
 
 
 @njit(cache=True)
-def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, gate, log_p0, max_range, half_fov,
+def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, max_range, half_fov,
                      depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
                      free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
     """One observation set z (k, 2) for every particle (module docstring).
 
     known: slots (k,) are the landmarks' slots (the same in every particle; a slot ≥ n_slots[m] is new).
     Otherwise slots are ignored and each particle associates by maximum likelihood; n_slots (M,) grows.
+    n_live (M,): each particle's live landmarks, kept up to date (new +1, removed −1).
     xhat (M, 3), P (M, 3, 3): predicted poses and their covariances; eps (M, 3) standard normals.
     R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0: the
     new-landmark log-likelihood added to a particle's weight when an observation starts a landmark.
@@ -167,10 +199,13 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
     Hm = np.empty((2, 2))
     for m in range(M):
         n = n_slots[m]
-        # the particle's live landmarks (unknown association reads them all)
-        mus = np.zeros((n, 2))
-        Ss = np.zeros((n, 3))
-        states = np.zeros(n, dtype=np.int64)
+        # unknown association reads the particle's whole map; known association touches only the
+        # observed slots' paths (no scratch of size n: a step is O(k log n) per particle)
+        scratch = 0 if known else n
+        mus = np.zeros((scratch, 2))
+        Ss = np.zeros((scratch, 3))
+        states = np.zeros(scratch, dtype=np.int64)
+        taken = np.zeros(scratch, dtype=np.bool_)
         if not known:
             for s in range(n):
                 leaf, off = find(roots[m], s, depth, inner_child)
@@ -178,12 +213,11 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                     mus[s] = leaf_mu[leaf, off]
                     Ss[s] = leaf_S[leaf, off]
                     states[s] = leaf_state[leaf, off]
-        taken = np.zeros(n, dtype=np.bool_)
         target = np.full(k, -1, dtype=np.int64)  # slot matched (≥ 0) or −1: new
         xbar = xhat[m].copy()
         Sx = P[m].copy()
         if version == 1:  # the motion model is the proposal: sample first
-            xbar = xbar + sqrt_psd(Sx) @ eps[m]
+            xbar = xbar + _mm(sqrt_psd(Sx), eps[m])
             Sx[:, :] = 0.0
         for j in range(k):
             best = -1
@@ -199,14 +233,14 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                     nu, L, H, Q = _predictive(xbar, Sx, leaf_mu[leaf, off], leaf_S[leaf, off], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
                     best, best_nu, best_L, best_Hx, best_Q = s, nu, L, H, Q
-                    best_ll = -0.5 * (nu @ Li @ nu) - 0.5 * math.log(det) - _LOG_2PI
+                    best_ll = -0.5 * _quad(nu, Li) - 0.5 * math.log(det) - _LOG_2PI
             else:
                 for s in range(n):
                     if states[s] == 0 or taken[s]:
                         continue
                     nu, L, H, Q = _predictive(xbar, Sx, mus[s], Ss[s], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
-                    d2 = nu @ Li @ nu
+                    d2 = _quad(nu, Li)
                     if d2 > gate:
                         continue
                     ll = -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
@@ -219,13 +253,13 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                 log_w[m] += best_ll
                 if version == 2:  # condition the proposal on this observation
                     Li, _ = _inv2(best_L)
-                    Kx = Sx @ best_Hx.T @ Li
-                    xbar = xbar + Kx @ best_nu
-                    A = np.eye(3) - Kx @ best_Hx
-                    Sx = A @ Sx @ A.T + Kx @ best_Q @ Kx.T
+                    Kx = _mm(_mm(Sx, best_Hx.T), Li)
+                    xbar = xbar + _mm(Kx, best_nu)
+                    A = np.eye(3) - _mm(Kx, best_Hx)
+                    Sx = _sandwich(A, Sx) + _sandwich(Kx, best_Q)
             elif not known:
                 log_w[m] += log_p0
-        x = xbar + sqrt_psd(Sx) @ eps[m] if version == 2 else xbar
+        x = xbar + _mm(sqrt_psd(Sx), eps[m]) if version == 2 else xbar
         x[2] = _wrap(x[2])
         poses_out[m] = x
         # landmark updates at the sampled pose
@@ -239,6 +273,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                 state = leaf_state[leaf, off] + 1
             else:
                 s = slots[j] if known else n_slots[m]
+                n_live[m] += 1
                 if not known:
                     n_slots[m] += 1
                 elif s >= n_slots[m]:
@@ -261,3 +296,5 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, R, 
                     leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
                                          free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
                     leaf_state[leaf, off] -= 1
+                    if leaf_state[leaf, off] == 0:
+                        n_live[m] -= 1

@@ -175,7 +175,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
             neff.append(1.0 / np.sum(weights**2))
             neff_t.append(event.t)
             resampled.append(slam.last_ancestors is not None)
-            live = slam.store.live_counts()
+            live = slam.landmark_counts()
             counts.append((live.min(), live.mean(), live.max()))
             now = time.perf_counter()
             steps.append(now - clock)

@@ -270,19 +270,15 @@ class LandmarkStore:
         _resample(self.roots, np.ascontiguousarray(ancestors, dtype=np.int64), self.depth, self.inner_child, self.inner_ref,
                   self.leaf_ref, self.free_inner, self.top_inner, self.free_leaf, self.top_leaf, *self._stack)
 
-    def gather(self, n_slots: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every particle's slots 0…n−1: μ (M, n, 2), Σ as (σxx, σxy, σyy) (M, n, 3), state (M, n)."""
-        mu = np.zeros((self.M, n_slots, 2))
-        S = np.zeros((self.M, n_slots, 3))
-        state = np.zeros((self.M, n_slots), dtype=np.int32)
-        _gather(self.roots, n_slots, self.depth, self.inner_child, self.leaf_mu, self.leaf_S, self.leaf_state, mu, S, state)
+    def gather(self, n_slots: int, particles=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Slots 0…n−1 of the given particles (default all, P of them): μ (P, n, 2), Σ as (σxx, σxy, σyy)
+        (P, n, 3), state (P, n)."""
+        roots = self.roots if particles is None else np.ascontiguousarray(self.roots[np.asarray(particles, dtype=np.int64)])
+        mu = np.zeros((roots.size, n_slots, 2))
+        S = np.zeros((roots.size, n_slots, 3))
+        state = np.zeros((roots.size, n_slots), dtype=np.int32)
+        _gather(roots, n_slots, self.depth, self.inner_child, self.leaf_mu, self.leaf_S, self.leaf_state, mu, S, state)
         return mu, S, state
-
-    def live_counts(self) -> np.ndarray:
-        """Live landmarks of every particle (M,), counted on the leaves (O(n / B) per particle)."""
-        out = np.zeros(self.M, dtype=np.int64)
-        _count_live(self.roots, self.depth, self.inner_child, self.leaf_state, out)
-        return out
 
     def kernel_args(self) -> tuple:
         """The pools in the order the update kernels take them."""
@@ -294,30 +290,3 @@ def _grown(a: np.ndarray, size: int, fill) -> np.ndarray:
     out = np.full((size,) + a.shape[1:], fill, dtype=a.dtype)
     out[: a.shape[0]] = a
     return out
-
-
-@njit(cache=True)
-def _count_live(roots, depth, inner_child, leaf_state, out):
-    stack = np.empty(64 * (depth + 1), dtype=np.int64)
-    levels = np.empty(64 * (depth + 1), dtype=np.int64)
-    for m in range(roots.shape[0]):
-        total = 0
-        sp = 1
-        stack[0] = roots[m]
-        levels[0] = 0
-        while sp > 0:
-            sp -= 1
-            node = stack[sp]
-            level = levels[sp]
-            if level == depth:
-                for s in range(leaf_state.shape[1]):
-                    if leaf_state[node, s] > 0:
-                        total += 1
-                continue
-            for c in range(inner_child.shape[1]):
-                child = inner_child[node, c]
-                if child >= 0:
-                    stack[sp] = child
-                    levels[sp] = level + 1
-                    sp += 1
-        out[m] = total

@@ -24,6 +24,7 @@ BENCHMARKS: dict[str, str] = {
     "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
+    "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
 }
 
 

@@ -139,6 +139,19 @@ def test_existence_counters_remove_a_spurious_landmark():
     assert np.all(f.landmark_counts() == 1)
 
 
+def test_live_counts_follow_new_and_removed_landmarks_through_resampling():
+    f = FastSLAM(particles=6, use_ids=False, max_range=20.0, fov=np.pi, seed=1, range_bearing_cov=[0.01, 1e-4])
+    rng = np.random.default_rng(4)
+    for _ in range(25):
+        f.predict([0.3, 0.1], 0.5)
+        k = rng.integers(1, 4)
+        f.update(np.column_stack([rng.uniform(1.0, 15.0, k), rng.uniform(-1.2, 1.2, k), np.full(k, -1)]))
+        f.log_w = rng.normal(size=6)
+        f.resample()
+        _, _, state = f.store.gather(int(f.n_slots.max()))
+        np.testing.assert_array_equal(f.landmark_counts(), (state > 0).sum(axis=1))
+
+
 def test_neff_and_systematic_resampling():
     f = FastSLAM(particles=8, seed=0)
     f.log_w = np.log(np.array([0.5, 0.3, 0.1, 0.1, 1e-9, 1e-9, 1e-9, 1e-9]))
