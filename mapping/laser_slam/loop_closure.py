@@ -131,7 +131,6 @@ class LoopCloser:
         w = self.bnb._w(grid)
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
         cache = dict(BranchAndBoundMatcher._grids(self.bnb, submap.maps, depth, np.zeros(3), 1e12))  # the whole submap
-        cache["pyramid"] = cache["pyramid"].astype(np.float32)  # half the memory traffic of the search; bounds stay bounds
         self._cache[submap.index] = cache
         while len(self._cache) > self.p.loop_cache_submaps:
             self._cache.popitem(last=False)
