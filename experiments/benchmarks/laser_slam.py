@@ -47,10 +47,10 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from slamarena.datasets.catalogue import CATALOGUE
+    from slamarena.datasets.registry import resolve
 
     rows = [measure_single_threaded("slamarena.experiments.benchmarks.laser_slam", log=log)
-            for log in (LOGS[:1] if quick else LOGS) if CATALOGUE[f"carmen:{log}"].present()]
+            for log in (LOGS[:1] if quick else LOGS) if resolve(f"carmen:{log}").present()]
     if not rows:
         print("no staged CARMEN log with relations (radish_laser_logs): nothing to measure")
         return 0
