@@ -5,7 +5,7 @@ thread, one numba thread): the front end alone (:class:`~slamarena.mapping.grid_
 SLAM with loop closure (:class:`~slamarena.mapping.laser_slam.LaserSLAM`), both with their defaults. Printed:
 wall time, the real-time factor (log duration / wall time; the aim for Intel is ≥ 20 with loop closure; also with
 the process's CPU time, which a loaded machine inflates less) and
-laser SLAM's split (wall time) into front end, loop-closure search and optimisation, with the loop candidates tried and
+laser SLAM's split (CPU time) into front end, loop-closure search and optimisation, with the loop candidates tried and
 accepted. The relation error is printed beside each, so a faster setting cannot hide a worse map.
 """
 from __future__ import annotations
@@ -55,7 +55,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         print("no staged CARMEN log with relations (radish_laser_logs): nothing to measure")
         return 0
     table = Table(title="laser SLAM speed, single-threaded: real-time factor = log duration / wall time")
-    for col in ("log", "grid SLAM ×RT wall / CPU", "laser SLAM ×RT wall / CPU", "front end [s]", "loop search [s]", "optimisation [s]",
+    for col in ("log", "grid SLAM ×RT wall / CPU", "laser SLAM ×RT wall / CPU", "front end [CPU s]", "loop search [CPU s]", "optimisation [CPU s]",
                 "loops accepted / tried", "rel. error grid / laser [m]"):
         table.add_column(col, justify="right")
     for r in rows:

@@ -26,8 +26,8 @@ Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ 
 before scan k (relations refer to any scan), and the front end's L_k (``diagnostics["front_end_poses"]``, the
 trajectory before loop closure); the map re-rendered from the nodes' optimised poses
 (``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
-their scores (``diagnostics["loop_*"]``) and the time spent in the front end, the loop search and the
-optimisation (``meta["seconds"]``).
+their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the loop search and the
+optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
 """
 from __future__ import annotations
 
@@ -142,7 +142,7 @@ class LaserSLAM:
         if p.tracking == "global":
             tracking = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
         for k in range(K):
-            tic = time.perf_counter()
+            tic = time.process_time()
             beams = front.beams(k)
             diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
             pose = front.guess(k, local, pose)
@@ -168,8 +168,8 @@ class LaserSLAM:
                 L.append(pose.copy())
                 node_scan.append(k)
                 node_points.append(beams.points)
-                seconds["front_end"] += time.perf_counter() - tic
-                tic = time.perf_counter()
+                seconds["front_end"] += time.process_time() - tic
+                tic = time.process_time()
                 if i == 0:
                     G = pose[None, :].copy()
                     backend.add_node(0, pose)
@@ -180,17 +180,17 @@ class LaserSLAM:
                     G = np.vstack([G, compose(G[i - 1], z)])
                     backend.add_node(i, G[i], z, cov)
                     travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
-                seconds["optimisation"] += time.perf_counter() - tic
+                seconds["optimisation"] += time.process_time() - tic
                 if p.loop_closure and i % p.search_every == 0:
-                    tic = time.perf_counter()
+                    tic = time.process_time()
                     found = []
                     Ln = np.asarray(L)
                     for s in loops.candidates(self.submaps, i, G, np.asarray(travelled)):
                         constraint = loops.try_close(self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0)
                         if constraint is not None:
                             found.append(constraint)
-                    seconds["loop_search"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
+                    seconds["loop_search"] += time.process_time() - tic
+                    tic = time.process_time()
                     if len(false_loops) < len(false_at) and k >= false_at[len(false_loops)]:
                         false = self._false_loop(i, G)
                         if false is not None:
@@ -198,16 +198,16 @@ class LaserSLAM:
                             false_loops.append((i, false[0]))
                     for c, z, cov in found:
                         G = backend.add_loop(c, i, z, cov)
-                    seconds["optimisation"] += time.perf_counter() - tic
+                    seconds["optimisation"] += time.process_time() - tic
             else:
-                seconds["front_end"] += time.perf_counter() - tic
+                seconds["front_end"] += time.process_time() - tic
             node_of_scan[k] = len(L) - 1
             if progress is not None:
                 progress(k + 1, K)
 
-        tic = time.perf_counter()
+        tic = time.process_time()
         G, report = backend.finish()
-        seconds["optimisation"] += time.perf_counter() - tic
+        seconds["optimisation"] += time.process_time() - tic
         Ln = np.asarray(L)
         i_k = np.maximum(node_of_scan, 0)
         poses = compose(G[i_k], between(Ln[i_k], local))
