@@ -162,7 +162,10 @@ class LaserSLAM:
                 for submap in active:
                     submap.nodes.append(i)
                 if len(active[0].nodes) >= 2 * p.submap_scans:
-                    active.pop(0).finished = True
+                    finished = active.pop(0)
+                    finished.finished = True
+                    for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
+                        grid.release_scratch()
                 front.inserted(pose)
                 cov_match = res.cov if diag["matched"][k] else np.zeros((3, 3))
                 L.append(pose.copy())
