@@ -227,6 +227,8 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
         r[rng.random(angles.size) < 0.1] = 4.0  # no-returns
         n = shared[0].integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5, also=shared[1:])
         assert [m.integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5) for m in alone][0] == n
+        for grid in shared[0].levels:  # a released scratch is made again when the next scan comes
+            grid.release_scratch()
     for a, b in zip(shared, alone):
         for ga, gb in zip(a.levels, b.levels):
             np.testing.assert_array_equal(ga.origin, gb.origin)
