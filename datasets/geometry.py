@@ -46,6 +46,13 @@ def rotation(theta: np.ndarray | float) -> np.ndarray:
     return np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
 
 
+def _pose(x, y, th) -> np.ndarray:
+    """The components stacked into poses ``(..., 3)`` (one pose: without numpy's broadcasting machinery, the hot case)."""
+    if np.ndim(x) == 0 and np.ndim(y) == 0 and np.ndim(th) == 0:
+        return np.array([x, y, th], dtype=float)
+    return np.stack(np.broadcast_arrays(x, y, th), axis=-1)
+
+
 def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a ⊕ b: the pose b, expressed in frame a, moved to a's reference frame."""
     a = np.asarray(a, dtype=float)
@@ -54,7 +61,7 @@ def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
     y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
     th = wrap_angle(a[..., 2] + b[..., 2])
-    return np.stack(np.broadcast_arrays(x, y, th), axis=-1)
+    return _pose(x, y, th)
 
 
 def inverse(a: np.ndarray) -> np.ndarray:
@@ -64,7 +71,7 @@ def inverse(a: np.ndarray) -> np.ndarray:
     x = -c * a[..., 0] - s * a[..., 1]
     y = s * a[..., 0] - c * a[..., 1]
     th = wrap_angle(-a[..., 2])
-    return np.stack(np.broadcast_arrays(x, y, th), axis=-1)
+    return _pose(x, y, th)
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -77,7 +84,7 @@ def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     x = c * dx + s * dy
     y = -s * dx + c * dy
     th = wrap_angle(b[..., 2] - a[..., 2])
-    return np.stack(np.broadcast_arrays(x, y, th), axis=-1)
+    return _pose(x, y, th)
 
 
 def transform_points(a: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -34,8 +34,6 @@ def measure(log: str, particles: int, scans: int | None = None) -> dict:
     import numpy as np
 
     from slamarena import datasets
-    from slamarena.datasets.dataroot import find
-    from slamarena.datasets.errors import DatasetNotFoundError
     from slamarena.experiments.metrics.cost import peak_rss_mb
     from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
     from slamarena.mapping.rbpf import RBPF
@@ -59,12 +57,8 @@ def measure(log: str, particles: int, scans: int | None = None) -> dict:
         "peak_rss_MB": peak_rss_mb(), "filter_steps": m["filter_steps"], "resampling_events": m["resampling_events"],
         "proposal_fallbacks": m["proposal_fallbacks"],
     }
-    try:
-        relations = find(f"radish_laser_logs/relations/{log}.relations", f"carmen:{log}")
-    except DatasetNotFoundError:
-        relations = None
-    if relations is not None:
-        r, _ = relation_error_from_file(est, seq, RelationsParams(file=relations))
+    if seq.meta.get("relations"):  # the log's staged relations, read with it
+        r, _ = relation_error_from_file(est, seq, RelationsParams(match="interpolate"))
         row.update({f"relations_{k}": v for k, v in r.items()})
     return row
 

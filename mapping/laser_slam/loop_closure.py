@@ -48,7 +48,7 @@ __all__ = ["LoopCloser", "LoopRecord"]
 @dataclass
 class LoopRecord:
     """Every candidate tried: node, submap, anchor node, the branch-and-bound score (mean log-likelihood per point) and
-    nodes scored, the refined score, accepted, wall time [s], the constraint."""
+    nodes scored, the refined score, accepted, CPU time [s], the constraint."""
 
     node: list = field(default_factory=list)
     submap: list = field(default_factory=list)
@@ -131,7 +131,6 @@ class LoopCloser:
         w = self.bnb._w(grid)
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
         cache = dict(BranchAndBoundMatcher._grids(self.bnb, submap.maps, depth, np.zeros(3), 1e12))  # the whole submap
-        cache["pyramid"] = cache["pyramid"].astype(np.float32)  # half the memory traffic of the search; bounds stay bounds
         self._cache[submap.index] = cache
         while len(self._cache) > self.p.loop_cache_submaps:
             self._cache.popitem(last=False)
@@ -141,7 +140,7 @@ class LoopCloser:
         """Match node n's scan end points (robot frame) against ``submap``; (node c, z, Σ) of an accepted loop, else None.
 
         ``own_score``: the score of node n's scan against the submap the front end matched it to."""
-        tic = time.perf_counter()
+        tic = time.process_time()
         nodes = np.asarray(submap.nodes)
         c = nodes[np.argmin(np.hypot(*(G[nodes, :2] - G[n, :2]).T))]  # the submap's node nearest to node n, as estimated
         guess = compose(L[c], between(G[c], G[n]))
@@ -149,7 +148,7 @@ class LoopCloser:
         near = voxel_filter(points[np.hypot(points[:, 0], points[:, 1]) <= self.p.loop_max_range], self.p.loop_voxel)
         coarse = self.bnb.match(submap.maps, near, guess)
         if not np.isfinite(coarse.score):  # nothing in the window is worth refining
-            self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float("nan"), False, time.perf_counter() - tic, np.full(3, np.nan))
+            self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float("nan"), False, time.process_time() - tic, np.full(3, np.nan))
             return None
         fine = self.gn.match(submap.maps, points, coarse.pose)
         accepted = bool(fine.score >= max(self.p.min_score, self.p.loop_score_ratio * own_score) and np.all(np.isfinite(fine.pose)))
@@ -159,5 +158,5 @@ class LoopCloser:
         cos, sin = np.cos(L[c][2]), np.sin(L[c][2])
         R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])  # world-aligned (the submap's frame) → node c's frame
         cov = R @ spread @ R.T + np.diag(np.square([self.p.loop_sigma_translation, self.p.loop_sigma_translation, self.p.loop_sigma_rotation]))
-        self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float(fine.score), accepted, time.perf_counter() - tic, z)
+        self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float(fine.score), accepted, time.process_time() - tic, z)
         return (int(c), z, cov) if accepted else None

@@ -14,14 +14,20 @@ Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L
 covariance R_{i−1}ᵀ C_i R_{i−1} + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match
 in the front-end frame, R_{i−1} the rotation of node i − 1; the floor σ because a Gauss-Newton Laplace
 covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``search_every`` nodes,
-robustified. iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
+robustified. A robustness study (``false_loops`` > 0) injects deliberately false loop closures: at the first
+search after scan ⌊K·j/(F+1)⌋ (j = 1 … F) node n is claimed to sit at the position of the node c of a finished
+submap whose estimated distance to it is nearest to ``false_loop_distance`` (a wrong place that looks alike, e.g.
+the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest covariance a real loop can get
+(the floors ``loop_sigma_*``²); they are listed in ``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
+iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
 G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
 
 Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) with i(k) the last node at or
-before scan k (relations refer to any scan); the map re-rendered from the nodes' optimised poses
+before scan k (relations refer to any scan), and the front end's L_k (``diagnostics["front_end_poses"]``, the
+trajectory before loop closure); the map re-rendered from the nodes' optimised poses
 (``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
-their scores (``diagnostics["loop_*"]``) and the time spent in the front end, the loop search and the
-optimisation (``meta["seconds"]``).
+their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the loop search and the
+optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
 """
 from __future__ import annotations
 
@@ -32,7 +38,7 @@ import numpy as np
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 
 from slamarena.datasets.estimate import Estimate
-from slamarena.datasets.geometry import between, compose
+from slamarena.datasets.geometry import between, compose, wrap_angle
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field
 from slamarena.robust import RobustKernelParams
@@ -76,6 +82,8 @@ class LaserSLAMParams(GridSLAMParams):
     loop_cache_submaps: PositiveInt = Field(8, description="submaps whose likelihood pyramids are kept for the loop search")
     robust_kernel: RobustKernelParams = Field(RobustKernelParams(robust="cauchy", robust_k=1.0), description="m-estimator of the loop factors")
     loop_closure: bool = Field(True, description="search for loop closures (False: the graph holds the front end's chain only)")
+    false_loops: NonNegativeInt = Field(0, description="robustness study only: add this many deliberately false loop closures, spread evenly over the log")
+    false_loop_distance: PositiveFloat = Field(5.0, description="a false loop claims its node sits at the node about this far away [m]")
 
 
 class Submap:
@@ -124,6 +132,8 @@ class LaserSLAM:
         node_scan: list[int] = []
         node_points: list[np.ndarray] = []
         travelled = [0.0]
+        false_at = [K * j // (p.false_loops + 1) for j in range(1, p.false_loops + 1)]  # scans after which a false loop is due
+        false_loops: list[tuple[int, int]] = []
         diag = {"matched": np.zeros(K, bool), "score": np.full(K, np.nan), "usable_beams": np.zeros(K, np.int64), "bad_beams": np.zeros(K, np.int64)}
         seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0}
         active: list[Submap] = []
@@ -132,7 +142,7 @@ class LaserSLAM:
         if p.tracking == "global":
             tracking = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
         for k in range(K):
-            tic = time.perf_counter()
+            tic = time.process_time()
             beams = front.beams(k)
             diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
             pose = front.guess(k, local, pose)
@@ -147,19 +157,22 @@ class LaserSLAM:
                 i = len(L)
                 if not active or len(active[-1].nodes) >= p.submap_scans:
                     active.append(self._new_submap(pose, scans))
-                for grids in [s.maps for s in active] + ([tracking] if tracking is not None else []):
-                    grids.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
+                first, *rest = [s.maps for s in active] + ([tracking] if tracking is not None else [])
+                first.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range, also=rest)
                 for submap in active:
                     submap.nodes.append(i)
                 if len(active[0].nodes) >= 2 * p.submap_scans:
-                    active.pop(0).finished = True
+                    finished = active.pop(0)
+                    finished.finished = True
+                    for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
+                        grid.release_scratch()
                 front.inserted(pose)
                 cov_match = res.cov if diag["matched"][k] else np.zeros((3, 3))
                 L.append(pose.copy())
                 node_scan.append(k)
                 node_points.append(beams.points)
-                seconds["front_end"] += time.perf_counter() - tic
-                tic = time.perf_counter()
+                seconds["front_end"] += time.process_time() - tic
+                tic = time.process_time()
                 if i == 0:
                     G = pose[None, :].copy()
                     backend.add_node(0, pose)
@@ -170,29 +183,34 @@ class LaserSLAM:
                     G = np.vstack([G, compose(G[i - 1], z)])
                     backend.add_node(i, G[i], z, cov)
                     travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
-                seconds["optimisation"] += time.perf_counter() - tic
+                seconds["optimisation"] += time.process_time() - tic
                 if p.loop_closure and i % p.search_every == 0:
-                    tic = time.perf_counter()
+                    tic = time.process_time()
                     found = []
                     Ln = np.asarray(L)
                     for s in loops.candidates(self.submaps, i, G, np.asarray(travelled)):
                         constraint = loops.try_close(self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0)
                         if constraint is not None:
                             found.append(constraint)
-                    seconds["loop_search"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
+                    seconds["loop_search"] += time.process_time() - tic
+                    tic = time.process_time()
+                    if len(false_loops) < len(false_at) and k >= false_at[len(false_loops)]:
+                        false = self._false_loop(i, G)
+                        if false is not None:
+                            found.append(false)
+                            false_loops.append((i, false[0]))
                     for c, z, cov in found:
                         G = backend.add_loop(c, i, z, cov)
-                    seconds["optimisation"] += time.perf_counter() - tic
+                    seconds["optimisation"] += time.process_time() - tic
             else:
-                seconds["front_end"] += time.perf_counter() - tic
+                seconds["front_end"] += time.process_time() - tic
             node_of_scan[k] = len(L) - 1
             if progress is not None:
                 progress(k + 1, K)
 
-        tic = time.perf_counter()
+        tic = time.process_time()
         G, report = backend.finish()
-        seconds["optimisation"] += time.perf_counter() - tic
+        seconds["optimisation"] += time.process_time() - tic
         Ln = np.asarray(L)
         i_k = np.maximum(node_of_scan, 0)
         poses = compose(G[i_k], between(Ln[i_k], local))
@@ -200,14 +218,28 @@ class LaserSLAM:
         self.map = self._render(G, node_scan, scans, front.limit)
         diag.update(loops.record.arrays())
         diag["node_scan"] = np.asarray(node_scan, dtype=np.int64)
+        diag["front_end_poses"] = local  # the poses before loop closure, one per scan
+        diag["false_loop_node"], diag["false_loop_anchor"] = (np.asarray(v, dtype=np.int64).reshape(-1) for v in (zip(*false_loops) if false_loops else ([], [])))
         accepted = diag["loop_accepted"]
         meta = {
             "params": p.canonical(), "scans": int(K), "nodes": len(L), "submaps": len(self.submaps),
-            "loop_candidates": int(accepted.size), "loop_closures": int(accepted.sum()), "loop_rejected": int((~accepted).sum()),
+            "loop_candidates": int(accepted.size), "loop_closures": int(accepted.sum()), "loop_rejected": int((~accepted).sum()), "false_loops": len(false_loops),
             "seconds": seconds, "optimisation": report, "odometry_stalled_scans": int(front.stalled.sum()),
             "map_shape": list(self.map.shape), "map_origin": self.map.origin.tolist(),
         }
         return Estimate(method="laser_slam", t=scans.t.copy(), poses=poses, step_time=_spread(seconds, K), diagnostics=diag, meta=meta)
+
+    def _false_loop(self, n: int, G: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
+        """A deliberately false loop for node n (module docstring): (node c, z, Σ), or None while no finished
+        submap's node lies farther than half ``false_loop_distance``."""
+        p = self.params
+        nodes = np.array([c for s in self.submaps if s.finished for c in s.nodes], dtype=np.int64)
+        d = np.hypot(*(G[nodes, :2] - G[n, :2]).T) if nodes.size else np.zeros(0)
+        if not np.any(d > p.false_loop_distance / 2):
+            return None
+        c = int(nodes[np.argmin(np.where(d > p.false_loop_distance / 2, np.abs(d - p.false_loop_distance), np.inf))])
+        z = np.array([0.0, 0.0, float(wrap_angle(G[n, 2] - G[c, 2]))])
+        return c, z, np.diag(np.square([p.loop_sigma_translation, p.loop_sigma_translation, p.loop_sigma_rotation]))
 
     def _render(self, G, node_scan, scans, limit) -> OccupancyGrid:
         """The finest grid re-rendered from every node's scan at its optimised pose."""

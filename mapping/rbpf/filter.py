@@ -23,8 +23,9 @@ whose lineage has the largest ``Σ log η`` over all filter steps (GMapping's ch
 every weight is equal, while the lineage's evidence still tells the particles apart.
 ``diagnostics`` (per scan): ``bad_beams``, ``no_return_beams``, ``usable_beams``, ``matched``, ``iterations``
 (Gauss-Newton iterations summed over levels and particles),
-``filter_step``, ``n_eff`` (NaN off filter steps), ``resampled``, ``proposal_fallbacks`` (particles drawn
-from the motion model), ``memory_per_particle`` [bytes, NaN off filter steps]. ``meta``: the counts of
+``filter_step``, ``proposal_fallbacks`` (particles drawn from the motion model), ``memory_per_particle`` [bytes, NaN
+off filter steps]; per weighted filter step (every filter step after the first): ``neff`` (N_eff before
+resampling), ``neff_t`` (its scan stamp), ``resampled`` (whether that step resampled). ``meta``: the counts of
 GridSLAM's, ``particles``, ``filter_steps``, ``resampling_events``, ``memory_per_particle`` (final and peak),
 ``memory_unshared_per_particle`` (what unshared maps of the same tiles would take). After ``run``
 ``self.map`` is the best particle's finest grid (an :class:`~slamarena.mapping.occupancy_grid.OccupancyGrid`).
@@ -152,9 +153,10 @@ class RBPF:
         step_time = np.zeros(K)
         diag = {
             "bad_beams": np.zeros(K, np.int64), "no_return_beams": np.zeros(K, np.int64), "usable_beams": np.zeros(K, np.int64),
-            "matched": np.zeros(K, bool), "iterations": np.zeros(K, np.int64), "filter_step": np.zeros(K, bool), "n_eff": np.full(K, np.nan), "resampled": np.zeros(K, bool),
+            "matched": np.zeros(K, bool), "iterations": np.zeros(K, np.int64), "filter_step": np.zeros(K, bool),
             "proposal_fallbacks": np.zeros(K, np.int64), "memory_per_particle": np.full(K, np.nan),
         }
+        neff, neff_t, resampled = [], [], []
         n_beams = np.zeros(K, np.int64)
         updates = 0
         for k in range(K):
@@ -184,7 +186,9 @@ class RBPF:
                         logw -= logw.max()
                         w = np.exp(logw)
                         w /= w.sum()
-                        diag["n_eff"][k] = 1.0 / np.sum(w**2)
+                        neff.append(1.0 / np.sum(w**2))
+                        neff_t.append(scans.t[k])
+                        resampled.append(bool(neff[-1] < p.resample_threshold * P))
                         diag["proposal_fallbacks"][k] = fallbacks
                         diag["matched"][k] = fallbacks < P
                     mapped = ~bad & ((r < limit) | no_return)
@@ -196,11 +200,10 @@ class RBPF:
                         self.maps.resample(np.zeros(P, np.int64))
                     else:
                         self.maps.integrate(sensors, reach, a[mapped], hit)
-                    if updates > 0 and diag["n_eff"][k] < p.resample_threshold * P:
+                    if updates > 0 and resampled[-1]:
                         parent = systematic_resampling(w, rng)
                         self.maps.resample(parent)
                         poses, logw, evidence = poses[parent], np.zeros(P), evidence[parent]
-                        diag["resampled"][k] = True
                     odom_filter = odom[k] if fresh[k] else odom_filter
                     updates += 1
                     diag["filter_step"][k] = True
@@ -213,6 +216,7 @@ class RBPF:
             if progress is not None:
                 progress(k + 1, K)
 
+        diag.update(neff=np.asarray(neff, dtype=float), neff_t=np.asarray(neff_t, dtype=float), resampled=np.asarray(resampled, dtype=bool))
         self.best, self._map = int(np.argmax(evidence)), None
         trajectory = np.zeros((K, 3))
         i = self.best

@@ -29,6 +29,9 @@ best-first and prunes nodes whose bound does not beat the best leaf found return
 optimum as the exhaustive search. Its covariance comes from the exhaustive response in a
 small window (``± covariance_cells`` cells and angle steps) around the optimum.
 
+The grids are float32 (scores are summed in float64) and padded by one ring of floor cells: a point outside the
+array is clamped to its edge, which reads the floor on P_0 and an upper bound on every P_h.
+
 Both return a lattice pose (whole cells, whole angle steps). ``refine=True`` polishes it with
 the Gauss-Newton matcher on the map pyramid, as Cartographer follows its branch and bound with
 its Ceres matcher: the wide, global search picks the basin, Gauss-Newton the sub-cell optimum.
@@ -76,6 +79,17 @@ def _node_score(P, ix, iy, a, b):
         y = min(max(iy[i] + b, 0), h - 1)
         total += P[y, x]
     return total
+
+
+@njit(cache=True)
+def _response(P, ix, iy, ks, a, b):
+    """Scores S[q, j, i] of the points' cells ix, iy (K, N) at angle ks[q] shifted by (a[i], b[j])."""
+    S = np.empty((ks.size, b.size, a.size))
+    for q in range(ks.size):
+        for j in range(b.size):
+            for i in range(a.size):
+                S[q, j, i] = _node_score(P, ix[ks[q]], iy[ks[q]], a[i], b[j])
+    return S
 
 
 @njit(cache=True)
@@ -180,9 +194,9 @@ class _Correlative:
         key = (id(grid), grid.version, grid.shape, depth, *lo, *hi)
         if key != self._cache_key:
             floor = np.log(self.params.p_floor)
-            pad = 2**depth + self._w(grid) + 1
+            pad = 1  # a ring of floor cells: a lookup outside the array is clamped to its edge (exact for P_0, an upper bound for P_h)
             G = likelihood_grid(grid, self.params.sigma, self.params.p_floor, (lo[0], lo[1], hi[0], hi[1]))
-            pyramid = np.empty((depth + 1,) + tuple(np.add(G.shape, 2 * pad)))  # P_0 … P_depth, one array
+            pyramid = np.empty((depth + 1,) + tuple(np.add(G.shape, 2 * pad)), dtype=np.float32)  # P_0 … P_depth, one array
             pyramid[0] = np.pad(G, pad, constant_values=floor)
             for h in range(1, depth + 1):
                 s = 2 ** (h - 1)
@@ -218,21 +232,11 @@ class _Correlative:
         iy = np.floor((wy - grid.origin[1]) / grid.params.resolution).astype(np.int64) + pad[1]
         return ix, iy
 
-    @staticmethod
-    def _score(P, ix, iy, a, b):
-        """Scores (M,) of offsets (a, b) (M,) for points with cells ix, iy (N,)."""
-        h, w = P.shape
-        xs = np.minimum(np.maximum(ix[None, :] + a[:, None], 0), w - 1)
-        ys = np.minimum(np.maximum(iy[None, :] + b[:, None], 0), h - 1)
-        return P[ys, xs].sum(axis=1)
-
     def _response(self, P, ix, iy, ks, w_a, w_b, centre=(0, 0)):
         """Exhaustive scores S[k, b, a] over angle indices ks and offsets centre ± (w_a, w_b)."""
         a = np.arange(centre[0] - w_a, centre[0] + w_a + 1)
         b = np.arange(centre[1] - w_b, centre[1] + w_b + 1)
-        A, B = np.meshgrid(a, b)
-        S = np.stack([self._score(P, ix[k], iy[k], A.ravel(), B.ravel()).reshape(A.shape) for k in ks])
-        return S, a, b
+        return _response(P, np.ascontiguousarray(ix), np.ascontiguousarray(iy), np.asarray(list(ks), dtype=np.int64), a, b), a, b
 
     @staticmethod
     def _moments(S, a, b, th, res, dth, guess):

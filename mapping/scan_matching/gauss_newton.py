@@ -258,6 +258,7 @@ class GaussNewtonMatcher:
 
 
 def _laplace_covariance(H: np.ndarray, ssr: float, n: int) -> np.ndarray:
-    if n <= 3 or np.linalg.cond(H) > 1e12:
+    eig = np.linalg.eigvalsh(H) if n > 3 else np.zeros(3)  # ascending; H is symmetric: its condition number is eig[-1] / eig[0]
+    if not eig[0] * 1e12 >= eig[-1] > 0:
         return np.diag([np.inf, np.inf, np.inf])
     return ssr / (n - 3) * np.linalg.inv(H)

@@ -80,6 +80,22 @@ def test_a_false_loop_is_down_weighted_by_the_robust_kernel():
     assert plain > 10 * robust, (plain, robust)
 
 
+def test_injected_false_loops_do_not_bend_the_map(hard_loop):
+    """Two false loops (each claims a node sits 5 m from where it is, as tight as the tightest real loop) on the
+    simulated loop: the Cauchy kernel leaves the ATE where it was and the final poses ignore the false claims."""
+    seq, closed, _ = hard_loop
+    est = LaserSLAM(**FRONT, false_loops=2).run(seq)
+    ref = reference_of(seq)
+    e_closed = ate(closed, ref, ATEParams(align="se2"))[0]["rmse"]
+    e_false = ate(est, ref, ATEParams(align="se2"))[0]["rmse"]
+    d = est.diagnostics
+    assert est.meta["false_loops"] == d["false_loop_node"].size == 2
+    G = est.poses[d["node_scan"]]  # the nodes' optimised poses
+    apart = np.hypot(*(G[d["false_loop_node"], :2] - G[d["false_loop_anchor"], :2]).T)
+    assert np.all(apart > 4.0), apart  # the claim "these two nodes coincide" was not obeyed
+    assert e_false < 1.1 * e_closed + 0.005, (e_false, e_closed)
+
+
 def test_pose_graph_written_as_g2o_reads_back(hard_loop, tmp_path):
     seq, _, _ = hard_loop
     slam = LaserSLAM(**FRONT)

@@ -211,3 +211,27 @@ def test_vectorised_integration_equals_the_literal_loop():
         n_slow = integrate_literal(slow, r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=2.0, clear_range=1.5)
         assert n_fast == n_slow
     assert np.array_equal(fast.log_odds, slow.log_odds)
+
+
+def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_each():
+    """MapPyramid.integrate(also=…): the cells traced in one pyramid moved into others (different centres, sizes and
+    growth) give every level exactly the grid that integrating into each separately gives."""
+    rng = np.random.default_rng(11)
+    angles = np.linspace(-2.0, 2.0, 120)
+    kw = dict(resolution=0.1, levels=3, clamp=(0.12, 0.97), hit_guard=1)
+    shared = [MapPyramid(**kw, size=4.0, centre=(0.3, -0.7)), MapPyramid(**kw, size=2.0, centre=(-1.9, 2.4)), MapPyramid(**kw, size=9.0, centre=(5.0, 5.0))]
+    alone = [MapPyramid(m.params) for m in shared]
+    for _ in range(8):
+        pose = np.r_[rng.uniform(-3, 3, 2), rng.uniform(-np.pi, np.pi)]
+        r = rng.uniform(0.05, 4.0, angles.size)
+        r[rng.random(angles.size) < 0.1] = 4.0  # no-returns
+        n = shared[0].integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5, also=shared[1:])
+        assert [m.integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5) for m in alone][0] == n
+        for grid in shared[0].levels:  # a released scratch is made again when the next scan comes
+            grid.release_scratch()
+    for a, b in zip(shared, alone):
+        for ga, gb in zip(a.levels, b.levels):
+            np.testing.assert_array_equal(ga.origin, gb.origin)
+            np.testing.assert_array_equal(ga.log_odds, gb.log_odds)
+    with pytest.raises(ValueError, match="one lattice"):
+        shared[0].finest.cells_in(shared[0].finest.scan_cells([1.0], [0.0], [0, 0, 0], max_range=4.0), OccupancyGrid(resolution=0.1, origin=(0.01, 0.0)))

@@ -149,9 +149,11 @@ def test_filter_reports_resampling_neff_and_memory(room_sequence):
     steps = d["filter_step"]
     assert est.meta["filter_steps"] == steps.sum() > 5
     # N_eff < P · threshold at a step ⇔ it resampled (threshold 1: every step whose weights are not all equal)
-    assert np.array_equal(d["resampled"][steps][1:], d["n_eff"][steps][1:] < P)
+    # one N_eff per weighted filter step (all but the first), at that step's scan stamp
+    assert d["neff"].size == d["neff_t"].size == d["resampled"].size == steps.sum() - 1
+    np.testing.assert_array_equal(d["neff_t"], room_sequence.scans.t[steps][1:])
+    assert np.array_equal(d["resampled"], d["neff"] < P) and np.all((d["neff"] >= 1 - 1e-9) & (d["neff"] <= P + 1e-9))
     assert est.meta["resampling_events"] == d["resampled"].sum() > 0
-    assert np.all(np.isfinite(d["n_eff"][steps][1:])) and np.all(np.isnan(d["n_eff"][~steps]))
     assert np.all(d["memory_per_particle"][steps] > 0) and est.meta["memory_per_particle"] < est.meta["memory_unshared_per_particle"]
     never = RBPF(particles=P, resample_threshold=1e-9).run(room_sequence)
     assert never.meta["resampling_events"] == 0
