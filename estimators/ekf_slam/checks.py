@@ -41,20 +41,29 @@ def _psd3(A: np.ndarray, tol: float) -> bool:
 
 def check_covariance(P: np.ndarray, n_robot: int = 3) -> None:
     """Raise CovarianceError if P has a negative diagonal entry or an indefinite robot/landmark block."""
-    _check_entries(np.diagonal(P), P[:n_robot, :n_robot], np.diagonal(P, offset=1)[n_robot::2], n_robot)
+    _check_entries(*_entries(P, None, None, n_robot), n_robot)
+
+
+def _entries(P: np.ndarray, C: np.ndarray | None, s: np.ndarray | None, n_robot: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The checked entries of ``P + C diag(s) Cᵀ`` (C N × d, or None): diagonal, robot block, ``[s, s + 1]`` of each landmark; O(N d)."""
+    d, robot, off = np.diagonal(P), P[:n_robot, :n_robot], np.diagonal(P, offset=1)[n_robot::2]
+    if C is None or C.shape[1] == 0:
+        return d, robot, off
+    Cs = C * s
+    return (d + np.einsum("ik,ik->i", Cs, C), robot + Cs[:n_robot] @ C[:n_robot].T,
+            off + np.einsum("ik,ik->i", Cs[n_robot::2], C[n_robot + 1::2]))
 
 
 def check_update(P: np.ndarray, C: np.ndarray, s: np.ndarray, n_robot: int = 3) -> None:
     """:func:`check_covariance` of ``P + C diag(s) Cᵀ`` (C N × d) before it is formed: only the checked entries, O(N d)."""
-    Cs = C * s
-    _check_entries(np.diagonal(P) + np.einsum("ik,ik->i", Cs, C), P[:n_robot, :n_robot] + Cs[:n_robot] @ C[:n_robot].T,
-                   np.diagonal(P, offset=1)[n_robot::2] + np.einsum("ik,ik->i", Cs[n_robot::2], C[n_robot + 1::2]), n_robot)
+    _check_entries(*_entries(P, C, s, n_robot), n_robot)
 
 
-def check_augmented(P: np.ndarray, block: np.ndarray, n_robot: int = 3) -> None:
-    """:func:`check_covariance` of P grown by a landmark whose 2 × 2 covariance is ``block``, before it is grown."""
-    _check_entries(np.r_[np.diagonal(P), np.diagonal(block)], P[:n_robot, :n_robot],
-                   np.r_[np.diagonal(P, offset=1)[n_robot::2], block[0, 1]], n_robot)
+def check_augmented(P: np.ndarray, block: np.ndarray, C: np.ndarray | None = None, s: np.ndarray | None = None, n_robot: int = 3) -> None:
+    """:func:`check_covariance` of ``P + C diag(s) Cᵀ`` (a pending update, if given) grown by a landmark whose 2 × 2
+    covariance is ``block``, before it is grown."""
+    d, robot, off = _entries(P, C, s, n_robot)
+    _check_entries(np.r_[d, np.diagonal(block)], robot, np.r_[off, block[0, 1]], n_robot)
 
 
 def _check_entries(d: np.ndarray, robot: np.ndarray, off: np.ndarray, n_robot: int) -> None:

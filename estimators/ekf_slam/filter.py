@@ -114,7 +114,7 @@ from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODEL
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, check_innovation_cov, check_update
-from .kernels import robot_chain, symmetric_update
+from .kernels import robot_chain
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -206,6 +206,9 @@ class EKFSLAMParams(Params):
         RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in "
                                              "Cartesian coordinates (as Victoria Park states it), R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m]")
     update: UpdateForm = Field(UpdateForm.SEQUENTIAL, description="'sequential': one update per matched observation; 'batch': one stacked update per observation set")
+    defer_covariance: bool = Field(
+        True, description="apply the N×N covariance update of an observation set once, at its end (rank 2m, one pass over P; the same "
+                          "result as applying it per observation, up to rounding); False: one pass over P per observation")
     covariance_update: CovarianceUpdate = Field(CovarianceUpdate.STANDARD, description="'standard' (I − KH) P or 'joseph' (I − KH) P (I − KH)ᵀ + K R Kᵀ")
     init: LandmarkInit = Field(LandmarkInit.JACOBIAN, description="new-landmark covariance: 'jacobian' through the inverse observation model, 'initP' init_cov · I₂ uncorrelated")
     init_cov: float = Field(1.0, gt=0.0, allow_inf_nan=False, description="variance of each coordinate of a new landmark with init='initP' [m²]")
@@ -436,6 +439,20 @@ class EKFSLAM:
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
+        try:
+            self._apply(z, ids, Rz, decision, slot)
+        finally:  # the deferred covariance update of what was applied, also when a CovarianceError is raised
+            self._s.flush()
+        landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
+        self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
+
+    def _apply(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> None:
+        """Apply the rows of a set in order (batch: the matched ones first, stacked); rows not applied are marked rejected.
+
+        The covariance updates are deferred (:mod:`.storage`): each reads the columns of P it needs,
+        ``P_{k−1}[:, idx] = P_0[:, idx] − U_{k−1} U_{k−1}[idx, :]ᵀ``, and :meth:`update` applies
+        ``P_m = P_0 − U_m U_mᵀ`` once (``defer_covariance=False``: after every row).
+        """
         if self.params.update == UpdateForm.BATCH:
             matched = np.flatnonzero(decision == Decision.MATCHED)
             if matched.size and not self._update_batch(slot[matched], z[matched, :2], Rz[matched]):
@@ -453,8 +470,6 @@ class EKFSLAM:
                 applied = slot[j] >= 0
             if not applied:
                 decision[j], slot[j] = Decision.REJECTED, -1
-        landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
-        self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
@@ -516,12 +531,12 @@ class EKFSLAM:
 
     def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
         """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
-        x, P = self._s.x, self._s.P
+        x = self._s.x
         s = 3 + 2 * slot
         idx = [0, 1, 2, s, s + 1]
         Hx, Hm = self._jacobians_at(np.array([slot]))
         H = np.concatenate([Hx[0], Hm[0]], axis=1)                     # (2, 5)
-        PHt = P[:, idx] @ H.T                                          # (N, 2)
+        PHt = self._s.columns(idx) @ H.T                               # (N, 2), the current P's five columns
         S = H @ PHt[idx] + R                                           # (2, 2)
         nu = z - observe(x[:3], x[s:s + 2])
         nu[1] = wrap_angle(nu[1])
@@ -529,13 +544,13 @@ class EKFSLAM:
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
-        x, P = self._s.x, self._s.P
+        x = self._s.x
         m = slots.size
         Hx, Hm = self._jacobians_at(slots)
         Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
         idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1).ravel()
         N = x.shape[0]
-        PHt = np.einsum("nmk,mjk->nmj", P[:, idx].reshape(N, m, 5), Hs).reshape(N, 2 * m)               # (N, 2m)
+        PHt = np.einsum("nmk,mjk->nmj", self._s.columns(idx).reshape(N, m, 5), Hs).reshape(N, 2 * m)    # (N, 2m)
         S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
         S = 0.5 * (S + S.T) + block_diag(*R)
         nu = z - observe(x[:3], self._landmarks()[slots])
@@ -569,14 +584,17 @@ class EKFSLAM:
             if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
                 self.rejected["nonfinite"] += d // 2
                 return False
-            check_update(self._s.P, C, signs)
+            U, s = self._s.pending
+            check_update(self._s.stored, np.hstack([U, C]), np.r_[s, signs])
         except CovarianceError as exc:
             self._indefinite(exc, d // 2)
             return False
         x = self._s.x
         x += dx
         x[2] = wrap_angle(x[2])
-        symmetric_update(self._s.buffer, self._s.n, C, signs)
+        self._s.defer(C, signs)
+        if not self.params.defer_covariance:
+            self._s.flush()
         self.nis_log.append((nis, d))
         return True
 
@@ -592,10 +610,10 @@ class EKFSLAM:
             Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
         else:
             Gx, Gz = inverse_observation_jacobians(xr, z)
-        P = self._s.P
+        robot = self._s.rows([0, 1, 2])                                 # the current P[0:3, :] (3, N)
         if self.params.init == LandmarkInit.JACOBIAN:
-            cross = Gx @ P[:3, :]                                       # P_new,: (2, N)
-            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
+            cross = Gx @ robot                                          # P_new,: (2, N)
+            Pnn = Gx @ robot[:, :3] @ Gx.T + Gz @ R @ Gz.T
             Pnn = 0.5 * (Pnn + Pnn.T)
         else:
             cross, Pnn = np.zeros((2, self._s.n)), self.params.init_cov * np.eye(2)
@@ -603,13 +621,13 @@ class EKFSLAM:
             self.rejected["nonfinite"] += 1
             return -1
         try:
-            check_augmented(P, Pnn)
+            check_augmented(self._s.stored, Pnn, *self._s.pending)
         except CovarianceError as exc:
             self._indefinite(exc)
             return -1
         N = self._s.n
         new = self._s.grow(2)
-        x, P = self._s.x, self._s.P
+        x, P = self._s.x, self._s.stored  # a pending update does not touch the new rows (storage.py)
         x[new] = m
         P[new, :N] = cross
         P[:N, new] = cross.T
