@@ -113,7 +113,7 @@ from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODEL
                       inverse_observe, observation_jacobians, observe)
 from . import association as assoc
 from .association import Decision
-from .checks import CovarianceError, check_augmented, check_innovation_cov, check_update
+from .checks import CovarianceError, check_augmented, check_entries, check_innovation_cov, low_rank_entries
 from .kernels import robot_chain
 from .storage import GrowingState
 
@@ -303,10 +303,15 @@ class EKFSLAM:
 
     @property
     def P(self) -> np.ndarray:
-        """State covariance (N, N), read-only view."""
+        """State covariance (N, N), read-only view (the first read after an update copies its upper triangle, O(N²): :mod:`.storage`)."""
         v = self._s.P.view()
         v.flags.writeable = False
         return v
+
+    @property
+    def robot_cov(self) -> np.ndarray:
+        """Robot covariance P[0:3, 0:3] (3, 3), a copy, O(1)."""
+        return self._s.stored[:3, :3].copy()
 
     @property
     def landmark_ids(self) -> np.ndarray:
@@ -377,7 +382,7 @@ class EKFSLAM:
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
         is indefinite raises :class:`CovarianceError` (``on_indefinite="record"``: counted and applied).
         """
-        x, P = self._s.x, self._s.P
+        x, P = self._s.x, self._s.stored  # the robot rows and columns, all it reads and writes, are current in it
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
@@ -492,7 +497,7 @@ class EKFSLAM:
                 decision[j], slot[j] = Decision.MATCHED, s
         labelled = np.flatnonzero(slot >= 0)
         try:
-            d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, Rz[labelled], z[labelled], slot[labelled])
+            d2[labelled] = assoc.pair_d2(self._s.x, self._s.stored, Rz[labelled], z[labelled], slot[labelled])
             self.rejected["nonfinite"] += int((~np.isfinite(d2[labelled])).sum())
         except CovarianceError as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
             self._indefinite(exc, labelled.size)
@@ -500,10 +505,12 @@ class EKFSLAM:
         decision[outside], slot[outside] = Decision.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
-            x, P = self._s.x, self._s.P
-            nu, _, dist = assoc.compatibility(x, P, Rz[unknown], z[unknown])
+            # pair_d2 and compatibility read the robot rows and the landmarks' 2 × 2 blocks, current in the stored P;
+            # JCBB reads landmark-landmark blocks too, from the whole P
+            x = self._s.x
+            nu, _, dist = assoc.compatibility(x, self._s.stored, Rz[unknown], z[unknown])
             if self.params.association == AssociationMethod.JCBB:
-                a = assoc.jcbb(x, P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
+                a = assoc.jcbb(x, self._s.P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
@@ -584,15 +591,15 @@ class EKFSLAM:
             if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
                 self.rejected["nonfinite"] += d // 2
                 return False
-            U, s = self._s.pending
-            check_update(self._s.stored, np.hstack([U, C]), np.r_[s, signs])
+            term = low_rank_entries(C, signs)
+            check_entries(*self._s.entries(term))
         except CovarianceError as exc:
             self._indefinite(exc, d // 2)
             return False
         x = self._s.x
         x += dx
         x[2] = wrap_angle(x[2])
-        self._s.defer(C, signs)
+        self._s.defer(C, signs, term)
         if not self.params.defer_covariance:
             self._s.flush()
         self.nis_log.append((nis, d))
@@ -621,13 +628,13 @@ class EKFSLAM:
             self.rejected["nonfinite"] += 1
             return -1
         try:
-            check_augmented(self._s.stored, Pnn, *self._s.pending)
+            check_augmented(self._s.entries(), Pnn)
         except CovarianceError as exc:
             self._indefinite(exc)
             return -1
         N = self._s.n
         new = self._s.grow(2)
-        x, P = self._s.x, self._s.stored  # a pending update does not touch the new rows (storage.py)
+        x, P = self._s.x, self._s.stored  # no pending term reaches the new rows (storage.py)
         x[new] = m
         P[new, :N] = cross
         P[:N, new] = cross.T

@@ -1,21 +1,22 @@
 """The inner loops of EKF-SLAM: the O(N²) covariance update (numba, or BLAS in place) and the robot-block chain.
 
-``symmetric_update(buffer, n, C, s)`` applies ``P ← P + C diag(s) Cᵀ`` to the live block
-``P = buffer[:n, :n]`` of a C-contiguous buffer (C is n × d), in place, and keeps a symmetric P
-**bitwise** symmetric:
+``update_lower(buffer, n, Cᵀ, s)`` applies ``P ← P + C diag(s) Cᵀ`` (C n × d) to the lower triangle
+(i ≥ j) of the live block ``P = buffer[:n, :n]`` of a C-contiguous buffer, in place — the half of
+P that is the covariance's storage (:mod:`.storage`; the upper triangle is copied from it by
+:func:`mirror_lower` only when the whole matrix is read):
 
-* d ≤ ``_FUSED_MAX`` (one observation): a fused numba loop. Element (i, j) receives
-  ``Σ_k (C_ik C_jk) s_k``; the product ``C_ik C_jk`` is commutative and the sum runs in the same
-  order for (j, i), so P stays bitwise symmetric in one row-major pass over the buffer
-  (memory-bound, vectorised by LLVM).
-* larger d (a deferred or batched update of a whole observation set, d = 2m … 6m): BLAS on the
-  lower triangle in place — ``dsyrk`` (``P + α C Cᵀ``) when every s_k is the same α, else ``dsyr2k``
-  with ``A = C``, ``B = ½ C diag(s)`` (``A Bᵀ + B Aᵀ = C diag(s) Cᵀ``) — called through
-  ``scipy.linalg.cython_blas`` so that it works on the strided live block (leading dimension = the
-  buffer's capacity) without a copy; then the strict lower triangle is copied to the upper one
-  (:func:`_mirror_lower`, 8 × 8 tiles: each written cache line is filled by one tile row). The
-  rank-d product costs O(d N²) flops in half the matrix; at d ≈ 20 its cost is that of a few
-  streaming passes, where the fused loop would be compute-bound.
+* d ≤ ``_FUSED_MAX`` (one observation): a fused numba loop, element (i, j ≤ i) receives
+  ``Σ_k (C_ik C_jk) s_k`` in one row-major pass over the lower triangle (memory-bound,
+  vectorised by LLVM);
+* larger d (a deferred or batched update of a whole observation set, d = 2m … 6m): BLAS —
+  ``dsyrk`` (``P + α C Cᵀ``) when every s_k is the same α, else ``dsyr2k`` with ``A = C``,
+  ``B = C diag(s)``, ``α = ½`` (``½ (A Bᵀ + B Aᵀ) = C diag(s) Cᵀ``) — called through
+  ``scipy.linalg.cython_blas`` so that it works on the strided live block and factor (leading
+  dimensions = their row strides) without a copy. At d ≈ 20 the product is compute-bound (O(d N²/2) flops), where the fused loop
+  would be several times slower.
+
+``mirror_lower(buffer, n)`` copies the strict lower triangle to the upper one in 8 × 8 tiles
+(each written cache line is filled by one tile row), which makes P bitwise symmetric.
 
 ``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion of a chain of K predictions,
 ``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with ``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]``,
@@ -29,9 +30,9 @@ import numpy as np
 from numba import njit
 from numba.extending import get_cython_function_address
 
-__all__ = ["symmetric_update", "robot_chain"]
+__all__ = ["update_lower", "mirror_lower", "robot_chain"]
 
-#: largest d handled by the fused loop (above it, BLAS on one triangle plus the mirror copy is cheaper)
+#: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
 
 _DOUBLE, _INT, _CHAR = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int), ctypes.c_char_p
@@ -55,12 +56,12 @@ def _fused(P, n, Ct, s):
             a = Ct[k, i]
             c = Ct[k]
             sk = s[k]
-            for j in range(n):
+            for j in range(i + 1):
                 row[j] += (a * c[j]) * sk
 
 
 @njit(cache=True)
-def _mirror_lower(P, n):
+def mirror_lower(P, n):
     """P[j, i] = P[i, j] for j < i < n: the strict lower triangle copied to the upper one, in 8 × 8 tiles."""
     for i0 in range(0, n, 8):
         i1 = min(i0 + 8, n)
@@ -77,29 +78,29 @@ def _ref(value, ctype):
     return ctypes.byref(ctype(value))
 
 
-def symmetric_update(buffer: np.ndarray, n: int, C: np.ndarray, s: np.ndarray) -> None:
-    """buffer[:n, :n] += C diag(s) Cᵀ in place (buffer C-contiguous, C n × d, s (d,))."""
+def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> None:
+    """The lower triangle of buffer[:n, :n] += C diag(s) Cᵀ in place; buffer C-contiguous, Ct = Cᵀ (d × n, rows contiguous), s (d,)."""
+    if not (buffer.flags.c_contiguous and buffer.dtype == np.float64 and Ct.dtype == np.float64 and Ct.strides[1] == 8):
+        raise ValueError("update_lower needs a C-contiguous float64 buffer and a float64 Cᵀ with contiguous rows")
     s = np.ascontiguousarray(s, dtype=np.float64)
-    d = C.shape[1]
+    d = Ct.shape[0]
     if d == 0 or n == 0:
         return
     if d <= _FUSED_MAX:
-        _fused(buffer, n, np.ascontiguousarray(C.T), s)
+        _fused(buffer, n, Ct, s)
         return
-    if not (buffer.flags.c_contiguous and buffer.dtype == np.float64):
-        raise ValueError("the covariance buffer must be a C-contiguous float64 array")
-    # The C-ordered buffer read as a Fortran matrix (leading dimension = its row length) is Pᵀ = P; the
-    # C-ordered n × d C is the Fortran d × n Cᵀ, so trans="T" forms C Cᵀ. Fortran "U" is the C-ordered lower triangle.
-    A = np.ascontiguousarray(C, dtype=np.float64)
-    c_ptr, a_ptr = buffer.ctypes.data_as(_DOUBLE), A.ctypes.data_as(_DOUBLE)
-    n_, d_, ld = _ref(n, ctypes.c_int), _ref(d, ctypes.c_int), _ref(buffer.shape[1], ctypes.c_int)
+    # The C-ordered buffer read as a Fortran matrix (leading dimension = its row length) is Pᵀ = P, and
+    # Fortran "U" is its C-ordered lower triangle; the C-ordered d × n Cᵀ is the Fortran n × d C
+    # (leading dimension = its row stride), so trans="N" forms C Cᵀ.
+    c_ptr, a_ptr = buffer.ctypes.data_as(_DOUBLE), Ct.ctypes.data_as(_DOUBLE)
+    n_, d_ = _ref(n, ctypes.c_int), _ref(d, ctypes.c_int)
+    ld, lda = _ref(buffer.shape[1], ctypes.c_int), _ref(Ct.strides[0] // 8, ctypes.c_int)
     one = _ref(1.0, ctypes.c_double)
     if np.all(s == s[0]):
-        _dsyrk(b"U", b"T", n_, d_, _ref(float(s[0]), ctypes.c_double), a_ptr, d_, one, c_ptr, ld)
-    else:
-        B = np.ascontiguousarray(0.5 * A * s)
-        _dsyr2k(b"U", b"T", n_, d_, one, a_ptr, d_, B.ctypes.data_as(_DOUBLE), d_, one, c_ptr, ld)
-    _mirror_lower(buffer, n)
+        _dsyrk(b"U", b"N", n_, d_, _ref(float(s[0]), ctypes.c_double), a_ptr, lda, one, c_ptr, ld)
+    else:  # ½ (C Bᵀ + B Cᵀ) with B = C diag(s)
+        B = np.ascontiguousarray(Ct * s[:, None])
+        _dsyr2k(b"U", b"N", n_, d_, _ref(0.5, ctypes.c_double), a_ptr, lda, B.ctypes.data_as(_DOUBLE), _ref(n, ctypes.c_int), one, c_ptr, ld)
 
 
 @njit(cache=True)

@@ -78,7 +78,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             j += 1
         chain = table[i:j]
         t_end = table[j].t if j < len(table) else (chain[-1].t if chain else t_now)
-        start = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
+        start = ekf.x[:3].copy(), ekf.robot_cov
         if isinstance(motion, Twist):
             v, w, dts, rows = twist_pieces(motion, t_now, t_end, with_rows=True)
             ok = np.isfinite(v) & np.isfinite(w)
@@ -117,7 +117,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
             times.append(event.t)
             poses.append(ekf.x[:3].copy())
-            covs.append(ekf.P[:3, :3].copy())
+            covs.append(ekf.robot_cov)
             now = time.perf_counter()
             steps.append(now - clock)
             clock = now
