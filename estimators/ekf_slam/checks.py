@@ -12,6 +12,7 @@ raises :class:`CovarianceError` (or is counted, when the filter is told to recor
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 __all__ = ["CovarianceError", "check_innovation_cov", "covariance_entries", "low_rank_entries", "check_entries",
            "check_covariance", "check_augmented"]
@@ -51,8 +52,25 @@ def covariance_entries(P: np.ndarray, n_robot: int = 3) -> Entries:
 
 def low_rank_entries(C: np.ndarray, s: np.ndarray, n_robot: int = 3) -> Entries:
     """The checked entries of ``C diag(s) Cᵀ`` (C N × d), O(N d)."""
-    Cs = C * s
-    return np.einsum("ik,ik->i", Cs, C), Cs[:n_robot] @ C[:n_robot].T, np.einsum("ik,ik->i", Cs[n_robot + 1::2], C[n_robot::2])
+    return _low_rank_entries(np.ascontiguousarray(C, dtype=np.float64), np.ascontiguousarray(s, dtype=np.float64), n_robot)
+
+
+@njit(cache=True)
+def _low_rank_entries(C, s, n_robot):
+    N, d = C.shape
+    diag, robot, off = np.zeros(N), np.zeros((n_robot, n_robot)), np.zeros((N - n_robot) // 2)
+    for i in range(N):
+        for k in range(d):
+            diag[i] += C[i, k] * C[i, k] * s[k]
+    for a in range(n_robot):
+        for b in range(n_robot):
+            for k in range(d):
+                robot[a, b] += C[a, k] * C[b, k] * s[k]
+    for j in range(off.size):
+        i = n_robot + 2 * j
+        for k in range(d):
+            off[j] += C[i + 1, k] * C[i, k] * s[k]
+    return diag, robot, off
 
 
 def check_covariance(P: np.ndarray, n_robot: int = 3) -> None:

@@ -85,18 +85,32 @@ class GrowingState:
         self._pending_entries = term if self._pending_entries is None else tuple(a + b for a, b in zip(self._pending_entries, term))
 
     def columns(self, idx) -> np.ndarray:
-        """The current ``P[:, idx]`` (N × len(idx)), from the lower triangle (robot columns: the robot rows) and the pending term, O(N r)."""
+        """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
+
+        Read from what is current in the stored P: a robot column is a robot row; the columns
+        (s, s + 1) of a landmark are its rows left of s and the block ``P[s:, s:s + 2]`` (the
+        lower triangle and the block's upper entry ``P[s, s + 1]``), one strided pass for both.
+        """
         P, n = self._P, self.n
-        out = np.empty((n, len(idx)))
-        for k, c in enumerate(idx):
+        cols, where = np.unique(np.asarray(idx), return_inverse=True)
+        out = np.empty((n, cols.size))
+        k = 0
+        while k < cols.size:
+            c = int(cols[k])
             if c < 3:
                 out[:, k] = P[c, :n]
+                k += 1
+            elif c % 2 == 1 and k + 1 < cols.size and cols[k + 1] == c + 1:
+                out[:c, k:k + 2] = P[c:c + 2, :c].T
+                out[c:, k:k + 2] = P[c:n, c:c + 2]
+                k += 2
             else:
                 out[:c, k] = P[c, :c]
                 out[c:, k] = P[c:n, c]
+                k += 1
         if self._r:
-            out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, idx]
-        return out
+            out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, cols]
+        return out[:, where]
 
     def rows(self, idx) -> np.ndarray:
         """The current ``P[idx, :]``."""
