@@ -111,6 +111,7 @@ from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_jacobians, inverse_observation_jacobians,
                       inverse_observe, observation_jacobians, observe)
+from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, check_entries, check_innovation_cov, low_rank_entries
@@ -230,6 +231,7 @@ class EKFSLAMParams(Params):
     on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError (the state unchanged) "
                                                                         "or 'record' (count it; skip the observation, apply the prediction)")
     capacity: int = Field(64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full")
+    step_clock: StepClock = Field("wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]")
 
     @model_validator(mode="after")
     def _rules(self) -> EKFSLAMParams:
