@@ -92,15 +92,17 @@ class GrowingState:
         lower triangle and the block's upper entry ``P[s, s + 1]``), one strided pass for both.
         """
         P, n = self._P, self.n
-        cols, where = np.unique(np.asarray(idx), return_inverse=True)
-        out = np.empty((n, cols.size))
+        idx = [int(c) for c in idx]
+        cols = sorted(set(idx))
+        where = None if cols == idx else [cols.index(c) for c in idx]
+        out = np.empty((n, len(cols)))
         k = 0
-        while k < cols.size:
-            c = int(cols[k])
+        while k < len(cols):
+            c = cols[k]
             if c < 3:
                 out[:, k] = P[c, :n]
                 k += 1
-            elif c % 2 == 1 and k + 1 < cols.size and cols[k + 1] == c + 1:
+            elif c % 2 == 1 and k + 1 < len(cols) and cols[k + 1] == c + 1:
                 out[:c, k:k + 2] = P[c:c + 2, :c].T
                 out[c:, k:k + 2] = P[c:n, c:c + 2]
                 k += 2
@@ -110,7 +112,7 @@ class GrowingState:
                 k += 1
         if self._r:
             out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, cols]
-        return out[:, where]
+        return out if where is None else out[:, where]
 
     def rows(self, idx) -> np.ndarray:
         """The current ``P[idx, :]``."""
@@ -118,8 +120,11 @@ class GrowingState:
 
     def entries(self, term: Entries | None = None) -> Entries:
         """The checked entries (:mod:`.checks`) of the current P, plus those of a further term if given, O(N)."""
-        terms = [covariance_entries(self.stored)] + [t for t in (self._pending_entries, term) if t is not None]
-        return tuple(sum(parts) for parts in zip(*terms))
+        d, robot, off = covariance_entries(self.stored)
+        for t in (self._pending_entries, term):
+            if t is not None:
+                d, robot, off = d + t[0], robot + t[1], off + t[2]
+        return d, robot, off
 
     def flush(self) -> None:
         """Apply the pending term to the lower triangle (one pass), then the robot rows and the landmark blocks' upper entries."""
