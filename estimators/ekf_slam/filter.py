@@ -115,7 +115,7 @@ from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, check_entries, check_innovation_cov, low_rank_entries
-from .kernels import robot_chain
+from .kernels import gain_terms, robot_chain
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -575,21 +575,13 @@ class EKFSLAM:
         """
         d = nu.size
         try:
-            L = check_innovation_cov(S)
-            Linv = np.linalg.inv(L)                                    # d × d triangular factor only
-            W = PHt @ Linv.T                                           # W = PHᵀ L⁻ᵀ (N, d)
-            K = W @ Linv                                               # K = PHᵀ S⁻¹ (N, d)
-            e = Linv @ nu
-            nis = float(e @ e)                                         # νᵀ S⁻¹ ν
-            dx = K @ nu
+            L = check_innovation_cov(S)                                # S = L Lᵀ, d × d
+            # W = PHᵀ L⁻ᵀ, K = W L⁻¹ = PHᵀ S⁻¹ (N, d), νᵀ S⁻¹ ν = |L⁻¹ ν|², dx = K ν (kernels.gain_terms), and
             # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
             # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
-            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
-            if self.params.covariance_update == CovarianceUpdate.STANDARD:
-                C, signs = W, np.full(d, -1.0)
-            else:
-                D = K @ S - PHt
-                C, signs = np.hstack([W, K + D, K - D]), np.r_[np.full(d, -1.0), np.full(d, 0.5), np.full(d, -0.5)]
+            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms C diag(s) Cᵀ.
+            nis, dx, C, signs = gain_terms(np.ascontiguousarray(PHt), np.ascontiguousarray(S), L, np.ascontiguousarray(nu, dtype=float),
+                                           self.params.covariance_update == CovarianceUpdate.JOSEPH)
             if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
                 self.rejected["nonfinite"] += d // 2
                 return False
@@ -604,7 +596,7 @@ class EKFSLAM:
         self._s.defer(C, signs, term)
         if not self.params.defer_covariance:
             self._s.flush()
-        self.nis_log.append((nis, d))
+        self.nis_log.append((float(nis), d))
         return True
 
     # ------------------------------------------------------------------ new landmarks

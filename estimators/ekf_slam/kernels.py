@@ -18,6 +18,11 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
 ``mirror_lower(buffer, n)`` copies the strict lower triangle to the upper one in 8 × 8 tiles
 (each written cache line is filled by one tile row), which makes P bitwise symmetric.
 
+``gain_terms(PHt, S, L, ν, joseph)`` is the O(N d) part of one update in one compiled call (the
+formulas are stated where it is used, ``filter.py``'s ``_correct``): from ``PHᵀ`` (N × d), the
+innovation covariance S (d × d), its Cholesky factor L and ν, the NIS ``νᵀ S⁻¹ ν``, the state step ``K ν`` and the symmetric
+terms ``C diag(s) Cᵀ`` of the covariance update.
+
 ``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion of a chain of K predictions,
 ``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with ``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]``,
 and returns every P_k (K, 3, 3).
@@ -30,7 +35,7 @@ import numpy as np
 from numba import njit
 from numba.extending import get_cython_function_address
 
-__all__ = ["update_lower", "mirror_lower", "robot_chain"]
+__all__ = ["update_lower", "mirror_lower", "gain_terms", "robot_chain"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
@@ -101,6 +106,26 @@ def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> N
     else:  # ½ (C Bᵀ + B Cᵀ) with B = C diag(s)
         B = np.ascontiguousarray(Ct * s[:, None])
         _dsyr2k(b"U", b"N", n_, d_, _ref(0.5, ctypes.c_double), a_ptr, lda, B.ctypes.data_as(_DOUBLE), _ref(n, ctypes.c_int), one, c_ptr, ld)
+
+
+@njit(cache=True)
+def gain_terms(PHt, S, L, nu, joseph):
+    """(νᵀ S⁻¹ ν, K ν, C, s) with S = L Lᵀ, W = PHᵀ L⁻ᵀ, K = W L⁻¹; standard C = W, s = −1; Joseph C = [W, K + D, K − D],
+    s = [−1, ½, −½], D = K S − PHᵀ."""
+    d = L.shape[0]
+    Linv = np.linalg.inv(L)
+    W = PHt @ np.ascontiguousarray(Linv.T)
+    K = W @ Linv
+    e = Linv @ nu
+    dx = K @ nu
+    if not joseph:
+        return e @ e, dx, W, -np.ones(d)
+    D = K @ S - PHt
+    C = np.empty((PHt.shape[0], 3 * d))
+    C[:, :d], C[:, d:2 * d], C[:, 2 * d:] = W, K + D, K - D
+    s = np.empty(3 * d)
+    s[:d], s[d:2 * d], s[2 * d:] = -1.0, 0.5, -0.5
+    return e @ e, dx, C, s
 
 
 @njit(cache=True)
