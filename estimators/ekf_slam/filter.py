@@ -41,13 +41,22 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
     P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
-The standard form is symmetrised by construction: ``K (PHᵀ)ᵀ = K S Kᵀ = W Wᵀ`` is applied as a
-sum of symmetric rank-one terms that keep P bitwise symmetric (:mod:`.kernels`; the 3×3 robot
-block and each new 2×2 block are symmetrised explicitly), instead of a separate
-``(P + Pᵀ)/2`` pass. The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S``
-into rank-2d symmetric terms (see ``_correct``); there is no N×N×N product and no N×N
-inverse anywhere. With ``update="batch"`` all matched observations of a set are stacked
-(H 2m×N, S 2m×2m) and applied as one update with the same formulas, O(m N²).
+The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S`` into rank-2d symmetric terms
+(see ``_correct``); there is no N×N×N product and no N×N inverse anywhere. With
+``update="batch"`` all matched observations of a set are stacked (H 2m×N, S 2m×2m) and applied
+as one update with the same formulas.
+
+Deferred covariance update (``defer_covariance=True``). Every update of a set is a symmetric
+low-rank term, ``P_k = P_{k−1} + C_k diag(s_k) C_kᵀ`` (standard: ``C_k = W_k``, ``s = −1``), so after
+k updates ``P_k = P_0 + U_k diag(s) U_kᵀ`` with ``U_k = [C_1 … C_k]`` (N × r). Update k+1 reads P only
+through its five columns, ``P_k[:, idx] = P_0[:, idx] + U_k diag(s) U_k[idx, :]ᵀ`` (O(N r)), and its
+checks only through O(N) entries (kept incrementally), so it is computed exactly as the
+sequential filter computes it, and the N×N term ``U_m diag(s) U_mᵀ`` (rank 2m; Joseph 6m) is
+applied once at the end of the set, in one pass over the lower triangle of P
+(:mod:`.storage`, :mod:`.kernels`). A landmark created after k updates takes its
+cross-covariance from the current robot rows ``P_k[0:3, :]``; its rows of U are zero (the earlier
+terms are in its stored values, the later ones have non-zero rows for it), so every entry of
+the final P is the sequential one. ``False``: the term is applied after every observation.
 
 New landmark (inverse observation model ``m = g(x_r, z)``, ``G_x = ∂g/∂x_r`` 2×3,
 ``G_z = ∂g/∂z`` 2×2)::
