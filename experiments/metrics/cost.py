@@ -1,4 +1,4 @@
-"""Cost of a cell: per-step wall time and the peak memory of the cell's process.
+"""Cost of a cell: per-step time (wall, or CPU for a method with step_clock="cpu") and the peak memory of the cell's process.
 
 * ``step_median``, ``step_p95``: median and 95th percentile of ``Estimate.step_time`` [s];
   ``step_total``: their sum (the estimator's own accounting).
