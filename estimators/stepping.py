@@ -13,14 +13,25 @@ A filter records a pose after every event; events of several streams can share a
 row and an observation set at the same time). :func:`last_per_stamp` keeps one pose per stamp, the
 last one recorded there — the posterior after everything that happened at that time — so that
 every written trajectory has strictly increasing stamps (as evo and the TUM format expect).
+
+``CLOCKS`` are the clocks an estimator's ``step_clock`` parameter names for ``Estimate.step_time``:
+wall time, or the process's CPU time (all threads), which other processes on a shared machine
+disturb less (cost studies and benchmarks use it).
 """
 from __future__ import annotations
+
+import time
+from typing import Literal
 
 import numpy as np
 
 from slamarena.datasets.sequence import Twist
 
-__all__ = ["twist_pieces", "last_per_stamp"]
+__all__ = ["twist_pieces", "last_per_stamp", "CLOCKS", "StepClock"]
+
+#: ``step_clock`` → the clock of ``Estimate.step_time``
+CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
+StepClock = Literal["wall", "cpu"]
 
 
 def twist_pieces(twist: Twist, t_from: float, t_to: float, with_rows: bool = False) -> tuple[np.ndarray, ...]:

@@ -6,6 +6,7 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
     name: default                     # results go to <output>, default results/<name>
     seeds: 3                          # a count (0, 1, 2) or a list [0, 7, 42]
     timeout: 600                      # seconds per cell (null: none)
+    single_threaded: false            # true: one BLAS/OpenMP/numba thread per cell (cost studies)
     datasets:
       - name: sim:landmarks           # a registry name (slamarena.datasets.load)
         params: {n_landmarks: 50}     # keyword arguments; a simulator's seed is the cell's seed
@@ -234,6 +235,8 @@ class ExperimentConfig(BaseModel):
     published: list[PublishedRow] = Field(default_factory=list, description="reference rows quoted from papers, shown beside ours")
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
+    single_threaded: bool = Field(False, description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
+                                                     "measurements compare algorithms, not thread counts (cost studies)")
 
     @field_validator("metrics", mode="before")
     @classmethod

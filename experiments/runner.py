@@ -163,11 +163,14 @@ def _spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = False) 
     }
 
 
-def _cell_env() -> dict:
-    """Variables a cell process gets on top of its worker's environment: the data roots in use here."""
+def _cell_env(config: ExperimentConfig) -> dict:
+    """Variables a cell process gets on top of its worker's environment: the data roots in use here, and one
+    thread for BLAS, OpenMP and numba if the config asks for single-threaded cells."""
     from slamarena.datasets.dataroot import data_roots
 
-    return {"SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots())}
+    from .benchmarks import SINGLE_THREAD_ENV
+
+    return {"SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots()), **(SINGLE_THREAD_ENV if config.single_threaded else {})}
 
 
 # ---------------------------------------------------------------------------- execution
@@ -385,7 +388,7 @@ def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, schedule
     """Execute the pending cells with a progress bar; returns the failed ones by id."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    env = _cell_env()
+    env = _cell_env(config)
     failures: dict[str, dict] = {}
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console, transient=False) as progress:
         task = progress.add_task(escape(config.name), total=len(pending))

@@ -41,13 +41,22 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
     P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
-The standard form is symmetrised by construction: ``K (PHᵀ)ᵀ = K S Kᵀ = W Wᵀ`` is applied as a
-sum of symmetric rank-one terms that keep P bitwise symmetric (:mod:`.kernels`; the 3×3 robot
-block and each new 2×2 block are symmetrised explicitly), instead of a separate
-``(P + Pᵀ)/2`` pass. The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S``
-into rank-2d symmetric terms (see ``_correct``); there is no N×N×N product and no N×N
-inverse anywhere. With ``update="batch"`` all matched observations of a set are stacked
-(H 2m×N, S 2m×2m) and applied as one update with the same formulas, O(m N²).
+The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S`` into rank-2d symmetric terms
+(see ``_correct``); there is no N×N×N product and no N×N inverse anywhere. With
+``update="batch"`` all matched observations of a set are stacked (H 2m×N, S 2m×2m) and applied
+as one update with the same formulas.
+
+Deferred covariance update (``defer_covariance=True``). Every update of a set is a symmetric
+low-rank term, ``P_k = P_{k−1} + C_k diag(s_k) C_kᵀ`` (standard: ``C_k = W_k``, ``s = −1``), so after
+k updates ``P_k = P_0 + U_k diag(s) U_kᵀ`` with ``U_k = [C_1 … C_k]`` (N × r). Update k+1 reads P only
+through its five columns, ``P_k[:, idx] = P_0[:, idx] + U_k diag(s) U_k[idx, :]ᵀ`` (O(N r)), and its
+checks only through O(N) entries (kept incrementally), so it is computed exactly as the
+sequential filter computes it, and the N×N term ``U_m diag(s) U_mᵀ`` (rank 2m; Joseph 6m) is
+applied once at the end of the set, in one pass over the lower triangle of P
+(:mod:`.storage`, :mod:`.kernels`). A landmark created after k updates takes its
+cross-covariance from the current robot rows ``P_k[0:3, :]``; its rows of U are zero (the earlier
+terms are in its stored values, the later ones have non-zero rows for it), so every entry of
+the final P is the sequential one. ``False``: the term is applied after every observation.
 
 New landmark (inverse observation model ``m = g(x_r, z)``, ``G_x = ∂g/∂x_r`` 2×3,
 ``G_z = ∂g/∂z`` 2×2)::
@@ -111,10 +120,11 @@ from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_jacobians, inverse_observation_jacobians,
                       inverse_observe, observation_jacobians, observe)
+from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
-from .checks import CovarianceError, check_augmented, check_innovation_cov, check_update
-from .kernels import robot_chain, symmetric_update
+from .checks import CovarianceError, check_augmented, check_entries, check_innovation_cov, low_rank_entries
+from .kernels import gain_terms, robot_chain
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -206,6 +216,9 @@ class EKFSLAMParams(Params):
         RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in "
                                              "Cartesian coordinates (as Victoria Park states it), R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m]")
     update: UpdateForm = Field(UpdateForm.SEQUENTIAL, description="'sequential': one update per matched observation; 'batch': one stacked update per observation set")
+    defer_covariance: bool = Field(
+        True, description="apply the N×N covariance update of an observation set once, at its end (rank 2m, one pass over P; the same "
+                          "result as applying it per observation, up to rounding); False: one pass over P per observation")
     covariance_update: CovarianceUpdate = Field(CovarianceUpdate.STANDARD, description="'standard' (I − KH) P or 'joseph' (I − KH) P (I − KH)ᵀ + K R Kᵀ")
     init: LandmarkInit = Field(LandmarkInit.JACOBIAN, description="new-landmark covariance: 'jacobian' through the inverse observation model, 'initP' init_cov · I₂ uncorrelated")
     init_cov: float = Field(1.0, gt=0.0, allow_inf_nan=False, description="variance of each coordinate of a new landmark with init='initP' [m²]")
@@ -227,6 +240,7 @@ class EKFSLAMParams(Params):
     on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError (the state unchanged) "
                                                                         "or 'record' (count it; skip the observation, apply the prediction)")
     capacity: int = Field(64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full")
+    step_clock: StepClock = Field("wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]")
 
     @model_validator(mode="after")
     def _rules(self) -> EKFSLAMParams:
@@ -300,10 +314,15 @@ class EKFSLAM:
 
     @property
     def P(self) -> np.ndarray:
-        """State covariance (N, N), read-only view."""
+        """State covariance (N, N), read-only view (the first read after an update copies its upper triangle, O(N²): :mod:`.storage`)."""
         v = self._s.P.view()
         v.flags.writeable = False
         return v
+
+    @property
+    def robot_cov(self) -> np.ndarray:
+        """Robot covariance P[0:3, 0:3] (3, 3), a copy, O(1)."""
+        return self._s.stored[:3, :3].copy()
 
     @property
     def landmark_ids(self) -> np.ndarray:
@@ -374,7 +393,7 @@ class EKFSLAM:
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
         is indefinite raises :class:`CovarianceError` (``on_indefinite="record"``: counted and applied).
         """
-        x, P = self._s.x, self._s.P
+        x, P = self._s.x, self._s.stored  # the robot rows and columns, all it reads and writes, are current in it
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
@@ -436,6 +455,20 @@ class EKFSLAM:
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
+        try:
+            self._apply(z, ids, Rz, decision, slot)
+        finally:  # the deferred covariance update of what was applied, also when a CovarianceError is raised
+            self._s.flush()
+        landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
+        self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
+
+    def _apply(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> None:
+        """Apply the rows of a set in order (batch: the matched ones first, stacked); rows not applied are marked rejected.
+
+        The covariance updates are deferred (:mod:`.storage`): each reads the columns of P it needs,
+        ``P_{k−1}[:, idx] = P_0[:, idx] − U_{k−1} U_{k−1}[idx, :]ᵀ``, and :meth:`update` applies
+        ``P_m = P_0 − U_m U_mᵀ`` once (``defer_covariance=False``: after every row).
+        """
         if self.params.update == UpdateForm.BATCH:
             matched = np.flatnonzero(decision == Decision.MATCHED)
             if matched.size and not self._update_batch(slot[matched], z[matched, :2], Rz[matched]):
@@ -453,8 +486,6 @@ class EKFSLAM:
                 applied = slot[j] >= 0
             if not applied:
                 decision[j], slot[j] = Decision.REJECTED, -1
-        landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
-        self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
@@ -477,7 +508,7 @@ class EKFSLAM:
                 decision[j], slot[j] = Decision.MATCHED, s
         labelled = np.flatnonzero(slot >= 0)
         try:
-            d2[labelled] = assoc.pair_d2(self._s.x, self._s.P, Rz[labelled], z[labelled], slot[labelled])
+            d2[labelled] = assoc.pair_d2(self._s.x, self._s.stored, Rz[labelled], z[labelled], slot[labelled])
             self.rejected["nonfinite"] += int((~np.isfinite(d2[labelled])).sum())
         except CovarianceError as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
             self._indefinite(exc, labelled.size)
@@ -485,10 +516,12 @@ class EKFSLAM:
         decision[outside], slot[outside] = Decision.REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
-            x, P = self._s.x, self._s.P
-            nu, _, dist = assoc.compatibility(x, P, Rz[unknown], z[unknown])
+            # pair_d2 and compatibility read the robot rows and the landmarks' 2 × 2 blocks, current in the stored P;
+            # JCBB reads landmark-landmark blocks too, from the whole P
+            x = self._s.x
+            nu, _, dist = assoc.compatibility(x, self._s.stored, Rz[unknown], z[unknown])
             if self.params.association == AssociationMethod.JCBB:
-                a = assoc.jcbb(x, P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
+                a = assoc.jcbb(x, self._s.P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
@@ -516,12 +549,12 @@ class EKFSLAM:
 
     def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
         """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
-        x, P = self._s.x, self._s.P
+        x = self._s.x
         s = 3 + 2 * slot
         idx = [0, 1, 2, s, s + 1]
         Hx, Hm = self._jacobians_at(np.array([slot]))
         H = np.concatenate([Hx[0], Hm[0]], axis=1)                     # (2, 5)
-        PHt = P[:, idx] @ H.T                                          # (N, 2)
+        PHt = self._s.columns(idx) @ H.T                               # (N, 2), the current P's five columns
         S = H @ PHt[idx] + R                                           # (2, 2)
         nu = z - observe(x[:3], x[s:s + 2])
         nu[1] = wrap_angle(nu[1])
@@ -529,13 +562,13 @@ class EKFSLAM:
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
-        x, P = self._s.x, self._s.P
+        x = self._s.x
         m = slots.size
         Hx, Hm = self._jacobians_at(slots)
         Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
         idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1).ravel()
         N = x.shape[0]
-        PHt = np.einsum("nmk,mjk->nmj", P[:, idx].reshape(N, m, 5), Hs).reshape(N, 2 * m)               # (N, 2m)
+        PHt = np.einsum("nmk,mjk->nmj", self._s.columns(idx).reshape(N, m, 5), Hs).reshape(N, 2 * m)    # (N, 2m)
         S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
         S = 0.5 * (S + S.T) + block_diag(*R)
         nu = z - observe(x[:3], self._landmarks()[slots])
@@ -551,33 +584,28 @@ class EKFSLAM:
         """
         d = nu.size
         try:
-            L = check_innovation_cov(S)
-            Linv = np.linalg.inv(L)                                    # d × d triangular factor only
-            W = PHt @ Linv.T                                           # W = PHᵀ L⁻ᵀ (N, d)
-            K = W @ Linv                                               # K = PHᵀ S⁻¹ (N, d)
-            e = Linv @ nu
-            nis = float(e @ e)                                         # νᵀ S⁻¹ ν
-            dx = K @ nu
+            L = check_innovation_cov(S)                                # S = L Lᵀ, d × d
+            # W = PHᵀ L⁻ᵀ, K = W L⁻¹ = PHᵀ S⁻¹ (N, d), νᵀ S⁻¹ ν = |L⁻¹ ν|², dx = K ν (kernels.gain_terms), and
             # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
             # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
-            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms.
-            if self.params.covariance_update == CovarianceUpdate.STANDARD:
-                C, signs = W, np.full(d, -1.0)
-            else:
-                D = K @ S - PHt
-                C, signs = np.hstack([W, K + D, K - D]), np.r_[np.full(d, -1.0), np.full(d, 0.5), np.full(d, -0.5)]
+            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms C diag(s) Cᵀ.
+            nis, dx, C, signs = gain_terms(np.ascontiguousarray(PHt), np.ascontiguousarray(S), L, np.ascontiguousarray(nu, dtype=float),
+                                           self.params.covariance_update == CovarianceUpdate.JOSEPH)
             if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
                 self.rejected["nonfinite"] += d // 2
                 return False
-            check_update(self._s.P, C, signs)
+            term = low_rank_entries(C, signs)
+            check_entries(*self._s.entries(term))
         except CovarianceError as exc:
             self._indefinite(exc, d // 2)
             return False
         x = self._s.x
         x += dx
         x[2] = wrap_angle(x[2])
-        symmetric_update(self._s.buffer, self._s.n, C, signs)
-        self.nis_log.append((nis, d))
+        self._s.defer(C, signs, term)
+        if not self.params.defer_covariance:
+            self._s.flush()
+        self.nis_log.append((float(nis), d))
         return True
 
     # ------------------------------------------------------------------ new landmarks
@@ -592,10 +620,10 @@ class EKFSLAM:
             Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
         else:
             Gx, Gz = inverse_observation_jacobians(xr, z)
-        P = self._s.P
+        robot = self._s.rows([0, 1, 2])                                 # the current P[0:3, :] (3, N)
         if self.params.init == LandmarkInit.JACOBIAN:
-            cross = Gx @ P[:3, :]                                       # P_new,: (2, N)
-            Pnn = Gx @ P[:3, :3] @ Gx.T + Gz @ R @ Gz.T
+            cross = Gx @ robot                                          # P_new,: (2, N)
+            Pnn = Gx @ robot[:, :3] @ Gx.T + Gz @ R @ Gz.T
             Pnn = 0.5 * (Pnn + Pnn.T)
         else:
             cross, Pnn = np.zeros((2, self._s.n)), self.params.init_cov * np.eye(2)
@@ -603,13 +631,13 @@ class EKFSLAM:
             self.rejected["nonfinite"] += 1
             return -1
         try:
-            check_augmented(P, Pnn)
+            check_augmented(self._s.entries(), Pnn)
         except CovarianceError as exc:
             self._indefinite(exc)
             return -1
         N = self._s.n
         new = self._s.grow(2)
-        x, P = self._s.x, self._s.P
+        x, P = self._s.x, self._s.stored  # no pending term reaches the new rows (storage.py)
         x[new] = m
         P[new, :N] = cross
         P[:N, new] = cross.T

@@ -20,7 +20,7 @@ event, the state after the pieces of the rows before it (a Twist row moves the r
 stamp on, an increment has moved it by its stamp; the start pose and its initial covariance
 before the first piece); at an observation set, the posterior. Where events share a stamp the
 last, the posterior, is kept (:func:`slamarena.estimators.stepping.last_per_stamp`), so ``t``
-increases strictly. Each record carries the wall time spent since the previous one (a chain's
+increases strictly. Each record carries the time (``step_clock``: wall or CPU) spent since the previous one (a chain's
 time is shared evenly by its motion events; records merged at one stamp add theirs). With
 ``jacobians="ideal"`` the true pose (SE(2)-interpolated ground truth, clipped to its span) is
 handed to the filter for every prediction piece (at its start) and update.
@@ -36,15 +36,13 @@ Diagnostics (arrays):
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import interpolate_poses
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 
-from ..stepping import last_per_stamp, twist_pieces
+from ..stepping import CLOCKS, last_per_stamp, twist_pieces
 from .association import Decision
 from .filter import Linearisation
 
@@ -69,7 +67,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
     rejected_motion = 0
     t_now = sequence.t0
-    clock = time.perf_counter()
+    timer = CLOCKS[ekf.params.step_clock]
+    clock = timer()
     i = 0
     while i < len(table):
         # a chain: the motion events up to (and the propagation to) the next observation set
@@ -78,7 +77,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             j += 1
         chain = table[i:j]
         t_end = table[j].t if j < len(table) else (chain[-1].t if chain else t_now)
-        start = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
+        start = ekf.x[:3].copy(), ekf.robot_cov
         if isinstance(motion, Twist):
             v, w, dts, rows = twist_pieces(motion, t_now, t_end, with_rows=True)
             ok = np.isfinite(v) & np.isfinite(w)
@@ -99,7 +98,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             rows, done, upto = np.zeros(0, dtype=int), (np.zeros((0, 3)), np.zeros((0, 3, 3))), []
         # the pose at a motion event's stamp: after the pieces of the rows before it (the start pose if none)
         chain_poses, chain_covs = np.concatenate([start[0][None], done[0]]), np.concatenate([start[1][None], done[1]])
-        now = time.perf_counter()
+        now = timer()
         for event, k in zip(chain, np.searchsorted(rows, upto)):
             times.append(event.t)
             poses.append(chain_poses[k])
@@ -117,8 +116,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
             times.append(event.t)
             poses.append(ekf.x[:3].copy())
-            covs.append(ekf.P[:3, :3].copy())
-            now = time.perf_counter()
+            covs.append(ekf.robot_cov)
+            now = timer()
             steps.append(now - clock)
             clock = now
         i = j + 1

@@ -1,25 +1,54 @@
-"""Growing EKF-SLAM state storage with amortised capacity.
+"""Growing EKF-SLAM covariance storage: amortised capacity, lower-triangle updates, a deferred low-rank term.
 
-The state ``x`` (N,) and covariance ``P`` (N, N) live in preallocated buffers of size
-``capacity ≥ N``; ``x`` and ``P`` are views of the live part. When a new landmark does not
-fit, the capacity doubles and the live part is copied once, so adding n landmarks costs
-O(N²) copies in total — O(N) amortised per landmark instead of an O(N²) copy each time.
+Capacity. The state ``x`` (N,) and covariance ``P`` (N, N) live in preallocated buffers of
+size ``capacity ≥ N``; ``x`` and ``P`` are views of the live part. When a new landmark does not
+fit, the capacity doubles and the live part is copied once, so adding n landmarks costs O(N²)
+copies in total — O(N) amortised per landmark instead of an O(N²) copy each time.
+
+Lower triangle. P is symmetric, and the O(N²) update writes only its lower triangle
+(i ≥ j, :func:`.kernels.update_lower`). The stored matrix (:attr:`GrowingState.stored`) is
+therefore current in its lower triangle, in the robot rows ``P[0:3, :]`` and in the upper entry
+``P[s, s + 1]`` of every landmark block (these O(N) entries are copied after each update, so the
+prediction and the association, which read only them, see a current P); the rest of the upper
+triangle is copied from the lower one (:func:`.kernels.mirror_lower`, bitwise symmetric) only
+when the whole matrix is read (:attr:`GrowingState.P`). Writing the upper half costs about as
+much as the rank-20 product itself, and nothing in a filter step needs it.
+
+Deferred update. The covariance is ``P = P_stored + U diag(s) Uᵀ`` with a pending low-rank term
+``U`` (N × r, stored as Uᵀ) that :meth:`GrowingState.defer` extends by the columns of one update and
+:meth:`GrowingState.flush` applies in one pass over the lower triangle. While a term is
+pending, an update needs only a few columns of P, which cost O(N r) (:meth:`GrowingState.columns`;
+``filter.py`` derives why this is the sequential update exactly), and the checked entries of P
+(:meth:`GrowingState.entries`, the pending term's kept incrementally). Entries added while a term
+is pending (a new landmark) have zero rows in ``U``: their stored cross-covariances were computed
+from the current P, so the earlier terms are already in them.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .checks import Entries, covariance_entries
+from .kernels import mirror_lower, update_lower
+
 __all__ = ["GrowingState"]
 
 
 class GrowingState:
-    """``x``/``P`` views of capacity-doubling buffers."""
+    """``x``/``P`` views of capacity-doubling buffers, P stored as its lower triangle, with a pending low-rank update."""
 
     def __init__(self, n_state: int = 3, capacity: int = 64):
         capacity = max(int(capacity), n_state)
         self.n = int(n_state)
         self._x = np.zeros(capacity)
         self._P = np.zeros((capacity, capacity))
+        self._mirrored = True
+        self._Ut, self._Ust = np.zeros((8, capacity)), np.zeros((8, capacity))  # Uᵀ and (U diag(s))ᵀ in rows [:r], kept across sets
+        self._clear()
+
+    def _clear(self) -> None:
+        self._r = 0
+        self._s: list[float] = []
+        self._pending_entries: Entries | None = None
 
     @property
     def capacity(self) -> int:
@@ -31,12 +60,83 @@ class GrowingState:
 
     @property
     def P(self) -> np.ndarray:
+        """The whole current covariance: the pending term applied and the upper triangle copied, if not yet done."""
+        self.flush()
+        if not self._mirrored:
+            mirror_lower(self._P, self.n)
+            self._mirrored = True
         return self._P[: self.n, : self.n]
 
     @property
-    def buffer(self) -> np.ndarray:
-        """The whole C-contiguous covariance buffer (capacity × capacity); P is its [:N, :N]."""
-        return self._P
+    def stored(self) -> np.ndarray:
+        """The stored covariance without the pending term; current in the lower triangle, the robot rows and ``P[s, s + 1]``."""
+        return self._P[: self.n, : self.n]
+
+    def defer(self, C: np.ndarray, s: np.ndarray, term: Entries) -> None:
+        """Add ``C diag(s) Cᵀ`` (C N × d; ``term``: its checked entries, :func:`.checks.low_rank_entries`) to the pending term."""
+        d, r = C.shape[1], self._r
+        if r + d > self._Ut.shape[0]:
+            rows = max(2 * self._Ut.shape[0], r + d)
+            self._Ut, self._Ust = (np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust))
+        self._Ut[r:r + d, : self.n] = C.T
+        self._Ust[r:r + d, : self.n] = (C * s).T
+        self._r += d
+        self._s.extend(np.broadcast_to(s, (d,)).tolist())
+        self._pending_entries = term if self._pending_entries is None else tuple(a + b for a, b in zip(self._pending_entries, term))
+
+    def columns(self, idx) -> np.ndarray:
+        """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
+
+        Read from what is current in the stored P: a robot column is a robot row; the columns
+        (s, s + 1) of a landmark are its rows left of s and the block ``P[s:, s:s + 2]`` (the
+        lower triangle and the block's upper entry ``P[s, s + 1]``), one strided pass for both.
+        """
+        P, n = self._P, self.n
+        idx = [int(c) for c in idx]
+        cols = sorted(set(idx))
+        where = None if cols == idx else [cols.index(c) for c in idx]
+        out = np.empty((n, len(cols)))
+        k = 0
+        while k < len(cols):
+            c = cols[k]
+            if c < 3:
+                out[:, k] = P[c, :n]
+                k += 1
+            elif c % 2 == 1 and k + 1 < len(cols) and cols[k + 1] == c + 1:
+                out[:c, k:k + 2] = P[c:c + 2, :c].T
+                out[c:, k:k + 2] = P[c:n, c:c + 2]
+                k += 2
+            else:
+                out[:c, k] = P[c, :c]
+                out[c:, k] = P[c:n, c]
+                k += 1
+        if self._r:
+            out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, cols]
+        return out if where is None else out[:, where]
+
+    def rows(self, idx) -> np.ndarray:
+        """The current ``P[idx, :]``."""
+        return self.columns(idx).T
+
+    def entries(self, term: Entries | None = None) -> Entries:
+        """The checked entries (:mod:`.checks`) of the current P, plus those of a further term if given, O(N)."""
+        d, robot, off = covariance_entries(self.stored)
+        for t in (self._pending_entries, term):
+            if t is not None:
+                d, robot, off = d + t[0], robot + t[1], off + t[2]
+        return d, robot, off
+
+    def flush(self) -> None:
+        """Apply the pending term to the lower triangle (one pass), then the robot rows and the landmark blocks' upper entries."""
+        if not self._r:
+            return
+        n, P = self.n, self._P
+        update_lower(P, n, self._Ut[:self._r, :n], np.asarray(self._s))
+        P[:3, 3:n] = P[3:n, :3].T
+        P[[0, 0, 1], [1, 2, 2]] = P[[1, 2, 2], [0, 0, 1]]
+        P[np.arange(3, n, 2), np.arange(4, n, 2)] = P[np.arange(4, n, 2), np.arange(3, n, 2)]
+        self._mirrored = False
+        self._clear()
 
     def grow(self, extra: int) -> slice:
         """Append ``extra`` zero-initialised state entries; returns their slice of ``x``."""
@@ -48,8 +148,13 @@ class GrowingState:
             x[:start] = self._x[:start]
             P[:start, :start] = self._P[:start, :start]
             self._x, self._P = x, P
+            self._Ut, self._Ust = (np.concatenate([A, np.zeros((A.shape[0], capacity - A.shape[1]))], axis=1) for A in (self._Ut, self._Ust))
         self._x[start:stop] = 0.0
         self._P[start:stop, :stop] = 0.0
         self._P[:stop, start:stop] = 0.0
+        self._Ut[:, start:stop] = self._Ust[:, start:stop] = 0.0
+        if self._pending_entries is not None:
+            d, robot, off = self._pending_entries
+            self._pending_entries = (np.r_[d, np.zeros(stop - start)], robot, np.r_[off, np.zeros((stop - start) // 2)])
         self.n = stop
         return slice(start, stop)

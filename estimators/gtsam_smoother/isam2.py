@@ -48,7 +48,6 @@ stiffness rule's ε and the clock of ``step_time``.
 """
 from __future__ import annotations
 
-import time
 from typing import Literal
 
 import gtsam
@@ -59,6 +58,7 @@ from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
 from slamarena.estimators.models import inverse_observe
+from slamarena.estimators.stepping import CLOCKS, StepClock
 from slamarena.params import Field
 
 from .graph import (NEGLIGIBLE_DECREASE, L, OptimizationError, RelinearizationParams, X, finite_error, gtsam_errors, isam2_params,
@@ -70,9 +70,6 @@ from .noise import floor_to_uncertainty
 
 __all__ = ["ISAM2Smoother", "ISAM2SmootherParams"]
 
-#: ``step_clock``: wall time (like the filters), or the process's CPU time (all threads), which other
-#: processes on a shared machine disturb less (the benchmark uses it)
-_CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
 class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
@@ -82,7 +79,7 @@ class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
     final_tol: PositiveFloat = Field(
         1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]")
     factorization: Literal["CHOLESKY", "QR"] = Field("CHOLESKY", description="iSAM2's factorisation of the linearised system")
-    step_clock: Literal["wall", "cpu"] = Field("wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]")
+    step_clock: StepClock = Field("wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]")
     uncertainty_floor: float | None = Field(
         2.0**-22, gt=0.0, lt=1.0, description="ε of the stiffness rule: no between factor stiffer in any direction than ε times the "
                                               "uncertainty of the poses it joins (noise.floor_to_uncertainty) [1]; None: factors as given")
@@ -119,7 +116,7 @@ class ISAM2Smoother(LandmarkSmoother):
         between_cov = problem.cov.copy()
         lifted = 0
         eps = self.params.uncertainty_floor
-        clock = _CLOCKS[self.params.step_clock]
+        clock = CLOCKS[self.params.step_clock]
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
             tic = clock()
             where = f"iSAM2 update {k} (t = {problem.t[k]:.6g} s)"

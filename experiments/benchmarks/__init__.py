@@ -47,13 +47,17 @@ def loglog_slope(rows: list[dict], key: str, lo: float, hi: float, size: str = "
     return float(np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)[0])
 
 
+#: environment of a process whose BLAS, OpenMP and numba use one thread
+SINGLE_THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
+
+
 def measure_single_threaded(module: str, **kwargs) -> dict:
     """Run ``module``'s ``measure(**kwargs)`` in a child process whose BLAS and numba use one thread.
 
     The module prints ``json.dumps(measure(**json.loads(argv[1])))`` as its last line when run
     with ``python -m``; one thread keeps per-step CPU times comparable on a shared machine.
     """
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    env = {**os.environ, **SINGLE_THREAD_ENV}
     done = subprocess.run([sys.executable, "-m", module, json.dumps(kwargs)], env=env, capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 

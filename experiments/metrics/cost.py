@@ -1,4 +1,4 @@
-"""Cost of a cell: per-step wall time and the peak memory of the cell's process.
+"""Cost of a cell: per-step time (wall, or CPU for a method with step_clock="cpu") and the peak memory of the cell's process.
 
 * ``step_median``, ``step_p95``: median and 95th percentile of ``Estimate.step_time`` [s];
   ``step_total``: their sum (the estimator's own accounting).
@@ -26,7 +26,7 @@ class CostParams(BaseModel):
 COST_OUTPUTS = {
     "step_median": ("lower", "median wall time per step [s]"),
     "step_p95": ("lower", "95th percentile wall time per step [s]"),
-    "step_total": ("lower", "sum of the per-step wall times [s]"),
+    "step_total": ("lower", "sum of the per-step times (wall, or CPU with step_clock='cpu') [s]"),
     "wall": ("lower", "wall time of the estimator run [s]"),
     "peak_rss_mb": ("lower", "peak resident memory of the cell's process [MiB]"),
     "steps": (None, "number of estimated poses"),

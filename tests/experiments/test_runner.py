@@ -234,3 +234,15 @@ def test_a_recording_at_a_path_runs_and_its_files_are_in_the_cache_key(tmp_path)
     (directory / "Robot2_Measurement.dat").write_text("# header\n10.5 63 1.5 0.1\n")
     [changed] = plan(cfg, out)
     assert changed.key != cell.key and not changed.finished()
+
+
+def test_single_threaded_config_limits_the_threads_of_every_cell(tmp_path):
+    """single_threaded: true gives each cell process one BLAS/OpenMP/numba thread; the default leaves the environment alone."""
+    from slamarena.experiments.runner import _cell_env
+
+    plain, _ = _config(tmp_path)
+    single, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 120\nsingle_threaded: true"), "single.yaml")
+    assert "OPENBLAS_NUM_THREADS" not in _cell_env(plain)
+    env = _cell_env(single)
+    assert {env[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")} == {"1"}
+    assert env["SLAMARENA_DATA"] == _cell_env(plain)["SLAMARENA_DATA"]

@@ -1,0 +1,137 @@
+"""The deferred covariance update of EKF-SLAM equals the per-observation update and the literal reference.
+
+``defer_covariance=True`` (the default) applies the N×N update of an observation set once, at
+its end; ``False`` applies it after every observation (one pass over P each, the filter as it
+was before the deferral). Both are run side by side on the same data, with unknown association,
+rejected rows (outliers, non-finite rows, ambiguous rows) and landmarks created in the same set
+after deferred updates, and the literal dense reference is fed the rows the filter applied, with
+the landmark it chose for each.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slamarena import datasets
+from slamarena.datasets.geometry import wrap_angle
+from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError
+from slamarena.estimators.ekf_slam.association import Decision
+from slamarena.estimators.ekf_slam.kernels import mirror_lower, update_lower
+from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return datasets.load("sim:landmarks", n_landmarks=30, seed=2)
+
+
+def _sets(seq, n_steps, rng):
+    """(u, dt, z) per control row; z with an outlier row (a bearing 0.5 rad off) every 7th set and a NaN row every 11th."""
+    mo, rb = seq.motion, seq.range_bearing
+    for k in range(n_steps):
+        z = rb.z[np.isclose(rb.t, mo.t[k] + mo.dt[k])]
+        if len(z) and k % 7 == 3:
+            bad = z[rng.integers(len(z))].copy()
+            bad[1] = wrap_angle(bad[1] + 0.5)
+            z = np.insert(z, rng.integers(len(z) + 1), bad, axis=0)
+        if len(z) and k % 11 == 5:
+            z = np.vstack([z, [np.nan, 0.0, 1.0]])
+        yield (mo.v[k], mo.omega[k]), mo.dt[k], z
+
+
+def _diff(a, b):
+    d = np.asarray(a) - np.asarray(b)
+    d[2] = wrap_angle(d[2])
+    return np.abs(d).max()
+
+
+CASES = [
+    dict(use_ids=False),
+    dict(use_ids=False, covariance_update="joseph", association="jcbb"),
+    dict(use_ids=False, update="batch"),
+    dict(use_ids=True, update="batch", covariance_update="joseph"),
+    dict(use_ids=True),
+]
+
+
+@pytest.mark.parametrize("kw", CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()))
+def test_deferred_update_equals_per_observation_update_and_reference(sim, kw):
+    """300 steps: x and P of the deferred filter within 1e-9 of the per-observation filter and of the literal reference."""
+    common = dict(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw)
+    deferred, immediate = EKFSLAM(**common), EKFSLAM(defer_covariance=False, **common)
+    ref = ReferenceEKFSLAM(sim.noise.twist_cov, sim.noise.range_bearing_cov, initial_pose=sim.start_pose,
+                           **{k: v for k, v in kw.items() if k in ("covariance_update", "update")})
+    worst_imm = worst_ref = 0.0
+    new_after_update = 0
+    for k, (u, dt, z) in enumerate(_sets(sim, 300, np.random.default_rng(1))):
+        for f in (deferred, immediate):
+            f.predict(u, dt)
+        ref.predict(u, dt)
+        if len(z):
+            seen = len(deferred.assoc_log)
+            deferred.update(z)
+            immediate.update(z)
+            log = deferred.assoc_log[seen:]
+            other = immediate.assoc_log[seen:]
+            assert [(d, lm, g) for d, lm, _, g in log] == [(d, lm, g) for d, lm, _, g in other]  # the same decisions
+            np.testing.assert_allclose([e[2] for e in log], [e[2] for e in other], rtol=1e-9)
+            applied = [(j, lm) for j, (d, lm, _, _) in enumerate(log) if d != Decision.REJECTED]
+            rows = z[np.all(np.isfinite(z), axis=1) & (z[:, 0] >= 0)]
+            if applied:
+                ref.update(np.column_stack([rows[[j for j, _ in applied], :2], [lm for _, lm in applied]]))
+            kinds = [log[j][0] for j, _ in applied]
+            new_after_update += any(Decision.NEW in kinds[i:] for i, d in enumerate(kinds) if d == Decision.MATCHED)
+        worst_imm = max(worst_imm, _diff(deferred.x, immediate.x))
+        worst_ref = max(worst_ref, _diff(deferred.x, ref.xEst))
+        if k % 25 == 24:  # P read rarely: in between, the filters run on the stored lower triangle (upper half stale)
+            worst_imm = max(worst_imm, np.abs(deferred.P - immediate.P).max())
+            worst_ref = max(worst_ref, np.abs(deferred.P - ref.PEst).max())
+    decisions = np.array([d for d, *_ in deferred.assoc_log])
+    assert deferred.n_landmarks >= 20 and (decisions == Decision.REJECTED).sum() >= 10 and deferred.rejected["nonfinite"] >= 10
+    assert new_after_update >= 3  # landmarks created in a set after (deferred) updates of the same set
+    np.testing.assert_array_equal(deferred.P, deferred.P.T)
+    assert worst_imm < 1e-9 and worst_ref < 1e-9, (worst_imm, worst_ref)
+
+
+def test_a_failing_row_leaves_the_earlier_rows_of_its_set_applied(sim):
+    """A row that raises mid-set (ideal Jacobians without the landmark's truth): the rows before it are in x and P, as without deferral."""
+    lm = dict(zip(sim.landmarks.ids.tolist(), sim.landmarks.xy))
+    pose = np.asarray(sim.start_pose, dtype=float)
+    filters = [EKFSLAM(jacobians="ideal", defer_covariance=d, initial_pose=pose, initial_cov=[0.01, 0.01, 0.001]) for d in (True, False)]
+    ids = list(lm)[:4]
+    z0 = np.column_stack([[np.hypot(*(lm[i] - pose[:2])) for i in ids], [wrap_angle(np.arctan2(*(lm[i] - pose[:2])[::-1]) - pose[2]) for i in ids], ids])
+    for f in filters:
+        f.set_truth(pose=pose, landmarks=lm)
+        f.update(z0)
+        f.predict((0.5, 0.1), 0.5)
+        f.set_truth(pose=f.x[:3], landmarks={i: lm[i] for i in ids[:2]})  # no truth for ids[2:]: their rows raise
+        with pytest.raises(ValueError, match="true position"):
+            f.update(z0 + [[0.05, 0.01, 0]] * 4)
+    (a, b) = filters
+    assert a.nis_log == b.nis_log and len(a.nis_log) == 2  # the two rows before the failing one applied, none after
+    np.testing.assert_allclose(a.x, b.x, atol=1e-12)
+    np.testing.assert_allclose(a.P, b.P, atol=1e-12)
+    np.testing.assert_array_equal(a.P, a.P.T)
+
+
+@pytest.mark.parametrize("n, capacity, d, mixed", [(50, 64, 20, False), (61, 64, 12, True), (301, 512, 7, False), (3, 8, 6, True), (40, 48, 2, False), (9, 9, 4, True)])
+def test_lower_update_in_place_on_the_live_block(n, capacity, d, mixed):
+    """The lower triangle of P[:n, :n] += C diag(s) Cᵀ (fused loop or BLAS on the strided live block), then the mirror copy:
+    exact to rounding, bitwise symmetric, the rest of the buffer untouched."""
+    rng = np.random.default_rng(n)
+    A = rng.normal(size=(capacity, capacity))
+    buffer = A @ A.T
+    C = rng.normal(size=(n, d))
+    s = -np.ones(d)
+    if mixed:
+        s[::3], s[1::3] = 0.5, -0.5
+    before = buffer.copy()
+    expected = buffer.copy()
+    expected[:n, :n] += (C * s) @ C.T
+    update_lower(buffer, n, np.ascontiguousarray(C.T), s)
+    np.testing.assert_array_equal(np.triu(buffer[:n, :n], 1), np.triu(before[:n, :n], 1))  # the upper half untouched
+    mirror_lower(buffer, n)
+    np.testing.assert_allclose(buffer, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_array_equal(buffer[:n, :n], buffer[:n, :n].T)
+    np.testing.assert_array_equal(buffer[n:], expected[n:])
+    np.testing.assert_array_equal(buffer[:, n:], expected[:, n:])
