@@ -173,6 +173,7 @@ class Linearisation(StrEnum):
 
     STANDARD = "standard"    # the current estimate
     FEJ = "fej"              # first estimates
+    OC = "oc"                # observability-constrained linearisation points (Huang et al. 2010)
     IDEAL = "ideal"          # the truth (set_truth)
 
 
@@ -220,7 +221,8 @@ class EKFSLAMParams(Params):
         0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
                              "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
                              "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
-    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, 'ideal' the truth (diagnostic)")
+    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
+                                                                         "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
         None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")
     initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame")
@@ -282,8 +284,9 @@ class EKFSLAM:
         self._s.P[:] = self._initial_cov
         self._ids: list[int] = []
         self._slot: dict[int, int] = {}
-        self._first = np.zeros((8, 2))
-        self._robot_prior = self._s.x[:3].copy()
+        self._first = np.zeros((8, 2))                # landmark linearisation points: first estimates (FEJ), anchors (OC)
+        self._robot_prior = self._s.x[:3].copy()      # the robot's: the propagated estimate (FEJ), its anchor (OC)
+        self._carry: np.ndarray | None = None         # OC: the robot anchor's offset from the estimate after the last update set
         self._truth_pose: np.ndarray | None = None
         self._truth_landmarks: dict[int, np.ndarray] = {}
         self._next_id = NEW_ID_BASE if self.params.use_ids else 0
@@ -362,13 +365,18 @@ class EKFSLAM:
             cov = np.broadcast_to(self.increment_cov, (len(delta), 3, 3))
         return self._chain(delta, np.asarray(cov, dtype=float).reshape(-1, 3, 3), None, true_poses)
 
-    def _chain(self, delta, Q_body, Q_world, true_poses) -> tuple[np.ndarray, np.ndarray]:
+    def _chain(self, delta, Q_body, Q_world, true_poses, anchor_shift=None) -> tuple[np.ndarray, np.ndarray]:
         """x_r ← x_r ⊕ δ_0 ⊕ … ⊕ δ_{K−1}, robot block by the 3×3 recursion, P_rm ← Φ P_rm once.
 
         Every motion here is "compose with a body increment", so ``G_k = I + [[0, 0, −D_y], [0, 0, D_x], 0]``
         with D_k the world-frame displacement at the linearisation point, and the product of
         the chain is ``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]`` (the correction terms commute).
         Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
+
+        With ``jacobians="fej"`` or ``"oc"`` the first piece starts at the robot's linearisation point
+        (``D_0 = x̂_1 − x̆``, x̆ = ``_robot_prior``), so that the points are continuous along the chain;
+        ``anchor_shift`` (OC only, :meth:`_reanchor`) ends the chain that much beyond the estimate
+        (``D_{K−1} += shift``, the linearisation point becomes ``x̂_K + shift``).
 
         The whole result is computed and checked before the state changes: a chain whose poses, robot
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
@@ -384,8 +392,12 @@ class EKFSLAM:
             lin = poses[:-1]
         Jx, Rot = compose_jacobians(lin, delta)                          # ∂x'/∂x (K, 3, 3), ∂x'/∂δ = Rot (K, 3, 3)
         D = np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]])
-        if self.params.jacobians == Linearisation.FEJ:
+        if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
+            if anchor_shift is None and self._carry is None:               # OC: the anchor's offset after the last update set
+                self._carry = self._robot_prior[:2] - poses[0, :2]
             D[0] = poses[1, :2] - self._robot_prior[:2]
+            if anchor_shift is not None:
+                D[-1] += anchor_shift
         if Q_world is None:
             Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
         covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
@@ -403,7 +415,26 @@ class EKFSLAM:
         P[:3, :3] = covs[-1]
         x[:3] = poses[-1]
         self._robot_prior = poses[-1].copy()
+        if anchor_shift is not None:
+            self._robot_prior[:2] += anchor_shift
         return poses[1:], covs
+
+    def _reanchor(self, slots: np.ndarray) -> None:
+        """OC: choose the robot's linearisation point for an update set observing landmark slots (k,), under the constraint.
+
+        The constraint fixes every landmark's anchor m̆_i and lets the robot's anchor x̆ move only through
+        the propagation Jacobians. With c = x̆ − x̂ (x̂ the current estimate), the anchor error of the
+        propagation since the last update set is c − c' (c' the offset the last set left), the error of the
+        relative vector of landmark i is (m̆_i − x̆) − (m̂_i − x̂) = e_i − c, e_i = m̆_i − m̂_i; the OC choice
+        minimises their squared sum, ``c = (c' + Σ_i e_i) / (1 + k)``, and is applied as a noise-free
+        zero-motion prediction whose Jacobian carries the shift (O(N), like any prediction).
+        """
+        x = self._s.x
+        carry = self._robot_prior[:2] - x[:2] if self._carry is None else self._carry
+        e = self._first[slots] - self._landmarks()[slots]
+        c = (carry + e.sum(axis=0)) / (1 + len(slots))
+        self._chain(np.zeros((1, 3)), np.zeros((1, 3, 3)), None, None, anchor_shift=c)
+        self._carry = None
 
     def _linearisation_pose(self) -> np.ndarray:
         if self.params.jacobians == Linearisation.IDEAL:
@@ -436,6 +467,8 @@ class EKFSLAM:
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
+        if self.params.jacobians == Linearisation.OC:
+            self._reanchor(slot[decision == Decision.MATCHED])
         if self.params.update == UpdateForm.BATCH:
             matched = np.flatnonzero(decision == Decision.MATCHED)
             if matched.size and not self._update_batch(slot[matched], z[matched, :2], Rz[matched]):
@@ -499,7 +532,7 @@ class EKFSLAM:
         mode = self.params.jacobians
         if mode == Linearisation.STANDARD:
             xr, m = self._s.x[:3], self._landmarks()[slots]
-        elif mode == Linearisation.FEJ:
+        elif mode in (Linearisation.FEJ, Linearisation.OC):
             xr, m = self._robot_prior, self._first[slots]
         else:
             xr = self._linearisation_pose()
@@ -617,7 +650,9 @@ class EKFSLAM:
         slot = len(self._ids)
         if slot == self._first.shape[0]:
             self._first = np.concatenate([self._first, np.zeros_like(self._first)])
-        self._first[slot] = m
+        # FEJ: the first estimate; OC: the anchor that makes the initialisation Jacobian map the robot's nullspace
+        # directions onto the landmark's, G_x [I₂, J x̆; 0, 1] = [I₂, J m̆]  ⇔  m̆ = x̆ + (m̂ − x̂)
+        self._first[slot] = m + (self._robot_prior[:2] - xr[:2] if self.params.jacobians == Linearisation.OC else 0.0)
         self._ids.append(new_id)
         self._slot[new_id] = slot
         self._next_id += landmark_id is None
