@@ -38,6 +38,7 @@ from slamarena.experiments.metrics.trajectory import ate
 VARIANTS = {
     "standard": dict(jacobians="standard"),
     "FEJ": dict(jacobians="fej"),
+    "OC": dict(jacobians="oc"),
     "ideal": dict(jacobians="ideal"),
     "standard + initP": dict(jacobians="standard", init="initP", init_cov=1.0),
 }

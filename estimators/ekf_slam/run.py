@@ -33,6 +33,11 @@ Diagnostics (arrays):
     assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
     rejected_nonfinite, rejected_negative_range, rejected_motion, rejected_indefinite   counts
+    lockout_rows, lockout_s, lockout_t0
+                                the longest run of consecutive observations that were not new landmarks and were ALL rejected
+                                (a gated filter whose covariance no longer admits its observations: it has stopped
+                                correcting and drifts), its duration [s] (first to last rejected row) and start; 0, 0, NaN if
+                                none was rejected.
 """
 from __future__ import annotations
 
@@ -139,6 +144,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         "rejected_motion": np.array(rejected_motion), "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
     }
     decisions = log[:, 0]
+    lockout = _longest_lockout(diagnostics["assoc_t"], diagnostics["assoc_decision"])
+    diagnostics.update(lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2]))
     meta = {
         "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n,
         **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
@@ -150,3 +157,14 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         landmark_ids=ekf.landmark_ids, landmarks=ekf.x[3:].reshape(-1, 2).copy(), landmark_cov=landmark_cov.reshape(-1, 2, 2),
         step_time=steps, diagnostics=diagnostics, meta=meta,
     )
+
+
+def _longest_lockout(t: np.ndarray, decision: np.ndarray) -> tuple[int, float, float]:
+    """(rows, duration [s], start [s]) of the longest run of consecutive non-new observations that were all rejected."""
+    t, rejected = t[decision != Decision.NEW], decision[decision != Decision.NEW] == Decision.REJECTED
+    if not rejected.any():
+        return 0, 0.0, float("nan")
+    edges = np.diff(np.r_[0, rejected.astype(np.int8), 0])
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)   # runs [start, stop)
+    k = int(np.argmax(stops - starts))
+    return int(stops[k] - starts[k]), float(t[stops[k] - 1] - t[starts[k]]), float(t[starts[k]])
