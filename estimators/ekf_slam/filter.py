@@ -221,6 +221,16 @@ class EKFSLAMParams(Params):
         0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
                              "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
                              "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
+    confirm_sightings: int = Field(
+        1, ge=1, description="a landmark created from a row without a trusted id stays tentative until seen this many times (the creating "
+                             "sighting included) within confirm_window; 1: confirmed at once (association.LandmarkBook)")
+    confirm_window: float = Field(np.inf, gt=0.0, description="time [s] a tentative landmark has to reach confirm_sightings; removed (marginalised) after it")
+    miss_limit: int | None = Field(
+        None, ge=0, description="quality counter (Dissanayake et al. 2001): a landmark created from a row without a trusted id is removed when "
+                                "its matches minus its misses (sets in which it is predicted in the sensor's field and not matched) fall below "
+                                "−miss_limit; None: never; needs sensor_range")
+    sensor_range: float | None = Field(None, gt=0.0, description="largest range at which the sensor detects a landmark [m] (the quality counter's field)")
+    sensor_fov: float = Field(2 * np.pi, gt=0.0, le=2 * np.pi, description="the sensor's field of view, centred ahead [rad] (the quality counter's field)")
     jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
                                                                          "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
@@ -236,6 +246,8 @@ class EKFSLAMParams(Params):
             raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
         if self.new_confidence < self.match_confidence:
             raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
+        if self.miss_limit is not None and self.sensor_range is None:
+            raise ValueError("miss_limit needs sensor_range (the field in which a landmark is predicted visible)")
         if self.jacobians == Linearisation.IDEAL and not self.use_ids:
             raise ValueError("jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)")
         return self
@@ -290,6 +302,9 @@ class EKFSLAM:
         self._truth_pose: np.ndarray | None = None
         self._truth_landmarks: dict[int, np.ndarray] = {}
         self._next_id = NEW_ID_BASE if self.params.use_ids else 0
+        p = self.params
+        self.book = assoc.LandmarkBook(p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov)
+        self._sets, self._t = 0, 0.0
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
@@ -316,6 +331,11 @@ class EKFSLAM:
     @property
     def n_landmarks(self) -> int:
         return len(self._ids)
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """Whether each landmark slot (n,) is confirmed (not tentative; association.LandmarkBook)."""
+        return self.book.confirmed
 
     def set_truth(self, pose=None, landmarks=None) -> None:
         """True robot pose (3,) and/or true landmarks ({id: (x, y)} or a LandmarkMap) for jacobians="ideal"."""
@@ -445,8 +465,9 @@ class EKFSLAM:
 
     # ------------------------------------------------------------------ update
     @_OVERFLOW_IS_CHECKED
-    def update(self, z) -> None:
-        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown).
+    def update(self, z, t: float | None = None) -> None:
+        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown) taken at time t [s]
+        (None: the number of sets so far; the landmark management's clock).
 
         Rows with a non-finite value or a negative range are counted and dropped. Every other row gets a
         decision (``assoc_log``, decided on the estimate before the set); a row that is not applied —
@@ -461,8 +482,11 @@ class EKFSLAM:
         self.rejected["nonfinite"] += int((~finite).sum())
         self.rejected["negative_range"] += int(negative.sum())
         z = z[finite & ~negative]
+        self._sets += 1
+        self._t = t = float(self._sets if t is None else t)
         if not len(z):
             return
+        predicted = observe(self._s.x[:3], self._landmarks())                          # (n, 2), for the quality counter
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
@@ -488,6 +512,19 @@ class EKFSLAM:
                 decision[j], slot[j] = Decision.REJECTED, -1
         landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
         self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
+        predicted = np.concatenate([predicted, np.full((self.n_landmarks - len(predicted), 2), np.nan)])
+        gone = self.book.observe(t, slot[decision == Decision.MATCHED], predicted)
+        if gone.size:
+            self._remove_landmarks(gone)
+
+    def _remove_landmarks(self, slots: np.ndarray) -> None:
+        """Marginalise landmark slots out of x and P (landmark management); the other slots keep their order."""
+        self._s.remove(np.ravel(3 + 2 * slots[:, None] + np.arange(2)))
+        keep = np.setdiff1d(np.arange(self.n_landmarks), slots)
+        self._first = np.concatenate([self._first[keep], np.zeros((len(slots), 2))])
+        self._ids = [self._ids[k] for k in keep]
+        self._slot = {i: k for k, i in enumerate(self._ids)}
+        self.book.remove(slots)
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
@@ -655,6 +692,7 @@ class EKFSLAM:
         self._first[slot] = m + (self._robot_prior[:2] - xr[:2] if self.params.jacobians == Linearisation.OC else 0.0)
         self._ids.append(new_id)
         self._slot[new_id] = slot
+        self.book.add(self._t, managed=landmark_id is None)
         self._next_id += landmark_id is None
         return slot
 
