@@ -112,6 +112,7 @@ def test_oc_linearisation_points_stay_closer_to_the_estimates_than_fej():
     assert deviation(oc) <= deviation(fej)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("jacobians", ["oc"])
 def test_oc_is_consistent_over_a_monte_carlo(jacobians):
     """Regime 2 of research/ekf_slam.md, 8 seeds, one lap: the OC-EKF's average NEES inside the 95 % band at ≥ 90 % of stamps."""
