@@ -3,6 +3,7 @@
     python -m slamarena.experiments.ekf_slam_study consistency [--seeds 30] [--laps 2] [--figure PATH]
                                                      [--sim JSON] [--variants standard FEJ ideal]
     python -m slamarena.experiments.ekf_slam_study realdata
+    python -m slamarena.experiments.ekf_slam_study linearisation
 
 ``consistency``: robot-pose NEES over time of the standard, FEJ and ideal EKF (and the
 standard EKF with the reference's zero-cross-covariance ``initP`` landmark initialisation) on
@@ -14,7 +15,12 @@ Uses ``slamarena.experiments.metrics.consistency`` (NEES, Monte Carlo average, b
 the shipped config ``mrclam`` (:func:`mrclam_noise`): ATE against Vicon (SE(2)-aligned,
 ``slamarena.experiments.metrics.trajectory.ate``) and landmark-map error (``slamarena.experiments.metrics.landmarks``)
 next to dead reckoning, with and without the outlier gate; Victoria Park with the ids withheld (nearest
-neighbour and JCBB) against the run with ids. Every method on every robot: ``slamarena run mrclam``.
+neighbour and JCBB, without and with landmark management) against the run with ids. Every method on every robot:
+``slamarena run mrclam``.
+
+``linearisation``: the standard, FEJ and OC Jacobians on every MRCLAM Dataset 6 robot, gated (χ²₂(0.999), as in the
+shipped config) and ungated: rows rejected, the longest lockout (``lockout_*`` diagnostics), the largest and final
+position σ, ATE, NEES — or the error that stopped the run.
 """
 from __future__ import annotations
 
@@ -38,6 +44,7 @@ from slamarena.experiments.metrics.trajectory import ate
 VARIANTS = {
     "standard": dict(jacobians="standard"),
     "FEJ": dict(jacobians="fej"),
+    "OC": dict(jacobians="oc"),
     "ideal": dict(jacobians="ideal"),
     "standard + initP": dict(jacobians="standard", init="initP", init_cov=1.0),
 }
@@ -201,6 +208,29 @@ def realdata() -> None:
               f"spurious {m['spurious']}; {spent:.0f} s")
 
 
+def linearisation() -> None:
+    noise = mrclam_noise()
+    print(f"{'robot':7s} {'jacobians':9s} {'gate':>7s} {'rejected':>11s} {'lockout rows / s':>16s} {'σ max / final [m]':>17s} "
+          f"{'ATE [m]':>7s} {'NEES':>7s}")
+    for robot in range(1, 6):
+        seq = datasets.load(f"utias:6/robot{robot}")
+        ref = reference_of(seq)
+        for jacobians in ("standard", "fej", "oc"):
+            for gate in (0.999, None):
+                head = f"robot{robot:<2d} {jacobians:9s} {str(gate):>7s}"
+                try:
+                    est = EKFSLAM(**noise, jacobians=jacobians, known_confidence=gate).run(seq)
+                except Exception as exc:  # noqa: BLE001 — the failure is the result
+                    print(f"{head} {type(exc).__name__}: {str(exc)[:120]}")
+                    continue
+                d = est.diagnostics
+                out = d["assoc_decision"] == Decision.REJECTED
+                sigma = np.sqrt(est.pose_cov[:, 0, 0] + est.pose_cov[:, 1, 1])
+                lockout = f"{int(d['lockout_rows'])} / {float(d['lockout_s']):.0f}"
+                print(f"{head} {f'{out.sum()} / {out.size}':>11s} {lockout:>16s} {f'{sigma.max():.2f} / {sigma[-1]:.2f}':>17s} "
+                      f"{ate(est, ref)[0]['rmse']:7.2f} {nees(est, ref)[0]['mean']:7.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -212,9 +242,12 @@ def main() -> None:
     c.add_argument("--sim", default="{}", help="simulator parameters as JSON, e.g. '{\"sigma_omega\": 0.1}'")
     c.add_argument("--variants", nargs="*", default=None, choices=list(VARIANTS))
     sub.add_parser("realdata")
+    sub.add_parser("linearisation")
     args = parser.parse_args()
     if args.command == "consistency":
         consistency(args.seeds, args.laps, args.figure, args.jobs, json.loads(args.sim), args.variants)
+    elif args.command == "linearisation":
+        linearisation()
     else:
         realdata()
 

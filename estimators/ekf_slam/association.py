@@ -23,6 +23,23 @@ jointly compatible, ``ν_Jᵀ S_J⁻¹ ν_J < χ²_{2k}(confidence)`` with
 ``S_J = H_J P_sub H_Jᵀ + blockdiag(R_j)`` over the robot and the candidate landmarks (``P_sub`` is
 the small dense block of those states), and keeping the hypothesis with the most pairings
 (ties: the smaller joint NIS). Unpaired observations then go through the new-landmark gate.
+
+Landmark management (:class:`LandmarkBook`; only for landmarks created from rows without a
+trusted id, whose existence the filter itself decided):
+
+* **tentative landmarks**: a landmark created from an unlabelled row is tentative until it has been
+  matched ``confirm_sightings − 1`` more times within ``confirm_window`` seconds of its creation; a
+  tentative landmark takes part in association and updates like any other (its re-sightings must be
+  able to find it), and one not confirmed in time is removed — marginalised out of x and P — so that
+  a single spurious or outlying detection leaves no landmark behind;
+* **quality counter** (Dissanayake et al. 2001): each managed landmark's quality rises by one per
+  match and falls by one per observation set in which it is predicted inside the sensor's field
+  (predicted range < ``sensor_range``, |predicted bearing| < ``sensor_fov``/2) and not matched; a
+  landmark whose quality falls below ``−miss_limit`` is removed.
+
+The χ² gates use each pair's innovation covariance S (range and bearing jointly, above); rows
+between the match and the new-landmark gates are rejected as ambiguous, so an outlier near a mapped
+landmark is neither applied nor mapped.
 """
 from __future__ import annotations
 
@@ -38,7 +55,7 @@ from slamarena.datasets.geometry import wrap_angle
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
-__all__ = ["Decision", "chi2_gate", "Association", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
+__all__ = ["Decision", "chi2_gate", "Association", "LandmarkBook", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
 
 
 class Decision(IntEnum):
@@ -185,3 +202,53 @@ def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndar
     decision = np.where(slot >= 0, Decision.MATCHED, _gate_unpaired(d2_min, gate_new)).astype(np.int8)
     d2_out = np.where(slot >= 0, d2[np.arange(M), np.maximum(slot, 0)], d2_min)
     return Association(decision, slot, d2_out)
+
+
+class LandmarkBook:
+    """Tentative landmarks and the quality counter, per landmark slot (see the module docstring).
+
+    Per slot: ``managed`` (created from an unlabelled row), ``born`` [s], ``seen`` (sightings, the
+    creating one included), ``confirmed``, ``quality`` (matches − predicted-visible misses).
+    """
+
+    def __init__(self, confirm_sightings: int, confirm_window: float, miss_limit: int | None,
+                 sensor_range: float | None, sensor_fov: float):
+        self.confirm_sightings, self.confirm_window = confirm_sightings, confirm_window
+        self.miss_limit, self.sensor_range, self.sensor_fov = miss_limit, sensor_range, sensor_fov
+        self.managed = np.zeros(0, dtype=bool)
+        self.born = np.zeros(0)
+        self.seen = np.zeros(0, dtype=np.int64)
+        self.quality = np.zeros(0, dtype=np.int64)
+        self.removed = {"unconfirmed": 0, "quality": 0}
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        return ~self.managed | (self.seen >= self.confirm_sightings)
+
+    def add(self, t: float, managed: bool) -> None:
+        """A landmark was appended to the state (its slot is the next one)."""
+        self.managed = np.r_[self.managed, managed]
+        self.born = np.r_[self.born, t]
+        self.seen = np.r_[self.seen, 1]
+        self.quality = np.r_[self.quality, 0]
+
+    def observe(self, t: float, matched: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+        """After a set at time t: ``matched`` slots (k,), ``predicted`` (range, bearing) (n, 2) of every slot before the set
+        (landmarks created in the set: NaN). Returns the slots to remove (ascending)."""
+        np.add.at(self.seen, matched, 1)
+        hit = np.zeros(self.seen.size, dtype=bool)
+        hit[matched] = True
+        self.quality[hit] += 1
+        if self.miss_limit is not None:
+            with np.errstate(invalid="ignore"):
+                visible = (predicted[:, 0] < self.sensor_range) & (np.abs(predicted[:, 1]) < 0.5 * self.sensor_fov)
+            self.quality[visible & ~hit] -= 1
+        unconfirmed = self.managed & (self.seen < self.confirm_sightings) & (t - self.born > self.confirm_window)
+        lost = self.managed & (self.quality < -self.miss_limit) if self.miss_limit is not None else np.zeros_like(unconfirmed)
+        self.removed["unconfirmed"] += int(unconfirmed.sum())
+        self.removed["quality"] += int((lost & ~unconfirmed).sum())
+        return np.flatnonzero(unconfirmed | lost)
+
+    def remove(self, slots: np.ndarray) -> None:
+        keep = np.setdiff1d(np.arange(self.seen.size), slots)
+        self.managed, self.born, self.seen, self.quality = (a[keep] for a in (self.managed, self.born, self.seen, self.quality))

@@ -183,6 +183,7 @@ class Linearisation(StrEnum):
 
     STANDARD = "standard"    # the current estimate
     FEJ = "fej"              # first estimates
+    OC = "oc"                # observability-constrained linearisation points (Huang et al. 2010)
     IDEAL = "ideal"          # the truth (set_truth)
 
 
@@ -233,7 +234,18 @@ class EKFSLAMParams(Params):
         0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
                              "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
                              "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
-    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, 'ideal' the truth (diagnostic)")
+    confirm_sightings: int = Field(
+        1, ge=1, description="a landmark created from a row without a trusted id stays tentative until seen this many times (the creating "
+                             "sighting included) within confirm_window; 1: confirmed at once (association.LandmarkBook)")
+    confirm_window: float = Field(np.inf, gt=0.0, description="time [s] a tentative landmark has to reach confirm_sightings; removed (marginalised) after it")
+    miss_limit: int | None = Field(
+        None, ge=0, description="quality counter (Dissanayake et al. 2001): a landmark created from a row without a trusted id is removed when "
+                                "its matches minus its misses (sets in which it is predicted in the sensor's field and not matched) fall below "
+                                "−miss_limit; None: never; needs sensor_range")
+    sensor_range: float | None = Field(None, gt=0.0, description="largest range at which the sensor detects a landmark [m] (the quality counter's field)")
+    sensor_fov: float = Field(2 * np.pi, gt=0.0, le=2 * np.pi, description="the sensor's field of view, centred ahead [rad] (the quality counter's field)")
+    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
+                                                                         "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
         None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")
     initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame")
@@ -248,6 +260,8 @@ class EKFSLAMParams(Params):
             raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
         if self.new_confidence < self.match_confidence:
             raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
+        if self.miss_limit is not None and self.sensor_range is None:
+            raise ValueError("miss_limit needs sensor_range (the field in which a landmark is predicted visible)")
         if self.jacobians == Linearisation.IDEAL and not self.use_ids:
             raise ValueError("jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)")
         return self
@@ -296,11 +310,15 @@ class EKFSLAM:
         self._s.P[:] = self._initial_cov
         self._ids: list[int] = []
         self._slot: dict[int, int] = {}
-        self._first = np.zeros((8, 2))
-        self._robot_prior = self._s.x[:3].copy()
+        self._first = np.zeros((8, 2))                # landmark linearisation points: first estimates (FEJ), anchors (OC)
+        self._robot_prior = self._s.x[:3].copy()      # the robot's: the propagated estimate (FEJ), its anchor (OC)
+        self._carry: np.ndarray | None = None         # OC: the robot anchor's offset from the estimate after the last update set
         self._truth_pose: np.ndarray | None = None
         self._truth_landmarks: dict[int, np.ndarray] = {}
         self._next_id = NEW_ID_BASE if self.params.use_ids else 0
+        p = self.params
+        self.book = assoc.LandmarkBook(p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov)
+        self._sets, self._t = 0, 0.0
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
@@ -332,6 +350,11 @@ class EKFSLAM:
     @property
     def n_landmarks(self) -> int:
         return len(self._ids)
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """Whether each landmark slot (n,) is confirmed (not tentative; association.LandmarkBook)."""
+        return self.book.confirmed
 
     def set_truth(self, pose=None, landmarks=None) -> None:
         """True robot pose (3,) and/or true landmarks ({id: (x, y)} or a LandmarkMap) for jacobians="ideal"."""
@@ -381,13 +404,18 @@ class EKFSLAM:
             cov = np.broadcast_to(self.increment_cov, (len(delta), 3, 3))
         return self._chain(delta, np.asarray(cov, dtype=float).reshape(-1, 3, 3), None, true_poses)
 
-    def _chain(self, delta, Q_body, Q_world, true_poses) -> tuple[np.ndarray, np.ndarray]:
+    def _chain(self, delta, Q_body, Q_world, true_poses, anchor_shift=None) -> tuple[np.ndarray, np.ndarray]:
         """x_r ← x_r ⊕ δ_0 ⊕ … ⊕ δ_{K−1}, robot block by the 3×3 recursion, P_rm ← Φ P_rm once.
 
         Every motion here is "compose with a body increment", so ``G_k = I + [[0, 0, −D_y], [0, 0, D_x], 0]``
         with D_k the world-frame displacement at the linearisation point, and the product of
         the chain is ``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]`` (the correction terms commute).
         Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
+
+        With ``jacobians="fej"`` or ``"oc"`` the first piece starts at the robot's linearisation point
+        (``D_0 = x̂_1 − x̆``, x̆ = ``_robot_prior``), so that the points are continuous along the chain;
+        ``anchor_shift`` (OC only, :meth:`_reanchor`) ends the chain that much beyond the estimate
+        (``D_{K−1} += shift``, the linearisation point becomes ``x̂_K + shift``).
 
         The whole result is computed and checked before the state changes: a chain whose poses, robot
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
@@ -403,8 +431,12 @@ class EKFSLAM:
             lin = poses[:-1]
         Jx, Rot = compose_jacobians(lin, delta)                          # ∂x'/∂x (K, 3, 3), ∂x'/∂δ = Rot (K, 3, 3)
         D = np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]])
-        if self.params.jacobians == Linearisation.FEJ:
+        if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
+            if anchor_shift is None and self._carry is None:               # OC: the anchor's offset after the last update set
+                self._carry = self._robot_prior[:2] - poses[0, :2]
             D[0] = poses[1, :2] - self._robot_prior[:2]
+            if anchor_shift is not None:
+                D[-1] += anchor_shift
         if Q_world is None:
             Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
         covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
@@ -422,7 +454,26 @@ class EKFSLAM:
         P[:3, :3] = covs[-1]
         x[:3] = poses[-1]
         self._robot_prior = poses[-1].copy()
+        if anchor_shift is not None:
+            self._robot_prior[:2] += anchor_shift
         return poses[1:], covs
+
+    def _reanchor(self, slots: np.ndarray) -> None:
+        """OC: choose the robot's linearisation point for an update set observing landmark slots (k,), under the constraint.
+
+        The constraint fixes every landmark's anchor m̆_i and lets the robot's anchor x̆ move only through
+        the propagation Jacobians. With c = x̆ − x̂ (x̂ the current estimate), the anchor error of the
+        propagation since the last update set is c − c' (c' the offset the last set left), the error of the
+        relative vector of landmark i is (m̆_i − x̆) − (m̂_i − x̂) = e_i − c, e_i = m̆_i − m̂_i; the OC choice
+        minimises their squared sum, ``c = (c' + Σ_i e_i) / (1 + k)``, and is applied as a noise-free
+        zero-motion prediction whose Jacobian carries the shift (O(N), like any prediction).
+        """
+        x = self._s.x
+        carry = self._robot_prior[:2] - x[:2] if self._carry is None else self._carry
+        e = self._first[slots] - self._landmarks()[slots]
+        c = (carry + e.sum(axis=0)) / (1 + len(slots))
+        self._chain(np.zeros((1, 3)), np.zeros((1, 3, 3)), None, None, anchor_shift=c)
+        self._carry = None
 
     def _linearisation_pose(self) -> np.ndarray:
         if self.params.jacobians == Linearisation.IDEAL:
@@ -433,8 +484,9 @@ class EKFSLAM:
 
     # ------------------------------------------------------------------ update
     @_OVERFLOW_IS_CHECKED
-    def update(self, z) -> None:
-        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown).
+    def update(self, z, t: float | None = None) -> None:
+        """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown) taken at time t [s]
+        (None: the number of sets so far; the landmark management's clock).
 
         Rows with a non-finite value or a negative range are counted and dropped. Every other row gets a
         decision (``assoc_log``, decided on the estimate before the set); a row that is not applied —
@@ -449,18 +501,27 @@ class EKFSLAM:
         self.rejected["nonfinite"] += int((~finite).sum())
         self.rejected["negative_range"] += int(negative.sum())
         z = z[finite & ~negative]
+        self._sets += 1
+        self._t = t = float(self._sets if t is None else t)
         if not len(z):
             return
+        predicted = observe(self._s.x[:3], self._landmarks())                          # (n, 2), for the quality counter
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
+        if self.params.jacobians == Linearisation.OC:
+            self._reanchor(slot[decision == Decision.MATCHED])
         try:
             self._apply(z, ids, Rz, decision, slot)
         finally:  # the deferred covariance update of what was applied, also when a CovarianceError is raised
             self._s.flush()
         landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
         self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
+        predicted = np.concatenate([predicted, np.full((self.n_landmarks - len(predicted), 2), np.nan)])
+        gone = self.book.observe(t, slot[decision == Decision.MATCHED], predicted)
+        if gone.size:
+            self._remove_landmarks(gone)
 
     def _apply(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> None:
         """Apply the rows of a set in order (batch: the matched ones first, stacked); rows not applied are marked rejected.
@@ -486,6 +547,15 @@ class EKFSLAM:
                 applied = slot[j] >= 0
             if not applied:
                 decision[j], slot[j] = Decision.REJECTED, -1
+
+    def _remove_landmarks(self, slots: np.ndarray) -> None:
+        """Marginalise landmark slots out of x and P (landmark management); the other slots keep their order."""
+        self._s.remove(np.ravel(3 + 2 * slots[:, None] + np.arange(2)))
+        keep = np.setdiff1d(np.arange(self.n_landmarks), slots)
+        self._first = np.concatenate([self._first[keep], np.zeros((len(slots), 2))])
+        self._ids = [self._ids[k] for k in keep]
+        self._slot = {i: k for k, i in enumerate(self._ids)}
+        self.book.remove(slots)
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
         """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
@@ -532,7 +602,7 @@ class EKFSLAM:
         mode = self.params.jacobians
         if mode == Linearisation.STANDARD:
             xr, m = self._s.x[:3], self._landmarks()[slots]
-        elif mode == Linearisation.FEJ:
+        elif mode in (Linearisation.FEJ, Linearisation.OC):
             xr, m = self._robot_prior, self._first[slots]
         else:
             xr = self._linearisation_pose()
@@ -645,9 +715,12 @@ class EKFSLAM:
         slot = len(self._ids)
         if slot == self._first.shape[0]:
             self._first = np.concatenate([self._first, np.zeros_like(self._first)])
-        self._first[slot] = m
+        # FEJ: the first estimate; OC: the anchor that makes the initialisation Jacobian map the robot's nullspace
+        # directions onto the landmark's, G_x [I₂, J x̆; 0, 1] = [I₂, J m̆]  ⇔  m̆ = x̆ + (m̂ − x̂)
+        self._first[slot] = m + (self._robot_prior[:2] - xr[:2] if self.params.jacobians == Linearisation.OC else 0.0)
         self._ids.append(new_id)
         self._slot[new_id] = slot
+        self.book.add(self._t, managed=landmark_id is None)
         self._next_id += landmark_id is None
         return slot
 

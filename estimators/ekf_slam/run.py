@@ -25,6 +25,9 @@ time is shared evenly by its motion events; records merged at one stamp add thei
 ``jacobians="ideal"`` the true pose (SE(2)-interpolated ground truth, clipped to its span) is
 handed to the filter for every prediction piece (at its start) and update.
 
+Landmarks: the confirmed ones at the end (a tentative landmark, association.LandmarkBook, is not part of the map);
+``meta`` counts the tentative ones left and those removed (unconfirmed in time, or by the quality counter).
+
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
     assoc_t, assoc_decision     every observation's decision (association.Decision): 0 matched, 1 new, 2 rejected
@@ -33,6 +36,11 @@ Diagnostics (arrays):
     assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
     rejected_nonfinite, rejected_negative_range, rejected_motion, rejected_indefinite   counts
+    lockout_rows, lockout_s, lockout_t0
+                                the longest run of consecutive observations that were not new landmarks and were ALL rejected
+                                (a gated filter whose covariance no longer admits its observations: it has stopped
+                                correcting and drifts), its duration [s] (first to last rejected row) and start; 0, 0, NaN if
+                                none was rejected.
 """
 from __future__ import annotations
 
@@ -111,7 +119,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             if ideal:
                 ekf.set_truth(pose=truth([event.t])[0])
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
-            ekf.update(rb.z[event.start:event.stop])
+            ekf.update(rb.z[event.start:event.stop], event.t)
             nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
             assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
             times.append(event.t)
@@ -124,9 +132,10 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     t, steps, poses, covs = last_per_stamp(np.asarray(times), np.asarray(steps), np.asarray(poses).reshape(-1, 3),
                                            np.asarray(covs).reshape(-1, 3, 3))
 
-    n = ekf.n_landmarks
+    confirmed = np.flatnonzero(ekf.confirmed)  # tentative landmarks (association.LandmarkBook) are not part of the map
+    n = confirmed.size
     P = ekf.P
-    base = 3 + 2 * np.arange(n)
+    base = 3 + 2 * confirmed
     landmark_cov = P[base[:, None, None] + np.arange(2)[:, None], base[:, None, None] + np.arange(2)[None, :]]
     nis = np.array(ekf.nis_log, dtype=float).reshape(-1, 2)
     log = np.array(ekf.assoc_log, dtype=float).reshape(-1, 4)
@@ -138,14 +147,28 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         "rejected_motion": np.array(rejected_motion), "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
     }
     decisions = log[:, 0]
+    lockout = _longest_lockout(diagnostics["assoc_t"], diagnostics["assoc_decision"])
+    diagnostics.update(lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2]))
     meta = {
-        "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n,
+        "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n, "tentative": ekf.n_landmarks - n,
+        "removed_unconfirmed": ekf.book.removed["unconfirmed"], "removed_quality": ekf.book.removed["quality"],
         **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
         "noise": {"twist_cov": ekf.M.tolist(), "range_bearing_cov": ekf.R.tolist()},
     }
     return Estimate(
         method="ekf_slam" if ekf.params.jacobians == Linearisation.STANDARD else f"ekf_slam_{ekf.params.jacobians}",
         t=t, poses=poses, pose_cov=covs,
-        landmark_ids=ekf.landmark_ids, landmarks=ekf.x[3:].reshape(-1, 2).copy(), landmark_cov=landmark_cov.reshape(-1, 2, 2),
+        landmark_ids=ekf.landmark_ids[confirmed], landmarks=ekf.x[3:].reshape(-1, 2)[confirmed], landmark_cov=landmark_cov.reshape(-1, 2, 2),
         step_time=steps, diagnostics=diagnostics, meta=meta,
     )
+
+
+def _longest_lockout(t: np.ndarray, decision: np.ndarray) -> tuple[int, float, float]:
+    """(rows, duration [s], start [s]) of the longest run of consecutive non-new observations that were all rejected."""
+    t, rejected = t[decision != Decision.NEW], decision[decision != Decision.NEW] == Decision.REJECTED
+    if not rejected.any():
+        return 0, 0.0, float("nan")
+    edges = np.diff(np.r_[0, rejected.astype(np.int8), 0])
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)   # runs [start, stop)
+    k = int(np.argmax(stops - starts))
+    return int(stops[k] - starts[k]), float(t[stops[k] - 1] - t[starts[k]]), float(t[starts[k]])

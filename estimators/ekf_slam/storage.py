@@ -158,3 +158,11 @@ class GrowingState:
             self._pending_entries = (np.r_[d, np.zeros(stop - start)], robot, np.r_[off, np.zeros((stop - start) // 2)])
         self.n = stop
         return slice(start, stop)
+
+    def remove(self, entries: np.ndarray) -> None:
+        """Delete state entries (indices into x) and their rows and columns of P — marginalising them out —, in place, O(N²)."""
+        keep = np.setdiff1d(np.arange(self.n), entries)
+        m = keep.size
+        self._x[:m] = self._x[keep]
+        self._P[:m, :m] = self._P[np.ix_(keep, keep)]
+        self.n = m

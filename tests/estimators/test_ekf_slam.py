@@ -149,7 +149,7 @@ def test_storage_grows_by_doubling_and_state_views_are_read_only():
     np.testing.assert_array_equal(ekf.landmark_ids, np.arange(200))
 
 
-@pytest.mark.parametrize("jacobians", ["standard", "fej", "ideal"])
+@pytest.mark.parametrize("jacobians", ["standard", "fej", "oc", "ideal"])
 def test_accuracy_against_ground_truth_on_sim_landmarks(jacobians):
     """Pose errors within the 99.7 % χ²₃ bound at ≥ 95 % of steps; landmarks within their χ²₂ gate; NIS ≈ 2."""
     seq = datasets.load("sim:landmarks", n_landmarks=30, seed=0)
@@ -281,7 +281,7 @@ def _assert_unchanged(ekf: EKFSLAM, before: tuple) -> None:
     np.testing.assert_array_equal(ekf.landmark_ids, before[2])
 
 
-@pytest.mark.parametrize("jacobians", ["standard", "fej"])
+@pytest.mark.parametrize("jacobians", ["standard", "fej", "oc"])
 def test_a_failing_prediction_leaves_the_state_as_it_was(jacobians):
     """Controls whose prediction is not finite raise before anything changes; the filter then goes on as if never called."""
     ekf, twin = _mapped(jacobians=jacobians), _mapped(jacobians=jacobians)
@@ -496,3 +496,22 @@ def test_step_time_uses_the_named_clock(sim, monkeypatch):
     assert est.step_time.sum() == pytest.approx(readings - 1)  # the records share the time between the first and the last reading
     wall = EKFSLAM().run(sim)
     assert next(ticks) == readings + 1 and wall.step_time.sum() < 60  # the wall clock did not read the counter
+
+
+def test_a_lockout_is_reported_in_the_diagnostics():
+    """Every observation of a mapped landmark rejected for a while: the longest such run, its duration and start."""
+    from slamarena.estimators.ekf_slam.run import _longest_lockout
+
+    t = np.arange(10.0)
+    d = np.array([Decision.NEW, Decision.MATCHED, Decision.REJECTED, Decision.NEW, Decision.REJECTED, Decision.REJECTED,
+                  Decision.MATCHED, Decision.REJECTED, Decision.MATCHED, Decision.MATCHED])
+    assert _longest_lockout(t, d) == (3, 3.0, 2.0)  # rows 2, 4, 5 (the new landmark at 3 does not end it)
+    rows, seconds, start = _longest_lockout(t, np.full(10, Decision.MATCHED))
+    assert (rows, seconds) == (0, 0.0) and np.isnan(start)
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=1)
+    est = EKFSLAM(known_confidence=1e-9).run(seq)  # a gate no observation passes: locked out from the first re-observation on
+    dec = est.diagnostics["assoc_decision"]
+    assert int(est.diagnostics["lockout_rows"]) == int(np.sum(dec == Decision.REJECTED)) == int(np.sum(dec != Decision.NEW))
+    t_rejected = est.diagnostics["assoc_t"][dec == Decision.REJECTED]
+    assert float(est.diagnostics["lockout_s"]) == t_rejected[-1] - t_rejected[0] > 0.5 * (seq.t1 - seq.t0)
+    assert float(est.diagnostics["lockout_t0"]) == t_rejected[0]

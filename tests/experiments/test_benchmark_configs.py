@@ -26,7 +26,7 @@ def test_the_mrclam_sensor_model_is_the_identified_one_and_every_method_reads_it
     np.testing.assert_allclose(noise["twist_cov"], np.diag([0.013**2, 0.05**2]) * 69.6, rtol=1e-12)
     np.testing.assert_allclose(noise["range_bearing_cov"], np.diag([0.15**2, 0.02**2]), rtol=1e-12)
     assert {e.name for e in config.estimators} == {"dead_reckoning", "ekf_slam", "ekf_localizer", "gtsam_batch", "gtsam_isam2", "fastslam"}
-    assert {e.resolved_params().get("jacobians") for e in config.estimators if e.name == "ekf_slam"} == {"standard", "fej"}
+    assert {e.resolved_params().get("jacobians") for e in config.estimators if e.name == "ekf_slam"} == {"standard", "fej", "oc"}
     for spec in config.estimators:
         if spec.name == "dead_reckoning":
             continue
@@ -52,10 +52,14 @@ def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model(
     filters = [e.resolved_params() for e in config.estimators if e.name in ("ekf_slam", "fastslam")]
     assert {p["range_bearing_noise"] for p in filters} == {"cartesian"}
     assert all(p["range_bearing_cov"] is None for p in filters)  # σ² from the file's stated noise
+    managed = [e.resolved_params() for e in config.estimators if e.name == "ekf_slam" and e.resolved_params()["confirm_sightings"] > 1]
+    keys = ("confirm_sightings", "confirm_window", "miss_limit", "sensor_range", "sensor_fov")
+    assert {p["association"] for p in managed} == {"nn", "jcbb"}   # NN and JCBB with one landmark management and detection model
+    assert len({tuple(p[k] for k in keys) for p in managed}) == 1
 
 
 @pytest.mark.realdata
-@pytest.mark.parametrize("name,cells", [("mrclam", 35), ("victoria_park", 8)])
+@pytest.mark.parametrize("name,cells", [("mrclam", 40), ("victoria_park", 10)])
 def test_the_benchmarks_plan_on_the_staged_data(name, cells, tmp_path, capsys):
     from slamarena.datasets import DatasetNotFoundError
     from slamarena.experiments.runner import run_from_cli
