@@ -43,7 +43,7 @@ from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
-__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
+__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "shipped_configs", "sanitize", "method_table", "FIGURES"]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
 FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
@@ -308,6 +308,21 @@ class ExperimentConfig(BaseModel):
 
     def output_dir(self, override: Path | None = None) -> Path:
         return Path(override) if override is not None else (self.output or Path("results") / self.name)
+
+
+def shipped_configs() -> dict[str, str]:
+    """The shipped configs (``experiments/configs/*.yaml``): name → the config's one-line ``description``, read
+    without validating (listing must not need the data a config names)."""
+    import yaml
+    from importlib.resources import files
+
+    shipped = files("slamarena.experiments").joinpath("configs")
+    out = {}
+    for entry in sorted(shipped.iterdir(), key=lambda p: p.name):
+        if entry.name.endswith(".yaml"):
+            raw = yaml.safe_load(entry.read_text()) or {}
+            out[entry.name.removesuffix(".yaml")] = str(raw.get("description", "")).strip()
+    return out
 
 
 def load_config(path: str | Path | None = None) -> ExperimentConfig:

@@ -285,7 +285,10 @@ MONTE_CARLO_COLUMNS = {
     "runs": "N, the seeds averaged",
     "stamps": "stamps all N runs share (with equal dimension), where the average is taken",
     "mean_over_dof": "mean over those stamps of the N-run average divided by its degrees of freedom (1 for a consistent filter)",
+    "final_over_dof": "the same mean over the last 10 % of the time span (the end of the run, where an inconsistency has grown)",
     "in_band": "fraction of those stamps whose N-run average lies inside the two-sided N-run χ² band",
+    "band_lo_over_dof": "the band's lower end divided by the degrees of freedom (mean over the stamps)",
+    "band_hi_over_dof": "the band's upper end divided by the degrees of freedom (mean over the stamps)",
 }
 
 
@@ -317,8 +320,11 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
             mc = monte_carlo(runs, probability=enabled[stat].probability)
         except MetricUnavailable:
             continue
-        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(mc["t"].size),
-                     "mean_over_dof": float(np.mean(mc["mean"] / mc["dof"])), "in_band": mc["in_band"]})
+        ratio, t = mc["mean"] / mc["dof"], mc["t"]
+        final = t >= t[-1] - 0.1 * (t[-1] - t[0])
+        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(t.size),
+                     "mean_over_dof": float(np.mean(ratio)), "final_over_dof": float(np.mean(ratio[final])), "in_band": mc["in_band"],
+                     "band_lo_over_dof": float(np.mean(mc["lo"] / mc["dof"])), "band_hi_over_dof": float(np.mean(mc["hi"] / mc["dof"]))})
     return pd.DataFrame(rows)
 
 
@@ -518,8 +524,8 @@ def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
 
 
 def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None,
-                 report: bool = False) -> int:
-    """``slamarena run``: validate, then run (or list) the grid.
+                 report: bool = False, seeds: int | None = None) -> int:
+    """``slamarena run``: validate, then run (or list) the grid; ``seeds`` replaces the config's seeds by 0 … seeds − 1.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
     scheduler, 130 interrupted.
@@ -529,6 +535,8 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     console = Console(stderr=True)
     try:
         cfg = load_config(config)
+        if seeds is not None:
+            cfg = cfg.model_copy(update={"seeds": seeds})
         target = cfg.output_dir(out)
         check_run_options(jobs, scheduler, target)
     except (ConfigError, UsageError) as exc:
