@@ -105,6 +105,11 @@ def _differences(shipped: dict, ran: dict, prefix: str = "") -> list[str]:
     """The settings where the run's config differs from the shipped one, as ``path: ran (shipped: …)``."""
     if isinstance(shipped, dict) and isinstance(ran, dict):
         return [d for k in sorted(set(shipped) | set(ran)) for d in _differences(shipped.get(k), ran.get(k), f"{prefix}{k}.")]
+    if isinstance(shipped, list) and isinstance(ran, list) and shipped != ran:
+        if len(shipped) != len(ran):
+            labels = [e.get("label") or e.get("name") if isinstance(e, dict) else e for e in ran]
+            return [f"{prefix.rstrip('.')}: {len(ran)} of {len(shipped)} ({', '.join(map(str, labels))})"]
+        return [d for k, (a, b) in enumerate(zip(shipped, ran)) for d in _differences(a, b, f"{prefix}{k}.")]
     if shipped != ran:
         return [f"{prefix.rstrip('.')}: {ran!r} (shipped: {shipped!r})"]
     return []
@@ -126,7 +131,7 @@ def provenance(run_dir: Path) -> str:
     parts = [f"git {str(manifest.get('git_revision') or 'unknown')[:12]}", str(manifest.get("finished") or manifest.get("started") or "")[:10],
              f"{machine.get('hostname', '?')} ({machine.get('cpus', '?')} CPUs)"]
     if manifest.get("duration_s") is not None:
-        parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get("jobs", 1)}`")
+        parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get('jobs', 1)}`")
     if cells:
         parts.append(f"{cells.get('total', '?')} cells, {len(manifest.get('failed', []))} failed")
     try:
