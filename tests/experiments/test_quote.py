@@ -97,10 +97,11 @@ def test_read_table_strips_bold_and_keeps_the_legend(tmp_path):
     assert table.legend[0].startswith("n: seeds")
 
 
-def test_the_results_page_quotes_only_tables_of_shipped_configs():
-    """Every marker of research/results.md names a shipped config and a table (or the Monte Carlo table) it writes,
-    and every column it asks for is one of that table's."""
-    text = (ROOT / "research" / "results.md").read_text()
+@pytest.mark.parametrize("page", ["research/results.md", "README.md"])
+def test_the_pages_quote_only_tables_of_shipped_configs(page):
+    """Every marker of research/results.md and of the README names a shipped config and a table (or the Monte Carlo
+    table) it writes, and every column it asks for is one of that table's."""
+    text = (ROOT / page).read_text()
     found = markers(text)
     assert len(found) >= 10 and len(found) == text.count("<!-- table: ") + text.count("<!-- value: ")
     configs = shipped_configs()
