@@ -120,11 +120,12 @@ def results(
     root: Path = typer.Option(Path("results"), "--results", help="Where the runs are: ROOT/<experiment>/tables/."),
     strict: bool = typer.Option(False, "--strict", help="A quoted run that is missing is an error (default: its text is kept, and listed)."),
     check: bool = typer.Option(False, "--check", help="Change nothing; exit 1 if the page is not what the runs say."),
+    reduced: bool = typer.Option(False, "--reduced", help="Quote runs made with other settings than the shipped config's too (e.g. --seeds), marked †."),
 ):
     """Regenerate the tables and numbers a page quotes (between its <!-- table: … --> / <!-- value: … --> markers) from the runs."""
     from .quote import quote_main
 
-    raise typer.Exit(quote_main(page, root, strict=strict, check=check))
+    raise typer.Exit(quote_main(page, root, strict=strict, check=check, reduced=reduced))
 
 
 @app.command()

@@ -18,8 +18,9 @@ word ``mean`` the mean alone, or with ``range`` the smallest to the largest mean
 
 Each table is introduced by the command that regenerates it and by its run's manifest: git revision, date,
 machine, duration, cells and failures. A run whose configuration differs from the shipped one of its name (e.g. run
-with ``--seeds 3`` for a quick look) is flagged in that line, with what differs. A source that is missing leaves the
-page's current text in place and is reported; ``--strict`` makes that an error.
+with ``--seeds 3`` for a quick look) is not quoted: it counts as missing, unless ``--reduced`` is given, and then its
+tables say so in that line (marked †, with what differs) and its values carry a †. A source that is missing leaves
+the page's current text in place and is reported; ``--strict`` makes that an error.
 """
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ from .results import MANIFEST, SUMMARY, atomic_write_text, read_json
 __all__ = ["QuoteError", "Table", "read_table", "markers", "update_page", "quote_main"]
 
 KEY_COLUMNS = ("dataset", "estimator", "statistic")
+REDUCED = "†"  # marks what comes from a run that is not the shipped config's (quoted only with reduced=True)
 _TABLE = re.compile(r"(<!-- table: (?P<spec>[^>]*?) -->\n)(?P<body>(?:(?!<!--).)*?)(<!-- /table -->)", re.S)
 _VALUE = re.compile(r"(<!-- value: (?P<spec>[^>]*?) -->)(?P<body>(?:(?!<!--).)*?)(<!-- /value -->)", re.S)
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$", re.I)
@@ -50,7 +52,7 @@ class MissingSource(QuoteError):
 
 @dataclass
 class Table:
-    """A results table as written in Markdown: header, rows of cell texts (bold marks removed), legend lines."""
+    """A results table as written in Markdown: header, rows of cell texts (as written: the best marked bold), legend lines."""
 
     header: list[str]
     rows: list[list[str]]
@@ -74,7 +76,7 @@ def read_table(path: Path) -> Table:
     table = [ln for ln in lines if ln.startswith("|")]
     if len(table) < 2:
         raise QuoteError(f"{path}: no Markdown table in it")
-    cells = [[c.strip().replace("**", "") for c in ln.strip().strip("|").split("|")] for ln in table]
+    cells = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in table]
     legend = [ln for ln in lines[lines.index(table[-1]) + 1:] if ln.strip()]
     return Table(cells[0], cells[2:], legend)
 
@@ -90,14 +92,18 @@ def _parse_spec(spec: str, positional: int) -> tuple[list[str], dict[str, str]]:
     return args, options
 
 
-def _source(root: Path, source: str) -> tuple[Path, Path]:
-    """(the experiment's results directory, its table file) for ``EXPERIMENT/TABLE``."""
+def _source(root: Path, source: str, reduced: bool = False) -> tuple[Path, Path]:
+    """(the experiment's results directory, its table file) for ``EXPERIMENT/TABLE``; a run that is not the shipped
+    config's is missing unless ``reduced``."""
     if source.count("/") != 1:
         raise QuoteError(f"source {source!r} is not EXPERIMENT/TABLE")
     experiment, table = source.split("/")
     path = root / experiment / "tables" / f"{table}.md"
     if not path.is_file():
         raise MissingSource(f"{path} does not exist: run `slamarena run {experiment}` (results into {root / experiment})")
+    if not reduced and (differs := not_shipped(root / experiment)):
+        raise MissingSource(f"{root / experiment} is not a run of the shipped config ({'; '.join(differs[:3])}): run `slamarena run {experiment}`, "
+                            f"or quote it with --reduced")
     return root / experiment, path
 
 
@@ -115,17 +121,29 @@ def _differences(shipped: dict, ran: dict, prefix: str = "") -> list[str]:
     return []
 
 
-def provenance(run_dir: Path) -> str:
-    """One line: the command, and the manifest's revision, date, machine, duration, cells; a non-shipped config flagged."""
+def not_shipped(run_dir: Path) -> list[str]:
+    """How the config a run was made with differs from the shipped config of its name (empty: it is the shipped one)."""
     from .config import ConfigError, load_config
 
-    name = run_dir.name
-    line = f"`slamarena run {name}`"
     if not (run_dir / MANIFEST).is_file():
-        return line + " (no manifest.json beside the table)"
+        return ["no manifest.json"]
     manifest = read_json(run_dir / MANIFEST)
-    name = manifest.get("experiment", name)
-    line = f"`slamarena run {name}`"
+    try:
+        shipped = load_config(manifest.get("experiment", run_dir.name)).model_dump(mode="json")
+    except ConfigError:
+        return ["no shipped config of this name"]
+    ran = dict(manifest.get("config", {}))
+    ran.pop("output", None)
+    shipped.pop("output", None)
+    return _differences(shipped, ran)
+
+
+def provenance(run_dir: Path) -> str:
+    """One line: the command, and the manifest's revision, date, machine, duration, cells; a non-shipped config flagged."""
+    name = run_dir.name
+    if not (run_dir / MANIFEST).is_file():
+        return f"`slamarena run {name}` (no manifest.json beside the table)"
+    manifest = read_json(run_dir / MANIFEST)
     machine = manifest.get("machine", {})
     cells = manifest.get("cells", {})
     parts = [f"git {str(manifest.get('git_revision') or 'unknown')[:12]}", str(manifest.get("finished") or manifest.get("started") or "")[:10],
@@ -134,17 +152,10 @@ def provenance(run_dir: Path) -> str:
         parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get('jobs', 1)}`")
     if cells:
         parts.append(f"{cells.get('total', '?')} cells, {len(manifest.get('failed', []))} failed")
-    try:
-        shipped = load_config(name).model_dump(mode="json")
-        ran = dict(manifest.get("config", {}))
-        ran.pop("output", None)
-        shipped.pop("output", None)
-        differs = _differences(shipped, ran)
-    except ConfigError:
-        differs = ["no shipped config of this name"]
-    line += ": " + ", ".join(p for p in parts if p)
+    line = f"`slamarena run {manifest.get('experiment', name)}`: " + ", ".join(p for p in parts if p)
+    differs = not_shipped(run_dir)
     if differs:
-        line += ". **Not the shipped config** — " + "; ".join(differs[:4]) + (f"; … {len(differs) - 4} more" if len(differs) > 4 else "")
+        line += f". **{REDUCED} Not the shipped config** — " + "; ".join(differs[:4]) + (f"; … {len(differs) - 4} more" if len(differs) > 4 else "")
     return line + "."
 
 
@@ -165,9 +176,9 @@ def failures(run_dir: Path, table: Table) -> list[str]:
     return out
 
 
-def render_table(root: Path, spec: str) -> str:
+def render_table(root: Path, spec: str, reduced: bool = False) -> str:
     (source,), options = _parse_spec(spec, 1)
-    run_dir, path = _source(root, source)
+    run_dir, path = _source(root, source, reduced)
     table = read_table(path)
     rows = table.matching(options["rows"]) if "rows" in options else table.rows
     if not rows:
@@ -185,32 +196,44 @@ def render_table(root: Path, spec: str) -> str:
     return "\n".join([provenance(run_dir), "", *lines, "", *legend, *failures(run_dir, shown)]) + "\n"
 
 
+def _plain(text: str) -> str:
+    """A cell's text without its best-value mark."""
+    return text.replace("**", "")
+
+
 def _mean(text: str) -> float | None:
-    head = text.split(" ± ")[0].strip()
+    head = _plain(text).split(" ± ")[0].strip()
     return float(head) if _NUMBER.match(head) else None
 
 
-def render_value(root: Path, spec: str) -> str:
+def render_value(root: Path, spec: str, reduced: bool = False) -> str:
+    """The cell (or mean, or range) a value marker names; marked † when it comes from a run that is not the shipped config's."""
+    text = _value(root, spec, reduced)
+    run_dir = root / spec.split()[0].split("/")[0]
+    return text + REDUCED if reduced and not_shipped(run_dir) else text
+
+
+def _value(root: Path, spec: str, reduced: bool) -> str:
     args, _ = _parse_spec(spec, 3)
     source, pattern, column = args[:3]
     mode = args[3] if len(args) == 4 else "text"
     if mode not in ("text", "mean", "range"):
         raise QuoteError(f"value {spec!r}: the fourth word is 'mean' or 'range', not {mode!r}")
-    _, path = _source(root, source)
+    _, path = _source(root, source, reduced)
     table = read_table(path)
     k = table.column(column)
     rows = table.matching(pattern)
     if not rows:
         raise QuoteError(f"value {spec!r}: {pattern} matches no row of {path} (keys: {', '.join(table.key(r) for r in table.rows)})")
     if mode == "range":
-        means = [(m, r[k].split(" ± ")[0]) for r in rows if (m := _mean(r[k])) is not None]
+        means = [(m, _plain(r[k]).split(" ± ")[0]) for r in rows if (m := _mean(r[k])) is not None]
         if not means:
             raise QuoteError(f"value {spec!r}: no number in column {column} of the matching rows")
         lo, hi = min(means)[1], max(means)[1]
         return lo if lo == hi else f"{lo}–{hi}"
     if len(rows) != 1:
         raise QuoteError(f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); use 'range' or a narrower pattern")
-    return rows[0][k].split(" ± ")[0] if mode == "mean" else rows[0][k]
+    return _plain(rows[0][k]).split(" ± ")[0] if mode == "mean" else _plain(rows[0][k])
 
 
 def markers(text: str) -> list[tuple[str, str]]:
@@ -218,13 +241,14 @@ def markers(text: str) -> list[tuple[str, str]]:
     return [("table", m.group("spec").strip()) for m in _TABLE.finditer(text)] + [("value", m.group("spec").strip()) for m in _VALUE.finditer(text)]
 
 
-def update_page(text: str, root: Path, strict: bool = False) -> tuple[str, list[str]]:
-    """The page with every marker's content regenerated from ``root``; and the missing sources (kept as they were)."""
+def update_page(text: str, root: Path, strict: bool = False, reduced: bool = False) -> tuple[str, list[str]]:
+    """The page with every marker's content regenerated from ``root``; and the missing sources (kept as they were).
+    ``reduced``: quote runs of a config other than the shipped one too (flagged †), else they count as missing."""
     missing: list[str] = []
 
     def replace(render, match):
         try:
-            body = render(root, match.group("spec").strip())
+            body = render(root, match.group("spec").strip(), reduced)
         except MissingSource as exc:
             if strict:
                 raise
@@ -237,13 +261,13 @@ def update_page(text: str, root: Path, strict: bool = False) -> tuple[str, list[
     return text, sorted(set(missing))
 
 
-def quote_main(page: Path, root: Path, strict: bool = False, check: bool = False) -> int:
+def quote_main(page: Path, root: Path, strict: bool = False, check: bool = False, reduced: bool = False) -> int:
     """``slamarena results``: rewrite ``page`` in place (``check``: only say whether it is up to date; exit 1 if not)."""
     page = Path(page)
     if not page.is_file():
         raise QuoteError(f"{page}: no such page")
     old = page.read_text()
-    new, missing = update_page(old, Path(root), strict)
+    new, missing = update_page(old, Path(root), strict, reduced)
     for m in missing:
         print(f"kept as it was (no results): {m}")
     if check:

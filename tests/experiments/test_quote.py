@@ -27,11 +27,12 @@ n: seeds; mean ± std over seeds; best per dataset in bold.
 """
 
 
-def _run(root: Path, name: str = "study", config: dict | None = None, failed: bool = False) -> Path:
+def _run(root: Path, name: str = "plaza", config: dict | None = None, failed: bool = False) -> Path:
+    """A results directory of the shipped config ``name`` (or of ``config``) holding the table above."""
     run = root / name
     (run / "tables").mkdir(parents=True)
     (run / "tables" / "accuracy.md").write_text(ACCURACY)
-    write_json(run / "manifest.json", {"experiment": name, "config": config or {"name": name}, "git_revision": "0123456789abcdef", "finished": "2025-01-02T03:04:05",
+    write_json(run / "manifest.json", {"experiment": name, "config": config or load_config(name).model_dump(mode="json"), "git_revision": "0123456789abcdef", "finished": "2025-01-02T03:04:05",
                                        "machine": {"hostname": "box", "cpus": 2}, "duration_s": 90.0, "jobs": 2, "cells": {"total": 7},
                                        "failed": ["other/ekf_slam/2"] if failed else []})
     status = "timeout" if failed else "ok"
@@ -41,35 +42,35 @@ def _run(root: Path, name: str = "study", config: dict | None = None, failed: bo
 
 def test_a_table_marker_is_replaced_by_the_runs_table_with_its_command_provenance_and_legend(tmp_path):
     _run(tmp_path, failed=True)
-    page = "# Page\n\nProse stays.\n\n<!-- table: study/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
+    page = "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
     new, missing = update_page(page, tmp_path)
     assert not missing
-    assert new.startswith("# Page\n\nProse stays.\n\n<!-- table: study/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run study`: git 0123456789ab, 2025-01-02, box (2 CPUs)")
+    assert new.startswith("# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)")
     assert "old text" not in new and new.endswith("<!-- /table -->\n\nMore prose.\n")
-    assert "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | 0.054 ± 0.013 |" in new
+    assert "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |" in new  # the best mark kept
     assert "| other |" not in new and "map.rmse" not in new  # rows and columns filtered, the legend of a dropped column too
     assert "- `ate.rmse`: ATE RMSE [m]" in new and "- paper (published): A. Author, 2009" in new
     assert "failed: other/ekf_slam/2" not in new  # a failure of a row not shown is not listed
-    everything, _ = update_page("<!-- table: study/accuracy -->\n<!-- /table -->\n", tmp_path)
+    everything, _ = update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path)
     assert "- failed: other/ekf_slam/2 (timeout): timed out after 5 s" in everything
     assert update_page(new, tmp_path)[0] == new  # idempotent
 
 
 def test_values_quote_one_cell_its_mean_or_a_range(tmp_path):
     _run(tmp_path)
-    assert render_value(tmp_path, "study/accuracy world/ekf_slam ate.rmse") == "0.054 ± 0.013"
-    assert render_value(tmp_path, "study/accuracy world/ekf_slam ate.rmse mean") == "0.054"
-    assert render_value(tmp_path, "study/accuracy */ekf_slam ate.rmse range") == "0.054–0.09"
-    page = "EKF <!-- value: study/accuracy world/ekf_slam map.rmse mean -->?<!-- /value --> m."
-    assert update_page(page, tmp_path)[0] == "EKF <!-- value: study/accuracy world/ekf_slam map.rmse mean -->0.056<!-- /value --> m."
+    assert render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.rmse") == "0.054 ± 0.013"
+    assert render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.rmse mean") == "0.054"
+    assert render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse range") == "0.054–0.09"
+    page = "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->?<!-- /value --> m."
+    assert update_page(page, tmp_path)[0] == "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->0.056<!-- /value --> m."
     with pytest.raises(QuoteError, match="matches 2 rows"):
-        render_value(tmp_path, "study/accuracy */ekf_slam ate.rmse")
+        render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse")
     with pytest.raises(QuoteError, match="no column 'ate.max'"):
-        render_value(tmp_path, "study/accuracy world/ekf_slam ate.max")
+        render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.max")
     with pytest.raises(QuoteError, match="matches no row"):
-        render_value(tmp_path, "study/accuracy nowhere/* ate.rmse")
+        render_value(tmp_path, "plaza/accuracy nowhere/* ate.rmse")
     with pytest.raises(QuoteError, match="unknown option"):
-        update_page("<!-- table: study/accuracy row=x -->\n<!-- /table -->", tmp_path)
+        update_page("<!-- table: plaza/accuracy row=x -->\n<!-- /table -->", tmp_path)
 
 
 def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
@@ -80,19 +81,22 @@ def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
         update_page(page, tmp_path, strict=True)
 
 
-def test_a_run_of_a_config_that_is_not_the_shipped_one_is_flagged(tmp_path):
+def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked_and_flagged(tmp_path):
     shipped = load_config("plaza").model_dump(mode="json")
     _run(tmp_path, "plaza", config={**shipped, "seeds": 3})
-    new, _ = update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path)
-    assert "**Not the shipped config** — seeds: 3 (shipped: 1)" in new
+    page = "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\nATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    new, missing = update_page(page, tmp_path)
+    assert new == page and "not a run of the shipped config (seeds: 3 (shipped: 1))" in missing[0]
+    new, missing = update_page(page, tmp_path, reduced=True)
+    assert not missing and "**† Not the shipped config** — seeds: 3 (shipped: 1)" in new and "-->0.054†<!--" in new
     _run(tmp_path / "same", "plaza", config=shipped)
     assert "Not the shipped" not in update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path / "same")[0]
 
 
-def test_read_table_strips_bold_and_keeps_the_legend(tmp_path):
+def test_read_table_keeps_the_cells_and_the_legend(tmp_path):
     (tmp_path / "t.md").write_text(ACCURACY)
     table = read_table(tmp_path / "t.md")
-    assert table.header[:3] == ["dataset", "estimator", "n"] and table.rows[1][3] == "0.054 ± 0.013"
+    assert table.header[:3] == ["dataset", "estimator", "n"] and table.rows[1][3] == "**0.054 ± 0.013**"
     assert [table.key(r) for r in table.matching("world/*")] == ["world/dead_reckoning", "world/ekf_slam", "world/paper (published)"]
     assert table.legend[0].startswith("n: seeds")
 
@@ -139,5 +143,5 @@ def test_every_shipped_config_lists_with_a_description(capsys):
 def test_a_run_on_part_of_the_grid_says_which_part(tmp_path):
     shipped = load_config("consistency")
     _run(tmp_path, "consistency", config=shipped.reduced(datasets=["hard"], seeds=3).model_dump(mode="json"))
-    line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path)[0].splitlines()[1]
+    line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path, reduced=True)[0].splitlines()[1]
     assert "datasets: 1 of 2 (hard)" in line and "estimators: 3 of 4 (ekf_slam, ekf_slam_fej, ekf_slam_ideal)" in line and "seeds: 3 (shipped: 30)" in line
