@@ -146,7 +146,8 @@ def provenance(run_dir: Path) -> str:
     manifest = read_json(run_dir / MANIFEST)
     machine = manifest.get("machine", {})
     cells = manifest.get("cells", {})
-    parts = [f"git {str(manifest.get('git_revision') or 'unknown')[:12]}", str(manifest.get("finished") or manifest.get("started") or "")[:10],
+    revision = str(manifest.get("git_revision") or "unknown")
+    parts = [f"git {revision[:12]}" + (" with uncommitted changes" if revision.endswith("-dirty") else ""), str(manifest.get("finished") or manifest.get("started") or "")[:10],
              f"{machine.get('hostname', '?')} ({machine.get('cpus', '?')} CPUs)"]
     if manifest.get("duration_s") is not None:
         parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get('jobs', 1)}`")
