@@ -152,7 +152,8 @@ def provenance(run_dir: Path) -> str:
     if manifest.get("duration_s") is not None:
         parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get('jobs', 1)}`")
     if cells:
-        parts.append(f"{cells.get('total', '?')} cells, {len(manifest.get('failed', []))} failed")
+        cached = f" ({cells['cached']} taken from the cache of an earlier run)" if cells.get("cached") else ""
+        parts.append(f"{cells.get('total', '?')} cells{cached}, {len(manifest.get('failed', []))} failed")
     line = f"`slamarena run {manifest.get('experiment', name)}`: " + ", ".join(p for p in parts if p)
     differs = not_shipped(run_dir)
     if differs:

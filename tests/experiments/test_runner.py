@@ -234,3 +234,9 @@ def test_a_recording_at_a_path_runs_and_its_files_are_in_the_cache_key(tmp_path)
     (directory / "Robot2_Measurement.dat").write_text("# header\n10.5 63 1.5 0.1\n")
     [changed] = plan(cfg, out)
     assert changed.key != cell.key and not changed.finished()
+
+
+def test_table_numbers_three_significant_digits_and_counts_in_full():
+    from slamarena.experiments.tables import _fmt
+
+    assert [_fmt(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == ["2724", "50000", "0", "0.0543", "2.72e+03", "3.20e-05", "–"]
