@@ -20,8 +20,9 @@ G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch 
 Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) with i(k) the last node at or
 before scan k (relations refer to any scan); the map re-rendered from the nodes' optimised poses
 (``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
-their scores (``diagnostics["loop_*"]``) and the time spent in the front end, the loop search and the
-optimisation (``meta["seconds"]``).
+their scores (``diagnostics["loop_*"]``), the front end's poses L_k (``diagnostics["front_end_poses"]``: the
+trajectory before loop closure) and the time spent in the front end, the loop search and the optimisation
+(``meta["seconds"]``).
 """
 from __future__ import annotations
 
@@ -200,6 +201,7 @@ class LaserSLAM:
         self.map = self._render(G, node_scan, scans, front.limit)
         diag.update(loops.record.arrays())
         diag["node_scan"] = np.asarray(node_scan, dtype=np.int64)
+        diag["front_end_poses"] = local  # L_k: the trajectory before loop closure (the maps figure draws both)
         accepted = diag["loop_accepted"]
         meta = {
             "params": p.canonical(), "scans": int(K), "nodes": len(L), "submaps": len(self.submaps),
