@@ -9,6 +9,7 @@
   count (``diagnostics``), so a run that stops in a local minimum shows its cost beside the others'.
 * ``resamplings``: a particle filter's resampling events (``meta["resamplings"]``).
 
+None of them is marked best in a table: fewer rejections or a lower ½χ² of another graph is not better by itself.
 An output the estimate does not carry is left out of the row (the table shows –); the metric is unavailable only when
 the estimate carries none of them.
 """
@@ -30,9 +31,9 @@ class EstimateParams(BaseModel):
 
 ESTIMATE_OUTPUTS = {
     "landmarks": (None, "landmarks in the final map"),
-    "rejected": ("lower", "input rows the method rejected (bad rows, and rows its gate refused)"),
+    "rejected": (None, "input rows the method rejected (bad rows, and rows its gate refused)"),
     "initial_error": (None, "optimiser's ½ Σ eᵀΩe at its start"),
-    "final_error": ("lower", "optimiser's ½ Σ eᵀΩe at its end"),
+    "final_error": (None, "optimiser's ½ Σ eᵀΩe at its end"),
     "iterations": (None, "optimiser iterations"),
     "resamplings": (None, "particle-filter resampling events"),
 }
