@@ -132,9 +132,14 @@ def not_shipped(run_dir: Path) -> list[str]:
         shipped = load_config(manifest.get("experiment", run_dir.name)).model_dump(mode="json")
     except ConfigError:
         return ["no shipped config of this name"]
+    from .config import sanitize
+
     ran = dict(manifest.get("config", {}))
     ran.pop("output", None)
     shipped.pop("output", None)
+    kept = {d.get("label") or sanitize(d["name"]) for d in ran.get("datasets", [])}
+    for row in shipped.get("published", []):  # a dataset left out takes its published values with it: not a difference of its own
+        row["values"] = {d: v for d, v in row["values"].items() if d in kept}
     return _differences(shipped, ran)
 
 
