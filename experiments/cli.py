@@ -6,6 +6,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena run [CONFIG]            slamarena.experiments.runner
     slamarena figures RESULTS_DIR     slamarena.paper_figures.make
     slamarena report RESULTS_DIR [B]  slamarena.experiments.report
+    slamarena results [PAGE]          slamarena.experiments.quote (research/results.md's tables from the runs)
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
@@ -68,13 +69,24 @@ def run(
     force: bool = typer.Option(False, "--force", help="Recompute cells that are already cached."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
     report: bool = typer.Option(False, "--report", help="At the end, write the HTML report and its Markdown twin (report.html, report.md)."),
+    list_configs: bool = typer.Option(False, "--list", help="List the shipped configs, one line each, and exit."),
+    seeds: Optional[int] = typer.Option(None, "--seeds", min=1, help="Run seeds 0 … N−1 instead of the config's seeds (a reduced run; the manifest records it)."),
 ):
     """Run an experiment: every method on every dataset and seed; write tables and figures."""
+    if list_configs:
+        from .config import shipped_configs
+
+        configs = shipped_configs()
+        width = max(map(len, configs))
+        for name, description in configs.items():
+            typer.echo(f"{name:<{width}}  {description}")
+        raise typer.Exit(0)
     from slamarena.paper_figures.make import make_all
 
     from .runner import run_from_cli
 
-    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all, report=report))
+    raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all, report=report,
+                                  seeds=seeds))
 
 
 @app.command()
@@ -100,6 +112,20 @@ def report(
 
     html, md = write_report(results_dir, other, out)
     typer.echo(f"wrote {html}\nwrote {md}\nopen it in a browser: {html.resolve().as_uri()}")
+
+
+@app.command()
+def results(
+    page: Path = typer.Argument(Path("research/results.md"), help="The page whose quoted tables and values to regenerate."),
+    root: Path = typer.Option(Path("results"), "--results", help="Where the runs are: ROOT/<experiment>/tables/."),
+    strict: bool = typer.Option(False, "--strict", help="A quoted run that is missing is an error (default: its text is kept, and listed)."),
+    check: bool = typer.Option(False, "--check", help="Change nothing; exit 1 if the page is not what the runs say."),
+    reduced: bool = typer.Option(False, "--reduced", help="Quote runs made with other settings than the shipped config's too (e.g. --seeds), marked †."),
+):
+    """Regenerate the tables and numbers a page quotes (between its <!-- table: … --> / <!-- value: … --> markers) from the runs."""
+    from .quote import quote_main
+
+    raise typer.Exit(quote_main(page, root, strict=strict, check=check, reduced=reduced))
 
 
 @app.command()

@@ -44,7 +44,7 @@ from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
-__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "sanitize", "method_table", "FIGURES"]
+__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "shipped_configs", "sanitize", "method_table", "FIGURES"]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
 FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
@@ -309,8 +309,42 @@ class ExperimentConfig(BaseModel):
     def enabled_metrics(self) -> dict[str, BaseModel]:
         return {k: v for k, v in self.metrics if v is not None}
 
+    def reduced(self, datasets: list[str] | None = None, estimators: list[str] | None = None, seeds: int | list[int] | None = None) -> "ExperimentConfig":
+        """The same experiment on a part of its grid (the studies' slow tests run a shipped config this way): only the
+        dataset and method labels named, ``seeds`` in place of the config's; tables, metrics and published rows as they
+        are (those of a dropped dataset dropped). Validated again."""
+        raw = self.model_dump(mode="json", exclude_unset=True)
+        keep_ds = set(datasets or self.dataset_labels())
+        keep_es = set(estimators or self.estimator_labels())
+        raw["datasets"] = [d for d, label in zip(raw["datasets"], self.dataset_labels()) if label in keep_ds]
+        raw["estimators"] = [e for e, label in zip(raw["estimators"], self.estimator_labels()) if label in keep_es]
+        for e in raw["estimators"]:
+            if e.get("datasets") is not None:
+                e["datasets"] = [d for d in e["datasets"] if d in keep_ds]
+        raw["estimators"] = [e for e in raw["estimators"] if e.get("datasets") != []]
+        for row in raw.get("published", []):
+            row["values"] = {d: v for d, v in row["values"].items() if d in keep_ds}
+        if seeds is not None:
+            raw["seeds"] = seeds
+        return ExperimentConfig.model_validate(raw)
+
     def output_dir(self, override: Path | None = None) -> Path:
         return Path(override) if override is not None else (self.output or Path("results") / self.name)
+
+
+def shipped_configs() -> dict[str, str]:
+    """The shipped configs (``experiments/configs/*.yaml``): name → the config's one-line ``description``, read
+    without validating (listing must not need the data a config names)."""
+    import yaml
+    from importlib.resources import files
+
+    shipped = files("slamarena.experiments").joinpath("configs")
+    out = {}
+    for entry in sorted(shipped.iterdir(), key=lambda p: p.name):
+        if entry.name.endswith(".yaml"):
+            raw = yaml.safe_load(entry.read_text()) or {}
+            out[entry.name.removesuffix(".yaml")] = str(raw.get("description", "")).strip()
+    return out
 
 
 def load_config(path: str | Path | None = None) -> ExperimentConfig:

@@ -291,6 +291,8 @@ MONTE_CARLO_COLUMNS = {
     "in_band": "fraction of those stamps whose N-run average lies inside the two-sided N-run χ² band",
     "early_over_dof": "the same mean over the first 10 % of the time those stamps span (before any drift)",
     "late_over_dof": "the same mean over the last 10 % of that time (a filter that degrades over the run rises here)",
+    "band_lo_over_dof": "the band's lower end divided by the degrees of freedom (mean over the stamps)",
+    "band_hi_over_dof": "the band's upper end divided by the degrees of freedom (mean over the stamps)",
 }
 
 
@@ -326,7 +328,8 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
         span = t[-1] - t[0]
         rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(t.size),
                      "mean_over_dof": float(np.mean(ratio)), "in_band": mc["in_band"],
-                     "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])), "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span]))})
+                     "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])), "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span])),
+                     "band_lo_over_dof": float(np.mean(mc["lo"] / mc["dof"])), "band_hi_over_dof": float(np.mean(mc["hi"] / mc["dof"]))})
     return pd.DataFrame(rows)
 
 
@@ -526,8 +529,8 @@ def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
 
 
 def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None,
-                 report: bool = False) -> int:
-    """``slamarena run``: validate, then run (or list) the grid.
+                 report: bool = False, seeds: int | None = None) -> int:
+    """``slamarena run``: validate, then run (or list) the grid; ``seeds`` replaces the config's seeds by 0 … seeds − 1.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
     scheduler, 130 interrupted.
@@ -537,6 +540,8 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     console = Console(stderr=True)
     try:
         cfg = load_config(config)
+        if seeds is not None:
+            cfg = cfg.model_copy(update={"seeds": seeds})
         target = cfg.output_dir(out)
         check_run_options(jobs, scheduler, target)
     except (ConfigError, UsageError) as exc:

@@ -41,6 +41,8 @@ def _fmt(x: float) -> str:
         return "–"
     if x == 0:
         return "0"
+    if float(x).is_integer() and abs(x) < 1e7:  # a count (landmarks, rows, iterations) in full, not 2.72e+03
+        return str(int(x))
     return f"{x:.3g}" if 1e-3 <= abs(x) < 1e4 else f"{x:.2e}"
 
 

@@ -6,7 +6,9 @@ re-drawn from the dataset's scans, which is cheap: the dataset is loaded once (i
 every valid beam (finite, positive, short of the maximum range) of every ``stride``-th scan is placed at the
 method's pose at the scan's stamp (SE(2) interpolation of the estimate, moved into the ground-truth frame by the
 cell's ATE alignment so panels compare) — ``p = (x ⊕ mount) ⊕ (r cos α, r sin α)`` — and the hits are counted on
-one grid for all panels (grey, log scale). A blurred or doubled wall is a pose error.
+one grid for all panels (grey, log scale). A blurred or doubled wall is a pose error. The grid spans the
+hits of every panel but the dead-reckoning ones: odometry drifts tens of metres on the classic logs, and framing it
+too would shrink every map to a corner; its panel is clipped to the same view.
 
 A dataset that cannot be loaded here (results copied from another machine) has no map figure; the reason is
 reported.
@@ -99,7 +101,11 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 loops_drawn += len(loops)
             panels.append((f"{run.estimator}" + (", after loop closure" if "front_end_poses" in d else ""), est.t, A.poses(est.poses), style, loops))
         points = [end_points(scans, t, poses, stride) for _, t, poses, _, _ in panels]
-        every_point = np.vstack(points)
+        # the extent of the maps that are maps: a baseline's drift (odometry) would shrink every other panel to a corner;
+        # it is clipped to that extent instead
+        baseline = {styles(r.estimator)["label"] for r in shown if r.method == "dead_reckoning"}
+        framing = [p for p, (_, _, _, style, _) in zip(points, panels) if style.get("label") not in baseline] or points
+        every_point = np.vstack(framing)
         lo, hi = np.percentile(every_point, 0.5, axis=0), np.percentile(every_point, 99.5, axis=0)
         size = float(np.max(hi - lo)) / CELLS
         edges = [np.arange(lo[k] - 5 * size, hi[k] + 6 * size, size) for k in (0, 1)]
@@ -115,6 +121,8 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             if loops is not None and len(loops):
                 for a, b in loops:
                     ax.plot([a[0], b[0]], [a[1], b[1]], color="#CC3311", linewidth=0.5, label="accepted loop closure")
+            ax.set_xlim(edges[0][0], edges[0][-1])
+            ax.set_ylim(edges[1][0], edges[1][-1])
             ax.set_title(title)
             ax.set_aspect("equal")
             ax.grid(False)
@@ -124,7 +132,8 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         caption = (f"{dataset}, seed {seed}: the laser scans' end points placed at each trajectory (moved into the ground-truth frame "
                    f"by the cell's ATE alignment), {'every scan' if stride == 1 else f'one scan in {stride}'}, hit counts per {size:.2g} m cell on a log "
                    f"grey scale, the trajectory drawn over them" + (f"; {loops_drawn} accepted loop closures as red segments between the nodes "
-                   "they join" if loops_drawn else "") + ". A blurred or doubled wall is a pose error.")
+                   "they join" if loops_drawn else "") + ". A blurred or doubled wall is a pose error. The view spans the maps of the "
+                   "SLAM methods; a dead-reckoning panel is clipped to it (its drift leaves the view).")
         written += save(fig, out_dir, f"maps_{dataset}", caption)
     if not written:
         raise FigureSkipped("; ".join(missing))

@@ -10,7 +10,8 @@ reason is recorded instead of a number.
 
 Modules: :mod:`.alignment` (Umeyama in 2D), :mod:`.reference` (ground truth at estimate
 times), :mod:`.trajectory` (ATE, RPE), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
-:mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.), :mod:`.cost`.
+:mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.), :mod:`.cost`, :mod:`.estimate` (what the
+estimate reports of itself: landmark count, rejected rows, an optimiser's final error).
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from slamarena.datasets.estimate import Estimate
 
 from .consistency import NEES_OUTPUTS, NIS_OUTPUTS, NEESParams, NISParams, nees, nis
 from .cost import COST_OUTPUTS, CostParams, cost
+from .estimate import ESTIMATE_OUTPUTS, EstimateParams, estimate_counts
 from .landmarks import MAP_OUTPUTS, MapParams, landmark_error
 from .reference import MetricUnavailable, Reference, reference_of
 from .relations import RELATION_OUTPUTS, RelationsParams, relation_error_from_file
@@ -56,8 +58,14 @@ METRICS: dict[str, Metric] = {
     "nis": Metric(NISParams, NIS_OUTPUTS, lambda c, p: nis(c.estimate, p)),
     "map": Metric(MapParams, MAP_OUTPUTS, lambda c, p: landmark_error(c.estimate, c.reference, p)),
     "relations": Metric(RelationsParams, RELATION_OUTPUTS, lambda c, p: relation_error_from_file(c.estimate, c.data, p)),
-    "cost": Metric(CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p)),
+    "cost": Metric(CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p, duration=_duration(c.data))),
+    "estimate": Metric(EstimateParams, ESTIMATE_OUTPUTS, lambda c, p: estimate_counts(c.estimate, p)),
 }
+
+
+def _duration(data) -> float | None:
+    """A recording's span [s] (first to last stamp of its streams), ``None`` for data without time (pose graphs)."""
+    return data.t1 - data.t0 if hasattr(data, "t1") else None
 
 
 def output_columns() -> dict[str, tuple[str | None, str]]:

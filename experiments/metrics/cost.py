@@ -3,6 +3,8 @@
 * ``step_median``, ``step_p95``: median and 95th percentile of ``Estimate.step_time`` [s];
   ``step_total``: their sum (the estimator's own accounting).
 * ``wall``: wall time of ``run(sequence)`` measured by the runner around the call [s].
+* ``realtime``: the recording's duration (its first to its last stamp, ``Sequence.t1 − t0``) over ``wall``: how many
+  times faster than real time the method ran (datasets without time, pose graphs, have none).
 * ``peak_rss_mb``: the peak resident set of the cell's process, read when the cell finishes
   [MiB] — Linux ``VmHWM`` (``/proc/self/status``), elsewhere ``getrusage().ru_maxrss`` (see
   :func:`peak_rss_mb`). Every cell runs in a fresh process, so this is the peak of that cell:
@@ -28,6 +30,7 @@ COST_OUTPUTS = {
     "step_p95": ("lower", "95th percentile wall time per step [s]"),
     "step_total": ("lower", "sum of the per-step times (wall, or CPU with step_clock='cpu') [s]"),
     "wall": ("lower", "wall time of the estimator run [s]"),
+    "realtime": ("higher", "recording duration / wall time (× faster than real time)"),
     "peak_rss_mb": ("lower", "peak resident memory of the cell's process [MiB]"),
     "steps": (None, "number of estimated poses"),
 }
@@ -56,13 +59,17 @@ def peak_rss_mb() -> float:
     return rss / 2**20 if sys.platform == "darwin" else rss / 2**10
 
 
-def cost(estimate: Estimate, wall: float | None = None, peak_rss: float | None = None, params: CostParams = CostParams()) -> tuple[dict, dict]:
+def cost(estimate: Estimate, wall: float | None = None, peak_rss: float | None = None, params: CostParams = CostParams(),
+         duration: float | None = None) -> tuple[dict, dict]:
+    """The cost outputs; ``duration`` is the recording's span [s] (``None``: no ``realtime``)."""
     out: dict = {"steps": int(len(estimate.t))}
     if estimate.step_time is not None and len(estimate.step_time):
         st = np.asarray(estimate.step_time, dtype=float)
         out.update(step_median=float(np.median(st)), step_p95=float(np.percentile(st, 95)), step_total=float(st.sum()))
     if wall is not None:
         out["wall"] = float(wall)
+        if duration is not None and duration > 0 and wall > 0:
+            out["realtime"] = float(duration) / float(wall)
     if peak_rss is not None:
         out["peak_rss_mb"] = float(peak_rss)
     series = {} if estimate.step_time is None else {"t": estimate.t, "step_time": np.asarray(estimate.step_time, dtype=float)}

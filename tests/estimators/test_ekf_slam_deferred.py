@@ -14,7 +14,7 @@ import pytest
 
 from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
-from slamarena.estimators.ekf_slam import EKFSLAM, CovarianceError
+from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.ekf_slam.kernels import mirror_lower, update_lower
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM

@@ -9,9 +9,16 @@ import numpy as np
 import pytest
 
 from slamarena.experiments.config import load_config
-from slamarena.experiments.ekf_slam_study import mrclam_noise
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def _gtsam_study():
+    pytest.importorskip("gtsam")
+    spec = importlib.util.spec_from_file_location("gtsam_studies", ROOT / "tests/estimators/test_gtsam_studies.py")
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    return study
 
 
 def _covariance(value) -> np.ndarray:
@@ -21,7 +28,7 @@ def _covariance(value) -> np.ndarray:
 
 def test_the_mrclam_sensor_model_is_the_identified_one_and_every_method_reads_it():
     config = load_config("mrclam")
-    noise = {k: _covariance(v) for k, v in mrclam_noise().items()}
+    noise = {k: _covariance(v) for k, v in _gtsam_study().mrclam_noise().items()}  # the GTSAM study reads the config's
     # odometry error over 1 s: 0.013 m, 0.05 rad; one row lasts 1/69.6 s; range 0.15 m, bearing 0.02 rad
     np.testing.assert_allclose(noise["twist_cov"], np.diag([0.013**2, 0.05**2]) * 69.6, rtol=1e-12)
     np.testing.assert_allclose(noise["range_bearing_cov"], np.diag([0.15**2, 0.02**2]), rtol=1e-12)
@@ -37,11 +44,10 @@ def test_the_mrclam_sensor_model_is_the_identified_one_and_every_method_reads_it
 
 
 def test_the_gtsam_study_reads_the_configs_mrclam_noise():
-    pytest.importorskip("gtsam")
-    spec = importlib.util.spec_from_file_location("gtsam_studies", ROOT / "tests/estimators/test_gtsam_studies.py")
-    study = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(study)
-    assert study.mrclam_noise is mrclam_noise and not hasattr(study, "MRCLAM_NOISE")
+    study = _gtsam_study()
+    ekf = load_config("mrclam").estimators[1]
+    assert ekf.name == "ekf_slam" and study.mrclam_noise() == {k: ekf.params[k] for k in ("twist_cov", "range_bearing_cov")}
+    assert not hasattr(study, "MRCLAM_NOISE")
 
 
 def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model():

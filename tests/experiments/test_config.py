@@ -179,3 +179,15 @@ def test_a_method_is_refused_on_a_dataset_without_the_streams_it_needs(tmp_path)
         load_config(_write(tmp_path, GOOD.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: grid_slam")))
     restricted = text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam\n    datasets: [sim_landmarks]")
     assert load_config(_write(tmp_path, restricted)).estimators[0].name == "ekf_slam"
+
+
+def test_a_config_reduced_to_part_of_its_grid_keeps_its_settings():
+    from slamarena.experiments.config import load_config
+
+    full = load_config("consistency")
+    part = full.reduced(datasets=["hard"], estimators=["ekf_slam", "ekf_slam_initP"], seeds=3)
+    assert part.dataset_labels() == ["hard"] and part.seed_list() == [0, 1, 2]
+    assert part.estimator_labels() == ["ekf_slam"]  # initP runs on the default world only: dropped with it
+    assert part.datasets[0].resolved_params() == full.datasets[1].resolved_params() and part.metrics == full.metrics
+    laser = load_config("kummerle2009").reduced(datasets=["intel"])
+    assert all(set(row.values) == {"intel"} for row in laser.published)

@@ -279,6 +279,10 @@ def test_cost_and_evaluate_records_skipped_metrics():
     assert scalars["cost"]["step_median"] == pytest.approx(0.001)
     assert scalars["cost"]["step_total"] == pytest.approx(0.149)
     assert scalars["cost"]["peak_rss_mb"] == 123.0
+    assert "realtime" not in scalars["cost"]  # a sequence without input streams has no duration
+    recording = Sequence("s", ground_truth=Trajectory(t=t, poses=gt), range_bearing=RangeBearing(t=[1.0, 11.0], range=[1, 1], bearing=[0, 0], landmark_id=[0, 1]))
+    timed = evaluate(CellData(e, recording, reference_of(recording), wall=0.5), {"cost": METRICS["cost"].params()})[0]
+    assert timed["cost"]["realtime"] == pytest.approx(10.0 / 0.5)  # the recording's span over the wall time
     assert scalars["ate"]["rmse"] < 1e-12
     assert set(skipped) == {"nees", "map"} and "covariance" in skipped["nees"]
 
@@ -355,3 +359,17 @@ def test_series_names_are_the_ones_the_metrics_write(tmp_path):
     _, series, skipped = evaluate(CellData(est, seq, reference_of(seq)), selected)
     assert not skipped
     assert set(Series) <= set(_flatten_series(series)), set(Series) - set(_flatten_series(series))
+
+
+def test_estimate_counts_what_the_estimate_reports_of_itself():
+    from slamarena.experiments.metrics.estimate import estimate_counts
+
+    t, gt = _truth(K=20)
+    filtered = Estimate("ekf_slam", t, gt, landmark_ids=[3, 5, 9], landmarks=np.zeros((3, 2)),
+                        diagnostics={"rejected_nonfinite": np.array(2), "rejected_motion": np.array(1), "nis": np.ones(4)}, meta={"rejected": 4})
+    assert estimate_counts(filtered)[0] == {"landmarks": 3, "rejected": 7}  # 2 + 1 bad rows, 4 refused by the gate
+    smoothed = Estimate("gtsam_batch", t, gt, diagnostics={"initial_error": np.array(250.0), "final_error": np.array(12.5), "iterations": np.array(7)},
+                        meta={"resamplings": 3, "rejected": {"gps": {"gate": 2}}})  # a nested count is not a row count
+    assert estimate_counts(smoothed)[0] == {"initial_error": 250.0, "final_error": 12.5, "iterations": 7, "resamplings": 3}
+    with pytest.raises(MetricUnavailable, match="reports no landmarks"):
+        estimate_counts(Estimate("dead_reckoning", t, gt))

@@ -246,3 +246,9 @@ def test_single_threaded_config_limits_the_threads_of_every_cell(tmp_path):
     env = _cell_env(single)
     assert {env[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")} == {"1"}
     assert env["SLAMARENA_DATA"] == _cell_env(plain)["SLAMARENA_DATA"]
+
+
+def test_table_numbers_three_significant_digits_and_counts_in_full():
+    from slamarena.experiments.tables import _fmt
+
+    assert [_fmt(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == ["2724", "50000", "0", "0.0543", "2.72e+03", "3.20e-05", "–"]

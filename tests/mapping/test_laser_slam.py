@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.formats import g2o
 from slamarena.datasets.geometry import between, compose
 from slamarena.datasets.sim.laser import simulate
@@ -43,6 +44,11 @@ def test_closing_the_loop_reduces_the_error(hard_loop):
     d = closed.diagnostics
     assert d["loop_accepted"].sum() == closed.meta["loop_closures"] and d["loop_seconds"].min() >= 0
     assert set(closed.meta["seconds"]) == {"front_end", "loop_search", "optimisation"}
+    # the trajectory before loop closure is kept (the maps figure draws it beside the closed one): without loop
+    # closure it is the trajectory itself
+    assert closed.diagnostics["front_end_poses"].shape == closed.poses.shape
+    np.testing.assert_allclose(open_.diagnostics["front_end_poses"], open_.poses, atol=1e-6)
+    assert ate(Estimate("laser_slam", closed.t, closed.diagnostics["front_end_poses"]), ref, ATEParams(align="se2"))[0]["rmse"] > e_closed
 
 
 def _chain(n=60, seed=0):

@@ -9,7 +9,6 @@ import pytest
 from conftest import make_sequence
 from pydantic import ValidationError
 
-from slamarena.datasets.geometry import compose
 from slamarena.mapping.occupancy_grid import OccupancyGrid
 from slamarena.mapping.odometry import fresh_readings
 from slamarena.mapping.rbpf import RBPF

@@ -1,0 +1,147 @@
+"""`slamarena results`: a page's quoted tables and values regenerated from the runs, prose left alone; and the page
+the project ships (research/results.md) quotes only tables the shipped configs write."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from slamarena.experiments.config import load_config, shipped_configs
+from slamarena.experiments.quote import MissingSource, QuoteError, markers, read_table, render_value, update_page
+from slamarena.experiments.results import write_json
+
+ROOT = Path(__file__).resolve().parents[2]
+
+ACCURACY = """| dataset | estimator | n | ate.rmse | map.rmse |
+|---|---|---:|---:|---:|
+| world | dead_reckoning | 3 | 1.11 ± 0.36 | – |
+| world | ekf_slam | 3 | **0.054 ± 0.013** | 0.056 ± 0.019 |
+| world | paper (published) | – | 0.2 | – |
+| other | ekf_slam | 3 | 0.09 ± 0.01 | 0.1 ± 0.02 |
+
+n: seeds; mean ± std over seeds; best per dataset in bold.
+
+- `ate.rmse`: ATE RMSE [m]
+- `map.rmse`: landmark RMSE [m]
+- paper (published): A. Author, 2009
+"""
+
+
+def _run(root: Path, name: str = "plaza", config: dict | None = None, failed: bool = False) -> Path:
+    """A results directory of the shipped config ``name`` (or of ``config``) holding the table above."""
+    run = root / name
+    (run / "tables").mkdir(parents=True)
+    (run / "tables" / "accuracy.md").write_text(ACCURACY)
+    write_json(run / "manifest.json", {"experiment": name, "config": config or load_config(name).model_dump(mode="json"), "git_revision": "0123456789abcdef", "finished": "2025-01-02T03:04:05",
+                                       "machine": {"hostname": "box", "cpus": 2}, "duration_s": 90.0, "jobs": 2, "cells": {"total": 7},
+                                       "failed": ["other/ekf_slam/2"] if failed else []})
+    status = "timeout" if failed else "ok"
+    (run / "summary.csv").write_text(f"dataset,estimator,seed,status,error\nworld,ekf_slam,0,ok,\nother,ekf_slam,2,{status},{'timed out after 5 s' if failed else ''}\n")
+    return run
+
+
+def test_a_table_marker_is_replaced_by_the_runs_table_with_its_command_provenance_and_legend(tmp_path):
+    _run(tmp_path, failed=True)
+    page = "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
+    new, missing = update_page(page, tmp_path)
+    assert not missing
+    assert new.startswith("# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)")
+    assert "old text" not in new and new.endswith("<!-- /table -->\n\nMore prose.\n")
+    assert "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |" in new  # the best mark kept
+    assert "| other |" not in new and "map.rmse" not in new  # rows and columns filtered, the legend of a dropped column too
+    assert "- `ate.rmse`: ATE RMSE [m]" in new and "- paper (published): A. Author, 2009" in new
+    assert "failed: other/ekf_slam/2" not in new  # a failure of a row not shown is not listed
+    everything, _ = update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path)
+    assert "- failed: other/ekf_slam/2 (timeout): timed out after 5 s" in everything
+    assert update_page(new, tmp_path)[0] == new  # idempotent
+
+
+def test_values_quote_one_cell_its_mean_or_a_range(tmp_path):
+    _run(tmp_path)
+    assert render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.rmse") == "0.054 ± 0.013"
+    assert render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.rmse mean") == "0.054"
+    assert render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse range") == "0.054–0.09"
+    page = "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->?<!-- /value --> m."
+    assert update_page(page, tmp_path)[0] == "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->0.056<!-- /value --> m."
+    with pytest.raises(QuoteError, match="matches 2 rows"):
+        render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse")
+    with pytest.raises(QuoteError, match="no column 'ate.max'"):
+        render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.max")
+    with pytest.raises(QuoteError, match="matches no row"):
+        render_value(tmp_path, "plaza/accuracy nowhere/* ate.rmse")
+    with pytest.raises(QuoteError, match="unknown option"):
+        update_page("<!-- table: plaza/accuracy row=x -->\n<!-- /table -->", tmp_path)
+
+
+def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
+    page = "<!-- table: absent/accuracy -->\nkept\n<!-- /table -->\n"
+    new, missing = update_page(page, tmp_path)
+    assert new == page and len(missing) == 1 and "slamarena run absent" in missing[0]
+    with pytest.raises(MissingSource):
+        update_page(page, tmp_path, strict=True)
+
+
+def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked_and_flagged(tmp_path):
+    shipped = load_config("plaza").model_dump(mode="json")
+    _run(tmp_path, "plaza", config={**shipped, "seeds": 3})
+    page = "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\nATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    new, missing = update_page(page, tmp_path)
+    assert new == page and "not a run of the shipped config (seeds: 3 (shipped: 1))" in missing[0]
+    new, missing = update_page(page, tmp_path, reduced=True)
+    assert not missing and "**† Not the shipped config** — seeds: 3 (shipped: 1)" in new and "-->0.054†<!--" in new
+    _run(tmp_path / "same", "plaza", config=shipped)
+    assert "Not the shipped" not in update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path / "same")[0]
+
+
+def test_read_table_keeps_the_cells_and_the_legend(tmp_path):
+    (tmp_path / "t.md").write_text(ACCURACY)
+    table = read_table(tmp_path / "t.md")
+    assert table.header[:3] == ["dataset", "estimator", "n"] and table.rows[1][3] == "**0.054 ± 0.013**"
+    assert [table.key(r) for r in table.matching("world/*")] == ["world/dead_reckoning", "world/ekf_slam", "world/paper (published)"]
+    assert table.legend[0].startswith("n: seeds")
+
+
+@pytest.mark.parametrize("page", ["research/results.md", "README.md"])
+def test_the_pages_quote_only_tables_of_shipped_configs(page):
+    """Every marker of research/results.md and of the README names a shipped config and a table (or the Monte Carlo
+    table) it writes, and every column it asks for is one of that table's."""
+    text = (ROOT / page).read_text()
+    found = markers(text)
+    assert len(found) >= 10 and len(found) == text.count("<!-- table: ") + text.count("<!-- value: ")
+    configs = shipped_configs()
+    for kind, spec in found:
+        words = spec.split()
+        experiment, table = words[0].split("/")
+        assert experiment in configs, spec
+        config = load_config(experiment)
+        written = {t.name: t.columns for t in config.tables}
+        if table == "monte_carlo":
+            from slamarena.experiments.runner import MONTE_CARLO_COLUMNS
+
+            columns = list(MONTE_CARLO_COLUMNS)
+        else:
+            assert table in written, f"{spec}: {experiment} writes {', '.join(written)}"
+            columns = ["dataset", "estimator", "n", *written[table]]
+        asked = [w.split("=", 1)[1].split(",") for w in words if w.startswith("columns=")]
+        asked = asked[0] if asked else ([words[2]] if kind == "value" else [])
+        assert set(asked) <= set(columns), spec
+
+
+def test_every_shipped_config_lists_with_a_description(capsys):
+    from typer.testing import CliRunner
+
+    from slamarena.experiments.cli import app
+
+    configs = shipped_configs()
+    assert {"default", "consistency", "mrclam", "victoria_park", "plaza", "pose_graphs", "kummerle2009", "scaling"} <= set(configs)
+    assert all(configs.values()), [k for k, v in configs.items() if not v]
+    out = CliRunner().invoke(app, ["run", "--list"]).output
+    lines = out.strip().splitlines()
+    assert len(lines) == len(configs) and all(line.split()[0] in configs for line in lines)
+
+
+def test_a_run_on_part_of_the_grid_says_which_part(tmp_path):
+    shipped = load_config("consistency")
+    _run(tmp_path, "consistency", config=shipped.reduced(datasets=["hard"], seeds=3).model_dump(mode="json"))
+    line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path, reduced=True)[0].splitlines()[1]
+    assert "datasets: 1 of 2 (hard)" in line and "estimators: 3 of 4 (ekf_slam, ekf_slam_fej, ekf_slam_ideal)" in line and "seeds: 3 (shipped: 30)" in line
