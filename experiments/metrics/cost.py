@@ -26,8 +26,8 @@ class CostParams(BaseModel):
 
 
 COST_OUTPUTS = {
-    "step_median": ("lower", "median wall time per step [s]"),
-    "step_p95": ("lower", "95th percentile wall time per step [s]"),
+    "step_median": ("lower", "median time per step (wall, or CPU with step_clock='cpu') [s]"),
+    "step_p95": ("lower", "95th percentile time per step (wall, or CPU with step_clock='cpu') [s]"),
     "step_total": ("lower", "sum of the per-step times (wall, or CPU with step_clock='cpu') [s]"),
     "wall": ("lower", "wall time of the estimator run [s]"),
     "realtime": ("higher", "recording duration / wall time (× faster than real time)"),
