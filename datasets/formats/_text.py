@@ -52,7 +52,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "records", "binary_lines", "numeric_table", "check_finite", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = ["read_bytes", "read_lines", "records", "binary_lines", "numeric_table", "check_finite", "check_unique", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -353,6 +353,15 @@ def check_finite(path: str, values: np.ndarray, line_numbers: np.ndarray, what: 
     if bad.size:
         k = int(bad[0])
         raise DataFormatError(path, int(line_numbers[k]), f"finite numbers in {what}", str(values[k].tolist()))
+
+
+def check_unique(path: str, ids: np.ndarray, line_numbers: np.ndarray, what: str) -> None:
+    """Raise at the first line whose id ``ids`` (N,) was declared on an earlier line."""
+    _, first = np.unique(ids, return_index=True)
+    if first.size != ids.size:
+        k = int(np.setdiff1d(np.arange(ids.size), first)[0])
+        earlier = int(line_numbers[np.flatnonzero(ids == ids[k])[0]])
+        raise DataFormatError(path, int(line_numbers[k]), f"unique {what} ids (also declared on line {earlier})", str(ids[k]))
 
 
 def check_monotonic(path: str, t: np.ndarray, line_numbers: np.ndarray, what: str) -> None:

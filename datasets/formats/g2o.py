@@ -27,7 +27,7 @@ from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import record_values, records, upper_triangle
+from ._text import check_unique, record_values, records, upper_triangle
 from . import isam
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
@@ -75,7 +75,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     if is3d.any():
         v, vrows = table["VERTEX_SE3:QUAT"]
         e, erows = table["EDGE_SE3:QUAT"]
-        return _graph(lines.path, name, 3, _ids(lines.path, v, vrows, 0), v[:, 1:8],
+        return _graph(lines.path, name, 3, _ids(lines.path, v, vrows, 0), v[:, 1:8], vrows,
                       _ids(lines.path, e, erows, [0, 1]), e[:, 2:9], upper_triangle(e[:, 9:30], 6), erows, meta)
     v, vrows = table["VERTEX_SE2"]
     e, erows = table["EDGE_SE2"]
@@ -89,7 +89,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     if lv.shape[0]:
         meta["landmark_ids"] = _ids(lines.path, lv, lvrows, 0)
         meta["landmark_xy"] = lv[:, 1:3]
-    graph = _graph(lines.path, name, 2, _ids(lines.path, v, vrows, 0), v[:, 1:4],
+    graph = _graph(lines.path, name, 2, _ids(lines.path, v, vrows, 0), v[:, 1:4], vrows,
                    _ids(lines.path, e, erows, [0, 1]), e[:, 2:5], upper_triangle(e[:, 5:11], 3), erows, meta, **extra)
     if ground_truth is not None:
         true_poses, _ = isam.true_poses_and_landmarks(ground_truth, graph.node_ids)
@@ -98,15 +98,14 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     return graph
 
 
-def _graph(path, name, dim, vertex_ids, vertex_poses, edge_ids, z, info, erows, meta, **landmarks) -> PoseGraph:
+def _graph(path, name, dim, vertex_ids, vertex_poses, vrows, edge_ids, z, info, erows, meta, **landmarks) -> PoseGraph:
     if vertex_ids.size:
         node_ids, poses = vertex_ids, vertex_poses
+        check_unique(path, node_ids, vrows + 1, "vertex")
         missing = ~np.isin(edge_ids, node_ids).all(axis=1)
         if missing.any():
             k = int(np.flatnonzero(missing)[0])
             raise DataFormatError(path, int(erows[k]) + 1, "an edge between declared vertices", str(edge_ids[k].tolist()))
-        if np.unique(node_ids).size != node_ids.size:
-            raise DataFormatError(path, None, "unique vertex ids", "a vertex declared twice")
     else:
         pose_ends = [edge_ids.ravel()]
         if "landmark_pose" in landmarks:

@@ -25,7 +25,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ..source import Layout, SourceParams
-from ._text import record_values, records
+from ._text import check_unique, record_values, records
 
 __all__ = ["read", "load", "ToroSource", "toro_information", "RECORDS"]
 
@@ -54,7 +54,7 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
         if bad.size:
             raise DataFormatError(lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80])
         table[record] = (values, rows)
-    v, _ = table["VERTEX2"]
+    v, vrows = table["VERTEX2"]
     e, erows = table["EDGE2"]
     q, _ = table["EQUIV"]
     br, brows = table["BR"]
@@ -62,6 +62,7 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
     node_ids = v[:, 0].astype(np.int64)
     edge_ids = e[:, :2].astype(np.int64)
     if node_ids.size:
+        check_unique(lines.path, node_ids, vrows + 1, "VERTEX2")
         missing = ~np.isin(edge_ids, node_ids).all(axis=1)
         if missing.any():
             k = int(np.flatnonzero(missing)[0])

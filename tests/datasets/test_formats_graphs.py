@@ -141,6 +141,8 @@ def test_g2o_round_trip_with_landmarks(tmp_path):
         (g2o.read, "VERTEX_SE2 0.5 0 0 0\n", 1, "integer ids"),
         (g2o.read, "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2 0 1 nan 0 0 1 0 0 1 0 1\n", 3, "finite"),
         (toro.read, "VERTEX2 0 0 0 0\nVERTEX2 1 0 0 inf\n", 2, "finite"),
+        (toro.read, "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nVERTEX2 0 2 0 0\n", 3, "also declared on line 1"),
+        (g2o.read, "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 1 2 0 0\n", 3, "also declared on line 2"),
         (isam.read, "ODOMETRY 0 1 0 0 0 nan 0 0 1 0 1\n", 1, "finite"),
         (toro.read, "VERTEX2 0 0 0 0\nEDGE2 0 0 1 0 0 1 0 1 1 0\n", 2, "11 numeric fields"),
         (isam.read, "ODOMETRY 0 1 1 0 0 1 0 0 1 0 1\nPOINT 3\n", 2, "record of type"),
