@@ -144,4 +144,4 @@ def test_a_run_on_part_of_the_grid_says_which_part(tmp_path):
     shipped = load_config("consistency")
     _run(tmp_path, "consistency", config=shipped.reduced(datasets=["hard"], seeds=3).model_dump(mode="json"))
     line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path, reduced=True)[0].splitlines()[1]
-    assert "datasets: 1 of 2 (hard)" in line and "estimators: 3 of 4 (ekf_slam, ekf_slam_fej, ekf_slam_ideal)" in line and "seeds: 3 (shipped: 30)" in line
+    assert "datasets: 1 of 2 (hard)" in line and "estimators: 4 of 5 (ekf_slam, ekf_slam_fej, ekf_slam_oc, ekf_slam_ideal)" in line and "seeds: 3 (shipped: 30)" in line
