@@ -160,7 +160,9 @@ class GrowingState:
         return slice(start, stop)
 
     def remove(self, entries: np.ndarray) -> None:
-        """Delete state entries (indices into x) and their rows and columns of P — marginalising them out —, in place, O(N²)."""
+        """Delete state entries (indices into x) and their rows and columns of P — marginalising them out —, in place, O(N²).
+        A pending deferred update is applied first (the kept block of P must be the current one)."""
+        self.flush()
         keep = np.setdiff1d(np.arange(self.n), entries)
         m = keep.size
         self._x[:m] = self._x[keep]

@@ -79,7 +79,7 @@ def measure(n: int, repeats: int, with_reference: bool, seed: int = 0) -> dict:
     for name, params in VARIANTS.items():
         ekf, L = _mapped_filter(n, rng, **params)
 
-        def step():
+        def step(ekf=ekf, L=L):  # bound now: the loop rebinds ekf and L for the next variant
             ekf.predict((0.5, 0.05), 0.1)
             ekf.update(_observations(rng, L, ekf.x[:3]))
 
