@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["CovarianceError", "check_innovation_cov", "covariance_entries", "low_rank_entries", "check_entries",
-           "check_covariance", "check_augmented"]
+__all__ = ["CovarianceError", "innovation_cov_error", "covariance_entries", "low_rank_entries", "entries_failure", "entries_error",
+           "check_entries", "check_covariance", "check_augmented"]
 
 #: relative tolerance for "negative" (round-off of a semi-definite zero block is not an error)
 _TOL = 1e-12
@@ -28,21 +28,59 @@ class CovarianceError(FloatingPointError):
     """The covariance lost positive (semi-)definiteness."""
 
 
-def check_innovation_cov(S: np.ndarray) -> np.ndarray:
-    """Cholesky factor of the innovation covariance S; raises CovarianceError if S is not PD."""
-    try:
-        return np.linalg.cholesky(S)
-    except np.linalg.LinAlgError as exc:
-        raise CovarianceError(f"innovation covariance is not positive definite: S = {S.tolist()}") from exc
+def innovation_cov_error(S: np.ndarray) -> CovarianceError:
+    """The error of an innovation covariance S that has no Cholesky factor."""
+    return CovarianceError(f"innovation covariance is not positive definite: S = {np.asarray(S).tolist()}")
 
 
-def _psd3(A: np.ndarray, tol: float) -> bool:
+@njit(cache=True)
+def _psd3(A, tol):
     """3 × 3 symmetric A is PSD iff every principal minor is ≥ 0 (up to tol)."""
-    (a, b, c), (_, d, e), (_, _, f) = A.tolist()
-    minors2 = (a * d - b * b, a * f - c * c, d * f - e * e)
+    a, b, c, d, e, f = A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2]
+    minor2 = min(a * d - b * b, a * f - c * c, d * f - e * e)
     det = a * (d * f - e * e) - b * (b * f - c * e) + c * (b * e - c * d)
     scale2 = max(tol, 1e-300) / _TOL
-    return min(a, d, f) >= -tol and min(minors2) >= -tol * scale2 and det >= -tol * scale2 * scale2
+    return min(a, d, f) >= -tol and minor2 >= -tol * scale2 and det >= -tol * scale2 * scale2
+
+
+#: what :func:`entries_failure` found: nothing, a non-finite diagonal, a negative diagonal entry, an indefinite robot block,
+#: an indefinite landmark block
+OK, NONFINITE_DIAGONAL, NEGATIVE_DIAGONAL, ROBOT_BLOCK, LANDMARK_BLOCK = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def entries_failure(d, robot, off, n_robot):
+    """The first failed check on the entries (:data:`OK` … :data:`LANDMARK_BLOCK`, the index k and the offending value), O(N)."""
+    scale = 1.0
+    for i in range(d.size):
+        if not np.isfinite(d[i]):
+            return NONFINITE_DIAGONAL, i, d[i]
+        scale = max(scale, d[i])
+    tol = _TOL * scale
+    k = -1
+    for i in range(d.size):
+        if d[i] < -tol and (k < 0 or d[i] < d[k]):
+            k = i
+    if k >= 0:
+        return NEGATIVE_DIAGONAL, k, d[k]
+    if not _psd3(robot, tol):
+        return ROBOT_BLOCK, 0, 0.0
+    worst, k = np.inf, -1
+    for j in range(off.size):
+        det = d[n_robot + 2 * j] * d[n_robot + 2 * j + 1] - off[j] * off[j]
+        if det < worst:
+            worst, k = det, j
+    if k >= 0 and worst < -tol * scale:
+        return LANDMARK_BLOCK, k, worst
+    return OK, 0, 0.0
+
+
+def entries_error(code: int, k: int, value: float) -> CovarianceError:
+    """The error :func:`check_entries` raises for a failure found by :func:`entries_failure`."""
+    return CovarianceError({NONFINITE_DIAGONAL: "covariance has non-finite diagonal entries",
+                            NEGATIVE_DIAGONAL: f"covariance diagonal entry {k} is negative: {value!r}",
+                            ROBOT_BLOCK: "robot covariance block is not positive semi-definite",
+                            LANDMARK_BLOCK: f"covariance block of landmark slot {k} is not positive semi-definite (det {value!r})"}[code])
 
 
 def covariance_entries(P: np.ndarray, n_robot: int = 3) -> Entries:
@@ -50,26 +88,28 @@ def covariance_entries(P: np.ndarray, n_robot: int = 3) -> Entries:
     return np.diagonal(P).copy(), P[:n_robot, :n_robot].copy(), np.diagonal(P, offset=-1)[n_robot::2].copy()
 
 
-def low_rank_entries(C: np.ndarray, s: np.ndarray, n_robot: int = 3) -> Entries:
-    """The checked entries of ``C diag(s) Cᵀ`` (C N × d), O(N d)."""
-    return _low_rank_entries(np.ascontiguousarray(C, dtype=np.float64), np.ascontiguousarray(s, dtype=np.float64), n_robot)
-
-
 @njit(cache=True)
-def _low_rank_entries(C, s, n_robot):
+def low_rank_entries(C, s, n_robot):
+    """The checked entries of ``C diag(s) Cᵀ`` (C N × d, s (d,)), O(N d)."""
     N, d = C.shape
-    diag, robot, off = np.zeros(N), np.zeros((n_robot, n_robot)), np.zeros((N - n_robot) // 2)
+    diag, robot, off = np.empty(N), np.empty((n_robot, n_robot)), np.empty((N - n_robot) // 2)
     for i in range(N):
+        acc = 0.0
         for k in range(d):
-            diag[i] += C[i, k] * C[i, k] * s[k]
+            acc += C[i, k] * C[i, k] * s[k]
+        diag[i] = acc
     for a in range(n_robot):
         for b in range(n_robot):
+            acc = 0.0
             for k in range(d):
-                robot[a, b] += C[a, k] * C[b, k] * s[k]
+                acc += C[a, k] * C[b, k] * s[k]
+            robot[a, b] = acc
     for j in range(off.size):
         i = n_robot + 2 * j
+        acc = 0.0
         for k in range(d):
-            off[j] += C[i + 1, k] * C[i, k] * s[k]
+            acc += C[i + 1, k] * C[i, k] * s[k]
+        off[j] = acc
     return diag, robot, off
 
 
@@ -86,16 +126,7 @@ def check_augmented(entries: Entries, block: np.ndarray, n_robot: int = 3) -> No
 
 def check_entries(d: np.ndarray, robot: np.ndarray, off: np.ndarray, n_robot: int = 3) -> None:
     """The checks on the entries they read: the diagonal d, the robot block, and ``off[k] = P[s + 1, s]`` of landmark k."""
-    scale = max(float(d.max(initial=0.0)), 1.0)
-    if not np.all(np.isfinite(d)):
-        raise CovarianceError("covariance has non-finite diagonal entries")
-    if d.min(initial=0.0) < -_TOL * scale:
-        k = int(np.argmin(d))
-        raise CovarianceError(f"covariance diagonal entry {k} is negative: {d[k]!r}")
-    if not _psd3(robot, _TOL * scale):
-        raise CovarianceError("robot covariance block is not positive semi-definite")
-    if off.size:
-        det = d[n_robot::2] * d[n_robot + 1::2] - off * off
-        if det.min() < -_TOL * scale * scale:
-            k = int(np.argmin(det))
-            raise CovarianceError(f"covariance block of landmark slot {k} is not positive semi-definite (det {det[k]!r})")
+    code, k, value = entries_failure(np.ascontiguousarray(d, dtype=np.float64), np.ascontiguousarray(robot, dtype=np.float64),
+                                     np.ascontiguousarray(off, dtype=np.float64), n_robot)
+    if code != OK:
+        raise entries_error(code, k, value)

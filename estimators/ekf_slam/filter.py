@@ -123,8 +123,8 @@ from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODEL
 from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
-from .checks import CovarianceError, check_augmented, check_entries, check_innovation_cov, low_rank_entries
-from .kernels import gain_terms, robot_chain
+from .checks import CovarianceError, check_augmented, entries_error, innovation_cov_error
+from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, innovation_one, robot_chain
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -269,6 +269,7 @@ class EKFSLAMParams(Params):
 
 #: absurd inputs overflow to inf/NaN inside a step; the step checks its result before the state changes
 _OVERFLOW_IS_CHECKED = np.errstate(over="ignore", invalid="ignore")
+_NEW, _MATCHED, _REJECTED = int(Decision.NEW), int(Decision.MATCHED), int(Decision.REJECTED)
 
 
 def _matrix(value) -> np.ndarray | None:
@@ -537,16 +538,18 @@ class EKFSLAM:
             pending = np.flatnonzero(decision == Decision.NEW)
         else:
             pending = np.flatnonzero(decision != Decision.REJECTED)
-        for j in pending:
-            if decision[j] == Decision.NEW and ids[j] >= 0 and int(ids[j]) in self._slot:  # id first seen earlier in this set
-                decision[j], slot[j] = Decision.MATCHED, self._slot[int(ids[j])]
-            if decision[j] == Decision.MATCHED:
-                applied = self._update_one(int(slot[j]), z[j, :2], Rz[j])
+        dec, slots, labels = decision.tolist(), slot.tolist(), ids.tolist()   # Python scalars: the loop runs per observation
+        for j in pending.tolist():
+            if dec[j] == _NEW and labels[j] >= 0 and labels[j] in self._slot:   # id first seen earlier in this set
+                dec[j], slots[j] = _MATCHED, self._slot[labels[j]]
+            if dec[j] == _MATCHED:
+                applied = self._update_one(slots[j], z[j, :2], Rz[j])
             else:
-                slot[j] = self._add_landmark(z[j, :2], int(ids[j]) if ids[j] >= 0 else None, Rz[j])
-                applied = slot[j] >= 0
+                slots[j] = self._add_landmark(z[j, :2], labels[j] if labels[j] >= 0 else None, Rz[j])
+                applied = slots[j] >= 0
             if not applied:
-                decision[j], slot[j] = Decision.REJECTED, -1
+                dec[j], slots[j] = _REJECTED, -1
+        decision[:], slot[:] = dec, slots
 
     def _remove_landmarks(self, slots: np.ndarray) -> None:
         """Marginalise landmark slots out of x and P (landmark management); the other slots keep their order."""
@@ -597,17 +600,14 @@ class EKFSLAM:
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
         return decision, slot, d2
 
-    def _jacobians_at(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """H_x (m, 2, 3) and H_m (m, 2, 2) of landmark slots at the chosen linearisation point."""
+    def _linearisation_points(self, slots) -> tuple[np.ndarray, np.ndarray]:
+        """The robot pose (3,) and the positions (k, 2) of landmark slots (k,) the measurement Jacobians are taken at."""
         mode = self.params.jacobians
         if mode == Linearisation.STANDARD:
-            xr, m = self._s.x[:3], self._landmarks()[slots]
-        elif mode in (Linearisation.FEJ, Linearisation.OC):
-            xr, m = self._robot_prior, self._first[slots]
-        else:
-            xr = self._linearisation_pose()
-            m = np.array([self._true_landmark(self._ids[s]) for s in slots]).reshape(-1, 2)
-        return observation_jacobians(xr, m)
+            return self._s.x[:3], self._landmarks()[slots]
+        if mode in (Linearisation.FEJ, Linearisation.OC):
+            return self._robot_prior, self._first[slots]
+        return self._linearisation_pose(), np.array([self._true_landmark(self._ids[s]) for s in slots]).reshape(-1, 2)
 
     def _true_landmark(self, landmark_id: int) -> np.ndarray:
         if landmark_id not in self._truth_landmarks:
@@ -619,22 +619,16 @@ class EKFSLAM:
 
     def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
         """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
-        x = self._s.x
-        s = 3 + 2 * slot
-        idx = [0, 1, 2, s, s + 1]
-        Hx, Hm = self._jacobians_at(np.array([slot]))
-        H = np.concatenate([Hx[0], Hm[0]], axis=1)                     # (2, 5)
-        PHt = self._s.columns(idx) @ H.T                               # (N, 2), the current P's five columns
-        S = H @ PHt[idx] + R                                           # (2, 2)
-        nu = z - observe(x[:3], x[s:s + 2])
-        nu[1] = wrap_angle(nu[1])
-        return self._correct(PHt, 0.5 * (S + S.T), nu)
+        xl, ml = self._linearisation_points([slot])
+        st = self._s
+        PHt, S, nu = innovation_one(st._P, st.n, st._Ut, st._Ust, st._r, 3 + 2 * slot, xl, ml[0], st.x, z, R)  # (N, 2), (2, 2), (2,)
+        return self._correct(PHt, S, nu)
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
         x = self._s.x
         m = slots.size
-        Hx, Hm = self._jacobians_at(slots)
+        Hx, Hm = observation_jacobians(*self._linearisation_points(slots))
         Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
         idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1).ravel()
         N = x.shape[0]
@@ -648,34 +642,26 @@ class EKFSLAM:
     def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> bool:
         """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²).
 
-        Computed and checked before the state changes; returns whether it was applied. Not applied: a
-        non-finite NIS, state step or covariance term (counted per row in ``rejected["nonfinite"]``), an
-        indefinite S or posterior (``on_indefinite``: raise, or count per row and skip).
+        W = PHᵀ L⁻ᵀ (S = L Lᵀ), K = W L⁻¹ = PHᵀ S⁻¹ (N, d), νᵀ S⁻¹ ν = |L⁻¹ ν|², dx = K ν (:func:`.kernels.gain_terms`), and
+        standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
+        Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
+        and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms C diag(s) Cᵀ, deferred (:mod:`.storage`).
+
+        Computed and checked before the state changes (:meth:`.storage.GrowingState.correct`, one compiled call);
+        returns whether it was applied. Not applied: a non-finite NIS, state step or covariance term (counted per row in
+        ``rejected["nonfinite"]``), an indefinite S or posterior (``on_indefinite``: raise, or count per row and skip).
         """
-        d = nu.size
-        try:
-            L = check_innovation_cov(S)                                # S = L Lᵀ, d × d
-            # W = PHᵀ L⁻ᵀ, K = W L⁻¹ = PHᵀ S⁻¹ (N, d), νᵀ S⁻¹ ν = |L⁻¹ ν|², dx = K ν (kernels.gain_terms), and
-            # standard: P − K(PHᵀ)ᵀ = P − W Wᵀ, since K (PHᵀ)ᵀ = PHᵀ S⁻¹ (PHᵀ)ᵀ = W Wᵀ;
-            # Joseph: P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ = P − W Wᵀ + K Dᵀ + D Kᵀ with D = K S − PHᵀ,
-            # and K Dᵀ + D Kᵀ = ½(K + D)(K + D)ᵀ − ½(K − D)(K − D)ᵀ — all symmetric rank-d terms C diag(s) Cᵀ.
-            nis, dx, C, signs = gain_terms(np.ascontiguousarray(PHt), np.ascontiguousarray(S), L, np.ascontiguousarray(nu, dtype=float),
-                                           self.params.covariance_update == CovarianceUpdate.JOSEPH)
-            if not (np.isfinite(nis) and np.isfinite(dx).all() and np.isfinite(C).all()):
-                self.rejected["nonfinite"] += d // 2
-                return False
-            term = low_rank_entries(C, signs)
-            check_entries(*self._s.entries(term))
-        except CovarianceError as exc:
-            self._indefinite(exc, d // 2)
+        rows = nu.size // 2
+        outcome, nis, k, value = self._s.correct(PHt, S, nu, self.params.covariance_update == CovarianceUpdate.JOSEPH)
+        if outcome == NOT_FINITE:
+            self.rejected["nonfinite"] += rows
             return False
-        x = self._s.x
-        x += dx
-        x[2] = wrap_angle(x[2])
-        self._s.defer(C, signs, term)
+        if outcome != APPLIED:
+            self._indefinite(innovation_cov_error(S) if outcome == S_INDEFINITE else entries_error(outcome, k, value), rows)
+            return False
         if not self.params.defer_covariance:
             self._s.flush()
-        self.nis_log.append((float(nis), d))
+        self.nis_log.append((float(nis), nu.size))
         return True
 
     # ------------------------------------------------------------------ new landmarks

@@ -23,6 +23,14 @@ formulas are stated where it is used, ``filter.py``'s ``_correct``): from ``PH�
 innovation covariance S (d × d), its Cholesky factor L and ν, the NIS ``νᵀ S⁻¹ ν``, the state step ``K ν`` and the symmetric
 terms ``C diag(s) Cᵀ`` of the covariance update.
 
+``innovation_one(P, n, Ut, Ust, r, s, x̆_r, m̆, x, z, R)`` is the O(N r) part of one observation of the landmark at
+entries (s, s + 1): ``H`` (2 × 5) at the linearisation point (x̆_r, m̆), ``PHᵀ = P[:, idx] Hᵀ`` read from the
+current P (the stored lower triangle and the pending term ``Ustᵀ Ut``, :mod:`.storage`), ``S = H PHᵀ[idx] + R``
+and ``ν = z − h(x_r, m)`` at the current estimate. ``correct(…)`` is the rest, shared with the batch form: the
+Cholesky factor of S, :func:`gain_terms`, the entries of the update term (:func:`.checks.low_rank_entries`), the
+checks of the entries P would have (:func:`.checks.entries_failure`) and, only if all pass, the commit — x += K ν,
+the term appended to the pending one. One compiled call each, so an observation costs O(N r) plus a few µs.
+
 ``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion of a chain of K predictions,
 ``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with ``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]``,
 and returns every P_k (K, 3, 3).
@@ -35,7 +43,10 @@ import numpy as np
 from numba import njit
 from numba.extending import get_cython_function_address
 
-__all__ = ["update_lower", "mirror_lower", "gain_terms", "robot_chain"]
+from .checks import OK, entries_failure, low_rank_entries
+
+__all__ = ["update_lower", "mirror_lower", "gain_terms", "innovation_one", "correct", "robot_chain",
+           "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
@@ -111,21 +122,151 @@ def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> N
 @njit(cache=True)
 def gain_terms(PHt, S, L, nu, joseph):
     """(νᵀ S⁻¹ ν, K ν, C, s) with S = L Lᵀ, W = PHᵀ L⁻ᵀ, K = W L⁻¹; standard C = W, s = −1; Joseph C = [W, K + D, K − D],
-    s = [−1, ½, −½], D = K S − PHᵀ."""
-    d = L.shape[0]
+    s = [−1, ½, −½], D = K S − PHᵀ. One pass over the N rows (d is small: loops, not BLAS calls)."""
+    N, d = PHt.shape
     Linv = np.linalg.inv(L)
-    W = PHt @ np.ascontiguousarray(Linv.T)
-    K = W @ Linv
+    Sinv_nu = Linv.T @ (Linv @ nu)                              # S⁻¹ ν
     e = Linv @ nu
-    dx = K @ nu
-    if not joseph:
-        return e @ e, dx, W, -np.ones(d)
-    D = K @ S - PHt
-    C = np.empty((PHt.shape[0], 3 * d))
-    C[:, :d], C[:, d:2 * d], C[:, 2 * d:] = W, K + D, K - D
-    s = np.empty(3 * d)
-    s[:d], s[d:2 * d], s[2 * d:] = -1.0, 0.5, -0.5
+    c = 3 * d if joseph else d
+    C = np.empty((N, c))
+    dx = np.empty(N)
+    k_row = np.empty(d)
+    for i in range(N):
+        acc = 0.0
+        for a in range(d):                                      # dx_i = PHᵀ_i S⁻¹ ν;  W_i = PHᵀ_i L⁻ᵀ
+            acc += PHt[i, a] * Sinv_nu[a]
+            w = 0.0
+            for b in range(a + 1):                              # (L⁻ᵀ)[b, a] = L⁻¹[a, b], zero for b > a
+                w += PHt[i, b] * Linv[a, b]
+            C[i, a] = w
+        dx[i] = acc
+        if joseph:
+            for a in range(d):                                  # K_i = W_i L⁻¹
+                w = 0.0
+                for b in range(a, d):                           # L⁻¹[b, a], zero for b < a
+                    w += C[i, b] * Linv[b, a]
+                k_row[a] = w
+            for a in range(d):                                  # D_i = K_i S − PHᵀ_i
+                w = -PHt[i, a]
+                for b in range(d):
+                    w += k_row[b] * S[b, a]
+                C[i, d + a] = k_row[a] + w
+                C[i, 2 * d + a] = k_row[a] - w
+    s = np.empty(c)
+    s[:d] = -1.0
+    if joseph:
+        s[d:2 * d], s[2 * d:] = 0.5, -0.5
     return e @ e, dx, C, s
+
+
+@njit(cache=True)
+def _wrap(a):
+    """a wrapped to (−π, π], as :func:`slamarena.datasets.geometry.wrap_angle`."""
+    return np.pi - (np.pi - a) % (2.0 * np.pi)
+
+
+@njit(cache=True)
+def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
+    """(PHᵀ (n, 2), S (2, 2), ν (2,)) of one range-bearing observation z of the landmark at entries s, s + 1."""
+    dx, dy = ml[0] - xl[0], ml[1] - xl[1]
+    q = dx * dx + dy * dy
+    rq = np.sqrt(q)
+    H = np.array([[-dx / rq, -dy / rq, 0.0, dx / rq, dy / rq],
+                  [dy / q, -dx / q, -1.0, -dy / q, dx / q]])
+    idx = np.array([0, 1, 2, s, s + 1])
+    PHt = np.empty((n, 2))
+    for i in range(n):
+        if i < s:                                             # left of the block: rows s, s + 1 of the lower triangle
+            p3, p4 = P[s, i], P[s + 1, i]
+        elif i == s:
+            p3, p4 = P[s, s], P[s + 1, s]
+        else:                                                 # at and below row s + 1: columns s, s + 1 of the lower triangle
+            p3, p4 = P[i, s], P[i, s + 1]
+        p0, p1, p2 = P[0, i], P[1, i], P[2, i]                # the robot rows are current
+        PHt[i, 0] = H[0, 0] * p0 + H[0, 1] * p1 + H[0, 3] * p3 + H[0, 4] * p4
+        PHt[i, 1] = H[1, 0] * p0 + H[1, 1] * p1 + H[1, 2] * p2 + H[1, 3] * p3 + H[1, 4] * p4
+    # the pending term: P[:, idx] Hᵀ += Ustᵀ (Ut[:, idx] Hᵀ), one contiguous pass over each of its r rows
+    for k in range(r):
+        g0, g1 = 0.0, 0.0
+        for c in range(5):
+            g0 += Ut[k, idx[c]] * H[0, c]
+            g1 += Ut[k, idx[c]] * H[1, c]
+        a = Ust[k]
+        for i in range(n):
+            PHt[i, 0] += a[i] * g0
+            PHt[i, 1] += a[i] * g1
+    S = np.empty((2, 2))
+    for a in range(2):
+        for b in range(2):
+            acc = 0.0
+            for c in range(5):
+                acc += H[a, c] * PHt[idx[c], b]
+            S[a, b] = acc
+    S[0, 1] = S[1, 0] = 0.5 * (S[0, 1] + S[1, 0])
+    S += R
+    ex, ey = x[s] - x[0], x[s + 1] - x[1]
+    nu = np.array([z[0] - np.hypot(ex, ey), _wrap(z[1] - _wrap(np.arctan2(ey, ex) - x[2]))])
+    return PHt, S, nu
+
+
+#: outcomes of :func:`correct` (a positive value: the failed covariance check, :data:`.checks.NEGATIVE_DIAGONAL` …)
+APPLIED, S_INDEFINITE, NOT_FINITE = 0, -1, -2
+
+
+@njit(cache=True)
+def _cholesky(S):
+    """Lower Cholesky factor of the d × d S and whether it exists (every pivot finite and > 0)."""
+    d = S.shape[0]
+    L = np.zeros((d, d))
+    for j in range(d):
+        acc = S[j, j]
+        for k in range(j):
+            acc -= L[j, k] * L[j, k]
+        if not (acc > 0.0 and np.isfinite(acc)):
+            return L, False
+        L[j, j] = np.sqrt(acc)
+        for i in range(j + 1, d):
+            acc = S[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    return L, True
+
+
+@njit(cache=True)
+def correct(PHt, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
+    """Check and, if every check passes, commit one update (``filter.py``'s ``_correct`` states the formulas).
+
+    x (N,) is changed in place, the update's term ``C diag(s) Cᵀ`` written to rows r … r + c of Ut, Ust = (C diag(s))ᵀ
+    and sg = s, its entries added to the pending ones ``pend`` (diagonal (≥N,), robot block, landmark off-diagonals);
+    ``stored``: the entries of the stored P. Returns (outcome, NIS, k, value): :data:`APPLIED`, :data:`S_INDEFINITE`,
+    :data:`NOT_FINITE`, or the code of the failed check with its index and value (:func:`.checks.entries_failure`).
+    """
+    L, ok = _cholesky(S)
+    if not ok:
+        return S_INDEFINITE, np.nan, 0, 0.0
+    nis, dx, C, s = gain_terms(PHt, S, L, nu, joseph)
+    if not (np.isfinite(nis) and np.all(np.isfinite(dx)) and np.all(np.isfinite(C))):
+        return NOT_FINITE, nis, 0, 0.0
+    N, c = C.shape
+    td, tr, to = low_rank_entries(C, s, n_robot)
+    pd, pr, po = pend
+    sd, sr, so = stored
+    m = to.size
+    code, k, value = entries_failure(sd[:N] + pd[:N] + td, sr + pr + tr, so[:m] + po[:m] + to, n_robot)
+    if code != OK:
+        return code, nis, k, value
+    x += dx
+    x[2] = _wrap(x[2])
+    for j in range(c):
+        sg[r + j] = s[j]
+        for i in range(N):
+            Ut[r + j, i] = C[i, j]
+            Ust[r + j, i] = C[i, j] * s[j]
+    pd[:N] += td
+    pr += tr
+    po[:m] += to
+    return APPLIED, nis, 0, 0.0
 
 
 @njit(cache=True)

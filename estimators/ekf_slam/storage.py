@@ -19,7 +19,10 @@ Deferred update. The covariance is ``P = P_stored + U diag(s) Uᵀ`` with a pend
 :meth:`GrowingState.flush` applies in one pass over the lower triangle. While a term is
 pending, an update needs only a few columns of P, which cost O(N r) (:meth:`GrowingState.columns`;
 ``filter.py`` derives why this is the sequential update exactly), and the checked entries of P
-(:meth:`GrowingState.entries`, the pending term's kept incrementally). Entries added while a term
+(:meth:`GrowingState.entries`: the stored P's, read once and kept until the stored P may change — any
+access to :attr:`~GrowingState.stored` or :attr:`~GrowingState.P`, which hand out writable views, a flush, a growth or
+a removal —, plus the pending term's, kept incrementally). :meth:`GrowingState.correct` checks one update
+against them and appends it to the pending term in one compiled call (:func:`.kernels.correct`). Entries added while a term
 is pending (a new landmark) have zero rows in ``U``: their stored cross-covariances were computed
 from the current P, so the earlier terms are already in them.
 """
@@ -28,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import mirror_lower, update_lower
+from .kernels import correct, mirror_lower, update_lower
 
 __all__ = ["GrowingState"]
 
@@ -42,13 +45,18 @@ class GrowingState:
         self._x = np.zeros(capacity)
         self._P = np.zeros((capacity, capacity))
         self._mirrored = True
-        self._Ut, self._Ust = np.zeros((8, capacity)), np.zeros((8, capacity))  # Uᵀ and (U diag(s))ᵀ in rows [:r], kept across sets
-        self._clear()
+        # Uᵀ, (U diag(s))ᵀ and s in rows [:r], kept across sets; the pending term's checked entries (diagonal, robot block,
+        # landmark off-diagonals) and the stored P's (valid while _stored_valid)
+        self._Ut, self._Ust, self._sg = np.zeros((8, capacity)), np.zeros((8, capacity)), np.zeros(8)
+        self._pending = (np.zeros(capacity), np.zeros((3, 3)), np.zeros(capacity // 2))
+        self._stored_entries = (np.zeros(capacity), np.zeros((3, 3)), np.zeros(capacity // 2))
+        self._stored_valid = False
+        self._r = 0
 
     def _clear(self) -> None:
         self._r = 0
-        self._s: list[float] = []
-        self._pending_entries: Entries | None = None
+        for a in self._pending:
+            a[:] = 0.0
 
     @property
     def capacity(self) -> int:
@@ -65,24 +73,34 @@ class GrowingState:
         if not self._mirrored:
             mirror_lower(self._P, self.n)
             self._mirrored = True
+        self._stored_valid = False
         return self._P[: self.n, : self.n]
 
     @property
     def stored(self) -> np.ndarray:
         """The stored covariance without the pending term; current in the lower triangle, the robot rows and ``P[s, s + 1]``."""
+        self._stored_valid = False
         return self._P[: self.n, : self.n]
 
-    def defer(self, C: np.ndarray, s: np.ndarray, term: Entries) -> None:
-        """Add ``C diag(s) Cᵀ`` (C N × d; ``term``: its checked entries, :func:`.checks.low_rank_entries`) to the pending term."""
-        d, r = C.shape[1], self._r
-        if r + d > self._Ut.shape[0]:
-            rows = max(2 * self._Ut.shape[0], r + d)
+    def correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray, joseph: bool) -> tuple[int, float, int, float]:
+        """Check one update (PHᵀ N × d, S d × d, ν d) against the current P's entries and, if it passes, apply x += K ν and
+        append its term to the pending one; :func:`.kernels.correct`'s (outcome, NIS, k, value)."""
+        n, d = self.n, nu.size
+        c = 3 * d if joseph else d
+        if self._r + c > self._Ut.shape[0]:
+            rows = max(2 * self._Ut.shape[0], self._r + c)
             self._Ut, self._Ust = (np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust))
-        self._Ut[r:r + d, : self.n] = C.T
-        self._Ust[r:r + d, : self.n] = (C * s).T
-        self._r += d
-        self._s.extend(np.broadcast_to(s, (d,)).tolist())
-        self._pending_entries = term if self._pending_entries is None else tuple(a + b for a, b in zip(self._pending_entries, term))
+            self._sg = np.concatenate([self._sg, np.zeros(rows - self._sg.size)])
+        if not self._stored_valid:
+            d_, robot, off = covariance_entries(self._P[:n, :n])
+            sd, sr, so = self._stored_entries
+            sd[:n], sr[:], so[:off.size] = d_, robot, off
+            self._stored_valid = True
+        out = correct(np.ascontiguousarray(PHt), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
+                      self._x[:n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
+        if out[0] == 0:
+            self._r += c
+        return out
 
     def columns(self, idx) -> np.ndarray:
         """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
@@ -120,10 +138,12 @@ class GrowingState:
 
     def entries(self, term: Entries | None = None) -> Entries:
         """The checked entries (:mod:`.checks`) of the current P, plus those of a further term if given, O(N)."""
-        d, robot, off = covariance_entries(self.stored)
-        for t in (self._pending_entries, term):
-            if t is not None:
-                d, robot, off = d + t[0], robot + t[1], off + t[2]
+        n = self.n
+        d, robot, off = covariance_entries(self._P[:n, :n])
+        pd, pr, po = self._pending
+        d, robot, off = d + pd[:n], robot + pr, off + po[:off.size]
+        if term is not None:
+            d, robot, off = d + term[0], robot + term[1], off + term[2]
         return d, robot, off
 
     def flush(self) -> None:
@@ -131,11 +151,12 @@ class GrowingState:
         if not self._r:
             return
         n, P = self.n, self._P
-        update_lower(P, n, self._Ut[:self._r, :n], np.asarray(self._s))
+        update_lower(P, n, self._Ut[:self._r, :n], self._sg[:self._r])
         P[:3, 3:n] = P[3:n, :3].T
         P[[0, 0, 1], [1, 2, 2]] = P[[1, 2, 2], [0, 0, 1]]
         P[np.arange(3, n, 2), np.arange(4, n, 2)] = P[np.arange(4, n, 2), np.arange(3, n, 2)]
         self._mirrored = False
+        self._stored_valid = False
         self._clear()
 
     def grow(self, extra: int) -> slice:
@@ -149,13 +170,14 @@ class GrowingState:
             P[:start, :start] = self._P[:start, :start]
             self._x, self._P = x, P
             self._Ut, self._Ust = (np.concatenate([A, np.zeros((A.shape[0], capacity - A.shape[1]))], axis=1) for A in (self._Ut, self._Ust))
+            self._pending = tuple(np.concatenate([a, np.zeros(k - a.size)]) if a.ndim == 1 else a
+                                  for a, k in zip(self._pending, (capacity, 0, capacity // 2)))
+            self._stored_entries = (np.zeros(capacity), np.zeros((3, 3)), np.zeros(capacity // 2))
+        self._stored_valid = False
         self._x[start:stop] = 0.0
         self._P[start:stop, :stop] = 0.0
         self._P[:stop, start:stop] = 0.0
         self._Ut[:, start:stop] = self._Ust[:, start:stop] = 0.0
-        if self._pending_entries is not None:
-            d, robot, off = self._pending_entries
-            self._pending_entries = (np.r_[d, np.zeros(stop - start)], robot, np.r_[off, np.zeros((stop - start) // 2)])
         self.n = stop
         return slice(start, stop)
 
@@ -167,4 +189,5 @@ class GrowingState:
         m = keep.size
         self._x[:m] = self._x[keep]
         self._P[:m, :m] = self._P[np.ix_(keep, keep)]
+        self._stored_valid = False
         self.n = m
