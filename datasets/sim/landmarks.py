@@ -42,14 +42,16 @@ with no landmark in view have no rows.
 
 Visibility uses the true range and bearing: ``range ≤ max_range`` and
 ``|bearing| ≤ fov/2`` (``fov`` is the full field of view; ``2π`` sees all round). With
-``max_observations = m`` only the ``m`` nearest visible landmarks are reported. Within a set
-rows are ordered nearest first. Observations are ``z = h(x, m) + η``,
+``max_observations = m`` only ``m`` visible landmarks are reported: the ``m`` nearest
+(``observation_choice="nearest"``), or ``m`` drawn uniformly at random (``"random"``, its own
+seeded stream: a world whose far landmarks the nearest few would always hide is still mapped
+whole, so the map size is the ``n`` a cost study sweeps). Within a set rows are ordered nearest first. Observations are ``z = h(x, m) + η``,
 ``η ~ N(0, diag(σ_r², σ_b²))``, bearing wrapped to (−π, π]; ``landmark_id`` is the true id
 (``0 … n−1``; a consumer may withhold it). Ranges are not clipped (the clearance keeps them
 well above zero).
 
 Randomness: ``numpy.random.SeedSequence(seed)`` is split into independent streams for the
-landmarks, the control noise and the observation noise, so e.g. changing the sensor noise
+landmarks, the control noise, the observation noise and the random choice of observations, so e.g. changing the sensor noise
 leaves the landmarks and the odometry of a seed unchanged.
 """
 from __future__ import annotations
@@ -158,7 +160,8 @@ class LandmarkWorldParams(Params):
     fov: float = Field(math.pi, gt=0, le=2 * math.pi, description="full field of view, centred ahead [rad]; 2π sees all round")
     sigma_range: float = Field(0.1, ge=0, description="std of the range noise σ_r [m]")
     sigma_bearing: float = Field(math.radians(1.0), ge=0, description="std of the bearing noise σ_b [rad]")
-    max_observations: PositiveInt | None = Field(None, description="keep the nearest m visible landmarks per step; None: all")
+    max_observations: PositiveInt | None = Field(None, description="keep m visible landmarks per step; None: all")
+    observation_choice: Literal["nearest", "random"] = Field("nearest", description="which m of max_observations: the nearest, or drawn at random")
     t0: float = Field(0.0, description="first stamp [s]")
     seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (landmarks, control noise, observation noise)")
 
@@ -189,7 +192,7 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
     start = np.array([-half_a, -half_b - radius, 0.0])
     dts_lap = np.full(v_lap.size, float(dt))
 
-    ss_landmarks, ss_controls, ss_obs = np.random.SeedSequence(p.seed).spawn(3)
+    ss_landmarks, ss_controls, ss_obs, ss_choice = np.random.SeedSequence(p.seed).spawn(4)  # the first three as with spawn(3)
     geo = dict(half_a=half_a, half_b=half_b, radius=radius, band=band, clearance=clearance, density=density,
                lap_poses=kinematics.integrate(p.motion_model, start, v_lap, w_lap, dts_lap))
     xy = LAYOUTS[p.layout](np.random.default_rng(ss_landmarks), n, geo)
@@ -205,6 +208,7 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
 
     # ---------------------------------------------------------------- observations (poses 1..K)
     rows_step, rows_id, rows_r, rows_b = [], [], [], []
+    choice_rng = np.random.default_rng(ss_choice)
     block = max(1, _BLOCK_ELEMENTS // n)
     for lo in range(1, K + 1, block):
         x = truth[lo:lo + block]
@@ -217,10 +221,16 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
         order = np.lexsort((lm, rr, step))  # by step, then nearest first
         step, lm, rr, bb = step[order], lm[order], rr[order], bb[order]
         if p.max_observations is not None:
+            if p.observation_choice == "random":   # rank each step's rows by a random key, keep m, then nearest first again
+                shuffle = np.lexsort((choice_rng.random(step.size), step))
+                step, lm, rr, bb = step[shuffle], lm[shuffle], rr[shuffle], bb[shuffle]
             first = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])
             rank = np.arange(step.size) - np.repeat(first, np.diff(np.r_[first, step.size]))
             keep = rank < p.max_observations
             step, lm, rr, bb = step[keep], lm[keep], rr[keep], bb[keep]
+            if p.observation_choice == "random":
+                order = np.lexsort((lm, rr, step))
+                step, lm, rr, bb = step[order], lm[order], rr[order], bb[order]
         rows_step.append(lo + step)
         rows_id.append(lm)
         rows_r.append(rr)

@@ -65,6 +65,7 @@ from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
 
 from ..models import DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_chain, compose_jacobians
+from ..stepping import StepClock
 from .kernels import sqrt_psd, update_particles
 from .storage import LandmarkStore
 
@@ -94,6 +95,7 @@ class FastSLAMParams(Params):
         "mean", description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), or the ancestral path of the particle of largest final weight")
     initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose the particles are drawn from [m², m², rad²]")
     seed: NonNegativeInt = Field(0, description="seed of the random generator")
+    step_clock: StepClock = Field("wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]")
 
     @model_validator(mode="after")
     def _field_of_view_needs_a_range(self):

@@ -25,8 +25,6 @@ Diagnostics (arrays):
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from slamarena.datasets.estimate import Estimate
@@ -34,7 +32,7 @@ from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 
 from ..models import compose_jacobians
-from ..stepping import last_per_stamp, twist_pieces
+from ..stepping import CLOCKS, last_per_stamp, twist_pieces
 
 __all__ = ["run_sequence", "mixture_moments"]
 
@@ -103,7 +101,8 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
     neff, neff_t, resampled, counts = [], [], [], []
     rejected_motion = 0
     t_now = t_sampled = sequence.t0
-    clock = time.perf_counter()
+    timer = CLOCKS[p.step_clock]
+    clock = timer()
     i = 0
     while i < len(table):
         j = i
@@ -145,7 +144,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
                 D = np.where(k[:, None] >= 0, deltas[np.maximum(k, 0)], before[0]) if deltas.size else np.tile(before[0], (e1 - e0, 1))
                 S = np.where(k[:, None, None] >= 0, Sigmas[np.maximum(k, 0)], before[1]) if deltas.size else np.tile(before[1], (e1 - e0, 1, 1))
                 mean, cov = mixture_moments(slam.x0, slam.weights, D, S)
-                now = time.perf_counter()
+                now = timer()
                 for q in range(e1 - e0):
                     times.append(chain[e0 + q].t)
                     history.chain_event(D[q])
@@ -177,7 +176,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
             resampled.append(slam.last_ancestors is not None)
             live = slam.landmark_counts()
             counts.append((live.min(), live.mean(), live.max()))
-            now = time.perf_counter()
+            now = timer()
             steps.append(now - clock)
             clock = now
         i = j + 1

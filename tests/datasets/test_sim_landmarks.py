@@ -119,6 +119,27 @@ def test_max_observations_keeps_the_nearest():
         np.testing.assert_array_equal(capped.range_bearing.landmark_id[capped.range_bearing.t == t], f)
 
 
+def test_random_choice_observes_every_landmark_the_nearest_hide():
+    """The scaling study's world: ten observations a step; the nearest ten never show the band's far side."""
+    kw = dict(seed=2, n_landmarks=400, density=0.5, max_observations=10)
+    nearest, chosen = simulate(**kw), simulate(**kw, observation_choice="random")
+    assert np.unique(nearest.range_bearing.landmark_id).size < 0.6 * 400
+    assert np.unique(chosen.range_bearing.landmark_id).size == 400
+    np.testing.assert_array_equal(nearest.range_bearing.t, chosen.range_bearing.t)   # ten rows at every step either way
+    # a chosen row is a visible landmark, observed where it is, nearest first within a set
+    truth = chosen.ground_truth.poses[np.searchsorted(chosen.ground_truth.t, chosen.range_bearing.t)]
+    xy = chosen.landmarks.xy[chosen.range_bearing.landmark_id]                 # ids are 0 … n − 1
+    true_range = np.hypot(*(xy - truth[:, :2]).T)
+    assert true_range.max() <= 10.0
+    np.testing.assert_allclose(chosen.range_bearing.range, true_range, atol=6 * 0.1)
+    same_t = chosen.range_bearing.t[1:] == chosen.range_bearing.t[:-1]
+    assert np.all(np.diff(true_range)[same_t] >= 0)
+    np.testing.assert_array_equal(nearest.motion.v, chosen.motion.v)          # the other streams are unchanged
+    np.testing.assert_array_equal(nearest.landmarks.xy, chosen.landmarks.xy)
+    again = simulate(**kw, observation_choice="random")
+    np.testing.assert_array_equal(again.range_bearing.landmark_id, chosen.range_bearing.landmark_id)
+
+
 @pytest.mark.parametrize("layout", sorted(LAYOUTS))
 def test_layouts_lie_in_the_band(layout):
     s = simulate(n_landmarks=120, layout=layout, seed=1)

@@ -485,16 +485,17 @@ def test_run_without_motion_input_maps_from_a_standing_robot():
     assert est.diagnostics["nis"].size == 2 and np.all(est.poses == 0.0)
 
 
-def test_step_time_uses_the_named_clock(sim, monkeypatch):
+@pytest.mark.parametrize("method, params", [("ekf_slam", {}), ("fastslam", {"particles": 4})])
+def test_step_time_uses_the_named_clock(sim, monkeypatch, method, params):
     """step_clock="cpu" times the steps with the CPU clock of estimators.stepping.CLOCKS (here a counter: one tick per reading)."""
-    from slamarena.estimators import stepping
+    from slamarena.estimators import create, stepping
 
     ticks = iter(range(10**6))
     monkeypatch.setitem(stepping.CLOCKS, "cpu", lambda: float(next(ticks)))
-    est = EKFSLAM(step_clock="cpu").run(sim)
+    est = create(method, **params, step_clock="cpu").run(sim)
     readings = next(ticks)  # the clock was read this many times
     assert est.step_time.sum() == pytest.approx(readings - 1)  # the records share the time between the first and the last reading
-    wall = EKFSLAM().run(sim)
+    wall = create(method, **params).run(sim)
     assert next(ticks) == readings + 1 and wall.step_time.sum() < 60  # the wall clock did not read the counter
 
 
