@@ -145,3 +145,22 @@ def test_relations_on_mit_csail():
     # Cartographer's 0.0319 ± 0.0363 but not below it (the goal), and above graph mapping's 0.004 ± 0.009
     assert scores["trans_mean"] < 0.035 and scores["trans_std"] < 0.04
     assert est.meta["loop_closures"] > 50
+
+
+@pytest.mark.realdata
+def test_mit_csail_short_relations_are_the_flaser_increments_moved_by_whole_5cm_cells():
+    """Why MIT-CSAIL's relation error stops near 2.5 cm (research/mapping.md §8): each short relation's translation is
+    the log's FLASER pose increment plus a whole number of 5 cm cells (|difference| = 5 cm · √(a² + b²): 0, 5, 7.07,
+    10 … cm), never anything between — the reference positions are quantised to a 5 cm lattice, and a pose that is
+    right to the millimetre is still half a cell off the reference on average."""
+    from slamarena.datasets.formats import relations
+
+    seq = load_staged("carmen:mit-csail")
+    rel = relations.read(staged("radish_laser_logs/relations/mit-csail.relations"))
+    ipc, odom = np.asarray(seq.meta["scan_ipc_timestamp"]), seq.scans.pose
+    i, j = (np.abs(ipc[None] - t[:, None]).argmin(1) for t in (rel.t1, rel.t2))
+    fresh = np.array([b - a <= 3 and all(np.any(odom[k] != odom[k - 1]) for k in range(a + 1, b + 1)) for a, b in zip(i, j)])
+    cells = np.linalg.norm(rel.se2[fresh, :2] - between(odom[i[fresh]], odom[j[fresh]])[:, :2], axis=1) / 0.05
+    assert fresh.sum() > 1000
+    np.testing.assert_allclose(cells, np.sqrt(np.round(cells**2)), atol=0.02)  # on the lattice, to 1 mm
+    assert 0.4 < np.mean(cells < 0.02) < 0.6 and np.mean((cells > 0.98) & (cells < 1.02)) > 0.25  # half equal, a third one cell off
