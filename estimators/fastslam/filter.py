@@ -66,7 +66,7 @@ from slamarena.params import Covariance2, Covariance3, Field, Params, Probabilit
 
 from ..models import DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_chain, compose_jacobians
 from ..stepping import StepClock
-from .kernels import sqrt_psd, update_particles
+from .kernels import predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
 
 __all__ = ["FastSLAM", "FastSLAMParams"]
@@ -84,6 +84,9 @@ class FastSLAMParams(Params):
     range_bearing_noise: Literal["polar", "cartesian"] = Field(
         "polar", description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)")
     use_ids: bool = Field(True, description="associate by the ids in the data; False: per-particle maximum likelihood")
+    known_confidence: Probability | None = Field(
+        None, description="χ²₂ gate on a labelled row of a mapped landmark: rejected (for every particle) when, for particles of more than "
+                          "half the weight, its d² at the predicted pose is beyond χ²₂(known_confidence) — EKF-SLAM's gate; None: no gate")
     association_confidence: Probability = Field(
         0.9999, description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
                             "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate")
@@ -113,6 +116,7 @@ class FastSLAM:
         self.params = self.Params.of(params, overrides)
         self.model = MOTION_MODELS[self.params.motion_model]
         self.gate = float(chi2.ppf(self.params.association_confidence, 2))
+        self.gate_known = np.inf if self.params.known_confidence is None else float(chi2.ppf(self.params.known_confidence, 2))
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -137,7 +141,7 @@ class FastSLAM:
         self.n_live = np.zeros(M, dtype=np.int64)
         self._slot_of_id: dict[int, int] = {}
         self._id_of_slot: list[int] = []
-        self.rejected = {"nonfinite": 0, "negative_range": 0}
+        self.rejected = {"nonfinite": 0, "negative_range": 0, "gate": 0}
         self.resamplings = 0
 
     @property
@@ -233,6 +237,8 @@ class FastSLAM:
             slots = np.zeros(len(z), dtype=np.int64)
         R = self._noise(z)
         xhat, P = self.predicted()
+        if p.use_ids and np.isfinite(self.gate_known) and len(z):
+            z, slots, R = self._gated(z, slots, R, xhat, P)
         eps = self.rng.standard_normal((self.M, 3))
         poses = np.empty((self.M, 3))
         assoc = np.full((self.M, len(z)), -1, dtype=np.int64)
@@ -255,6 +261,21 @@ class FastSLAM:
         if self.n_eff < p.resample_threshold * self.M:
             self.resample()
         return assoc
+
+    def _gated(self, z, slots, R, xhat, P):
+        """The rows of a labelled set that pass the known-landmark gate (``known_confidence``); the others are counted.
+
+        A row is an outlier when the particles that consider it one — d² = νᵀ L⁻¹ ν at their predicted pose beyond
+        χ²₂(known_confidence), :func:`.kernels.predictive_d2` — hold more than half the weight. Decided once for the
+        row, before any particle uses it, so that it changes no particle or none (a per-particle gate would reward the
+        particles that reject it). A row of a landmark no particle has mapped yet always passes.
+        """
+        d2 = predictive_d2(xhat, P, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, R, self.store.depth,
+                           self.store.roots, self.store.inner_child, self.store.leaf_mu, self.store.leaf_S)
+        outlier = self.weights @ (d2 > self.gate_known) > 0.5      # NaN (not mapped) compares False
+        self.rejected["gate"] += int(outlier.sum())
+        keep = ~outlier
+        return z[keep], slots[keep], R[keep]
 
     def _slot(self, landmark_id: int) -> int:
         if landmark_id not in self._slot_of_id:

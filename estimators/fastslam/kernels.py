@@ -40,7 +40,7 @@ from numba import njit
 
 from .storage import find, writable
 
-__all__ = ["update_particles", "sqrt_psd"]
+__all__ = ["update_particles", "predictive_d2", "sqrt_psd"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -175,6 +175,24 @@ def _predictive(xbar, Sx, mu, S, z, R, use_pose):
     L = _sandwich(Hx, Sx) + Q if use_pose else Q.copy()
     nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
     return nu, L, Hx, Q
+
+
+@njit(cache=True)
+def predictive_d2(xhat, P, z, slots, n_slots, R, depth, roots, inner_child, leaf_mu, leaf_S):
+    """d² (M, k) of every labelled observation z[j] of slot slots[j] in every particle at its predicted pose:
+    ν = z ⊖ h(x̂_m, μ), L = H_x P_m H_xᵀ + H_m Σ H_mᵀ + R_j (the 2.0 proposal's first L), d² = νᵀ L⁻¹ ν;
+    NaN where the particle has not mapped the slot."""
+    M, k = xhat.shape[0], z.shape[0]
+    d2 = np.full((M, k), np.nan)
+    for m in range(M):
+        for j in range(k):
+            if slots[j] < n_slots[m]:
+                leaf, off = find(roots[m], slots[j], depth, inner_child)
+                if leaf >= 0:
+                    nu, L, _, _ = _predictive(xhat[m], P[m], leaf_mu[leaf, off], leaf_S[leaf, off], z[j], R[j], True)
+                    Li, _ = _inv2(L)
+                    d2[m, j] = _quad(nu, Li)
+    return d2
 
 
 @njit(cache=True)

@@ -21,7 +21,8 @@ Diagnostics (arrays):
     resampled               whether that update resampled (bool)
     landmarks_min/mean/max  live landmarks per particle after every update
     best_poses | mean_poses the trajectory not chosen as the estimate's poses
-    rejected_nonfinite, rejected_negative_range, rejected_motion   counts
+    rejected_nonfinite, rejected_negative_range, rejected_gate, rejected_motion   counts (rejected_gate: labelled rows
+                            beyond the known-landmark gate, ``known_confidence``)
 """
 from __future__ import annotations
 
@@ -189,6 +190,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
         "neff": np.asarray(neff), "neff_t": np.asarray(neff_t), "resampled": np.asarray(resampled, dtype=bool),
         "landmarks_min": counts[:, 0], "landmarks_mean": counts[:, 1], "landmarks_max": counts[:, 2],
         "rejected_nonfinite": np.array(slam.rejected["nonfinite"]), "rejected_negative_range": np.array(slam.rejected["negative_range"]),
+        "rejected_gate": np.array(slam.rejected["gate"]),
         "rejected_motion": np.array(rejected_motion),
     }
     if p.trajectory == "mean":

@@ -187,8 +187,30 @@ def test_same_seed_same_run_and_the_estimate_is_complete(small_world):
 def test_bad_rows_are_rejected_and_counted():
     f = FastSLAM(particles=4, seed=0)
     f.update([[np.nan, 0.1, 1], [-1.0, 0.1, 2], [3.0, 0.2, 3]])
-    assert f.rejected == {"nonfinite": 1, "negative_range": 1}
+    assert f.rejected == {"nonfinite": 1, "negative_range": 1, "gate": 0}
     assert list(f.landmarks()[0]) == [3]
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_the_known_landmark_gate_rejects_an_outlier_for_every_particle_and_keeps_true_rows(version):
+    """A labelled row 3 m off its landmark (d² ≈ 900 with σ = 0.1 m) is rejected, counted, and changes no particle and no
+    weight; without the gate it moves the landmark. True rows pass; a landmark's first row always passes."""
+    def filter_(gate):
+        f = FastSLAM(version=version, particles=20, seed=1, known_confidence=gate, range_bearing_cov=[0.01, 1e-4], initial_cov=[1e-4, 1e-4, 1e-5])
+        f.update([[5.0, 0.0, 7], [4.0, 1.0, 8]])
+        return f
+
+    gated, ungated = filter_(0.999), filter_(None)
+    _, before, _ = gated.landmarks()
+    log_w = gated.log_w.copy()
+    gated.update([[8.0, 0.0, 7]])                                   # 3 m beyond landmark 7
+    assert gated.rejected["gate"] == 1
+    np.testing.assert_array_equal(gated.landmarks()[1], before)
+    np.testing.assert_array_equal(gated.log_w, log_w - log_w.max())
+    ungated.update([[8.0, 0.0, 7]])
+    assert np.abs(ungated.landmarks()[1][0] - before[0]).max() > 0.1
+    gated.update([[5.02, 0.001, 7], [3.98, 1.0, 8], [6.0, -1.0, 9]])   # true rows and a new landmark
+    assert gated.rejected["gate"] == 1 and list(gated.landmarks()[0]) == [7, 8, 9]
 
 
 def test_parameters_are_typed():
