@@ -124,7 +124,7 @@ from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, entries_error, innovation_cov_error
-from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, innovation_one, robot_chain
+from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, robot_chain
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -620,8 +620,7 @@ class EKFSLAM:
     def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
         """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
         xl, ml = self._linearisation_points([slot])
-        st = self._s
-        PHt, S, nu = innovation_one(st._P, st.n, st._Ut, st._Ust, st._r, 3 + 2 * slot, xl, ml[0], st.x, z, R)  # (N, 2), (2, 2), (2,)
+        PHt, S, nu = self._s.innovation(3 + 2 * slot, xl, ml[0], z, R)  # (N, 2), (2, 2), (2,)
         return self._correct(PHt, S, nu)
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import correct, mirror_lower, update_lower
+from .kernels import correct, innovation_one, mirror_lower, update_lower
 
 __all__ = ["GrowingState"]
 
@@ -81,6 +81,11 @@ class GrowingState:
         """The stored covariance without the pending term; current in the lower triangle, the robot rows and ``P[s, s + 1]``."""
         self._stored_valid = False
         return self._P[: self.n, : self.n]
+
+    def innovation(self, s: int, x_lin: np.ndarray, m_lin: np.ndarray, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(PHᵀ (N, 2), S (2, 2), ν (2,)) of a range-bearing observation z of the landmark at entries s, s + 1, H taken at
+        (x_lin, m_lin), from the current P (:func:`.kernels.innovation_one`), O(N (r + 1))."""
+        return innovation_one(self._P, self.n, self._Ut, self._Ust, self._r, s, x_lin, m_lin, self.x, z, R)
 
     def correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray, joseph: bool) -> tuple[int, float, int, float]:
         """Check one update (PHᵀ N × d, S d × d, ν d) against the current P's entries and, if it passes, apply x += K ν and
