@@ -40,7 +40,9 @@ iSAM2's relinearisation (:class:`~.graph.RelinearizationParams`), the final upda
 stiffness rule's ε and the clock of ``step_time``.
 
 ``Estimate``: the final smoothed poses (one per key) and landmarks; covariances from
-``ISAM2.marginalCovariance`` (poses converted to the world frame); ``step_time[k]`` = wall time
+``ISAM2.marginalCovariance`` (poses converted to the world frame); with ``output="online"`` the poses are the
+online estimates instead (``online_poses`` below, no pose covariances: iSAM2 does not compute the marginal of x_k at
+step k), the landmarks still the final ones; ``step_time[k]`` = wall time
 (``step_clock="cpu"``: CPU time) of update k plus reading x̂_k, like the filters' per-event time. ``diagnostics``:
 ``online_poses`` (K, 3) — the estimate of x_k right after step k (what a filter would have had),
 ``relinearized`` (K,) variables relinearised per step, ``final_updates_used``, ``final_change``,
@@ -80,6 +82,8 @@ class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
         1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]")
     factorization: Literal["CHOLESKY", "QR"] = Field("CHOLESKY", description="iSAM2's factorisation of the linearised system")
     step_clock: StepClock = Field("wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]")
+    output: Literal["smoothed", "online"] = Field(
+        "smoothed", description="the Estimate's poses: the final smoothed ones, or each x̂_k right after step k (what a filter has)")
     uncertainty_floor: float | None = Field(
         2.0**-22, gt=0.0, lt=1.0, description="ε of the stiffness rule: no between factor stiffer in any direction than ε times the "
                                               "uncertainty of the poses it joins (noise.floor_to_uncertainty) [1]; None: factors as given")
@@ -193,6 +197,8 @@ class ISAM2Smoother(LandmarkSmoother):
             "between_cov": between_cov,
             **problem.counts,
         }
+        if self.params.output == "online":
+            poses, pose_cov = online, None
         return Estimate(
             method="gtsam_isam2", t=problem.t, poses=poses, pose_cov=pose_cov, landmark_ids=ids, landmarks=landmarks,
             landmark_cov=landmark_cov, step_time=step_time, diagnostics=diagnostics,

@@ -1,6 +1,6 @@
-"""The claims research/results.md makes in prose, asserted on the shipped configs that regenerate its tables, run at
-reduced size (slow; `pytest -m slow`). The Monte Carlo consistency claims: tests/estimators/test_ekf_slam_consistency.py;
-the pose graphs: tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
+"""The claims research/results.md and research/graph_slam.md §8 make in prose, asserted on the shipped configs that
+regenerate their tables, run at reduced size (slow; `pytest -m slow`). The Monte Carlo consistency claims:
+tests/estimators/test_ekf_slam_consistency.py; the pose graphs: tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
 from __future__ import annotations
 
 import pandas as pd
@@ -37,3 +37,31 @@ def test_plaza_the_range_offset_matters_more_than_the_estimator(tmp_path):
     m = _means(config, tmp_path).loc["plaza_Plaza2"]
     assert m.at["ekf_localizer_bias", "ate.rmse"] < m.at["ekf_localizer", "ate.rmse"]
     assert m.at["gtsam_batch", "ate.rmse"] < m.at["ekf_localizer_bias", "ate.rmse"]
+
+
+def test_smoothers_the_final_answer_beats_the_filter_and_the_online_estimates_match_it(tmp_path):
+    """graph_slam.md §8, sim:landmarks: the smoothed answer (batch = iSAM2 final) is more accurate than EKF-SLAM, and iSAM2's
+    online estimates — the information a filter has — are in the filter's class, not the smoother's."""
+    config = load_config("smoothers").reduced(datasets=["landmarks"], seeds=3)
+    m = _means(config, tmp_path).loc["landmarks"]
+    assert m.at["gtsam_batch", "ate.rmse"] == pytest.approx(m.at["gtsam_isam2", "ate.rmse"], rel=1e-3)
+    assert m.at["gtsam_batch", "ate.rmse"] < 0.8 * m.at["ekf_slam", "ate.rmse"]
+    assert m.at["gtsam_isam2_online", "ate.rmse"] > m.at["gtsam_isam2", "ate.rmse"]
+    assert m.at["gtsam_isam2_online", "ate.rmse"] < 1.5 * m.at["ekf_slam", "ate.rmse"]
+
+
+def test_smoothers_a_lag_beats_the_online_fixed_lag_output_which_is_the_ekf(tmp_path):
+    """graph_slam.md §8, sim:localization: online, the fixed-lag smoother is the EKF localizer (ATE within 5 %); smoothed with
+    a lag it is better, the more so the longer the lag."""
+    config = load_config("smoothers").reduced(datasets=["localization"], seeds=3)
+    m = _means(config, tmp_path).loc["localization"]
+    assert m.at["gtsam_fixed_lag_online", "ate.rmse"] == pytest.approx(m.at["ekf_localizer", "ate.rmse"], rel=0.05)
+    assert m.at["gtsam_fixed_lag_lag2", "ate.rmse"] < m.at["gtsam_fixed_lag_lag0_5", "ate.rmse"] < m.at["gtsam_fixed_lag_online", "ate.rmse"]
+
+
+def test_smoother_consistency_the_batch_smoother_is_in_the_band(tmp_path):
+    """graph_slam.md §8: the batch smoother's seed-averaged pose NEES is inside the χ² band of the average at most stamps."""
+    config = load_config("smoother_consistency").reduced(seeds=20)
+    assert run_experiment(config, tmp_path, jobs=2) == 0
+    mc = pd.read_csv(tmp_path / "tables" / "monte_carlo.csv")
+    assert float(mc["in_band"].iloc[0]) > 0.8
