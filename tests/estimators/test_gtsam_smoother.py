@@ -107,6 +107,17 @@ def test_isam2_final_equals_batch(seq, batch):
     assert online < 0.3 * dead_reckoning
 
 
+def test_isam2_online_output_is_each_pose_right_after_its_update(seq, batch):
+    """output='online': the Estimate's poses are the online estimates (diagnostics), without pose covariances; the
+    landmarks are still the final ones."""
+    smoothed = ISAM2Smoother().run(seq)
+    online = ISAM2Smoother(output="online").run(seq)
+    np.testing.assert_array_equal(online.poses, smoothed.diagnostics["online_poses"])
+    assert online.pose_cov is None and online.landmark_cov is not None
+    np.testing.assert_array_equal(online.landmarks, smoothed.landmarks)
+    assert np.abs(_world_error(online.poses, batch.poses)).max() > 1e-3   # not the smoothed answer
+
+
 def test_isam2_without_final_updates_differs_from_batch(seq, batch):
     """The final updates are what make iSAM2 equal batch (with GTSAM's default thresholds)."""
     est = ISAM2Smoother(final_updates=0, covariances=False).run(seq)
