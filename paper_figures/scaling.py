@@ -25,7 +25,7 @@ from matplotlib.ticker import NullFormatter
 from .runs import FigureSkipped, by, load_runs
 from .style import PAGE, MethodStyles, figure, save
 
-__all__ = ["plot", "find_sweeps", "fit_slope", "crossovers", "EXTRAPOLATE"]
+__all__ = ["plot", "find_sweeps", "fit_slope", "crossovers", "spread", "EXTRAPOLATE"]
 
 COSTS = (("cost/step_median", "median step time [s]"), ("cost/step_total", "total step time [s]"), ("cost/wall", "wall time [s]"))
 EXTRAPOLATE = 10.0
@@ -35,6 +35,32 @@ def fit_slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """(slope b, intercept a) of the least-squares line log y = a + b log x."""
     b, a = np.polyfit(np.log(x), np.log(y), 1)
     return float(b), float(a)
+
+
+def spread(levels: np.ndarray, gap: float) -> np.ndarray:
+    """Label positions (same order as ``levels``) at least ``gap`` apart and as close to ``levels`` as the gap allows: each
+    run of labels closer than the gap is centred on its mean and spaced by the gap (the exponents written at the lines'
+    ends, in log10 units, so that two lines ending close together keep legible labels)."""
+    order = np.argsort(levels, kind="stable")
+    groups = [[float(levels[i])] for i in order]
+    merged = True
+    while merged:                                             # merge neighbouring groups whose spaced extents overlap
+        merged = False
+        out, centres = [], []
+        for g in groups:
+            centre = float(np.mean(g))
+            if out and centre - (len(g) - 1) * gap / 2 < centres[-1] + (len(out[-1]) - 1) * gap / 2 + gap:
+                out[-1] += g
+                centres[-1] = float(np.mean(out[-1]))
+                merged = True
+            else:
+                out.append(list(g))
+                centres.append(centre)
+        groups = out
+    positions = np.concatenate([np.mean(g) + (np.arange(len(g)) - (len(g) - 1) / 2) * gap for g in groups])
+    result = np.empty_like(positions)
+    result[order] = positions
+    return result
 
 
 def crossovers(fits: dict[str, tuple[float, float]]) -> list[tuple[str, str, float]]:
@@ -90,6 +116,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         for ax, (key, label) in zip(axes[0], COSTS):
             metric, output = key.split("/")
             fits = {}
+            labels = []                                       # (x, log10 y, text, colour) of each fitted line's end
             for (estimator,), group in by(swept, "estimator").items():
                 points = {}
                 for r in group:
@@ -105,7 +132,12 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 style = styles(estimator)
                 ax.loglog(x, y, marker="o", markersize=3, color=style["color"], linestyle="none")
                 ax.loglog(x, np.exp(a) * x**b, color=style["color"], linestyle=style["linestyle"], label=estimator)
-                ax.annotate(f"{b:.2f}", (x[-1], np.exp(a) * x[-1] ** b), xytext=(3, 0), textcoords="offset points", fontsize=6, color=style["color"], va="center")
+                labels.append((x[-1], np.log10(np.exp(a) * x[-1] ** b), f"{b:.2f}", style["color"]))
+            if labels:
+                low, high = np.log10(ax.get_ylim())
+                at = spread(np.array([lv for _, lv, _, _ in labels]), 0.07 * (high - low))   # ≈ one 6 pt line of the axis
+                for (xe, _, text, colour), lv in zip(labels, at):
+                    ax.annotate(text, (xe, 10**lv), xytext=(3, 0), textcoords="offset points", fontsize=6, color=colour, va="center")
             for slower, faster, x_star in crossovers(fits):
                 if lo <= x_star <= hi:
                     b, a = fits[slower]
@@ -114,7 +146,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 elif lo / EXTRAPOLATE <= x_star <= hi * EXTRAPOLATE:
                     notes.append(f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, outside the sweep (extrapolated)")
             ticks = sorted(set(values.values()))
-            ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
+            ax.set_xticks(ticks, [f"{v:g}" for v in ticks], rotation=45 if len(ticks) > 5 else 0)   # a third of a page: 7 labels crowd
             ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel(param)
             ax.set_ylabel(label)

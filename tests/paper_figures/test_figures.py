@@ -307,3 +307,16 @@ def test_nothing_to_draw_is_reported_not_raised(tmp_path):
 
     written, skipped = make_all(tmp_path, verbose=False)
     assert written == [] and set(skipped) == set(KINDS)
+
+
+def test_exponent_labels_keep_their_order_and_a_gap_and_move_only_when_crowded():
+    from slamarena.paper_figures.scaling import spread
+
+    far = np.array([0.0, 1.0, -2.0])
+    np.testing.assert_array_equal(spread(far, 0.1), far)                      # far apart: where the lines end
+    close = np.array([1.00, 1.02, -3.0, 1.01])
+    at = spread(close, 0.1)
+    order = np.argsort(close, kind="stable")
+    assert np.all(np.diff(at[order]) >= 0.1 - 1e-12)                          # spaced by the gap, in the lines' order
+    assert at[2] == -3.0                                                      # the lone label does not move
+    assert np.mean(at[[0, 1, 3]]) == pytest.approx(np.mean(close[[0, 1, 3]]))   # the crowd is centred where it was
