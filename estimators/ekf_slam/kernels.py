@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 from numba.extending import get_cython_function_address
 
+from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
 __all__ = ["update_lower", "mirror_lower", "gain_terms", "innovation_one", "correct", "robot_chain",
@@ -160,19 +161,12 @@ def gain_terms(PHt, S, L, nu, joseph):
 
 
 @njit(cache=True)
-def _wrap(a):
-    """a wrapped to (−π, π], as :func:`slamarena.datasets.geometry.wrap_angle`."""
-    return np.pi - (np.pi - a) % (2.0 * np.pi)
-
-
-@njit(cache=True)
 def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
     """(PHᵀ (n, 2), S (2, 2), ν (2,)) of one range-bearing observation z of the landmark at entries s, s + 1."""
-    dx, dy = ml[0] - xl[0], ml[1] - xl[1]
-    q = dx * dx + dy * dy
-    rq = np.sqrt(q)
-    H = np.array([[-dx / rq, -dy / rq, 0.0, dx / rq, dy / rq],
-                  [dy / q, -dx / q, -1.0, -dy / q, dx / q]])
+    zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+    range_bearing(xl, ml, zhat, Hx, Hm)                      # H = [H_x, H_m] at the linearisation point
+    H = np.empty((2, 5))
+    H[:, :3], H[:, 3:] = Hx, Hm
     idx = np.array([0, 1, 2, s, s + 1])
     PHt = np.empty((n, 2))
     for i in range(n):
@@ -204,8 +198,8 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
             S[a, b] = acc
     S[0, 1] = S[1, 0] = 0.5 * (S[0, 1] + S[1, 0])
     S += R
-    ex, ey = x[s] - x[0], x[s + 1] - x[1]
-    nu = np.array([z[0] - np.hypot(ex, ey), _wrap(z[1] - _wrap(np.arctan2(ey, ex) - x[2]))])
+    range_bearing(x[:3], x[s:s + 2], zhat, Hx, Hm)          # h at the current estimate
+    nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
     return PHt, S, nu
 
 
@@ -257,7 +251,7 @@ def correct(PHt, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
     if code != OK:
         return code, nis, k, value
     x += dx
-    x[2] = _wrap(x[2])
+    x[2] = wrap(x[2])
     for j in range(c):
         sg[r + j] = s[j]
         for i in range(N):

@@ -4,7 +4,7 @@
 For particle m with predicted pose x̂ (3,) and predicted pose covariance P (3, 3) (the motion since the last
 sampling, :mod:`.filter`), an observation set z (k, 2) with noise R (2, 2) per observation:
 
-Observation model of landmark μ (2,) from pose x (:mod:`slamarena.estimators.models`, written out here):
+Observation model of landmark μ (2,) from pose x (:mod:`slamarena.estimators.models`; compiled: :mod:`slamarena.estimators.kernels`):
     δ = μ − p, q = δᵀδ, r = √q
     h = (r, atan2(δy, δx) − θ),  H_m = [[δx/r, δy/r], [−δy/q, δx/q]] (2, 2),
     H_x = [[−δx/r, −δy/r, 0], [δy/q, −δx/q, −1]] (2, 3)
@@ -38,16 +38,12 @@ import math
 import numpy as np
 from numba import njit
 
+from ..kernels import range_bearing, wrap
 from .storage import find, writable
 
 __all__ = ["update_particles", "predictive_d2", "sqrt_psd"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
-
-
-@njit(cache=True)
-def _wrap(a):
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True)
@@ -95,26 +91,6 @@ def sqrt_psd(P):
 
 
 @njit(cache=True)
-def _observe(x, mu, zhat, Hx, Hm):
-    dx = mu[0] - x[0]
-    dy = mu[1] - x[1]
-    q = dx * dx + dy * dy
-    r = math.sqrt(q)
-    zhat[0] = r
-    zhat[1] = _wrap(math.atan2(dy, dx) - x[2])
-    Hm[0, 0] = dx / r
-    Hm[0, 1] = dy / r
-    Hm[1, 0] = -dy / q
-    Hm[1, 1] = dx / q
-    Hx[0, 0] = -Hm[0, 0]
-    Hx[0, 1] = -Hm[0, 1]
-    Hx[0, 2] = 0.0
-    Hx[1, 0] = -Hm[1, 0]
-    Hx[1, 1] = -Hm[1, 1]
-    Hx[1, 2] = -1.0
-
-
-@njit(cache=True)
 def _inv2(S):
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
     out = np.empty((2, 2))
@@ -131,11 +107,11 @@ def _landmark_update(x, mu, S, z, R, out_mu, out_S):
     zhat = np.empty(2)
     Hx = np.empty((2, 3))
     Hm = np.empty((2, 2))
-    _observe(x, mu, zhat, Hx, Hm)
+    range_bearing(x, mu, zhat, Hx, Hm)
     Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
     Q = _sandwich(Hm, Sig) + R
     Qi, det = _inv2(Q)
-    nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
+    nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
     d2 = _quad(nu, Qi)
     K = _mm(_mm(Sig, Hm.T), Qi)
     new_mu = mu + _mm(K, nu)
@@ -169,11 +145,11 @@ def _predictive(xbar, Sx, mu, S, z, R, use_pose):
     zhat = np.empty(2)
     Hx = np.empty((2, 3))
     Hm = np.empty((2, 2))
-    _observe(xbar, mu, zhat, Hx, Hm)
+    range_bearing(xbar, mu, zhat, Hx, Hm)
     Sig = np.array([[S[0], S[1]], [S[1], S[2]]])
     Q = _sandwich(Hm, Sig) + R
     L = _sandwich(Hx, Sx) + Q if use_pose else Q.copy()
-    nu = np.array([z[0] - zhat[0], _wrap(z[1] - zhat[1])])
+    nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
     return nu, L, Hx, Q
 
 
@@ -278,7 +254,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
             elif not known:
                 log_w[m] += log_p0
         x = xbar + _mm(sqrt_psd(Sx), eps[m]) if version == 2 else xbar
-        x[2] = _wrap(x[2])
+        x[2] = wrap(x[2])
         poses_out[m] = x
         # landmark updates at the sampled pose
         new_mu = np.empty(2)
@@ -309,7 +285,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
             for s in range(n):
                 if states[s] == 0 or taken[s]:
                     continue
-                _observe(x, mus[s], zhat, Hx, Hm)
+                range_bearing(x, mus[s], zhat, Hx, Hm)
                 if zhat[0] <= max_range and abs(zhat[1]) <= half_fov:
                     leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
                                          free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)

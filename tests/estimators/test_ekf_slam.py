@@ -69,6 +69,24 @@ def test_efficient_filter_matches_literal_dense_reference(sim, kw):
     np.testing.assert_array_equal(ekf.landmark_ids, ref.ids)
 
 
+def test_the_compiled_range_bearing_model_is_the_numpy_one():
+    """estimators.kernels.range_bearing (EKF-SLAM's and FastSLAM's kernels) against models.observe / observation_jacobians."""
+    from slamarena.estimators.kernels import range_bearing
+    from slamarena.estimators.models import observation_jacobians
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        x, m = rng.uniform(-10, 10, 3), rng.uniform(-10, 10, 2)
+        zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+        range_bearing(x, m, zhat, Hx, Hm)
+        z = observe(x, m)
+        assert zhat[0] == pytest.approx(z[0], rel=1e-14)
+        assert abs(wrap_angle(zhat[1] - z[1])) < 1e-12
+        Hx_np, Hm_np = observation_jacobians(x, m)
+        np.testing.assert_allclose(Hx, Hx_np, rtol=1e-13, atol=1e-15)
+        np.testing.assert_allclose(Hm, Hm_np, rtol=1e-13, atol=1e-15)
+
+
 def test_full_state_jacobians_match_finite_differences():
     """G_N (N×N) of the prediction and H (2×N) of one observation, as the filter builds them."""
     rng = np.random.default_rng(0)
