@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import correct, innovation_one, mirror_lower, update_lower
+from .kernels import APPLIED, correct, innovation_one, mirror_lower, update_lower
 
 __all__ = ["GrowingState"]
 
@@ -103,7 +103,7 @@ class GrowingState:
             self._stored_valid = True
         out = correct(np.ascontiguousarray(PHt), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
                       self._x[:n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
-        if out[0] == 0:
+        if out[0] == APPLIED:
             self._r += c
         return out
 
@@ -141,15 +141,12 @@ class GrowingState:
         """The current ``P[idx, :]``."""
         return self.columns(idx).T
 
-    def entries(self, term: Entries | None = None) -> Entries:
-        """The checked entries (:mod:`.checks`) of the current P, plus those of a further term if given, O(N)."""
+    def entries(self) -> Entries:
+        """The checked entries (:mod:`.checks`) of the current P, O(N)."""
         n = self.n
         d, robot, off = covariance_entries(self._P[:n, :n])
         pd, pr, po = self._pending
-        d, robot, off = d + pd[:n], robot + pr, off + po[:off.size]
-        if term is not None:
-            d, robot, off = d + term[0], robot + term[1], off + term[2]
-        return d, robot, off
+        return d + pd[:n], robot + pr, off + po[:off.size]
 
     def flush(self) -> None:
         """Apply the pending term to the lower triangle (one pass), then the robot rows and the landmark blocks' upper entries."""
