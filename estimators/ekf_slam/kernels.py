@@ -126,8 +126,8 @@ def gain_terms(PHt, S, L, nu, joseph):
     s = [−1, ½, −½], D = K S − PHᵀ. One pass over the N rows (d is small: loops, not BLAS calls)."""
     N, d = PHt.shape
     Linv = np.linalg.inv(L)
-    Sinv_nu = Linv.T @ (Linv @ nu)                              # S⁻¹ ν
-    e = Linv @ nu
+    e = Linv @ nu                                               # L⁻¹ ν: NIS = eᵀe
+    Sinv_nu = Linv.T @ e                                        # S⁻¹ ν
     c = 3 * d if joseph else d
     C = np.empty((N, c))
     dx = np.empty(N)

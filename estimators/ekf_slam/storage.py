@@ -96,11 +96,7 @@ class GrowingState:
             rows = max(2 * self._Ut.shape[0], self._r + c)
             self._Ut, self._Ust = (np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust))
             self._sg = np.concatenate([self._sg, np.zeros(rows - self._sg.size)])
-        if not self._stored_valid:
-            d_, robot, off = covariance_entries(self._P[:n, :n])
-            sd, sr, so = self._stored_entries
-            sd[:n], sr[:], so[:off.size] = d_, robot, off
-            self._stored_valid = True
+        self._refresh_stored_entries()
         out = correct(np.ascontiguousarray(PHt), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
                       self._x[:n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
         if out[0] == APPLIED:
@@ -141,12 +137,21 @@ class GrowingState:
         """The current ``P[idx, :]``."""
         return self.columns(idx).T
 
+    def _refresh_stored_entries(self) -> None:
+        """Read the stored P's checked entries into their cache if the stored P may have changed since, O(N)."""
+        if not self._stored_valid:
+            n = self.n
+            d, robot, off = covariance_entries(self._P[:n, :n])
+            sd, sr, so = self._stored_entries
+            sd[:n], sr[:], so[:off.size] = d, robot, off
+            self._stored_valid = True
+
     def entries(self) -> Entries:
-        """The checked entries (:mod:`.checks`) of the current P, O(N)."""
-        n = self.n
-        d, robot, off = covariance_entries(self._P[:n, :n])
-        pd, pr, po = self._pending
-        return d + pd[:n], robot + pr, off + po[:off.size]
+        """The checked entries (:mod:`.checks`) of the current P: the stored P's (cached) plus the pending term's, O(N)."""
+        self._refresh_stored_entries()
+        n, m = self.n, (self.n - 3) // 2
+        (sd, sr, so), (pd, pr, po) = self._stored_entries, self._pending
+        return sd[:n] + pd[:n], sr + pr, so[:m] + po[:m]
 
     def flush(self) -> None:
         """Apply the pending term to the lower triangle (one pass), then the robot rows and the landmark blocks' upper entries."""
