@@ -47,11 +47,13 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+from numba import njit
 from scipy.linalg import block_diag
 from scipy.special import gammaincinv
 
 from slamarena.datasets.geometry import wrap_angle
 
+from ..kernels import range_bearing, wrap
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
@@ -118,13 +120,44 @@ def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) ->
 
 
 def pair_d2(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, slots: np.ndarray) -> np.ndarray:
-    """Mahalanobis d² (k,) of observation z[j] (k, 2) with noise R[j] (k, 2, 2) against landmark slots[j]."""
+    """Mahalanobis d² (k,) of observation z[j] (k, 2) with noise R[j] (k, 2, 2) against landmark slots[j] — the formulas
+    of the compatibility test for k given pairs, one compiled loop (:func:`_pair_d2`)."""
     if slots.size == 0:
         return np.zeros(0)
-    zhat, HPHt = _innovation_cov(x, P, slots)
-    nu = z - zhat
-    nu[:, 1] = wrap_angle(nu[:, 1])
-    return _mahalanobis(nu, HPHt + R)
+    d2, ok = _pair_d2(x, P, np.ascontiguousarray(slots, dtype=np.int64), np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
+    if not ok:
+        raise CovarianceError("an innovation covariance is not positive definite")
+    return d2
+
+
+@njit(cache=True)
+def _pair_d2(x, P, slots, z, R):
+    """d² of each pair from the robot block, the robot rows and the landmark's 2 × 2 block of P; whether every S is PD."""
+    k = slots.size
+    d2 = np.empty(k)
+    zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+    H = np.empty((2, 5))
+    idx = np.empty(5, dtype=np.int64)
+    idx[:3] = np.arange(3)
+    for j in range(k):
+        e = 3 + 2 * slots[j]
+        idx[3], idx[4] = e, e + 1
+        range_bearing(x[:3], x[e:e + 2], zhat, Hx, Hm)
+        H[:, :3], H[:, 3:] = Hx, Hm
+        S = R[j].copy()
+        for a in range(2):
+            for b in range(2):
+                acc = 0.0
+                for c in range(5):
+                    for d in range(5):
+                        acc += H[a, c] * P[idx[c], idx[d]] * H[b, d]
+                S[a, b] += acc
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        if not (det > 0.0 and S[0, 0] > 0.0):
+            return d2, False
+        n0, n1 = z[j, 0] - zhat[0], wrap(z[j, 1] - zhat[1])
+        d2[j] = (S[1, 1] * n0 * n0 - (S[0, 1] + S[1, 0]) * n0 * n1 + S[0, 0] * n1 * n1) / det
+    return d2, True
 
 
 def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:
@@ -234,7 +267,7 @@ class LandmarkBook:
 
     def observe(self, t: float, matched: np.ndarray, predicted: np.ndarray) -> np.ndarray:
         """After a set at time t: ``matched`` slots (k,), ``predicted`` (range, bearing) (n, 2) of every slot before the set
-        (landmarks created in the set: NaN). Returns the slots to remove (ascending)."""
+        (landmarks created in the set: NaN; None without the quality counter). Returns the slots to remove (ascending)."""
         np.add.at(self.seen, matched, 1)
         hit = np.zeros(self.seen.size, dtype=bool)
         hit[matched] = True

@@ -50,28 +50,24 @@ OK, NONFINITE_DIAGONAL, NEGATIVE_DIAGONAL, ROBOT_BLOCK, LANDMARK_BLOCK = 0, 1, 2
 
 @njit(cache=True)
 def entries_failure(d, robot, off, n_robot):
-    """The first failed check on the entries (:data:`OK` … :data:`LANDMARK_BLOCK`, the index k and the offending value), O(N)."""
-    scale = 1.0
-    for i in range(d.size):
-        if not np.isfinite(d[i]):
-            return NONFINITE_DIAGONAL, i, d[i]
-        scale = max(scale, d[i])
+    """The first failed check on the entries (:data:`OK` … :data:`LANDMARK_BLOCK`, the index k and the offending value), O(N).
+
+    Whole-array reductions first (vectorised); the offending index is searched only when a check fails."""
+    if not np.all(np.isfinite(d)):
+        k = np.flatnonzero(~np.isfinite(d))[0]
+        return NONFINITE_DIAGONAL, k, d[k]
+    scale = max(1.0, d.max())
     tol = _TOL * scale
-    k = -1
-    for i in range(d.size):
-        if d[i] < -tol and (k < 0 or d[i] < d[k]):
-            k = i
-    if k >= 0:
+    k = np.argmin(d)                                             # the most negative entry, if any is below −tol
+    if d[k] < -tol:
         return NEGATIVE_DIAGONAL, k, d[k]
     if not _psd3(robot, tol):
         return ROBOT_BLOCK, 0, 0.0
-    worst, k = np.inf, -1
-    for j in range(off.size):
-        det = d[n_robot + 2 * j] * d[n_robot + 2 * j + 1] - off[j] * off[j]
-        if det < worst:
-            worst, k = det, j
-    if k >= 0 and worst < -tol * scale:
-        return LANDMARK_BLOCK, k, worst
+    if off.size:
+        det = d[n_robot:n_robot + 2 * off.size:2] * d[n_robot + 1:n_robot + 2 * off.size:2] - off * off
+        k = np.argmin(det)
+        if det[k] < -tol * scale:
+            return LANDMARK_BLOCK, k, det[k]
     return OK, 0, 0.0
 
 
@@ -89,27 +85,20 @@ def covariance_entries(P: np.ndarray, n_robot: int = 3) -> Entries:
 
 
 @njit(cache=True)
-def low_rank_entries(C, s, n_robot):
-    """The checked entries of ``C diag(s) Cᵀ`` (C N × d, s (d,)), O(N d)."""
-    N, d = C.shape
-    diag, robot, off = np.empty(N), np.empty((n_robot, n_robot)), np.empty((N - n_robot) // 2)
-    for i in range(N):
-        acc = 0.0
-        for k in range(d):
-            acc += C[i, k] * C[i, k] * s[k]
-        diag[i] = acc
-    for a in range(n_robot):
-        for b in range(n_robot):
-            acc = 0.0
-            for k in range(d):
-                acc += C[a, k] * C[b, k] * s[k]
-            robot[a, b] = acc
-    for j in range(off.size):
-        i = n_robot + 2 * j
-        acc = 0.0
-        for k in range(d):
-            acc += C[i + 1, k] * C[i, k] * s[k]
-        off[j] = acc
+def low_rank_entries(Ct, s, N, n_robot):
+    """The checked entries of ``C diag(s) Cᵀ`` (C N × c, given as the first N columns of the rows of Ct (c, ≥ N)), O(N c)."""
+    c = s.size
+    diag, robot, off = np.zeros(N), np.zeros((n_robot, n_robot)), np.zeros((N - n_robot) // 2)
+    for k in range(c):
+        u, sk = Ct[k], s[k]
+        for i in range(N):
+            diag[i] += u[i] * u[i] * sk
+        for a in range(n_robot):
+            for b in range(n_robot):
+                robot[a, b] += u[a] * u[b] * sk
+        for j in range(off.size):
+            i = n_robot + 2 * j
+            off[j] += u[i + 1] * u[i] * sk
     return diag, robot, off
 
 

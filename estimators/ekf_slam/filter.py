@@ -124,7 +124,7 @@ from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, entries_error, innovation_cov_error
-from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, robot_chain
+from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, robot_chain, semidefinite
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -341,7 +341,7 @@ class EKFSLAM:
     @property
     def robot_cov(self) -> np.ndarray:
         """Robot covariance P[0:3, 0:3] (3, 3), a copy, O(1)."""
-        return self._s.stored[:3, :3].copy()
+        return self._s.view[:3, :3].copy()
 
     @property
     def landmark_ids(self) -> np.ndarray:
@@ -360,11 +360,11 @@ class EKFSLAM:
     def set_truth(self, pose=None, landmarks=None) -> None:
         """True robot pose (3,) and/or true landmarks ({id: (x, y)} or a LandmarkMap) for jacobians="ideal"."""
         if pose is not None:
-            self._truth_pose = np.asarray(pose, dtype=float).reshape(3)
+            self._truth_pose = np.array(pose, dtype=float).reshape(3)  # a copy: a view of x would move with the estimate
         if landmarks is not None:
             if hasattr(landmarks, "ids"):
                 landmarks = dict(zip(landmarks.ids.tolist(), landmarks.xy))
-            self._truth_landmarks = {int(k): np.asarray(v, dtype=float).reshape(2) for k, v in landmarks.items()}
+            self._truth_landmarks = {int(k): np.array(v, dtype=float).reshape(2) for k, v in landmarks.items()}
 
     # ------------------------------------------------------------------ prediction
     def predict(self, u, dt: float) -> None:
@@ -422,7 +422,7 @@ class EKFSLAM:
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
         is indefinite raises :class:`CovarianceError` (``on_indefinite="record"``: counted and applied).
         """
-        x, P = self._s.x, self._s.stored  # the robot rows and columns, all it reads and writes, are current in it
+        x, P = self._s.x, self._s.view  # the robot rows and columns, all it reads and writes, are current in it
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
@@ -441,18 +441,15 @@ class EKFSLAM:
         if Q_world is None:
             Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
         covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
-        Dsum = D.sum(axis=0)
-        P_rm = P[:3, 3:] + np.outer([-Dsum[1], Dsum[0], 0.0], P[2, 3:])  # Φ P_rm, Φ = I + [0 0 −ΣD_y; 0 0 ΣD_x; 0]
+        P_rm, cross_finite = self._s.cross_covariances(D.sum(axis=0))   # Φ P_rm (3, N − 3)
         finite = np.isfinite(poses[1:]).all(axis=1) & np.isfinite(covs).all(axis=(1, 2))
-        if not (finite.all() and np.isfinite(P_rm).all()):
+        if not (finite.all() and cross_finite):
             k = int(np.argmin(finite)) if not finite.all() else len(delta) - 1
             raise ValueError(f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
                              "is beyond what the model can represent); the state is unchanged")
-        if not np.all(np.linalg.eigvalsh(covs)[:, 0] >= -1e-12 * max(1.0, float(np.abs(covs).max()))):
+        if not semidefinite(covs):
             self._indefinite(CovarianceError("robot covariance lost positive semi-definiteness during prediction"))
-        P[:3, 3:] = P_rm
-        P[3:, :3] = P_rm.T
-        P[:3, :3] = covs[-1]
+        self._s.set_robot_block(covs[-1], P_rm)
         x[:3] = poses[-1]
         self._robot_prior = poses[-1].copy()
         if anchor_shift is not None:
@@ -506,21 +503,23 @@ class EKFSLAM:
         self._t = t = float(self._sets if t is None else t)
         if not len(z):
             return
-        predicted = observe(self._s.x[:3], self._landmarks())                          # (n, 2), for the quality counter
+        counting = self.book.miss_limit is not None                                    # the quality counter is on
+        predicted = observe(self._s.x[:3], self._landmarks()) if counting else None    # (n, 2), for the quality counter
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
         if self.params.jacobians == Linearisation.OC:
-            self._reanchor(slot[decision == Decision.MATCHED])
+            self._reanchor(slot[decision == _MATCHED])
         try:
             self._apply(z, ids, Rz, decision, slot)
         finally:  # the deferred covariance update of what was applied, also when a CovarianceError is raised
             self._s.flush()
         landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
         self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
-        predicted = np.concatenate([predicted, np.full((self.n_landmarks - len(predicted), 2), np.nan)])
-        gone = self.book.observe(t, slot[decision == Decision.MATCHED], predicted)
+        if counting:
+            predicted = np.concatenate([predicted, np.full((self.n_landmarks - len(predicted), 2), np.nan)])
+        gone = self.book.observe(t, slot[decision == _MATCHED], predicted)
         if gone.size:
             self._remove_landmarks(gone)
 
@@ -532,23 +531,31 @@ class EKFSLAM:
         ``P_m = P_0 − U_m U_mᵀ`` once (``defer_covariance=False``: after every row).
         """
         if self.params.update == UpdateForm.BATCH:
-            matched = np.flatnonzero(decision == Decision.MATCHED)
+            matched = np.flatnonzero(decision == _MATCHED)
             if matched.size and not self._update_batch(slot[matched], z[matched, :2], Rz[matched]):
-                decision[matched], slot[matched] = Decision.REJECTED, -1
-            pending = np.flatnonzero(decision == Decision.NEW)
+                decision[matched], slot[matched] = _REJECTED, -1
+            pending = np.flatnonzero(decision == _NEW)
         else:
-            pending = np.flatnonzero(decision != Decision.REJECTED)
-        dec, slots, labels = decision.tolist(), slot.tolist(), ids.tolist()   # Python scalars: the loop runs per observation
-        for j in pending.tolist():
+            pending = np.flatnonzero(decision != _REJECTED)
+        dec, slots, labels, order = decision.tolist(), slot.tolist(), ids.tolist(), pending.tolist()   # Python scalars
+        i = 0
+        while i < len(order):
+            j = order[i]
             if dec[j] == _NEW and labels[j] >= 0 and labels[j] in self._slot:   # id first seen earlier in this set
                 dec[j], slots[j] = _MATCHED, self._slot[labels[j]]
-            if dec[j] == _MATCHED:
-                applied = self._update_one(slots[j], z[j, :2], Rz[j])
-            else:
+            if dec[j] != _MATCHED:
                 slots[j] = self._add_landmark(z[j, :2], labels[j] if labels[j] >= 0 else None, Rz[j])
-                applied = slots[j] >= 0
-            if not applied:
-                dec[j], slots[j] = _REJECTED, -1
+                if slots[j] < 0:
+                    dec[j] = _REJECTED
+                i += 1
+                continue
+            run = [j]   # the consecutive matched rows, one compiled call (one row when each update is flushed at once)
+            while self.params.defer_covariance and i + len(run) < len(order) and dec[order[i + len(run)]] == _MATCHED:
+                run.append(order[i + len(run)])
+            applied = self._update_run(np.array([slots[k] for k in run]), z[run, :2], Rz[run])
+            if applied < len(run):
+                dec[run[applied]], slots[run[applied]] = _REJECTED, -1
+            i += min(applied + 1, len(run))
         decision[:], slot[:] = dec, slots
 
     def _remove_landmarks(self, slots: np.ndarray) -> None:
@@ -571,28 +578,28 @@ class EKFSLAM:
 
     def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)
-        decision = np.full(M, Decision.NEW, dtype=np.int8)
+        decision = np.full(M, _NEW, dtype=np.int8)
         slot = np.full(M, -1)
         d2 = np.full(M, np.nan)
         known = ids >= 0
         for j in np.flatnonzero(known):
             s = self._slot.get(int(ids[j]), -1)
             if s >= 0:
-                decision[j], slot[j] = Decision.MATCHED, s
+                decision[j], slot[j] = _MATCHED, s
         labelled = np.flatnonzero(slot >= 0)
         try:
-            d2[labelled] = assoc.pair_d2(self._s.x, self._s.stored, Rz[labelled], z[labelled], slot[labelled])
+            d2[labelled] = assoc.pair_d2(self._s.x, self._s.view, Rz[labelled], z[labelled], slot[labelled])
             self.rejected["nonfinite"] += int((~np.isfinite(d2[labelled])).sum())
         except CovarianceError as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
             self._indefinite(exc, labelled.size)
         outside = labelled[~(d2[labelled] < self.gate_known)]  # gate_known = ∞ without a gate: only a non-finite d² is outside
-        decision[outside], slot[outside] = Decision.REJECTED, -1
+        decision[outside], slot[outside] = _REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
             # pair_d2 and compatibility read the robot rows and the landmarks' 2 × 2 blocks, current in the stored P;
             # JCBB reads landmark-landmark blocks too, from the whole P
             x = self._s.x
-            nu, _, dist = assoc.compatibility(x, self._s.stored, Rz[unknown], z[unknown])
+            nu, _, dist = assoc.compatibility(x, self._s.view, Rz[unknown], z[unknown])
             if self.params.association == AssociationMethod.JCBB:
                 a = assoc.jcbb(x, self._s.P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
             else:
@@ -617,11 +624,29 @@ class EKFSLAM:
     def _landmarks(self) -> np.ndarray:
         return self._s.x[3:].reshape(-1, 2)
 
-    def _update_one(self, slot: int, z: np.ndarray, R: np.ndarray) -> bool:
-        """One observation of landmark ``slot``: H has the five non-zero columns idx. Returns whether it was applied."""
-        xl, ml = self._linearisation_points([slot])
-        PHt, S, nu = self._s.innovation(3 + 2 * slot, xl, ml[0], z, R)  # (N, 2), (2, 2), (2,)
-        return self._correct(PHt, S, nu)
+    def _update_run(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> int:
+        """Sequential updates with observations z (k, 2) (noise R (k, 2, 2)) of landmark slots (k,), each H having the five
+        non-zero columns idx, in order, until one is not applied (:meth:`_correct` says what is counted or raised then);
+        one compiled call (:meth:`.storage.GrowingState.correct_run`). Returns how many were applied."""
+        if self.params.jacobians == Linearisation.IDEAL:  # a row without its true landmark raises after the rows before it
+            ready = next((k for k, s in enumerate(slots.tolist()) if self._ids[s] not in self._truth_landmarks), slots.size)
+            if 0 < ready < slots.size:
+                applied = self._update_run(slots[:ready], z[:ready], R[:ready])
+                return applied if applied < ready else ready + self._update_run(slots[ready:], z[ready:], R[ready:])
+        current = self.params.jacobians == Linearisation.STANDARD
+        if current:
+            XL, ML = np.zeros((slots.size, 3)), np.zeros((slots.size, 2))
+        else:
+            xl, ML = self._linearisation_points(slots)
+            XL, ML = np.ascontiguousarray(np.broadcast_to(xl, (slots.size, 3))), np.ascontiguousarray(ML, dtype=float)
+        applied, outcome, k, value, nis, _, S = self._s.correct_run(
+            slots.astype(np.int64), XL, ML, current, z, np.ascontiguousarray(R, dtype=float), self.params.covariance_update == CovarianceUpdate.JOSEPH)
+        self.nis_log.extend((v, 2) for v in nis.tolist())
+        if applied < slots.size:
+            self._not_applied(outcome, k, value, S, 1)
+        if not self.params.defer_covariance:
+            self._s.flush()
+        return applied
 
     def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
@@ -650,18 +675,22 @@ class EKFSLAM:
         returns whether it was applied. Not applied: a non-finite NIS, state step or covariance term (counted per row in
         ``rejected["nonfinite"]``), an indefinite S or posterior (``on_indefinite``: raise, or count per row and skip).
         """
-        rows = nu.size // 2
-        outcome, nis, k, value = self._s.correct(PHt, S, nu, self.params.covariance_update == CovarianceUpdate.JOSEPH)
-        if outcome == NOT_FINITE:
-            self.rejected["nonfinite"] += rows
-            return False
+        outcome, nis, k, value = self._s.correct(PHt.T, S, nu, self.params.covariance_update == CovarianceUpdate.JOSEPH)
         if outcome != APPLIED:
-            self._indefinite(innovation_cov_error(S) if outcome == S_INDEFINITE else entries_error(outcome, k, value), rows)
+            self._not_applied(outcome, k, value, S, nu.size // 2)
             return False
         if not self.params.defer_covariance:
             self._s.flush()
         self.nis_log.append((float(nis), nu.size))
         return True
+
+    def _not_applied(self, outcome: int, k: int, value: float, S: np.ndarray, rows: int) -> None:
+        """An update of ``rows`` observations that :func:`.kernels.correct` did not apply: a non-finite NIS, state step or
+        covariance term is counted per row in ``rejected["nonfinite"]``; an indefinite S or posterior goes to ``on_indefinite``."""
+        if outcome == NOT_FINITE:
+            self.rejected["nonfinite"] += rows
+        else:
+            self._indefinite(innovation_cov_error(S) if outcome == S_INDEFINITE else entries_error(outcome, k, value), rows)
 
     # ------------------------------------------------------------------ new landmarks
     def _add_landmark(self, z: np.ndarray, landmark_id: int | None, R: np.ndarray) -> int:

@@ -46,22 +46,25 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "gain_terms", "innovation_one", "correct", "robot_chain",
+__all__ = ["update_lower", "mirror_lower", "copy_checked_upper", "gain_terms", "innovation_one", "correct", "correct_run", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
 
-_DOUBLE, _INT, _CHAR = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int), ctypes.c_char_p
-
-
-def _blas(name: str, *args):
-    return ctypes.CFUNCTYPE(None, *args)(get_cython_function_address("scipy.linalg.cython_blas", name))
+def _blas(name: str, arguments: int):
+    """A Fortran BLAS routine of scipy.linalg.cython_blas (every argument a pointer)."""
+    return ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * arguments)(get_cython_function_address("scipy.linalg.cython_blas", name))
 
 
 # Fortran BLAS: (uplo, trans, n, k, alpha, a, lda, [b, ldb,] beta, c, ldc)
-_dsyrk = _blas("dsyrk", _CHAR, _CHAR, _INT, _INT, _DOUBLE, _DOUBLE, _INT, _DOUBLE, _DOUBLE, _INT)
-_dsyr2k = _blas("dsyr2k", _CHAR, _CHAR, _INT, _INT, _DOUBLE, _DOUBLE, _INT, _DOUBLE, _INT, _DOUBLE, _DOUBLE, _INT)
+_dsyrk = _blas("dsyrk", 10)
+_dsyr2k = _blas("dsyr2k", 12)
+#: the scalar arguments, allocated once (a call sets their values) and passed by address: n, k, ldc, lda, ldb; α, β; uplo, trans
+_INTS, _SCALARS, _CHARS = (ctypes.c_int * 5)(), (ctypes.c_double * 2)(0.0, 1.0), ctypes.create_string_buffer(b"UN")
+_N, _K, _LDC, _LDA, _LDB = (ctypes.addressof(_INTS) + 4 * i for i in range(5))
+_ALPHA, _BETA = (ctypes.addressof(_SCALARS) + 8 * i for i in range(2))
+_UPLO, _TRANS = (ctypes.addressof(_CHARS) + i for i in range(2))
 
 
 @njit(cache=True)
@@ -91,8 +94,15 @@ def mirror_lower(P, n):
                 P[j, i] = P[i, j]
 
 
-def _ref(value, ctype):
-    return ctypes.byref(ctype(value))
+@njit(cache=True)
+def copy_checked_upper(P, n):
+    """After an update of the lower triangle: the robot rows from the robot columns, P[a, i] = P[i, a] (a < 3, a < i), and
+    each landmark block's upper entry P[s, s + 1] = P[s + 1, s] — the O(N) upper entries a filter step reads."""
+    for i in range(1, n):
+        for a in range(min(i, 3)):
+            P[a, i] = P[i, a]
+    for s in range(3, n - 1, 2):
+        P[s, s + 1] = P[s + 1, s]
 
 
 def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> None:
@@ -109,98 +119,121 @@ def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> N
     # The C-ordered buffer read as a Fortran matrix (leading dimension = its row length) is Pᵀ = P, and
     # Fortran "U" is its C-ordered lower triangle; the C-ordered d × n Cᵀ is the Fortran n × d C
     # (leading dimension = its row stride), so trans="N" forms C Cᵀ.
-    c_ptr, a_ptr = buffer.ctypes.data_as(_DOUBLE), Ct.ctypes.data_as(_DOUBLE)
-    n_, d_ = _ref(n, ctypes.c_int), _ref(d, ctypes.c_int)
-    ld, lda = _ref(buffer.shape[1], ctypes.c_int), _ref(Ct.strides[0] // 8, ctypes.c_int)
-    one = _ref(1.0, ctypes.c_double)
-    if np.all(s == s[0]):
-        _dsyrk(b"U", b"N", n_, d_, _ref(float(s[0]), ctypes.c_double), a_ptr, lda, one, c_ptr, ld)
+    _INTS[:] = n, d, buffer.shape[1], Ct.strides[0] // 8, n
+    if s.min() == s.max():
+        _SCALARS[0] = s[0]
+        _dsyrk(_UPLO, _TRANS, _N, _K, _ALPHA, Ct.ctypes.data, _LDA, _BETA, buffer.ctypes.data, _LDC)
     else:  # ½ (C Bᵀ + B Cᵀ) with B = C diag(s)
         B = np.ascontiguousarray(Ct * s[:, None])
-        _dsyr2k(b"U", b"N", n_, d_, _ref(0.5, ctypes.c_double), a_ptr, lda, B.ctypes.data_as(_DOUBLE), _ref(n, ctypes.c_int), one, c_ptr, ld)
+        _SCALARS[0] = 0.5
+        _dsyr2k(_UPLO, _TRANS, _N, _K, _ALPHA, Ct.ctypes.data, _LDA, B.ctypes.data, _LDB, _BETA, buffer.ctypes.data, _LDC)
 
 
 @njit(cache=True)
-def gain_terms(PHt, S, L, nu, joseph):
-    """(νᵀ S⁻¹ ν, K ν, C, s) with S = L Lᵀ, W = PHᵀ L⁻ᵀ, K = W L⁻¹; standard C = W, s = −1; Joseph C = [W, K + D, K − D],
-    s = [−1, ½, −½], D = K S − PHᵀ. One pass over the N rows (d is small: loops, not BLAS calls)."""
-    N, d = PHt.shape
-    Linv = np.linalg.inv(L)
+def _lower_inverse(L):
+    """L⁻¹ of a d × d lower-triangular L with a positive diagonal (forward substitution)."""
+    d = L.shape[0]
+    Li = np.zeros((d, d))
+    for j in range(d):
+        Li[j, j] = 1.0 / L[j, j]
+        for i in range(j + 1, d):
+            acc = 0.0
+            for k in range(j, i):
+                acc -= L[i, k] * Li[k, j]
+            Li[i, j] = acc / L[i, i]
+    return Li
+
+
+@njit(cache=True)
+def gain_terms(HP, S, L, nu, joseph, Ct):
+    """(νᵀ S⁻¹ ν, K ν, s) with S = L Lᵀ, writing the update's factor Cᵀ into rows 0 … c − 1 of Ct (columns 0 … N − 1).
+
+    HP = (PHᵀ)ᵀ (d, N). Wᵀ = L⁻¹ HP, Kᵀ = L⁻ᵀ Wᵀ; standard: C = W, s = −1; Joseph: C = [W, K + D, K − D],
+    s = [−1, ½, −½], Dᵀ = S Kᵀ − HP. Every loop runs along the N columns of a row (contiguous, vectorised).
+    """
+    d, N = HP.shape
+    Linv = _lower_inverse(L)
     e = Linv @ nu                                               # L⁻¹ ν: NIS = eᵀe
     Sinv_nu = Linv.T @ e                                        # S⁻¹ ν
+    dx = np.zeros(N)
+    for a in range(d):                                          # K ν = PHᵀ S⁻¹ ν
+        w = Sinv_nu[a]
+        h = HP[a]
+        for i in range(N):
+            dx[i] += h[i] * w
+    for a in range(d):                                          # Wᵀ = L⁻¹ HP (L⁻¹ lower triangular)
+        row = Ct[a]
+        for i in range(N):
+            row[i] = 0.0
+        for b in range(a + 1):
+            w = Linv[a, b]
+            h = HP[b]
+            for i in range(N):
+                row[i] += w * h[i]
     c = 3 * d if joseph else d
-    C = np.empty((N, c))
-    dx = np.empty(N)
-    k_row = np.empty(d)
-    for i in range(N):
-        acc = 0.0
-        for a in range(d):                                      # dx_i = PHᵀ_i S⁻¹ ν;  W_i = PHᵀ_i L⁻ᵀ
-            acc += PHt[i, a] * Sinv_nu[a]
-            w = 0.0
-            for b in range(a + 1):                              # (L⁻ᵀ)[b, a] = L⁻¹[a, b], zero for b > a
-                w += PHt[i, b] * Linv[a, b]
-            C[i, a] = w
-        dx[i] = acc
-        if joseph:
-            for a in range(d):                                  # K_i = W_i L⁻¹
-                w = 0.0
-                for b in range(a, d):                           # L⁻¹[b, a], zero for b < a
-                    w += C[i, b] * Linv[b, a]
-                k_row[a] = w
-            for a in range(d):                                  # D_i = K_i S − PHᵀ_i
-                w = -PHt[i, a]
-                for b in range(d):
-                    w += k_row[b] * S[b, a]
-                C[i, d + a] = k_row[a] + w
-                C[i, 2 * d + a] = k_row[a] - w
     s = np.empty(c)
     s[:d] = -1.0
     if joseph:
         s[d:2 * d], s[2 * d:] = 0.5, -0.5
-    return e @ e, dx, C, s
+        Kt = np.zeros((d, N))
+        for a in range(d):                                      # Kᵀ = L⁻ᵀ Wᵀ ((L⁻ᵀ)[a, b] = L⁻¹[b, a], zero for b < a)
+            for b in range(a, d):
+                w = Linv[b, a]
+                for i in range(N):
+                    Kt[a, i] += w * Ct[b, i]
+        for a in range(d):                                      # Dᵀ = S Kᵀ − HP; rows K + D and K − D
+            plus, minus = Ct[d + a], Ct[2 * d + a]
+            for i in range(N):
+                acc = -HP[a, i]
+                for b in range(d):
+                    acc += S[a, b] * Kt[b, i]
+                plus[i] = Kt[a, i] + acc
+                minus[i] = Kt[a, i] - acc
+    return e @ e, dx, s
 
 
 @njit(cache=True)
 def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
-    """(PHᵀ (n, 2), S (2, 2), ν (2,)) of one range-bearing observation z of the landmark at entries s, s + 1."""
+    """(HP (2, n) = (PHᵀ)ᵀ, S (2, 2), ν (2,), H (2, 5)) of one range-bearing observation z of the landmark at entries s, s + 1."""
     zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
     range_bearing(xl, ml, zhat, Hx, Hm)                      # H = [H_x, H_m] at the linearisation point
     H = np.empty((2, 5))
     H[:, :3], H[:, 3:] = Hx, Hm
     idx = np.array([0, 1, 2, s, s + 1])
-    PHt = np.empty((n, 2))
-    for i in range(n):
-        if i < s:                                             # left of the block: rows s, s + 1 of the lower triangle
-            p3, p4 = P[s, i], P[s + 1, i]
-        elif i == s:
-            p3, p4 = P[s, s], P[s + 1, s]
-        else:                                                 # at and below row s + 1: columns s, s + 1 of the lower triangle
-            p3, p4 = P[i, s], P[i, s + 1]
-        p0, p1, p2 = P[0, i], P[1, i], P[2, i]                # the robot rows are current
-        PHt[i, 0] = H[0, 0] * p0 + H[0, 1] * p1 + H[0, 3] * p3 + H[0, 4] * p4
-        PHt[i, 1] = H[1, 0] * p0 + H[1, 1] * p1 + H[1, 2] * p2 + H[1, 3] * p3 + H[1, 4] * p4
-    # the pending term: P[:, idx] Hᵀ += Ustᵀ (Ut[:, idx] Hᵀ), one contiguous pass over each of its r rows
+    HP = np.empty((2, n))
+    for a in range(2):
+        h = HP[a]
+        h0, h1, h2, h3, h4 = H[a, 0], H[a, 1], H[a, 2], H[a, 3], H[a, 4]
+        for i in range(n):                                    # the robot rows are current
+            h[i] = h0 * P[0, i] + h1 * P[1, i] + h2 * P[2, i]
+        for i in range(s):                                    # left of the block: rows s, s + 1 of the lower triangle
+            h[i] += h3 * P[s, i] + h4 * P[s + 1, i]
+        h[s] += h3 * P[s, s] + h4 * P[s + 1, s]
+        for i in range(s + 1, n):                             # at and below row s + 1: columns s, s + 1 of the lower triangle
+            h[i] += h3 * P[i, s] + h4 * P[i, s + 1]
+    # the pending term: H P[idx, :] += (H Ut[:, idx]ᵀ) Ust, one contiguous pass over each of its r rows
     for k in range(r):
         g0, g1 = 0.0, 0.0
         for c in range(5):
             g0 += Ut[k, idx[c]] * H[0, c]
             g1 += Ut[k, idx[c]] * H[1, c]
-        a = Ust[k]
+        u = Ust[k]
+        h, hb = HP[0], HP[1]
         for i in range(n):
-            PHt[i, 0] += a[i] * g0
-            PHt[i, 1] += a[i] * g1
+            h[i] += u[i] * g0
+            hb[i] += u[i] * g1
     S = np.empty((2, 2))
     for a in range(2):
         for b in range(2):
             acc = 0.0
             for c in range(5):
-                acc += H[a, c] * PHt[idx[c], b]
+                acc += H[a, c] * HP[b, idx[c]]
             S[a, b] = acc
     S[0, 1] = S[1, 0] = 0.5 * (S[0, 1] + S[1, 0])
     S += R
     range_bearing(x[:3], x[s:s + 2], zhat, Hx, Hm)          # h at the current estimate
     nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
-    return PHt, S, nu
+    return HP, S, nu, H
 
 
 #: outcomes of :func:`correct` (a positive value: the failed covariance check, :data:`.checks.NEGATIVE_DIAGONAL` …)
@@ -228,22 +261,25 @@ def _cholesky(S):
 
 
 @njit(cache=True)
-def correct(PHt, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
+def correct(HP, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
     """Check and, if every check passes, commit one update (``filter.py``'s ``_correct`` states the formulas).
 
-    x (N,) is changed in place, the update's term ``C diag(s) Cᵀ`` written to rows r … r + c of Ut, Ust = (C diag(s))ᵀ
-    and sg = s, its entries added to the pending ones ``pend`` (diagonal (≥N,), robot block, landmark off-diagonals);
-    ``stored``: the entries of the stored P. Returns (outcome, NIS, k, value): :data:`APPLIED`, :data:`S_INDEFINITE`,
-    :data:`NOT_FINITE`, or the code of the failed check with its index and value (:func:`.checks.entries_failure`).
+    The update's factor Cᵀ is computed into rows r … r + c of Ut (scratch until committed); on commit x (N,) is changed
+    in place, Ust = (C diag(s))ᵀ and sg = s written to the same rows, and the term's entries added to the pending ones
+    ``pend`` (diagonal (≥N,), robot block, landmark off-diagonals); ``stored``: the entries of the stored P. Returns
+    (outcome, NIS, k, value): :data:`APPLIED`, :data:`S_INDEFINITE`, :data:`NOT_FINITE`, or the code of the failed check
+    with its index and value (:func:`.checks.entries_failure`).
     """
     L, ok = _cholesky(S)
     if not ok:
         return S_INDEFINITE, np.nan, 0, 0.0
-    nis, dx, C, s = gain_terms(PHt, S, L, nu, joseph)
-    if not (np.isfinite(nis) and np.all(np.isfinite(dx)) and np.all(np.isfinite(C))):
+    N = HP.shape[1]
+    c = 3 * nu.size if joseph else nu.size
+    Ct = Ut[r:r + c]
+    nis, dx, s = gain_terms(HP, S, L, nu, joseph, Ct)
+    if not (np.isfinite(nis) and np.all(np.isfinite(dx)) and np.all(np.isfinite(Ct[:, :N]))):
         return NOT_FINITE, nis, 0, 0.0
-    N, c = C.shape
-    td, tr, to = low_rank_entries(C, s, n_robot)
+    td, tr, to = low_rank_entries(Ct, s, N, n_robot)
     pd, pr, po = pend
     sd, sr, so = stored
     m = to.size
@@ -254,13 +290,39 @@ def correct(PHt, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
     x[2] = wrap(x[2])
     for j in range(c):
         sg[r + j] = s[j]
+        u, us, sj = Ut[r + j], Ust[r + j], s[j]
         for i in range(N):
-            Ut[r + j, i] = C[i, j]
-            Ust[r + j, i] = C[i, j] * s[j]
+            us[i] = u[i] * sj
     pd[:N] += td
     pr += tr
     po[:m] += to
     return APPLIED, nis, 0, 0.0
+
+
+@njit(cache=True)
+def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot):
+    """Sequential updates with observations Z (k, 2), noise R (k, 2, 2) of landmark slots (k,), in order, each by
+    :func:`innovation_one` and :func:`correct`, until one is not applied.
+
+    H of row j is taken at (XL[j], ML[j]), or at the current estimate if ``current`` (x moves with every update).
+    Returns (q, r, outcome, k, value, NIS (k,), H (k, 2, 5), S): rows 0 … q − 1 applied (their NIS and the Jacobians
+    H = [H_x, H_m] they were linearised with), r the pending term's new rank; q < k: row q failed with ``outcome``
+    (:func:`correct`'s, its k and value; S its innovation covariance).
+    """
+    nis = np.empty(slots.size)
+    Hs = np.empty((slots.size, 2, 5))
+    for j in range(slots.size):
+        e = n_robot + 2 * slots[j]
+        if current:
+            xl, ml = x[:3].copy(), x[e:e + 2].copy()
+        else:
+            xl, ml = XL[j], ML[j]
+        HP, S, nu, Hs[j] = innovation_one(P, n, Ut, Ust, r, e, xl, ml, x, Z[j], R[j])
+        outcome, nis[j], k, value = correct(HP, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot)
+        if outcome != APPLIED:
+            return j, r, outcome, k, value, nis[:j], Hs[:j], S
+        r += 3 * nu.size if joseph else nu.size
+    return slots.size, r, APPLIED, 0, 0.0, nis, Hs, np.zeros((2, 2))
 
 
 @njit(cache=True)
@@ -289,3 +351,42 @@ def robot_chain(P0, D, Q):
                 P[b, a] = v
         out[k] = P
     return out
+
+
+@njit(cache=True)
+def semidefinite(covs):
+    """Whether every 3 × 3 covariance of covs (K, 3, 3) is finite and positive semi-definite: its least eigenvalue
+    ≥ −1e-12 · max(1, the largest |entry| of covs)."""
+    if not np.all(np.isfinite(covs)):
+        return False
+    tol = -1e-12 * max(1.0, np.abs(covs).max())
+    for k in range(covs.shape[0]):
+        if np.linalg.eigvalsh(covs[k])[0] < tol:
+            return False
+    return True
+
+
+@njit(cache=True)
+def cross_covariances(P, n, Dsum):
+    """Φ P_rm (3, n − 3), Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0], from the robot rows of P (one contiguous pass), and
+    whether it is finite."""
+    out = np.empty((3, n - 3))
+    finite = True
+    for i in range(3, n):
+        p2 = P[2, i]
+        out[0, i - 3] = P[0, i] - Dsum[1] * p2
+        out[1, i - 3] = P[1, i] + Dsum[0] * p2
+        out[2, i - 3] = p2
+    for a in range(3):
+        finite &= np.all(np.isfinite(out[a]))
+    return out, finite
+
+
+@njit(cache=True)
+def set_robot_block(P, n, P_rr, P_rm):
+    """P[0:3, 0:3] = P_rr, P[0:3, 3:n] = P_rm and P[3:n, 0:3] = P_rmᵀ, in place."""
+    P[:3, :3] = P_rr
+    P[:3, 3:n] = P_rm
+    for i in range(3, n):
+        for a in range(3):
+            P[i, a] = P_rm[a, i - 3]

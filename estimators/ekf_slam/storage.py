@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, correct, innovation_one, mirror_lower, update_lower
+from .kernels import APPLIED, copy_checked_upper, correct, correct_run, cross_covariances, mirror_lower, set_robot_block, update_lower
 
 __all__ = ["GrowingState"]
 
@@ -82,26 +82,56 @@ class GrowingState:
         self._stored_valid = False
         return self._P[: self.n, : self.n]
 
-    def innovation(self, s: int, x_lin: np.ndarray, m_lin: np.ndarray, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(PHᵀ (N, 2), S (2, 2), ν (2,)) of a range-bearing observation z of the landmark at entries s, s + 1, H taken at
-        (x_lin, m_lin), from the current P (:func:`.kernels.innovation_one`), O(N (r + 1))."""
-        return innovation_one(self._P, self.n, self._Ut, self._Ust, self._r, s, x_lin, m_lin, self.x, z, R)
+    @property
+    def view(self) -> np.ndarray:
+        """The stored covariance, read-only (:attr:`stored` without invalidating the cached entries)."""
+        v = self._P[: self.n, : self.n]
+        v.flags.writeable = False
+        return v
 
-    def correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray, joseph: bool) -> tuple[int, float, int, float]:
-        """Check one update (PHᵀ N × d, S d × d, ν d) against the current P's entries and, if it passes, apply x += K ν and
-        append its term to the pending one; :func:`.kernels.correct`'s (outcome, NIS, k, value)."""
-        n, d = self.n, nu.size
-        c = 3 * d if joseph else d
+    def cross_covariances(self, Dsum: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Φ P_rm (3, N − 3) of a prediction chain with displacement sum ΣD (2,) and whether it is finite
+        (:func:`.kernels.cross_covariances`); no term may be pending."""
+        return cross_covariances(self._P, self.n, Dsum)
+
+    def set_robot_block(self, P_rr: np.ndarray, P_rm: np.ndarray) -> None:
+        """Write the robot block (3, 3) and the robot rows and columns (3, N − 3), keeping the cached entries current."""
+        set_robot_block(self._P, self.n, P_rr, P_rm)
+        if self._stored_valid:
+            sd, sr, _ = self._stored_entries
+            sd[:3], sr[:] = np.diagonal(P_rr), P_rr
+
+    def _reserve(self, c: int) -> None:
+        """Room for c more rows of the pending term."""
         if self._r + c > self._Ut.shape[0]:
             rows = max(2 * self._Ut.shape[0], self._r + c)
             self._Ut, self._Ust = (np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust))
             self._sg = np.concatenate([self._sg, np.zeros(rows - self._sg.size)])
+
+    def correct(self, HP: np.ndarray, S: np.ndarray, nu: np.ndarray, joseph: bool) -> tuple[int, float, int, float]:
+        """Check one update (HP = (PHᵀ)ᵀ d × N, S d × d, ν d) against the current P's entries and, if it passes, apply
+        x += K ν and append its term to the pending one; :func:`.kernels.correct`'s (outcome, NIS, k, value)."""
+        c = 3 * nu.size if joseph else nu.size
+        self._reserve(c)
         self._refresh_stored_entries()
-        out = correct(np.ascontiguousarray(PHt), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
-                      self._x[:n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
+        out = correct(np.ascontiguousarray(HP), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
+                      self._x[:self.n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
         if out[0] == APPLIED:
             self._r += c
         return out
+
+    def correct_run(self, slots: np.ndarray, XL: np.ndarray, ML: np.ndarray, current: bool, Z: np.ndarray, R: np.ndarray,
+                    joseph: bool) -> tuple[int, int, int, float, np.ndarray, np.ndarray, np.ndarray]:
+        """Sequential updates with range-bearing observations Z (k, 2) (noise R (k, 2, 2)) of landmark slots (k,), H at
+        (XL[j], ML[j]) or at the current estimate, until one is not applied; one compiled call (:func:`.kernels.correct_run`),
+        O(N (r + 1)) per row. Returns q (rows applied), (outcome, k, value) of row q if q < k, the applied rows' NIS (q,) and
+        Jacobians [H_x, H_m] (q, 2, 5), and S of row q."""
+        self._reserve((6 if joseph else 2) * slots.size)
+        self._refresh_stored_entries()
+        q, self._r, outcome, k, value, nis, H, S = correct_run(
+            self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._x[:self.n],
+            slots, XL, ML, current, Z, R, joseph, 3)
+        return q, outcome, k, value, nis, H, S
 
     def columns(self, idx) -> np.ndarray:
         """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
@@ -159,9 +189,7 @@ class GrowingState:
             return
         n, P = self.n, self._P
         update_lower(P, n, self._Ut[:self._r, :n], self._sg[:self._r])
-        P[:3, 3:n] = P[3:n, :3].T
-        P[[0, 0, 1], [1, 2, 2]] = P[[1, 2, 2], [0, 0, 1]]
-        P[np.arange(3, n, 2), np.arange(4, n, 2)] = P[np.arange(4, n, 2), np.arange(3, n, 2)]
+        copy_checked_upper(P, n)
         self._mirrored = False
         self._stored_valid = False
         self._clear()

@@ -16,7 +16,7 @@ import pytest
 
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam import filter as ekf_filter
-from slamarena.estimators.models import observation_jacobians, observe
+from slamarena.estimators.models import observe
 from slamarena.experiments.metrics.consistency import monte_carlo, nees
 from slamarena.experiments.metrics.reference import reference_of
 
@@ -29,19 +29,19 @@ def _observability_matrix(jacobians: str, steps: int = 40, seed: int = 0) -> tup
     ekf = EKFSLAM(jacobians=jacobians, twist_cov=[0.01, 0.01], range_bearing_cov=[0.01, 0.003], initial_cov=0.0)
     n_state = 3 + 2 * len(LANDMARKS)
     record: list = []
-    chain, points_at = ekf_filter.robot_chain, ekf._linearisation_points
+    chain, correct_run = ekf_filter.robot_chain, ekf._s.correct_run
 
     def recording_chain(P0, D, Q):
         record.append(("Φ", D.sum(axis=0)))
         return chain(P0, D, Q)
 
-    def recording_points(slots):
-        xr, m = points_at(slots)
-        Hx, Hm = observation_jacobians(xr, m)
-        record.append(("H", np.array(slots), Hx.copy(), Hm.copy()))
-        return xr, m
+    def recording_run(slots, *args):
+        out = correct_run(slots, *args)
+        applied, H = out[0], out[5]                          # the Jacobians [H_x, H_m] each applied row was linearised with
+        record.append(("H", slots[:applied].copy(), H[:, :, :3].copy(), H[:, :, 3:].copy()))
+        return out
 
-    ekf._linearisation_points = recording_points
+    ekf._s.correct_run = recording_run
     true = np.zeros(3)
     ekf_filter.robot_chain = recording_chain
     try:
