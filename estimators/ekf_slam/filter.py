@@ -115,16 +115,16 @@ import numpy as np
 from pydantic import FiniteFloat, model_validator
 from scipy.linalg import block_diag
 
-from slamarena.datasets.geometry import accumulate, wrap_angle
+from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
-from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_jacobians, inverse_observation_jacobians,
+from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, inverse_observation_jacobians,
                       inverse_observe, observation_jacobians, observe)
 from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, entries_error, innovation_cov_error
-from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, robot_chain, semidefinite
+from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, chain_geometry, robot_chain, semidefinite
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -425,13 +425,12 @@ class EKFSLAM:
         x, P = self._s.x, self._s.view  # the robot rows and columns, all it reads and writes, are current in it
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
-        poses = accumulate(x[:3], delta)                                 # (K + 1, 3)
         if self.params.jacobians == Linearisation.IDEAL:
             lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
         else:
-            lin = poses[:-1]
-        Jx, Rot = compose_jacobians(lin, delta)                          # ∂x'/∂x (K, 3, 3), ∂x'/∂δ = Rot (K, 3, 3)
-        D = np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]])
+            lin = np.zeros((0, 3))                                       # the chain's own poses
+        Q = np.array(Q_body if Q_world is None else np.zeros((0, 3, 3)), dtype=float)       # rotated to the world frame in place
+        poses, D = chain_geometry(x[:3].copy(), np.ascontiguousarray(delta, dtype=float), np.ascontiguousarray(lin, dtype=float), Q)
         if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
             if anchor_shift is None and self._carry is None:               # OC: the anchor's offset after the last update set
                 self._carry = self._robot_prior[:2] - poses[0, :2]
@@ -439,7 +438,7 @@ class EKFSLAM:
             if anchor_shift is not None:
                 D[-1] += anchor_shift
         if Q_world is None:
-            Q_world = Rot @ Q_body @ Rot.transpose(0, 2, 1)
+            Q_world = Q
         covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
         P_rm, cross_finite = self._s.cross_covariances(D.sum(axis=0))   # Φ P_rm (3, N − 3)
         finite = np.isfinite(poses[1:]).all(axis=1) & np.isfinite(covs).all(axis=(1, 2))

@@ -46,7 +46,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "copy_checked_upper", "gain_terms", "innovation_one", "correct", "correct_run", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
+__all__ = ["update_lower", "mirror_lower", "copy_checked_upper", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -323,6 +323,41 @@ def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z
             return j, r, outcome, k, value, nis[:j], Hs[:j], S
         r += 3 * nu.size if joseph else nu.size
     return slots.size, r, APPLIED, 0, 0.0, nis, Hs, np.zeros((2, 2))
+
+
+@njit(cache=True)
+def chain_geometry(x0, delta, lin, Q):
+    """The geometry of a chain of K body increments δ_k (K, 3) from pose x0 (3,), one pass:
+
+    poses x_{k+1} = x_k ⊕ δ_k (K + 1, 3; the headings are running sums, wrapped on output, as
+    :func:`~slamarena.datasets.geometry.accumulate`), the world-frame displacements at the linearisation poses
+    D_k = R(θ̆_k) δ_k,xy (K, 2) — θ̆_k from ``lin`` (K, 3), or the chain's own x_k when ``lin`` is empty —, and Q (K, 3, 3)
+    rotated in place to the world frame, Q_k ← Rot(θ̆_k) Q_k Rot(θ̆_k)ᵀ, Rot = blockdiag(R(θ̆), 1) (Q empty: nothing).
+    """
+    K = delta.shape[0]
+    poses = np.empty((K + 1, 3))
+    D = np.empty((K, 2))
+    heading = x0[2]
+    px, py = x0[0], x0[1]
+    poses[0, 0], poses[0, 1], poses[0, 2] = px, py, wrap(heading)
+    R = np.empty((3, 3))
+    T = np.empty((3, 3))
+    for k in range(K):
+        c, s = np.cos(heading), np.sin(heading)
+        px += c * delta[k, 0] - s * delta[k, 1]
+        py += s * delta[k, 0] + c * delta[k, 1]
+        if lin.shape[0]:
+            c, s = np.cos(lin[k, 2]), np.sin(lin[k, 2])
+        D[k, 0] = c * delta[k, 0] - s * delta[k, 1]
+        D[k, 1] = s * delta[k, 0] + c * delta[k, 1]
+        heading += delta[k, 2]
+        poses[k + 1, 0], poses[k + 1, 1], poses[k + 1, 2] = px, py, wrap(heading)
+        if Q.shape[0]:
+            R[:] = 0.0
+            R[0, 0], R[0, 1], R[1, 0], R[1, 1], R[2, 2] = c, -s, s, c, 1.0
+            T[:] = R @ Q[k]
+            Q[k] = T @ R.T
+    return poses, D
 
 
 @njit(cache=True)

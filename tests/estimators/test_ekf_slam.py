@@ -87,6 +87,29 @@ def test_the_compiled_range_bearing_model_is_the_numpy_one():
         np.testing.assert_allclose(Hm, Hm_np, rtol=1e-13, atol=1e-15)
 
 
+@pytest.mark.parametrize("given_lin", [False, True])
+def test_the_compiled_chain_geometry_is_accumulate_and_the_compose_jacobians(given_lin):
+    """ekf_slam.kernels.chain_geometry against geometry.accumulate and models.compose_jacobians: the poses, D_k = (∂x'/∂x)
+    [1, 2], −[0, 2] and Rot Q Rotᵀ, at the chain's own poses or at given linearisation poses."""
+    from slamarena.datasets.geometry import accumulate
+    from slamarena.estimators.ekf_slam.kernels import chain_geometry
+    from slamarena.estimators.models import compose_jacobians
+
+    rng = np.random.default_rng(5)
+    x0, delta = np.r_[rng.uniform(-5, 5, 2), 3.0], rng.normal(0.0, [0.3, 0.1, 0.8], (40, 3))
+    Q = rng.normal(size=(40, 3, 3))
+    Q = Q @ Q.transpose(0, 2, 1)
+    lin = rng.uniform(-4, 4, (40, 3)) if given_lin else np.zeros((0, 3))
+    Qw = Q.copy()
+    poses, D = chain_geometry(x0, delta, lin, Qw)
+    expected = accumulate(x0, delta)
+    np.testing.assert_allclose(poses[:, :2], expected[:, :2], atol=1e-12)
+    assert np.abs(wrap_angle(poses[:, 2] - expected[:, 2])).max() < 1e-12
+    Jx, Rot = compose_jacobians(lin if given_lin else expected[:-1], delta)
+    np.testing.assert_allclose(D, np.column_stack([Jx[:, 1, 2], -Jx[:, 0, 2]]), atol=1e-12)
+    np.testing.assert_allclose(Qw, Rot @ Q @ Rot.transpose(0, 2, 1), atol=1e-12)
+
+
 def test_full_state_jacobians_match_finite_differences():
     """G_N (N×N) of the prediction and H (2×N) of one observation, as the filter builds them."""
     rng = np.random.default_rng(0)

@@ -11,7 +11,7 @@ from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.models import observation_jacobians, observe
 
 
-def test_vectorised_compatibility_matches_dense_per_pair_computation():
+def test_vectorised_compatibility_and_pair_d2_match_dense_per_pair_computation():
     rng = np.random.default_rng(3)
     n, M = 6, 4
     x = np.r_[0.3, -0.2, 0.5, rng.uniform(-6, 6, 2 * n)]
@@ -20,6 +20,8 @@ def test_vectorised_compatibility_matches_dense_per_pair_computation():
     z = np.column_stack([rng.uniform(1, 8, M), rng.uniform(-3, 3, M)])
     R = np.array([np.diag([0.04, 0.003 * (j + 1)]) for j in range(M)])  # per-observation noise
     nu, S, d2 = assoc.compatibility(x, P, R, z)
+    slots = rng.integers(0, n, M)                                    # the compiled per-pair gate agrees with the table
+    np.testing.assert_allclose(assoc.pair_d2(x, P, R, z, slots), d2[np.arange(M), slots], rtol=1e-12)
     for i in range(n):
         H = np.zeros((2, x.size))
         H[:, :3], H[:, 3 + 2 * i: 5 + 2 * i] = observation_jacobians(x[:3], x[3 + 2 * i: 5 + 2 * i])
