@@ -16,24 +16,34 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
   would be several times slower.
 
 ``mirror_lower(buffer, n)`` copies the strict lower triangle to the upper one in 8 × 8 tiles
-(each written cache line is filled by one tile row), which makes P bitwise symmetric.
+(each written cache line is filled by one tile row), which makes P bitwise symmetric;
+``copy_checked_upper(buffer, n)`` copies only the O(N) upper entries a filter step reads (the robot rows and each
+landmark block's ``P[s, s + 1]``).
 
-``gain_terms(PHt, S, L, ν, joseph)`` is the O(N d) part of one update in one compiled call (the
-formulas are stated where it is used, ``filter.py``'s ``_correct``): from ``PHᵀ`` (N × d), the
-innovation covariance S (d × d), its Cholesky factor L and ν, the NIS ``νᵀ S⁻¹ ν``, the state step ``K ν`` and the symmetric
-terms ``C diag(s) Cᵀ`` of the covariance update.
+The update of one observation set runs in the layout of its rows: ``HP = (PHᵀ)ᵀ`` (d × N) and the factor ``Cᵀ``
+(c × N), so every O(N) loop runs along a contiguous row.
+
+``gain_terms(HP, S, L, ν, joseph, Cᵀ)`` is the O(N d) part of one update (the formulas are stated where it is used,
+``filter.py``'s ``_correct``): from HP, the innovation covariance S (d × d), its Cholesky factor L and ν, the NIS
+``νᵀ S⁻¹ ν``, the state step ``K ν`` and the symmetric terms ``C diag(s) Cᵀ`` of the covariance update (Cᵀ written
+into the given rows).
 
 ``innovation_one(P, n, Ut, Ust, r, s, x̆_r, m̆, x, z, R)`` is the O(N r) part of one observation of the landmark at
-entries (s, s + 1): ``H`` (2 × 5) at the linearisation point (x̆_r, m̆), ``PHᵀ = P[:, idx] Hᵀ`` read from the
-current P (the stored lower triangle and the pending term ``Ustᵀ Ut``, :mod:`.storage`), ``S = H PHᵀ[idx] + R``
+entries (s, s + 1): ``H`` (2 × 5) at the linearisation point (x̆_r, m̆), ``HP = H P[idx, :]`` read from the
+current P (the stored lower triangle and the pending term ``Ustᵀ Ut``, :mod:`.storage`), ``S = H HP[:, idx]ᵀ + R``
 and ``ν = z − h(x_r, m)`` at the current estimate. ``correct(…)`` is the rest, shared with the batch form: the
 Cholesky factor of S, :func:`gain_terms`, the entries of the update term (:func:`.checks.low_rank_entries`), the
 checks of the entries P would have (:func:`.checks.entries_failure`) and, only if all pass, the commit — x += K ν,
-the term appended to the pending one. One compiled call each, so an observation costs O(N r) plus a few µs.
+the term appended to the pending one. ``correct_run(…)`` applies a run of consecutive matched observations of a set
+(``innovation_one`` then ``correct`` each, in order) in one compiled call, stopping at the first that is not applied,
+so a set of m known landmarks costs O(N m r) plus one call.
 
-``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion of a chain of K predictions,
-``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with ``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]``,
-and returns every P_k (K, 3, 3).
+The prediction: ``chain_geometry(x0, δ, lin, Q)`` composes a chain of K body increments (the poses, the world-frame
+displacements D_k at the linearisation poses and the noise rotated to the world frame, one pass);
+``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion ``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with
+``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]`` and returns every P_k (K, 3, 3); ``semidefinite(covs)``
+checks them; ``cross_covariances(P, n, ΣD)`` forms ``Φ P_rm`` from the robot rows and ``set_robot_block`` writes the
+robot block, rows and columns.
 """
 from __future__ import annotations
 

@@ -21,8 +21,10 @@ pending, an update needs only a few columns of P, which cost O(N r) (:meth:`Grow
 ``filter.py`` derives why this is the sequential update exactly), and the checked entries of P
 (:meth:`GrowingState.entries`: the stored P's, read once and kept until the stored P may change — any
 access to :attr:`~GrowingState.stored` or :attr:`~GrowingState.P`, which hand out writable views, a flush, a growth or
-a removal —, plus the pending term's, kept incrementally). :meth:`GrowingState.correct` checks one update
-against them and appends it to the pending term in one compiled call (:func:`.kernels.correct`). Entries added while a term
+a removal; :attr:`~GrowingState.view` reads without invalidating, and :meth:`~GrowingState.set_robot_block` (the
+prediction) keeps them current —, plus the pending term's, kept incrementally). :meth:`GrowingState.correct` checks one
+update against them and appends it to the pending term in one compiled call (:func:`.kernels.correct`;
+:meth:`GrowingState.correct_run` a run of sequential updates). Entries added while a term
 is pending (a new landmark) have zero rows in ``U``: their stored cross-covariances were computed
 from the current P, so the earlier terms are already in them.
 """
