@@ -1,0 +1,71 @@
+"""The scan-level pose graph of laser graph SLAM's local refinement: every scan a variable, pairwise ICP beside the
+front end's and the loops' constraints.
+
+The node graph (:mod:`.backend`) holds the front end's poses L_i of the nodes only; every other scan k hangs off its
+node i(k) rigidly, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k). Each L_k comes from matching scan k against the map, so
+two neighbouring scans carry two independent map-match errors (≈ 1 cm on the real logs), while registering the
+raw scans onto each other is several millimetres closer to the logs' relations (research/mapping.md §8). The
+refinement solves, by batch Levenberg-Marquardt from the node graph's result, over X_k (world poses of every scan
+k from the first node's scan k_0 on, Pose2):
+
+    prior         X_{k_0} = G_0 (tight)
+    node factors  every factor of the node graph, between the nodes' scans (sequential and loop closures, the
+                  latter robustified), unchanged
+    hanging       X_{i(k)}⁻¹ X_k = L_{i(k)}⁻¹ ⊕ L_k  for every scan k that is not a node, with the front end's
+                  covariance rule of a sequential factor: R_{i(k)}ᵀ C_k R_{i(k)} + diag(σ_t², σ_t², σ_θ²)
+    pairwise      X_a⁻¹ X_k = z_ak for a = k − 1 … k − m: scan k's end points registered onto scan a's by
+                  point-to-line ICP (:mod:`~slamarena.mapping.scan_matching.point_to_line`) from L_a⁻¹ ⊕ L_k, with
+                  the ICP's Laplace covariance plus diag(ρ_t², ρ_t², ρ_θ²), robustified as the loops are
+
+Without pairwise factors the hanging factors have zero residual at the node graph's result, which is then the
+optimum (the refinement only adds information). A non-finite or increasing error is an
+:class:`~.backend.OptimizationError`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from slamarena.datasets.geometry import between, compose
+from slamarena.robust import RobustKernelParams, noise_model
+
+from .backend import OptimizationError
+
+__all__ = ["refine_scans"]
+
+
+def refine_scans(initial: np.ndarray, node_scan: np.ndarray, edges: list, hanging: list, pairs: list, kernel: RobustKernelParams,
+                 prior_sigma: float = 1e-6, max_iterations: int = 100) -> tuple[np.ndarray, dict]:
+    """Optimised world poses (K, 3) of every scan from ``initial`` (K, 3; scans before ``node_scan[0]`` follow the
+    first node rigidly) and a report.
+
+    ``edges``: the node graph's (i, j, z, Σ, loop?) between node indices; ``hanging`` and ``pairs``: (a, k, z, Σ)
+    between scan indices (module docstring; pairs robustified with ``kernel``).
+    """
+    import gtsam
+
+    k0 = int(node_scan[0])
+    K = len(initial)
+    graph = gtsam.NonlinearFactorGraph()
+    values = gtsam.Values()
+    for k in range(k0, K):
+        values.insert(k, gtsam.Pose2(*initial[k]))
+    graph.add(gtsam.PriorFactorPose2(k0, gtsam.Pose2(*initial[k0]), gtsam.noiseModel.Isotropic.Sigma(3, prior_sigma)))
+    for i, j, z, cov, loop in edges:
+        graph.add(gtsam.BetweenFactorPose2(int(node_scan[i]), int(node_scan[j]), gtsam.Pose2(*z), noise_model(cov, kernel if loop else None)))
+    for a, k, z, cov in hanging:
+        graph.add(gtsam.BetweenFactorPose2(a, k, gtsam.Pose2(*z), noise_model(cov)))
+    for a, k, z, cov in pairs:
+        graph.add(gtsam.BetweenFactorPose2(a, k, gtsam.Pose2(*z), noise_model(cov, kernel)))
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(max_iterations)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
+    before = graph.error(values)
+    result = optimizer.optimize()
+    after = graph.error(result)
+    if not (np.isfinite(before) and np.isfinite(after)) or after > before * (1 + 1e-9) + 1e-9:
+        raise OptimizationError(f"the local refinement did not converge: error {before:.6g} → {after:.6g}")
+    poses = initial.copy()
+    poses[k0:] = gtsam.utilities.extractPose2(result)
+    poses[:k0] = compose(poses[k0], between(initial[k0], initial[:k0]))
+    return poses, {"initial_error": float(before), "final_error": float(after), "iterations": int(optimizer.iterations()),
+                   "pairs": len(pairs), "variables": K - k0}
