@@ -245,8 +245,7 @@ class LaserSLAM:
             nodes = np.asarray(node_scan)
             hanging = [(int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(Ln[i_k[k]], match_cov[k]))
                        for k in range(nodes[0] + 1, K) if nodes[i_k[k]] != k]
-            poses, refinement = refine_scans(poses, nodes, backend.edges, hanging, pairs, p.robust_kernel)
-            G = poses[nodes]
+            poses, refinement = refine_scans(poses, nodes, hanging, pairs, p.robust_kernel)
             seconds["optimisation"] += time.process_time() - tic
         self.pose_graph = backend.pose_graph(sequence.name, G)
         self.map = self._render(G, node_scan, scans, front.limit)
