@@ -22,12 +22,19 @@ the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest co
 iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
 G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
 
+Local refinement (:mod:`.refine`; ``refine_neighbours`` = m > 0): as each scan k is matched, its end points within
+``refine_max_range`` are registered onto those of the m scans before it by point-to-line ICP
+(:mod:`~slamarena.mapping.scan_matching.point_to_line`) from the front end's relative pose; a registration pairing
+at least ``refine_min_paired`` of the points gives a pairwise factor. After the node graph's batch solve, every
+scan becomes a variable: the nodes held at their optimised poses, every other scan tied to its node by the front
+end's relative pose, and the pairwise factors place the scans between the nodes.
+
 Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) with i(k) the last node at or
-before scan k (relations refer to any scan), and the front end's L_k (``diagnostics["front_end_poses"]``, the
+before scan k (relations refer to any scan; the refined poses when m > 0), and the front end's L_k (``diagnostics["front_end_poses"]``, the
 trajectory before loop closure); the map re-rendered from the nodes' optimised poses
 (``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
-their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the loop search and the
-optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
+their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the pairwise ICP, the loop search
+and the optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
 """
 from __future__ import annotations
 

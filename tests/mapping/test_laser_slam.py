@@ -53,18 +53,19 @@ def test_closing_the_loop_reduces_the_error(hard_loop):
 
 
 def test_pairwise_refinement_cuts_the_short_range_error(hard_loop):
-    """The local refinement (every scan registered onto its predecessor, :mod:`slamarena.mapping.laser_slam.refine`)
-    against the same run without it: the error of the motion between scans 1 and 3 apart drops by more than a third
-    (measured MEASURED), the loops are the same, and the ATE does not grow (the nodes are held)."""
+    """The local refinement (every scan registered onto its two predecessors, :mod:`slamarena.mapping.laser_slam.refine`)
+    against the same run without it: the error of the motion between scans 1 and 3 apart drops (measured 0.0144 →
+    0.0073 m and 0.0180 → 0.0111 m), the loops are the same, and the ATE does not grow (0.0362 → 0.0343 m: the nodes
+    are held)."""
     seq, closed, _ = hard_loop
     plain = LaserSLAM(**FRONT, refine_neighbours=0).run(seq)
     gt = seq.ground_truth
     truth = gt.poses[np.searchsorted(gt.t, seq.scans.t)]
     def short(est, gap):
         return np.linalg.norm(between(est.poses[:-gap], est.poses[gap:])[:, :2] - between(truth[:-gap], truth[gap:])[:, :2], axis=1).mean()
-    for gap in (1, 3):
-        assert short(closed, gap) < 0.67 * short(plain, gap), (gap, short(closed, gap), short(plain, gap))
-    assert closed.meta["refinement"]["pairs"] > 0.95 * len(seq.scans) and plain.meta["refinement"] is None
+    for gap, factor in ((1, 0.6), (3, 0.75)):
+        assert short(closed, gap) < factor * short(plain, gap), (gap, short(closed, gap), short(plain, gap))
+    assert closed.meta["refinement"]["pairs"] > 1.9 * len(seq.scans) and plain.meta["refinement"] is None
     np.testing.assert_array_equal(closed.diagnostics["loop_accepted"], plain.diagnostics["loop_accepted"])
     ref = reference_of(seq)
     assert ate(closed, ref, ATEParams(align="se2"))[0]["rmse"] < 1.05 * ate(plain, ref, ATEParams(align="se2"))[0]["rmse"]
@@ -183,9 +184,11 @@ def test_relations_on_mit_csail():
     est = LaserSLAM().run(seq)
     scores, _ = relation_error_from_file(est, seq, RelationsParams(file=relations))
     assert scores["used"] == 1172
-    # measured 0.032 ± 0.036 (research/mapping.md): far below the published scan matching (0.106 ± 0.325), at
-    # Cartographer's 0.0319 ± 0.0363 but not below it (the goal), and above graph mapping's 0.004 ± 0.009
-    assert scores["trans_mean"] < 0.035 and scores["trans_std"] < 0.04
+    # measured 0.0313 ± 0.0364 with the pairwise refinement, 0.0322 ± 0.0364 without (research/mapping.md §8): far
+    # below the published scan matching (0.106 ± 0.325), below Cartographer's 0.0319 ± 0.0363 (the goal), and above
+    # graph mapping's 0.004 ± 0.009
+    assert scores["trans_mean"] < 0.0319 and scores["trans_std"] < 0.04
+    assert est.meta["refinement"]["pairs"] > 3900
     assert est.meta["loop_closures"] > 50
 
 
