@@ -30,7 +30,7 @@ import numpy as np
 from slamarena.datasets.geometry import between, compose
 from slamarena.robust import RobustKernelParams, noise_model
 
-from .backend import OptimizationError
+from .backend import batch_optimise
 
 __all__ = ["refine_scans"]
 
@@ -56,16 +56,8 @@ def refine_scans(initial: np.ndarray, node_scan: np.ndarray, hanging: list, pair
         graph.add(gtsam.BetweenFactorPose2(a, k, gtsam.Pose2(*z), noise_model(cov)))
     for a, k, z, cov in pairs:
         graph.add(gtsam.BetweenFactorPose2(a, k, gtsam.Pose2(*z), noise_model(cov, kernel)))
-    params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(max_iterations)
-    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
-    before = graph.error(values)
-    result = optimizer.optimize()
-    after = graph.error(result)
-    if not (np.isfinite(before) and np.isfinite(after)) or after > before * (1 + 1e-9) + 1e-9:
-        raise OptimizationError(f"the local refinement did not converge: error {before:.6g} → {after:.6g}")
+    result, report = batch_optimise(graph, values, max_iterations, "the local refinement")
     poses = initial.copy()
     poses[k0:] = gtsam.utilities.extractPose2(result)
     poses[:k0] = compose(poses[k0], between(initial[k0], initial[:k0]))
-    return poses, {"initial_error": float(before), "final_error": float(after), "iterations": int(optimizer.iterations()),
-                   "pairs": len(pairs), "variables": K - k0}
+    return poses, {**report, "pairs": len(pairs), "variables": K - k0}

@@ -36,6 +36,7 @@ from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
 from slamarena.params import Field, Params
 
 from . import MatchResult
+from .gauss_newton import accumulate_row
 
 __all__ = ["PointToLineICPMatcher", "PointToLineICPMatcherParams", "PreparedReference", "residuals_and_jacobian"]
 
@@ -163,18 +164,7 @@ def _normal_equations(P, N, start, origin, cell, nx, ny, pts, pose, gate):
         if j < 0:
             continue
         r = N[j, 0] * (wx - P[j, 0]) + N[j, 1] * (wy - P[j, 1])
-        J0 = N[j, 0]
-        J1 = N[j, 1]
-        J2 = N[j, 0] * (-s * x - c * y) + N[j, 1] * (c * x - s * y)
-        H[0, 0] += J0 * J0
-        H[0, 1] += J0 * J1
-        H[0, 2] += J0 * J2
-        H[1, 1] += J1 * J1
-        H[1, 2] += J1 * J2
-        H[2, 2] += J2 * J2
-        g[0] += J0 * r
-        g[1] += J1 * r
-        g[2] += J2 * r
+        accumulate_row(H, g, N[j, 0], N[j, 1], N[j, 0] * (-s * x - c * y) + N[j, 1] * (c * x - s * y), r)
         ssr += r * r
         n += 1
     H[1, 0] = H[0, 1]
