@@ -145,7 +145,7 @@ def map_log(
     log: str = typer.Argument(..., help="A CARMEN log path, or a registry name such as carmen:intel or sim:laser."),
     method: str = typer.Option("grid_slam", "--method", help="Mapping method: grid_slam (front end alone), laser_slam (with loop closure), rbpf."),
     param: list[str] = typer.Option([], "--param", help="A parameter of the method, key=value (repeatable), e.g. --param matcher=branch_and_bound."),
-    matcher: Optional[str] = typer.Option(None, "--matcher", help="Scan matcher (short for --param matcher=NAME): gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp."),
+    matcher: Optional[str] = typer.Option(None, "--matcher", help="Scan matcher (short for --param matcher=NAME): gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp, point_to_line."),
     particles: Optional[int] = typer.Option(None, "--particles", help="Particles of a particle filter (short for --param particles=N)."),
     out: Path = typer.Option(Path("results/maps"), "--out", help="Output directory."),
     relations: Optional[Path] = typer.Option(None, "--relations", help="A Kümmerle et al. relations file to score the trajectory against."),

@@ -20,11 +20,27 @@ from slamarena.datasets.posegraph import PoseGraph
 from slamarena.errors import UserError
 from slamarena.robust import RobustKernelParams, noise_model
 
-__all__ = ["Backend", "OptimizationError"]
+__all__ = ["Backend", "OptimizationError", "batch_optimise"]
 
 
 class OptimizationError(UserError, RuntimeError):
     """The back end's optimisation failed (non-finite or increasing error); its result is not used."""
+
+
+def batch_optimise(graph, initial, max_iterations: int, what: str) -> "tuple[object, dict]":
+    """Levenberg-Marquardt on a GTSAM ``graph`` from ``initial``: the result (Values) and a report; a non-finite or
+    increasing error is an :class:`OptimizationError` naming ``what``."""
+    import gtsam
+
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(max_iterations)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    before = graph.error(initial)
+    result = optimizer.optimize()
+    after = graph.error(result)
+    if not (np.isfinite(before) and np.isfinite(after)) or after > before * (1 + 1e-9) + 1e-9:
+        raise OptimizationError(f"{what} did not converge: error {before:.6g} → {after:.6g}")
+    return result, {"initial_error": float(before), "final_error": float(after), "iterations": int(optimizer.iterations())}
 
 
 class Backend:
@@ -102,15 +118,8 @@ class Backend:
         for k in range(graph.size()):
             if graph.at(k) is not None:
                 full.add(graph.at(k))
-        params = g.LevenbergMarquardtParams()
-        params.setMaxIterations(max_iterations)
-        optimizer = g.LevenbergMarquardtOptimizer(full, initial, params)
-        before = full.error(initial)
-        result = optimizer.optimize()
-        after = full.error(result)
-        if not (np.isfinite(before) and np.isfinite(after)) or after > before * (1 + 1e-9) + 1e-9:
-            raise OptimizationError(f"the final batch optimisation did not converge: error {before:.6g} → {after:.6g}")
-        return g.utilities.extractPose2(result), {"initial_error": float(before), "final_error": float(after), "iterations": int(optimizer.iterations())}
+        result, report = batch_optimise(full, initial, max_iterations, "the final batch optimisation")
+        return g.utilities.extractPose2(result), report
 
     def pose_graph(self, name: str, poses: np.ndarray) -> PoseGraph:
         """The graph as the data model's :class:`PoseGraph` (for the g2o writer), with ``poses`` as its vertices."""

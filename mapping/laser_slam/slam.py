@@ -22,12 +22,19 @@ the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest co
 iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
 G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
 
+Local refinement (:mod:`.refine`; ``refine_neighbours`` = m > 0): as each scan k is matched, its end points within
+``refine_max_range`` are registered onto those of the m scans before it by point-to-line ICP
+(:mod:`~slamarena.mapping.scan_matching.point_to_line`) from the front end's relative pose; a registration pairing
+at least ``refine_min_paired`` of the points gives a pairwise factor. After the node graph's batch solve, every
+scan becomes a variable: the nodes held at their optimised poses, every other scan tied to its node by the front
+end's relative pose, and the pairwise factors place the scans between the nodes.
+
 Output: one pose per scan at the scan stamps, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) with i(k) the last node at or
-before scan k (relations refer to any scan), and the front end's L_k (``diagnostics["front_end_poses"]``, the
+before scan k (relations refer to any scan; the refined poses when m > 0), and the front end's L_k (``diagnostics["front_end_poses"]``, the
 trajectory before loop closure); the map re-rendered from the nodes' optimised poses
 (``self.map``); the pose graph (``self.pose_graph``, written as g2o by the CLI); the loop candidates with
-their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the loop search and the
-optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
+their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the pairwise ICP, the loop search
+and the optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
 """
 from __future__ import annotations
 
@@ -47,8 +54,10 @@ from ..frontend import FrontEnd
 from ..grid_slam import GridSLAMParams
 from ..map_pyramid import MapPyramid, PyramidParams
 from ..occupancy_grid import OccupancyGrid
+from ..scan_matching.point_to_line import PointToLineICPMatcher, PointToLineICPMatcherParams
 from .backend import Backend
 from .loop_closure import LoopCloser
+from .refine import refine_scans
 
 __all__ = ["LaserSLAM", "LaserSLAMParams", "Submap"]
 
@@ -84,6 +93,12 @@ class LaserSLAMParams(GridSLAMParams):
     loop_closure: bool = Field(True, description="search for loop closures (False: the graph holds the front end's chain only)")
     false_loops: NonNegativeInt = Field(0, description="robustness study only: add this many deliberately false loop closures, spread evenly over the log")
     false_loop_distance: PositiveFloat = Field(5.0, description="a false loop claims its node sits at the node about this far away [m]")
+    refine_neighbours: NonNegativeInt = Field(2, description="local refinement (:mod:`.refine`): register each scan onto this many preceding scans (0: no refinement)")
+    refine_max_range: PositiveFloat = Field(20.0, description="the refinement's ICP uses the end points within this range [m]")
+    refine_min_paired: float = Field(0.5, gt=0.0, le=1.0, description="a pairwise registration is used when at least this fraction of the scan's points is paired")
+    refine_sigma_translation: PositiveFloat = Field(0.005, description="added to a pairwise factor's translation σ [m]")
+    refine_sigma_rotation: PositiveFloat = Field(0.002, description="added to a pairwise factor's rotation σ [rad]")
+    refine_matcher: PointToLineICPMatcherParams = Field(PointToLineICPMatcherParams(), description="the refinement's point-to-line ICP")
 
 
 class Submap:
@@ -134,8 +149,13 @@ class LaserSLAM:
         travelled = [0.0]
         false_at = [K * j // (p.false_loops + 1) for j in range(1, p.false_loops + 1)]  # scans after which a false loop is due
         false_loops: list[tuple[int, int]] = []
+        icp = PointToLineICPMatcher(p.refine_matcher)
+        recent: list[tuple[int, object]] = []  # the last refine_neighbours scans with their prepared ICP references
+        pairs: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # pairwise registrations (a, k, z, Σ)
+        pair_floor = np.diag(np.square([p.refine_sigma_translation, p.refine_sigma_translation, p.refine_sigma_rotation]))
+        match_cov = np.zeros((K, 3, 3))  # C_k, zero where scan k was not matched
         diag = {"matched": np.zeros(K, bool), "score": np.full(K, np.nan), "usable_beams": np.zeros(K, np.int64), "bad_beams": np.zeros(K, np.int64)}
-        seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0}
+        seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
         active: list[Submap] = []
         pose = front.start_pose(sequence.start_pose)
         tracking = None
@@ -151,7 +171,21 @@ class LaserSLAM:
                 if res is not None:
                     pose = res.pose
                     diag["matched"][k], diag["score"][k] = True, res.score
+                    match_cov[k] = _finite(res.cov)
             local[k] = pose
+            if p.refine_neighbours:
+                seconds["front_end"] += time.process_time() - tic
+                tic = time.process_time()
+                pts = beams.points[np.hypot(*beams.points.T) < p.refine_max_range]
+                if len(pts) >= p.min_beams:
+                    for a, reference in recent:
+                        r = icp.match(reference, pts, between(local[a], pose))
+                        if r.score >= p.refine_min_paired and np.all(np.isfinite(r.cov)):
+                            pairs.append((a, k, r.pose, r.cov + pair_floor))
+                    recent = recent[-(p.refine_neighbours - 1):] if p.refine_neighbours > 1 else []
+                    recent.append((k, icp.prepare(pts)))
+                seconds["pairwise"] += time.process_time() - tic
+                tic = time.process_time()
             new_node = len(beams.points) >= p.min_beams and front.due(pose)
             if new_node:
                 i = len(L)
@@ -167,7 +201,6 @@ class LaserSLAM:
                     for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
                         grid.release_scratch()
                 front.inserted(pose)
-                cov_match = res.cov if diag["matched"][k] else np.zeros((3, 3))
                 L.append(pose.copy())
                 node_scan.append(k)
                 node_points.append(beams.points)
@@ -178,8 +211,7 @@ class LaserSLAM:
                     backend.add_node(0, pose)
                 else:
                     z = between(L[i - 1], L[i])
-                    R = _rotation(L[i - 1][2])
-                    cov = R.T @ _finite(cov_match) @ R + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
+                    cov = self._front_end_cov(L[i - 1], match_cov[k])
                     G = np.vstack([G, compose(G[i - 1], z)])
                     backend.add_node(i, G[i], z, cov)
                     travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
@@ -214,6 +246,14 @@ class LaserSLAM:
         Ln = np.asarray(L)
         i_k = np.maximum(node_of_scan, 0)
         poses = compose(G[i_k], between(Ln[i_k], local))
+        refinement = None
+        if p.refine_neighbours and L:
+            tic = time.process_time()
+            nodes = np.asarray(node_scan)
+            hanging = [(int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(Ln[i_k[k]], match_cov[k]))
+                       for k in range(nodes[0] + 1, K) if nodes[i_k[k]] != k]
+            poses, refinement = refine_scans(poses, nodes, hanging, pairs, p.robust_kernel)
+            seconds["optimisation"] += time.process_time() - tic
         self.pose_graph = backend.pose_graph(sequence.name, G)
         self.map = self._render(G, node_scan, scans, front.limit)
         diag.update(loops.record.arrays())
@@ -224,10 +264,17 @@ class LaserSLAM:
         meta = {
             "params": p.canonical(), "scans": int(K), "nodes": len(L), "submaps": len(self.submaps),
             "loop_candidates": int(accepted.size), "loop_closures": int(accepted.sum()), "loop_rejected": int((~accepted).sum()), "false_loops": len(false_loops),
-            "seconds": seconds, "optimisation": report, "odometry_stalled_scans": int(front.stalled.sum()),
+            "seconds": seconds, "optimisation": report, "refinement": refinement, "odometry_stalled_scans": int(front.stalled.sum()),
             "map_shape": list(self.map.shape), "map_origin": self.map.origin.tolist(),
         }
         return Estimate(method="laser_slam", t=scans.t.copy(), poses=poses, step_time=_spread(seconds, K), diagnostics=diag, meta=meta)
+
+    def _front_end_cov(self, reference: np.ndarray, C: np.ndarray) -> np.ndarray:
+        """Covariance of a front-end relative pose from ``reference`` to a scan matched with covariance C (front-end
+        frame): C rotated into the reference's frame plus the floors (module docstring)."""
+        p = self.params
+        R = _rotation(reference[2])
+        return R.T @ C @ R + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
 
     def _false_loop(self, n: int, G: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
         """A deliberately false loop for node n (module docstring): (node c, z, Σ), or None while no finished

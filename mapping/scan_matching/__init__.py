@@ -27,6 +27,7 @@ MATCHERS: dict[str, str] = {
     "branch_and_bound": "slamarena.mapping.scan_matching.correlative:BranchAndBoundMatcher",
     "kiss_icp": "slamarena.mapping.scan_matching.icp:KissICPMatcher",
     "open3d_icp": "slamarena.mapping.scan_matching.icp:Open3DICPMatcher",
+    "point_to_line": "slamarena.mapping.scan_matching.point_to_line:PointToLineICPMatcher",
 }
 
 

@@ -132,9 +132,13 @@ def accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s):
     """Add one end point s = (sx, sy) with map value M and gradient ∇M at S(ξ) (c, s = cos ψ, sin ψ) to the upper
     triangle of H = Σ JᵀJ and to g = Σ Jᵀr; returns r² (r = 1 − M, J = ∇M ∂S/∂ξ)."""
     r = 1.0 - M
-    J0 = dMx
-    J1 = dMy
-    J2 = dMx * (-s * sx - c * sy) + dMy * (c * sx - s * sy)
+    accumulate_row(H, g, dMx, dMy, dMx * (-s * sx - c * sy) + dMy * (c * sx - s * sy), r)
+    return r * r
+
+
+@njit(cache=True, inline="always")
+def accumulate_row(H, g, J0, J1, J2, r):
+    """Add one residual r with its 1 × 3 Jacobian row (J0, J1, J2) to the upper triangle of H = Σ JᵀJ and to g = Σ Jᵀr."""
     H[0, 0] += J0 * J0
     H[0, 1] += J0 * J1
     H[0, 2] += J0 * J2
@@ -144,7 +148,6 @@ def accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s):
     g[0] += J0 * r
     g[1] += J1 * r
     g[2] += J2 * r
-    return r * r
 
 
 @njit(cache=True)

@@ -11,6 +11,7 @@ from slamarena.datasets.geometry import between, transform_points
 from slamarena.mapping.map_pyramid import MapPyramid
 from slamarena.mapping.scan_matching import MATCHERS, make_matcher, matcher_class
 from slamarena.mapping.scan_matching.gauss_newton import interpolate
+from slamarena.mapping.scan_matching.point_to_line import residuals_and_jacobian
 
 ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
 ROOM_POSES = np.array([[-4.0, -3.5, 0.2], [-1.0, -3.0, 0.0], [2.0, -2.5, -0.3], [4.5, -3.0, 0.5], [-4.0, 2.5, -1.2]])
@@ -107,7 +108,8 @@ def test_notes_update_rule_walks_away_from_the_map(room_map):
 
 # --------------------------------------------------------------------------- recover offsets
 GRID_MATCHERS = [("gauss_newton", {}), ("gauss_newton", {"hector_gradient_bug": True}), ("correlative", {}), ("branch_and_bound", {})]
-POINT_MATCHERS = [("kiss_icp", {}), ("open3d_icp", {"method": "point_to_point"}), ("open3d_icp", {"method": "point_to_plane"}), ("open3d_icp", {"method": "generalized"})]
+POINT_MATCHERS = [("kiss_icp", {}), ("open3d_icp", {"method": "point_to_point"}), ("open3d_icp", {"method": "point_to_plane"}), ("open3d_icp", {"method": "generalized"}),
+                  ("point_to_line", {})]
 
 
 @pytest.mark.parametrize("name,params", GRID_MATCHERS + POINT_MATCHERS)
@@ -152,6 +154,70 @@ def test_covariance_is_long_along_a_corridor():
         out = res.match(maps, pts, np.array([0.2, 0.03, 0.0]))
         w, V = np.linalg.eigh(out.cov[:2, :2])
         assert abs(V[0, 1]) > 0.99 and w[1] > 4 * w[0], (name, out.cov)  # major axis along x
+
+
+def test_point_to_line_residual_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(0)
+    s, q = rng.uniform(-3, 3, (20, 2)), rng.uniform(-3, 3, (20, 2))
+    n = rng.standard_normal((20, 2))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    pose = np.array([0.3, -0.2, 0.7])
+    r, J = residuals_and_jacobian(pose, s, q, n)
+    eps = 1e-6
+    numeric = np.column_stack([(residuals_and_jacobian(pose + e, s, q, n)[0] - residuals_and_jacobian(pose - e, s, q, n)[0]) / (2 * eps)
+                               for e in np.eye(3) * eps])
+    np.testing.assert_allclose(J, numeric, atol=1e-7)
+    assert np.allclose(r, np.sum(n * (transform_points(pose, s) - q), axis=1))
+
+
+def test_point_to_line_kernel_equals_the_literal_brute_force_form():
+    """The binned numba kernel (normals from the neighbours within the radius, the nearest paired point with a line,
+    H = Σ JᵀJ, g = Σ Jᵀr) against brute force: all pairwise distances, eigh of each neighbourhood's covariance."""
+    from slamarena.mapping.scan_matching.point_to_line import _normal_equations
+
+    m = make_matcher("point_to_line")
+    ref_pts = transform_points(ROOM_POSES[1], scan_points(ROOM_POSES[1])[0])
+    ref = m.prepare(ref_pts)
+    P = ref.points
+    D = np.linalg.norm(P[:, None] - P[None], axis=2)
+    normals = np.full_like(P, np.nan)
+    for i, near in enumerate(D <= m.params.normal_radius):
+        if near.sum() >= 3:
+            normals[i] = np.linalg.eigh(np.cov(P[near].T, bias=True))[1][:, 0]
+    has = ~np.isnan(ref.normals[:, 0])
+    assert has.mean() > 0.9 and np.array_equal(has, ~np.isnan(normals[:, 0]))
+    np.testing.assert_allclose(np.abs(np.sum(ref.normals[has] * normals[has], axis=1)), 1.0, atol=1e-9)  # the same line, either sign
+    pose = ROOM_POSES[1] + np.array([0.04, -0.03, 0.02])
+    pts = scan_points(ROOM_POSES[1] + np.array([0.3, 0.1, 0.05]))[0]
+    world = transform_points(pose, pts)
+    Dq = np.linalg.norm(world[:, None] - P[None], axis=2)
+    Dq[:, ~has] = np.inf
+    j = Dq.argmin(axis=1)
+    paired = Dq[np.arange(len(world)), j] <= m.params.max_correspondence
+    r, J = residuals_and_jacobian(pose, pts[paired], P[j[paired]], ref.normals[j[paired]])
+    ny, nx = ref.shape
+    H, g, ssr, n = _normal_equations(P, ref.normals, ref.start, ref.origin, ref.cell, nx, ny, pts, pose, m.params.max_correspondence)
+    assert n == paired.sum() > 100
+    np.testing.assert_allclose(H, J.T @ J, rtol=1e-10)
+    np.testing.assert_allclose(g, J.T @ r, rtol=1e-10, atol=1e-12)
+    assert ssr == pytest.approx(r @ r, rel=1e-10)
+
+
+def test_point_to_line_covariance_is_long_along_a_corridor():
+    """Scan onto scan in a corridor (5 mm noise on the points): the walls fix y and θ, not x. Without noise every
+    normal is exactly ±y, H is singular and the covariance infinite (the pair is unusable)."""
+    corridor = np.array([[-20, -1.0, 20, -1.0], [-20, 1.0, 20, 1.0]]) + 0.013
+    rng = np.random.default_rng(2)
+    m = make_matcher("point_to_line")
+    ref, truth = scan_points(np.zeros(3), corridor, ANGLES, 8.0)[0], np.array([0.3, 0.02, 0.01])
+    pts = scan_points(truth, corridor, ANGLES, 8.0)[0]
+    exact = m.match(ref, pts, truth + np.array([0.0, 0.03, -0.01]))
+    assert np.all(np.isinf(np.diag(exact.cov))) and exact.pose[0] == truth[0]  # x left at the guess, not thrown away
+    assert abs(exact.pose[1] - truth[1]) < 1e-6 and abs(exact.pose[2] - truth[2]) < 1e-6
+    out = m.match(ref + rng.normal(0, 0.005, ref.shape), pts + rng.normal(0, 0.005, pts.shape), truth + np.array([0.0, 0.03, -0.01]))
+    assert abs(out.pose[1] - truth[1]) < 3e-3 and abs(out.pose[2] - truth[2]) < 2e-3  # across the corridor and the heading
+    w, V = np.linalg.eigh(out.cov[:2, :2])
+    assert abs(V[0, 1]) > 0.99 and w[1] > 100 * w[0], out.cov  # major axis along x
 
 
 # --------------------------------------------------------------------------- simulated and real scans
@@ -213,7 +279,7 @@ def _points(sc, k):
 
 
 def test_registry_and_bad_parameters():
-    assert set(MATCHERS) == {"gauss_newton", "correlative", "branch_and_bound", "kiss_icp", "open3d_icp"}
+    assert set(MATCHERS) == {"gauss_newton", "correlative", "branch_and_bound", "kiss_icp", "open3d_icp", "point_to_line"}
     with pytest.raises(KeyError):
         make_matcher("ndt")
     with pytest.raises(ValueError):
@@ -230,6 +296,7 @@ PARAMETER_CASES = [  # (matcher, a valid non-default parameter, a bad value)
     ("branch_and_bound", {"covariance_cells": 3}, {"linear_window": -0.1}),
     ("kiss_icp", {"voxel_size": 0.2}, {"max_points_per_voxel": 0}),
     ("open3d_icp", {"method": "generalized"}, {"neighbours": 2}),
+    ("point_to_line", {"normal_radius": 0.3}, {"max_correspondence": 0.0}),
 ]
 
 
