@@ -8,13 +8,13 @@ Per scan k (every scan of ``sequence.scans``; P particles, each with a pose ξ_i
    ``ĝ_i = ξ_i(f) ⊕ (⊖o_f ⊕ o_k)``, f the scan of the last fresh reading; otherwise ``ĝ_i = ξ_i``.
 3. A **filter step** when the odometry moved ``update_distance`` or turned ``update_angle`` since the last
    filter step (and at the first ``initial_updates`` usable scans): the improved proposal
-   (:mod:`slamarena.mapping.rbpf.proposal`) with Σ_u of the odometry motion since the last filter step
-   (its mode searched with the slip-widened prior Σ_u + Σ_slip), a draw per particle, log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
+   (:mod:`slamarena.mapping.rbpf.proposal`) with Σ_u of the odometry motion since the last filter step,
+   a draw per particle, log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
    scan at its drawn pose, and when ``N_eff < resample_threshold · P`` systematic resampling (tables copied,
    tiles shared: :mod:`slamarena.mapping.rbpf.tiled_grid`), weights reset.
-   Between filter steps each particle **tracks**: its pose becomes the mode found by the same search with the
-   prior Σ_u + Σ_slip of the scan's own odometry increment (no draw, no weight, no map update), so every scan
-   stamp has a pose consistent with the particle's map.
+   Between filter steps each particle **tracks**: its pose becomes the mode of the same target with Σ_u of
+   the scan's own odometry increment (no draw, no weight, no map update), so every scan stamp has a pose
+   consistent with the particle's map.
 4. Scans with fewer than ``min_beams`` usable beams keep the guesses (not matched, counted).
 
 Output: an :class:`~slamarena.datasets.estimate.Estimate` with the trajectory of the best particle after the
@@ -60,13 +60,7 @@ class RBPFParams(PyramidParams):
 
     Motion model: Σ_u = diag(σ_t², σ_t², σ_r²) with ``σ_t = sigma_t_min + sigma_t_per_m·d + sigma_t_per_rad·|Δθ|``
     and ``σ_r = sigma_r_min + sigma_r_per_rad·|Δθ| + sigma_r_per_m·d`` for an odometry motion of d metres and
-    Δθ radians (isotropic in translation, hence the same in every frame): the odometry's error, from which the
-    proposal's Gaussian and the weights are computed (GMapping's srr/str ≈ 0.1 per metre, no floor but a 1 cm /
-    5 mrad one that keeps Σ_u positive definite at rest). Σ_slip = diag(slip_t², slip_t², slip_r²) widens the
-    prior of the **mode search** only (tracking and the proposal's mode): real odometry slips (fr079), and a
-    matcher held to the odometry by a tight prior follows the slip; GMapping's matcher ignores the odometry
-    altogether. Widening Σ_u itself instead spreads the particles by the slip allowance at every filter step in
-    the directions the scan does not observe (research/mapping.md §6).
+    Δθ radians (isotropic in translation, hence the same in every frame).
     """
 
     particles: PositiveInt = Field(30, description="number of particles P")
@@ -74,14 +68,12 @@ class RBPFParams(PyramidParams):
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < resample_threshold · P")
     sigma_likelihood: PositiveFloat = Field(1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)")
     weight_tempering: float = Field(1.0, gt=0.0, le=1.0, description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)")
-    sigma_t_min: PositiveFloat = Field(0.01, description="σ_t of the motion model at rest [m]")
+    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
     sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
     sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
-    sigma_r_min: PositiveFloat = Field(0.005, description="σ_r of the motion model at rest [rad]")
+    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
     sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
     sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
-    slip_t: NonNegativeFloat = Field(0.1, description="σ of the odometry slip the mode search may correct, added to σ_t in the matcher's prior only [m]")
-    slip_r: NonNegativeFloat = Field(0.1, description="σ of the odometry slip the mode search may correct, added to σ_r in the matcher's prior only [rad]")
     update_distance: NonNegativeFloat = Field(0.5, description="a filter step after the odometry moved this far since the last one [m]")
     update_angle: NonNegativeFloat = Field(0.25, description="a filter step after the odometry turned this much since the last one [rad]")
     initial_updates: NonNegativeInt = Field(10, description="every usable scan is a filter step until the maps hold this many scans")
@@ -145,11 +137,6 @@ class RBPF:
         sr = p.sigma_r_min + p.sigma_r_per_rad * a + p.sigma_r_per_m * d
         return np.diag([st**2, st**2, sr**2])
 
-    def match_info(self, motion: np.ndarray) -> np.ndarray:
-        """Λ_m = (Σ_u + Σ_slip)⁻¹ (3, 3): the motion prior of the mode search (tracking and the proposal's mode)."""
-        p = self.params
-        return np.linalg.inv(self.motion_cov(motion) + np.diag([p.slip_t**2, p.slip_t**2, p.slip_r**2]))
-
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Filter ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
         scans = sequence.scans
@@ -203,11 +190,11 @@ class RBPF:
                 since = between(odom_filter, odom[k]) if (fresh[k] and odom_filter is not None) else np.zeros(3)
                 step = updates < max(p.initial_updates, 1) or np.hypot(since[0], since[1]) >= p.update_distance or abs(wrap_angle(since[2])) >= p.update_angle
                 if updates > 0 and not step:
-                    poses, diag["iterations"][k] = gauss_newton(self.maps, pts, poses, self.match_info(motion), **gn)
+                    poses, diag["iterations"][k] = gauss_newton(self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn)
                     diag["matched"][k] = True
                 elif step:
                     if updates > 0:
-                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(pts, poses, self.motion_cov(since), self.match_info(since), rng)
+                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(pts, poses, self.motion_cov(since), rng)
                         logw += p.weight_tempering * log_eta
                         evidence += log_eta
                         logw -= logw.max()
@@ -268,11 +255,12 @@ class RBPF:
         }
         return Estimate(method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta)
 
-    def _propose(self, pts, guesses, motion_cov, match_info, rng):
+    def _propose(self, pts, guesses, motion_cov, rng):
         """Draws (P, 3), the number drawn from the motion model, log η (P,) (:mod:`.proposal`) and the matcher's iterations."""
         p = self.params
         P = guesses.shape[0]
-        modes, iterations = gauss_newton(self.maps, pts, guesses, match_info, sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation,
+        info = np.linalg.inv(motion_cov)
+        modes, iterations = gauss_newton(self.maps, pts, guesses, info, sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation,
                              tol_r=p.tol_rotation, max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
         mu, cov, log_eta, known = quadrature(self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood)
         ok = (known >= p.min_beams) & np.isfinite(log_eta) & np.all(np.isfinite(mu), axis=1)

@@ -10,15 +10,13 @@ Target of particle i at a filter step (pose ξ ∈ ℝ³, scan end points s_n (N
 * motion model  ``N(ξ; ĝ_i, Σ_u)``: ĝ_i the particle's pose moved by the odometry, Σ_u (3, 3) from the
   odometry motion since the last filter step (the same for every particle).
 
-**Mode.** Gauss-Newton on −log p(z | m, ξ) − log N(ξ; ĝ_i, Σ_u + Σ_slip), coarse to fine over the map pyramid:
-with ``J_n = ∇M ∂S_n/∂ξ`` (1, 3), ``H = Σ J_nᵀ J_n`` (3, 3), ``g = Σ J_nᵀ r_n`` (3,) and
-``Λ = (Σ_u + Σ_slip)⁻¹`` (the ``info`` of :func:`gauss_newton`),
+**Mode.** Gauss-Newton on −log τ, coarse to fine over the map pyramid: with ``J_n = ∇M ∂S_n/∂ξ`` (1, 3),
+``H = Σ J_nᵀ J_n`` (3, 3), ``g = Σ J_nᵀ r_n`` (3,) and ``Λ = Σ_u⁻¹``,
 
     A = H / σ_z² + Λ                    Δξ = A⁻¹ (g / σ_z² + Λ (ĝ − ξ))                   (3, 3), (3,)
 
-(the matcher's step with the motion model, widened by the odometry slip Σ_slip, as its prior), giving the
-matched pose ξ*_i; ``A_i = H / σ_z² + Σ_u⁻¹`` at ξ*_i on the finest level. With Σ_slip = 0, ξ*_i is the
-mode of τ_i; otherwise it is the scan matcher's pose, around which GMapping places its K points too.
+(the matcher's step with the motion model as its prior), giving the mode ξ*_i and ``A_i`` at ξ*_i on the
+finest level.
 
 **K points.** With ``L_i L_iᵀ = A_i⁻¹`` (Laplace covariance) the K = 27 points ``ξ_ij = ξ*_i + L_i u_j`` on the
 tensor 3-point Gauss–Hermite rule (``u_j ∈ {−√3, 0, √3}³``, weights ``w_j = Π (1/6, 2/3, 1/6)``, exact for
@@ -29,8 +27,8 @@ polynomials of degree ≤ 5 under the standard normal density φ) are evaluated 
     μ_i = Σ_j c_ij ξ_ij / Σ_j c_ij,     Σ_i = Σ_j c_ij (ξ_ij − μ_i)(ξ_ij − μ_i)ᵀ / Σ_j c_ij         (3,), (3, 3)
 
 (Grisetti 2007, eqs. 13–16, with the points placed and weighted by the rule instead of a fixed lattice:
-when τ_i is Gaussian and ξ*_i its mode the sums are exact — μ_i = ξ*_i, Σ_i = A_i⁻¹, η_i its integral — and
-where τ_i is not, or ξ*_i lies off its mode, the points measure how: μ_i moves toward the mode.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
+when τ_i is Gaussian the sums are exact — μ_i = ξ*_i, Σ_i = A_i⁻¹, η_i its integral — and where τ_i is not,
+the points measure how it departs.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
 η_i. When the match fails (too few end points on observed cells) the pose is drawn from the motion model and
 the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
 estimate of the same η_i).
@@ -161,9 +159,8 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
 
 def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
                  max_step_t: float, max_step_r: float) -> tuple[np.ndarray, int]:
-    """Modes (P, 3) of −log p(z | m, ξ) − log N(ξ; ĝ, info⁻¹) for every particle, coarse to fine from the guesses
-    ĝ (P, 3) (``info`` (3, 3): the prior's information, (Σ_u + Σ_slip)⁻¹ in the filter), and the iterations
-    taken (summed over levels and particles)."""
+    """Modes (P, 3) of −log τ for every particle, coarse to fine from the guesses (P, 3) (``info`` = Σ_u⁻¹ (3, 3)),
+    and the iterations taken (summed over levels and particles)."""
     poses = np.array(guesses, dtype=np.float64)
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     fine = maps.finest.resolution
