@@ -164,7 +164,11 @@ def test_room_drive_is_seeded_and_beats_odometry(room_sequence):
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     slam = RBPF(particles=6, seed=3)
+    with pytest.raises(ValueError, match="run"):
+        slam.trajectory(0)
     a = slam.run(room_sequence)
+    assert np.array_equal(slam.trajectory(a.meta["best_particle"]), a.poses)  # every lineage, the best one the estimate
+    assert all(slam.trajectory(i).shape == a.poses.shape and np.all(np.isfinite(slam.trajectory(i))) for i in range(6))
     assert list(slam.map.shape) == a.meta["map_shape"] and slam.map is slam.map  # the best particle's finest grid, one copy
     assert np.array_equal(slam.map.log_odds, slam.maps.finest.dense(a.meta["best_particle"]).log_odds)
     b = RBPF(particles=6, seed=3).run(room_sequence)
