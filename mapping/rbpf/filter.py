@@ -18,7 +18,8 @@ Per scan k (every scan of ``sequence.scans``; P particles, each with a pose ξ_i
 4. Scans with fewer than ``min_beams`` usable beams keep the guesses (not matched, counted).
 
 Output: an :class:`~slamarena.datasets.estimate.Estimate` with the trajectory of the best particle after the
-last scan, traced back through the resampling ancestry, at every scan stamp. The best particle is the one
+last scan, traced back through the resampling ancestry, at every scan stamp (any final particle's lineage:
+:meth:`RBPF.trajectory`). The best particle is the one
 whose lineage has the largest ``Σ log η`` over all filter steps (GMapping's choice): right after resampling
 every weight is equal, while the lineage's evidence still tells the particles apart.
 ``diagnostics`` (per scan): ``bad_beams``, ``no_return_beams``, ``usable_beams``, ``matched``, ``iterations``
@@ -107,6 +108,7 @@ class RBPF:
         self.maps: TiledPyramid | None = None
         self.best: int | None = None
         self._map: OccupancyGrid | None = None
+        self._history: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def map(self) -> OccupancyGrid | None:
@@ -114,6 +116,18 @@ class RBPF:
         if self._map is None and self.maps is not None:
             self._map = self.maps.finest.dense(self.best)
         return self._map
+
+    def trajectory(self, i: int) -> np.ndarray:
+        """Poses (K, 3) at every scan of the lineage of final particle ``i`` after :meth:`run` (traced back
+        through the resampling ancestry; :meth:`run`'s estimate is that of the best particle)."""
+        if self._history is None:
+            raise ValueError("RBPF.trajectory needs a run() first")
+        hist_pose, hist_parent = self._history
+        trajectory = np.zeros((hist_pose.shape[0], 3))
+        for k in range(hist_pose.shape[0] - 1, -1, -1):
+            trajectory[k] = hist_pose[k, i]
+            i = hist_parent[k, i]
+        return trajectory
 
     def motion_cov(self, motion: np.ndarray) -> np.ndarray:
         """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)`` (:class:`RBPFParams`)."""
@@ -218,11 +232,8 @@ class RBPF:
 
         diag.update(neff=np.asarray(neff, dtype=float), neff_t=np.asarray(neff_t, dtype=float), resampled=np.asarray(resampled, dtype=bool))
         self.best, self._map = int(np.argmax(evidence)), None
-        trajectory = np.zeros((K, 3))
-        i = self.best
-        for k in range(K - 1, -1, -1):
-            trajectory[k] = hist_pose[k, i]
-            i = hist_parent[k, i]
+        self._history = (hist_pose, hist_parent)
+        trajectory = self.trajectory(self.best)
         memory = self.maps.memory()
         finest = self.maps.finest
         meta = {
