@@ -246,8 +246,21 @@ def test_sim_loop_closed_implicitly_by_the_best_particle():
     default k_t even the best of 30 lineages kept apart (resampling off: an oracle's choice) is worse than
     GridSLAM (seeds 0–4: 0.23–0.36 m against 0.20 m), so no selection could close that loop better than scan
     matching does. In this world the filter's seeds 0–4 give 0.33–0.56 m against GridSLAM's 0.73 m, except
-    seed 1 (6.4 m): research/mapping.md §6."""
+    seed 1 (6.4 m): research/mapping.md §6. This is the world's seed 0, the drive on which GridSLAM drifts most; over
+    the world's seeds it is not met (the slow test below)."""
     world = {"max_range": 4.0, "n_beams": 91, "sigma_range": 0.02, "k_r": 0.06, "k_rt": 0.03, "k_t": 0.085, "scan_rate": 2.5, "laps": 2}
     (rbpf, single), grid, (est, _) = _sim_ate(world, particles=(30, 1))
     assert rbpf < grid < single, (rbpf, grid, single)
     assert est.meta["resampling_events"] > 0
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="goal not met (research/mapping.md §6): over the world's seeds 0–4 the best of 30 "
+                   "particles beats GridSLAM only on the two drives where GridSLAM drifts most (medians 0.60 against 0.29 m)")
+def test_sim_loop_closed_implicitly_over_five_seeds():
+    """The issue's goal over the world's seeds 0–4 (the suite's test runs seed 0): the median of the best particle's ATE
+    below the median of GridSLAM's."""
+    world = {"max_range": 4.0, "n_beams": 91, "sigma_range": 0.02, "k_r": 0.06, "k_rt": 0.03, "k_t": 0.085, "scan_rate": 2.5, "laps": 2}
+    runs = [_sim_ate({**world, "seed": seed}) for seed in range(5)]
+    rbpf, grid = np.median([r[0][0] for r in runs]), np.median([r[1] for r in runs])
+    assert rbpf < grid, ([r[0][0] for r in runs], [r[1] for r in runs])
