@@ -17,8 +17,9 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
 
 ``mirror_lower(buffer, n)`` copies the strict lower triangle to the upper one in 8 × 8 tiles
 (each written cache line is filled by one tile row), which makes P bitwise symmetric;
-``copy_checked_upper(buffer, n)`` copies only the O(N) upper entries a filter step reads (the robot rows and each
-landmark block's ``P[s, s + 1]``).
+``add_term_upper(buffer, n, Ut, Ust, r, off)`` adds the pending term to the O(N) upper entries a filter step reads
+(the robot rows, from contiguous rows of U, and each landmark block's ``P[s, s + 1]``) instead of copying them from
+the lower triangle, which would touch one cache line per row.
 
 The update of one observation set runs in the layout of its rows: ``HP = (PHᵀ)ᵀ`` (d × N) and the factor ``Cᵀ``
 (c × N), so every O(N) loop runs along a contiguous row.
@@ -56,7 +57,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "copy_checked_upper", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -105,14 +106,19 @@ def mirror_lower(P, n):
 
 
 @njit(cache=True)
-def copy_checked_upper(P, n):
-    """After an update of the lower triangle: the robot rows from the robot columns, P[a, i] = P[i, a] (a < 3, a < i), and
-    each landmark block's upper entry P[s, s + 1] = P[s + 1, s] — the O(N) upper entries a filter step reads."""
-    for i in range(1, n):
-        for a in range(min(i, 3)):
-            P[a, i] = P[i, a]
-    for s in range(3, n - 1, 2):
-        P[s, s + 1] = P[s + 1, s]
+def add_term_upper(P, n, Ut, Ust, r, off):
+    """The term ``Ustᵀ Ut`` (rank r) added to the O(N) upper entries a filter step reads, which :func:`update_lower` does
+    not write: the robot rows P[a, i] (a < 3, i > a), from contiguous rows of U, and each landmark block's P[s, s + 1],
+    whose term is ``off`` (the pending entries, :func:`.checks.low_rank_entries`)."""
+    for k in range(r):
+        u, us = Ut[k], Ust[k]
+        for a in range(3):
+            w = us[a]
+            row = P[a]
+            for i in range(a + 1, n):
+                row[i] += w * u[i]
+    for j in range((n - 3) // 2):
+        P[3 + 2 * j, 4 + 2 * j] += off[j]
 
 
 def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> None:

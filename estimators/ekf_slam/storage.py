@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, copy_checked_upper, correct, correct_run, cross_covariances, mirror_lower, set_robot_block, update_lower
+from .kernels import APPLIED, add_term_upper, correct, correct_run, cross_covariances, mirror_lower, set_robot_block, update_lower
 
 __all__ = ["GrowingState"]
 
@@ -186,14 +186,17 @@ class GrowingState:
         return sd[:n] + pd[:n], sr + pr, so[:m] + po[:m]
 
     def flush(self) -> None:
-        """Apply the pending term to the lower triangle (one pass), then the robot rows and the landmark blocks' upper entries."""
+        """Apply the pending term to the lower triangle (one pass), to the robot rows and the landmark blocks' upper entries
+        (:func:`.kernels.add_term_upper`) and to the cached checked entries."""
         if not self._r:
             return
         n, P = self.n, self._P
         update_lower(P, n, self._Ut[:self._r, :n], self._sg[:self._r])
-        copy_checked_upper(P, n)
+        add_term_upper(P, n, self._Ut, self._Ust, self._r, self._pending[2])
+        if self._stored_valid:  # the cached entries of the stored P take the term's, which the checks used
+            for cached, term in zip(self._stored_entries, self._pending):
+                cached += term
         self._mirrored = False
-        self._stored_valid = False
         self._clear()
 
     def grow(self, extra: int) -> slice:
