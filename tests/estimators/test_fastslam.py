@@ -11,6 +11,7 @@ from slamarena import datasets
 from slamarena.estimators import create
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.fastslam import FastSLAM
+from slamarena.estimators.fastslam.kernels import update_particles
 from slamarena.estimators.fastslam.storage import FANOUT, LEAF, LandmarkStore, writable
 from slamarena.experiments.metrics import reference_of
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
@@ -286,9 +287,7 @@ def test_one_update_matches_a_literal_reference(version):
     landmarks (the 2.0 proposal conditioned on them one after the other, each linearised at the moved mean, with the
     information-form covariance) and one of a new landmark between them; the weight, the proposal's mean and covariance
     (the kernel's draws for ε = 0 and the unit vectors give its mean and a square root of its covariance), the drawn
-    pose of every particle and every landmark after the update."""
-    from slamarena.estimators.fastslam.kernels import update_particles
-
+    pose of every particle and every landmark after the update (an unobserved one unchanged)."""
     rng = np.random.default_rng(7)
     xhat = np.array([1.0, -0.5, 0.3])
     B = rng.normal(size=(3, 3)) * [0.3, 0.3, 0.1]
