@@ -54,9 +54,17 @@ def test_registry_and_shapes(seq):
 
 
 def test_control_noise_statistics(seq):
+    """The control error is N(0, diag(σ_v², σ_ω²)) and white, one draw per row — exactly the filters' motion model
+    (Noise.twist_cov per row): its autocorrelation at lags 1–10 and the v–ω cross-correlation are inside ±4/√n."""
     v, w = true_controls(seq)
-    assert_gaussian(seq.motion.v - v, 0.1)
-    assert_gaussian(seq.motion.omega - w, 0.05)
+    ev, ew = seq.motion.v - v, seq.motion.omega - w
+    assert_gaussian(ev, 0.1)
+    assert_gaussian(ew, 0.05)
+    bound = 4.0 / math.sqrt(ev.size)
+    for e in (ev, ew):
+        e = (e - e.mean()) / e.std()
+        assert all(abs(np.mean(e[lag:] * e[:-lag])) < bound for lag in range(1, 11))
+    assert abs(np.corrcoef(ev, ew)[0, 1]) < bound
 
 
 def test_truth_follows_piecewise_constant_true_controls(seq):

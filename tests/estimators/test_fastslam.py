@@ -11,6 +11,7 @@ from slamarena import datasets
 from slamarena.estimators import create
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.fastslam import FastSLAM
+from slamarena.estimators.fastslam.kernels import update_particles
 from slamarena.estimators.fastslam.storage import FANOUT, LEAF, LandmarkStore, writable
 from slamarena.experiments.metrics import reference_of
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
@@ -223,3 +224,110 @@ def test_parameters_are_typed():
     with pytest.raises(ValidationError, match="fov"):
         FastSLAM(fov=1.0)  # a field of view needs a range
     assert FastSLAM(FastSLAM.Params(particles=7)).params == FastSLAM(particles=7).params
+
+
+# ---------------------------------------------------------------------------- one update against a literal reference
+def _h(x, mu):
+    """Range and bearing of landmark mu (2,) from pose x (3,), and their Jacobians H_x (2, 3), H_m (2, 2), literally."""
+    d = mu - x[:2]
+    q = d @ d
+    zhat = np.array([np.sqrt(q), np.arctan2(d[1], d[0]) - x[2]])
+    Hm = np.array([[d[0] / np.sqrt(q), d[1] / np.sqrt(q)], [-d[1] / q, d[0] / q]])
+    return zhat, np.hstack([-Hm, [[0.0], [-1.0]]]), Hm
+
+
+def _log_normal(nu, S):
+    return -0.5 * nu @ np.linalg.solve(S, nu) - 0.5 * np.log(np.linalg.det(S)) - np.log(2 * np.pi)
+
+
+def _innovation(z, zhat):
+    nu = z - zhat
+    nu[1] = (nu[1] + np.pi) % (2 * np.pi) - np.pi
+    return nu
+
+
+def _reference_step(version, xhat, P, mus, Sigmas, z, slots, R, sample):
+    """One particle's update, literally (Montemerlo et al. 2003, information form of the 2.0 proposal):
+    returns log w, the proposal's mean and covariance, the drawn pose and the landmarks after the update.
+    ``sample(mean, cov)`` draws the pose (the caller gives the kernel's draw)."""
+    log_w, xbar, Sx = 0.0, xhat.copy(), P.copy()
+    if version == 1:
+        xbar, Sx = sample(xhat, P), np.zeros((3, 3))
+    for zj, s in zip(z, slots):
+        if s not in mus:
+            continue
+        zhat, Hx, Hm = _h(xbar, mus[s])
+        Q = Hm @ Sigmas[s] @ Hm.T + R
+        nu = _innovation(zj, zhat)
+        log_w += _log_normal(nu, Hx @ Sx @ Hx.T + Q)
+        if version == 2:
+            Sx_new = np.linalg.inv(Hx.T @ np.linalg.inv(Q) @ Hx + np.linalg.inv(Sx))
+            xbar = xbar + Sx_new @ Hx.T @ np.linalg.inv(Q) @ nu
+            Sx = Sx_new
+    x = sample(xbar, Sx) if version == 2 else xbar
+    new_mu, new_S = dict(mus), dict(Sigmas)
+    for zj, s in zip(z, slots):
+        if s in mus:  # the EKF of the landmark at the drawn pose, from its prior
+            zhat, _, Hm = _h(x, mus[s])
+            Q = Hm @ Sigmas[s] @ Hm.T + R
+            K = Sigmas[s] @ Hm.T @ np.linalg.inv(Q)
+            new_mu[s] = mus[s] + K @ _innovation(zj, zhat)
+            new_S[s] = (np.eye(2) - K @ Hm) @ Sigmas[s]
+        else:  # a new landmark, from the drawn pose
+            a = x[2] + zj[1]
+            G = np.array([[np.cos(a), -zj[0] * np.sin(a)], [np.sin(a), zj[0] * np.cos(a)]])
+            new_mu[s] = x[:2] + zj[0] * np.array([np.cos(a), np.sin(a)])
+            new_S[s] = G @ R @ G.T
+    return log_w, xbar, Sx, x, new_mu, new_S
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_one_update_matches_a_literal_reference(version):
+    """The compiled kernel against the equations written out per particle in numpy: several observations of mapped
+    landmarks (the 2.0 proposal conditioned on them one after the other, each linearised at the moved mean, with the
+    information-form covariance) and one of a new landmark between them; the weight, the proposal's mean and covariance
+    (the kernel's draws for ε = 0 and the unit vectors give its mean and a square root of its covariance), the drawn
+    pose of every particle and every landmark after the update (an unobserved one unchanged)."""
+    rng = np.random.default_rng(7)
+    xhat = np.array([1.0, -0.5, 0.3])
+    B = rng.normal(size=(3, 3)) * [0.3, 0.3, 0.1]
+    P = B @ B.T + np.diag([1e-3, 1e-3, 1e-4])                                 # a large, full-rank prior: the update matters
+    R = np.diag([0.1**2, np.radians(2.0) ** 2])
+    mus = {0: np.array([4.0, 1.0]), 1: np.array([2.0, 3.5]), 2: np.array([3.0, -2.0]), 3: np.array([-1.0, 2.0])}
+    Sigmas = {}
+    for s in mus:
+        A = rng.normal(size=(2, 2)) * 0.2
+        Sigmas[s] = A @ A.T + 0.01 * np.eye(2)
+    slots = np.array([1, 4, 0, 3])                                              # slot 4 is new (≥ n_slots)
+    z = np.array([[4.2, 1.1], [3.0, -0.4], [3.1, 0.2], [3.3, 2.0]])
+    eps = np.vstack([np.zeros(3), np.eye(3), rng.normal(size=3)])
+    M = len(eps)
+
+    store = LandmarkStore(M)
+    for m in range(M):
+        for s in mus:
+            store.reserve(s, 1)
+            leaf, off = writable(m, s, store.depth, *store.kernel_args())
+            store.leaf_mu[leaf, off] = mus[s]
+            store.leaf_S[leaf, off] = (Sigmas[s][0, 0], Sigmas[s][0, 1], Sigmas[s][1, 1])
+            store.leaf_state[leaf, off] = 1
+    store.reserve(int(slots.max()), M * len(z))
+    log_w, n_slots, n_live = np.zeros(M), np.full(M, 4, dtype=np.int64), np.full(M, 4, dtype=np.int64)
+    poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
+    update_particles(version, True, np.tile(xhat, (M, 1)), np.tile(P, (M, 1, 1)), eps, log_w, z, slots, n_slots, n_live,
+                     np.tile(R, (len(z), 1, 1)), 0.0, 0.0, 0.0, np.pi, store.depth, *store.kernel_args(), poses, assoc)
+
+    root = poses[1:4] - poses[0]                                                # columns of the kernel's square root
+    draws = iter(poses)
+    for m in range(M):
+        ref_log_w, xbar, Sx, x, new_mu, new_S = _reference_step(version, xhat, P, mus, Sigmas, z, slots, R, lambda mean, cov: next(draws))
+        assert log_w[m] == pytest.approx(ref_log_w, abs=1e-9)
+        if m == 0:
+            np.testing.assert_allclose(poses[0], xbar if version == 2 else xhat, atol=1e-12)
+            np.testing.assert_allclose(root.T @ root, Sx if version == 2 else P, atol=1e-12)
+        np.testing.assert_allclose(poses[m], (xbar if version == 2 else xhat) + eps[m] @ root, atol=1e-12)
+        mu, S, state = (a[0] for a in store.gather(5, particles=[m]))
+        assert np.all(state > 0) and n_live[m] == 5 and n_slots[m] == 5
+        for s in range(5):
+            np.testing.assert_allclose(mu[s], new_mu[s], atol=1e-12)
+            np.testing.assert_allclose([S[s, 0], S[s, 1], S[s, 1], S[s, 2]], new_S[s].ravel(), atol=1e-12)
