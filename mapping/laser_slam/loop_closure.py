@@ -27,7 +27,8 @@ matched pose M: a submap is consistent near each of its nodes, not across its wh
 while it builds it), so a constraint to its first node would carry that drift over the lever arm between them. Its covariance is the spread of
 the exhaustive correlative response (Olson 2009) within ± ``loop_covariance_window`` and ± ``loop_covariance_angle``
 of the found pose — wide enough that a corridor, where a scan fits anywhere along the walls, shows up as a long
-axis the graph then hardly trusts — rotated into node a_s's frame, plus the floors ``loop_sigma_*``² on its diagonal.
+axis the graph then hardly trusts — rotated into the frame of the matched pose M (z's end, where GTSAM's
+BetweenFactorPose2 measures its error), plus the floors ``loop_sigma_*``² on its diagonal.
 """
 from __future__ import annotations
 
@@ -155,8 +156,9 @@ class LoopCloser:
         c = nodes[np.argmin(np.hypot(*(L[nodes, :2] - fine.pose[:2]).T))]  # the node whose part of the submap the scan matched
         z = between(L[c], fine.pose)
         spread = self.response.match(submap.maps, near, coarse.pose).cov if accepted else np.full((3, 3), np.nan)
-        cos, sin = np.cos(L[c][2]), np.sin(L[c][2])
-        R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])  # world-aligned (the submap's frame) → node c's frame
+        cos, sin = np.cos(fine.pose[2]), np.sin(fine.pose[2])
+        # world-aligned (the submap's frame) → node n's frame, z's end, where GTSAM's BetweenFactorPose2 measures its error
+        R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])
         cov = R @ spread @ R.T + np.diag(np.square([self.p.loop_sigma_translation, self.p.loop_sigma_translation, self.p.loop_sigma_rotation]))
         self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float(fine.score), accepted, time.process_time() - tic, z)
         return (int(c), z, cov) if accepted else None

@@ -10,10 +10,11 @@ on, Pose2):
 
     nodes     X_{k_i} = G_i for every node i (tight priors: the graph's global structure, loops included, is kept)
     hanging   X_{i(k)}⁻¹ X_k = L_{i(k)}⁻¹ ⊕ L_k  for every scan k that is not a node, with the front end's
-              covariance rule of a sequential factor: R_{i(k)}ᵀ C_k R_{i(k)} + diag(σ_t², σ_t², σ_θ²)
+              covariance rule of a sequential factor: R_kᵀ C_k R_k + diag(σ_t², σ_t², σ_θ²) (R_k: L_k's rotation)
     pairwise  X_a⁻¹ X_k = z_ak for a = k − 1 … k − m: scan k's end points registered onto scan a's by point-to-line
               ICP (:mod:`~slamarena.mapping.scan_matching.point_to_line`) from L_a⁻¹ ⊕ L_k, with the ICP's Laplace
-              covariance plus diag(ρ_t², ρ_t², ρ_θ²), robustified as the loops are
+              covariance rotated into scan k's frame (z's end, where GTSAM measures the error) plus
+              diag(ρ_t², ρ_t², ρ_θ²), robustified as the loops are
 
 With the nodes fixed the problem splits into the runs of scans between consecutive nodes, each tied to the node
 before it (hanging) and, through the pairwise chain, to the nodes on either side. The nodes are held because

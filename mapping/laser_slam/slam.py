@@ -11,8 +11,9 @@ occupancy-grid pyramid in the front-end frame, anchored at its first node (the g
 pose, and with it the submap's).
 
 Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L_{i−1}⁻¹ ⊕ L_i with
-covariance R_{i−1}ᵀ C_i R_{i−1} + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match
-in the front-end frame, R_{i−1} the rotation of node i − 1; the floor σ because a Gauss-Newton Laplace
+covariance R_iᵀ C_i R_i + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match in the
+front-end frame, R_i the rotation of node i's front-end pose L_i — the frame of z's end, in which GTSAM's
+BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
 covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``search_every`` nodes,
 robustified. A robustness study (``false_loops`` > 0) injects deliberately false loop closures: at the first
 search after scan ⌊K·j/(F+1)⌋ (j = 1 … F) node n is claimed to sit at the position of the node c of a finished
@@ -181,7 +182,7 @@ class LaserSLAM:
                     for a, reference in recent:
                         r = icp.match(reference, pts, between(local[a], pose))
                         if r.score >= p.refine_min_paired and np.all(np.isfinite(r.cov)):
-                            pairs.append((a, k, r.pose, r.cov + pair_floor))
+                            pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + pair_floor))
                     recent = recent[-(p.refine_neighbours - 1):] if p.refine_neighbours > 1 else []
                     recent.append((k, icp.prepare(pts)))
                 seconds["pairwise"] += time.process_time() - tic
@@ -211,7 +212,7 @@ class LaserSLAM:
                     backend.add_node(0, pose)
                 else:
                     z = between(L[i - 1], L[i])
-                    cov = self._front_end_cov(L[i - 1], match_cov[k])
+                    cov = self._front_end_cov(L[i], match_cov[k])
                     G = np.vstack([G, compose(G[i - 1], z)])
                     backend.add_node(i, G[i], z, cov)
                     travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
@@ -250,7 +251,7 @@ class LaserSLAM:
         if p.refine_neighbours and L:
             tic = time.process_time()
             nodes = np.asarray(node_scan)
-            hanging = [(int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(Ln[i_k[k]], match_cov[k]))
+            hanging = [(int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(local[k], match_cov[k]))
                        for k in range(nodes[0] + 1, K) if nodes[i_k[k]] != k]
             poses, refinement = refine_scans(poses, nodes, hanging, pairs, p.robust_kernel)
             seconds["optimisation"] += time.process_time() - tic
@@ -269,11 +270,12 @@ class LaserSLAM:
         }
         return Estimate(method="laser_slam", t=scans.t.copy(), poses=poses, step_time=_spread(seconds, K), diagnostics=diag, meta=meta)
 
-    def _front_end_cov(self, reference: np.ndarray, C: np.ndarray) -> np.ndarray:
-        """Covariance of a front-end relative pose from ``reference`` to a scan matched with covariance C (front-end
-        frame): C rotated into the reference's frame plus the floors (module docstring)."""
+    def _front_end_cov(self, matched: np.ndarray, C: np.ndarray) -> np.ndarray:
+        """Covariance of a front-end relative pose ending at the scan ``matched`` (its front-end pose), matched with
+        covariance C (front-end frame): C rotated into the matched scan's frame — where GTSAM's BetweenFactorPose2
+        measures its error, z⁻¹ x_a⁻¹ x_b — plus the floors (module docstring)."""
         p = self.params
-        R = _rotation(reference[2])
+        R = _rotation(matched[2])
         return R.T @ C @ R + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
 
     def _false_loop(self, n: int, G: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
@@ -302,6 +304,13 @@ class LaserSLAM:
 def _rotation(theta: float) -> np.ndarray:
     c, s = np.cos(theta), np.sin(theta)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _in_end_frame(cov: np.ndarray, theta: float) -> np.ndarray:
+    """A relative pose's covariance (3, 3) expressed in its start's frame, rotated into its end's frame (heading θ
+    relative to the start), where GTSAM's BetweenFactorPose2 measures its error: blockdiag(R(θ), 1)ᵀ Σ blockdiag(R(θ), 1)."""
+    R = _rotation(theta)
+    return R.T @ cov @ R
 
 
 def _finite(cov: np.ndarray) -> np.ndarray:

@@ -209,3 +209,22 @@ def test_mit_csail_short_relations_are_the_flaser_increments_moved_by_whole_5cm_
     assert fresh.sum() > 1000
     np.testing.assert_allclose(cells, np.sqrt(np.round(cells**2)), atol=0.02)  # on the lattice, to 1 mm
     assert 0.4 < np.mean(cells < 0.02) < 0.6 and np.mean((cells > 0.98) & (cells < 1.02)) > 0.25  # half equal, a third one cell off
+
+
+def test_relative_pose_covariances_are_given_in_the_frame_gtsam_measures_the_error_in():
+    """A relative pose z whose covariance Σ is known in its start's frame: GTSAM's BetweenFactorPose2 error,
+    Log(z⁻¹ z'), of perturbed z' = (t + Δt, θ + Δθ), (Δt, Δθ) ~ N(0, Σ), has the covariance ``_in_end_frame`` gives
+    (the rotation of the start frame by z's heading), not Σ itself — checked by sampling for an anisotropic Σ."""
+    import gtsam
+
+    from slamarena.mapping.laser_slam.slam import _in_end_frame
+
+    rng = np.random.default_rng(2)
+    z = np.array([1.0, 0.5, 1.1])
+    Sigma = np.diag([0.05, 0.002, 0.001]) ** 2
+    d = rng.multivariate_normal(np.zeros(3), Sigma, 20000)
+    zp = gtsam.Pose2(*z)
+    err = np.array([zp.localCoordinates(gtsam.Pose2(z[0] + a, z[1] + b, z[2] + c)) for a, b, c in d])
+    expected = _in_end_frame(Sigma, z[2])
+    np.testing.assert_allclose(np.cov(err.T), expected, atol=0.03 * Sigma[0, 0])
+    assert np.abs(np.cov(err.T) - Sigma).max() > 10 * 0.03 * Sigma[0, 0]  # the unrotated Σ is far off
