@@ -82,7 +82,8 @@ def test_study_q_unit():
     _table("Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
            ["process noise", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES (3 = consistent)", "σ_xy at outage end [m]", "error at outage end [m]"], rows)
     per_step, per_second, true = out.values()
-    assert per_step[0]["nees"] < 1.0 and per_step[1] > 50 * per_step[2]  # per-step reading: σ of metres for cm errors
+    # per-step reading: σ of metres for cm errors, a NEES far below the true-noise filter's
+    assert per_step[0]["nees"] < 0.5 * true[0]["nees"] and per_step[1] > 50 * per_step[2]
     assert per_step[0]["heading"] > 2 * true[0]["heading"]  # the large θ noise makes the filter follow the noisy IMU
     assert per_second[1] > 5 * per_second[2]
     assert 1.0 < true[0]["nees"] < 5.0
