@@ -136,3 +136,21 @@ def test_lower_update_in_place_on_the_live_block(n, capacity, d, mixed):
     np.testing.assert_array_equal(buffer[:n, :n], buffer[:n, :n].T)
     np.testing.assert_array_equal(buffer[n:], expected[n:])
     np.testing.assert_array_equal(buffer[:, n:], expected[:, n:])
+
+
+def test_the_carried_checked_entries_are_the_stored_covariance_s(sim):
+    """The flush adds each set's term to the cached checked entries instead of re-reading them: after a few hundred
+    sets without a full read of P, they still equal the stored P's own (diagonal, robot block, landmark off-diagonals)
+    up to rounding."""
+    from slamarena.estimators.ekf_slam.checks import covariance_entries
+
+    ekf = EKFSLAM(initial_pose=np.asarray(sim.start_pose, dtype=float), initial_cov=[0.01, 0.01, 0.001])
+    carried = 0
+    for u, dt, z in _sets(sim, 300, np.random.default_rng(0)):
+        ekf.predict(u, dt)
+        n_before = ekf.n_landmarks
+        ekf.update(z)
+        carried += ekf.n_landmarks == n_before and ekf._s._stored_valid
+    assert carried > 100  # most sets carried the entries (a growth re-reads them)
+    for cached, stored in zip(ekf._s.entries(), covariance_entries(ekf._s.view)):
+        np.testing.assert_allclose(cached, stored, rtol=1e-9, atol=1e-15)
