@@ -10,14 +10,28 @@ observation and its Jacobians (the model of :mod:`slamarena.estimators.models`, 
 
 ``wrap(a)`` maps an angle to [−π, π) (the numpy :func:`~slamarena.datasets.geometry.wrap_angle` maps to (−π, π];
 the two differ only at ±π).
+
+``twist_motion(v, ω, dt, arc, M)`` is the velocity motion model of :mod:`slamarena.estimators.models` (``EULER`` or
+``ARC``), written out the same way for a prediction's compiled path: for K rows (v_k, ω_k, dt_k) the body-frame
+increment δ_k (K, 3) and the body-frame control noise ``Q_k = V_k M V_kᵀ`` (K, 3, 3), V_k = ∂δ/∂(v, ω) (3, 2) at
+θ = 0, M (2, 2) the covariance of (v, ω). With φ = ω dt, a = φ/2, s(a) = sin a / a::
+
+    euler: δ = (v dt, 0, φ)                               V = [[dt, 0], [0, 0], [0, dt]]
+    arc:   δ = (v dt sin φ/φ, v dt (1 − cos φ)/φ, φ)       V = [[dt s cos a, ½ v dt² (s′ cos a − s sin a)],
+                                                                [dt s sin a, ½ v dt² (s′ sin a + s cos a)],
+                                                                [0,          dt                       ]]
+
+(the same series below |φ| < 1e-9 and |a| < 1e-4 as the numpy forms; as theirs, the arc's δ heading is wrapped to
+(−π, π] and Euler's is not).
 """
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
-__all__ = ["wrap", "range_bearing"]
+__all__ = ["wrap", "range_bearing", "twist_motion"]
 
 
 @njit(cache=True)
@@ -43,3 +57,45 @@ def range_bearing(x, m, zhat, Hx, Hm):
     Hx[1, 0] = -Hm[1, 0]
     Hx[1, 1] = -Hm[1, 1]
     Hx[1, 2] = -1.0
+
+
+@njit(cache=True)
+def twist_motion(v, omega, dt, arc, M):
+    K = v.shape[0]
+    delta = np.empty((K, 3))
+    Q = np.empty((K, 3, 3))
+    V = np.zeros((3, 2))
+    for k in range(K):
+        vdt, phi, h = v[k] * dt[k], omega[k] * dt[k], dt[k]
+        V[:] = 0.0
+        V[2, 1] = h
+        if arc:
+            if abs(phi) < 1e-9:
+                sx, sy = 1.0 - phi * phi / 6.0, 0.5 * phi
+            else:
+                sx, sy = math.sin(phi) / phi, (1.0 - math.cos(phi)) / phi
+            delta[k, 0], delta[k, 1], delta[k, 2] = sx * vdt, sy * vdt, -wrap(-phi)
+            a = 0.5 * phi
+            if a == 0.0:
+                sa = 1.0
+            else:
+                sa = math.sin(a) / a
+            if abs(a) < 1e-4:
+                dsa = -a / 3.0 + a ** 3 / 30.0
+            else:
+                dsa = (a * math.cos(a) - math.sin(a)) / (a * a)
+            c, s = math.cos(a), math.sin(a)
+            V[0, 0], V[1, 0] = h * sa * c, h * sa * s
+            V[0, 1] = vdt * (dsa * c - sa * s) * 0.5 * h
+            V[1, 1] = vdt * (dsa * s + sa * c) * 0.5 * h
+        else:
+            delta[k, 0], delta[k, 1], delta[k, 2] = vdt, 0.0, phi
+            V[0, 0] = h
+        for a in range(3):
+            for b in range(3):
+                acc = 0.0
+                for i in range(2):
+                    for j in range(2):
+                        acc += V[a, i] * M[i, j] * V[b, j]
+                Q[k, a, b] = acc
+    return delta, Q

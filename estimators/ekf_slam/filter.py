@@ -118,7 +118,8 @@ from scipy.linalg import block_diag
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
-from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, inverse_observation_jacobians,
+from ..kernels import twist_motion
+from ..models import (ARC, DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, inverse_observation_jacobians,
                       inverse_observe, observation_jacobians, observe)
 from ..stepping import StepClock
 from . import association as assoc
@@ -383,11 +384,10 @@ class EKFSLAM:
             raise ValueError(f"dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}")
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
             raise ValueError("controls must be finite")
-        delta = self.model.increment(v, omega, dt)
+        delta, Q_body = twist_motion(v, omega, dt, self.model is ARC, self.M)     # δ (K, 3), V M Vᵀ (K, 3, 3)
         if self.params.motion_noise == MotionNoise.ADDITIVE:
             return self._chain(delta, None, self._Cx[None] * dt[:, None, None], true_poses)
-        _, Vb = self.model.jacobians(np.zeros(3), v, omega, dt)          # body-frame V (K, 3, 2)
-        return self._chain(delta, Vb @ self.M @ Vb.transpose(0, 2, 1), None, true_poses)
+        return self._chain(delta, Q_body, None, true_poses)
 
     def predict_increment(self, delta, cov=None) -> None:
         """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""

@@ -217,27 +217,41 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
     H[:, :3], H[:, 3:] = Hx, Hm
     idx = np.array([0, 1, 2, s, s + 1])
     HP = np.empty((2, n))
-    for a in range(2):
-        h = HP[a]
-        h0, h1, h2, h3, h4 = H[a, 0], H[a, 1], H[a, 2], H[a, 3], H[a, 4]
-        for i in range(n):                                    # the robot rows are current
-            h[i] = h0 * P[0, i] + h1 * P[1, i] + h2 * P[2, i]
-        for i in range(s):                                    # left of the block: rows s, s + 1 of the lower triangle
-            h[i] += h3 * P[s, i] + h4 * P[s + 1, i]
-        h[s] += h3 * P[s, s] + h4 * P[s + 1, s]
-        for i in range(s + 1, n):                             # at and below row s + 1: columns s, s + 1 of the lower triangle
-            h[i] += h3 * P[i, s] + h4 * P[i, s + 1]
-    # the pending term: H P[idx, :] += (H Ut[:, idx]ᵀ) Ust, one contiguous pass over each of its r rows
+    h, hb = HP[0], HP[1]
+    a0, a1, a2, a3, a4 = H[0, 0], H[0, 1], H[0, 2], H[0, 3], H[0, 4]
+    b0, b1, b2, b3, b4 = H[1, 0], H[1, 1], H[1, 2], H[1, 3], H[1, 4]
+    p0, p1, p2 = P[0], P[1], P[2]                             # the robot rows are current
+    for i in range(n):
+        h[i] = a0 * p0[i] + a1 * p1[i] + a2 * p2[i]
+        hb[i] = b0 * p0[i] + b1 * p1[i] + b2 * p2[i]
+    q0, q1 = P[s], P[s + 1]                                   # left of the block: rows s, s + 1 of the lower triangle
+    for i in range(s):
+        h[i] += a3 * q0[i] + a4 * q1[i]
+        hb[i] += b3 * q0[i] + b4 * q1[i]
+    h[s] += a3 * P[s, s] + a4 * P[s + 1, s]
+    hb[s] += b3 * P[s, s] + b4 * P[s + 1, s]
+    for i in range(s + 1, n):                                 # at and below row s + 1: columns s, s + 1 of the lower triangle
+        c0, c1 = P[i, s], P[i, s + 1]
+        h[i] += a3 * c0 + a4 * c1
+        hb[i] += b3 * c0 + b4 * c1
+    # the pending term: H P[idx, :] += (H Ut[:, idx]ᵀ) Ust, its r rows read once each, two at a time
+    g = np.zeros((2, r))
     for k in range(r):
-        g0, g1 = 0.0, 0.0
         for c in range(5):
-            g0 += Ut[k, idx[c]] * H[0, c]
-            g1 += Ut[k, idx[c]] * H[1, c]
-        u = Ust[k]
-        h, hb = HP[0], HP[1]
+            g[0, k] += Ut[k, idx[c]] * H[0, c]
+            g[1, k] += Ut[k, idx[c]] * H[1, c]
+    for k in range(0, r - 1, 2):
+        u, v = Ust[k], Ust[k + 1]
+        g0, g1, e0, e1 = g[0, k], g[0, k + 1], g[1, k], g[1, k + 1]
+        for i in range(n):
+            h[i] += u[i] * g0 + v[i] * g1
+            hb[i] += u[i] * e0 + v[i] * e1
+    if r % 2:
+        u = Ust[r - 1]
+        g0, e0 = g[0, r - 1], g[1, r - 1]
         for i in range(n):
             h[i] += u[i] * g0
-            hb[i] += u[i] * g1
+            hb[i] += u[i] * e0
     S = np.empty((2, 2))
     for a in range(2):
         for b in range(2):

@@ -87,6 +87,25 @@ def test_the_compiled_range_bearing_model_is_the_numpy_one():
         np.testing.assert_allclose(Hm, Hm_np, rtol=1e-13, atol=1e-15)
 
 
+@pytest.mark.parametrize("model", ["arc", "euler"])
+def test_the_compiled_motion_model_is_the_numpy_one(model):
+    """estimators.kernels.twist_motion (the EKF-SLAM prediction's) against models' increment and V M Vᵀ at θ = 0, through
+    ω = 0 and both small-angle series (|φ| < 1e-9, |φ/2| < 1e-4) and beyond a half turn (the arc's heading wrapped)."""
+    from slamarena.estimators.kernels import twist_motion
+
+    rng = np.random.default_rng(4)
+    K = 400
+    v, dt = rng.normal(0.0, 2.0, K), rng.uniform(0.01, 2.0, K)
+    omega = rng.normal(0.0, 1.5, K) * np.repeat([0.0, 1e-10, 1e-5, 1.0, 3.0], K // 5)
+    M = np.array([[0.01, 0.002], [0.002, 0.003]])
+    delta, Q = twist_motion(v, omega, dt, model == "arc", M)
+    numpy_model = MOTION_MODELS[model]
+    V = numpy_model.jacobians(np.zeros(3), v, omega, dt)[1]
+    np.testing.assert_allclose(delta, numpy_model.increment(v, omega, dt), rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(Q, V @ M @ V.transpose(0, 2, 1), rtol=1e-13, atol=1e-17)
+    assert (np.abs(omega * dt) > np.pi).any()
+
+
 @pytest.mark.parametrize("given_lin", [False, True])
 def test_the_compiled_chain_geometry_is_accumulate_and_the_compose_jacobians(given_lin):
     """ekf_slam.kernels.chain_geometry against geometry.accumulate and models.compose_jacobians: the poses, D_k = (∂x'/∂x)
