@@ -49,25 +49,46 @@ OK, NONFINITE_DIAGONAL, NEGATIVE_DIAGONAL, ROBOT_BLOCK, LANDMARK_BLOCK = 0, 1, 2
 
 
 @njit(cache=True)
+def _entry(parts, i):
+    """The sum of the parts' i-th entries, left to right (as ``parts[0] + parts[1] + …``)."""
+    v = 0.0
+    for p in parts:
+        v += p[i]
+    return v
+
+
+@njit(cache=True)
 def entries_failure(d, robot, off, n_robot):
     """The first failed check on the entries (:data:`OK` … :data:`LANDMARK_BLOCK`, the index k and the offending value), O(N).
 
-    Whole-array reductions first (vectorised); the offending index is searched only when a check fails."""
-    if not np.all(np.isfinite(d)):
-        k = np.flatnonzero(~np.isfinite(d))[0]
-        return NONFINITE_DIAGONAL, k, d[k]
-    scale = max(1.0, d.max())
+    Each argument is a tuple of parts whose sum is the entries (the stored P's, the pending term's and a new term's;
+    summed on the fly, no temporaries): one pass over the diagonal (finite, its largest and its least entry), the robot
+    block, one pass over the landmark blocks' determinants."""
+    n = d[0].size
+    scale, k, least = 1.0, 0, np.inf
+    for i in range(n):
+        v = _entry(d, i)
+        if not np.isfinite(v):
+            return NONFINITE_DIAGONAL, i, v
+        scale = max(scale, v)
+        if v < least:
+            k, least = i, v
     tol = _TOL * scale
-    k = np.argmin(d)                                             # the most negative entry, if any is below −tol
-    if d[k] < -tol:
-        return NEGATIVE_DIAGONAL, k, d[k]
-    if not _psd3(robot, tol):
+    if least < -tol:                                             # the most negative entry, if any is below −tol
+        return NEGATIVE_DIAGONAL, k, least
+    R = np.zeros((n_robot, n_robot))
+    for part in robot:
+        R += part
+    if not _psd3(R, tol):
         return ROBOT_BLOCK, 0, 0.0
-    if off.size:
-        det = d[n_robot:n_robot + 2 * off.size:2] * d[n_robot + 1:n_robot + 2 * off.size:2] - off * off
-        k = np.argmin(det)
-        if det[k] < -tol * scale:
-            return LANDMARK_BLOCK, k, det[k]
+    k, least = 0, np.inf
+    for j in range(off[0].size):
+        o = _entry(off, j)
+        det = _entry(d, n_robot + 2 * j) * _entry(d, n_robot + 2 * j + 1) - o * o
+        if det < least:
+            k, least = j, det
+    if least < -tol * scale:
+        return LANDMARK_BLOCK, k, least
     return OK, 0, 0.0
 
 
@@ -115,7 +136,7 @@ def check_augmented(entries: Entries, block: np.ndarray, n_robot: int = 3) -> No
 
 def check_entries(d: np.ndarray, robot: np.ndarray, off: np.ndarray, n_robot: int = 3) -> None:
     """The checks on the entries they read: the diagonal d, the robot block, and ``off[k] = P[s + 1, s]`` of landmark k."""
-    code, k, value = entries_failure(np.ascontiguousarray(d, dtype=np.float64), np.ascontiguousarray(robot, dtype=np.float64),
-                                     np.ascontiguousarray(off, dtype=np.float64), n_robot)
+    code, k, value = entries_failure((np.ascontiguousarray(d, dtype=np.float64),), (np.ascontiguousarray(robot, dtype=np.float64),),
+                                     (np.ascontiguousarray(off, dtype=np.float64),), n_robot)
     if code != OK:
         raise entries_error(code, k, value)

@@ -313,7 +313,7 @@ def correct(HP, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
     pd, pr, po = pend
     sd, sr, so = stored
     m = to.size
-    code, k, value = entries_failure(sd[:N] + pd[:N] + td, sr + pr + tr, so[:m] + po[:m] + to, n_robot)
+    code, k, value = entries_failure((sd[:N], pd[:N], td), (sr, pr, tr), (so[:m], po[:m], to), n_robot)
     if code != OK:
         return code, nis, k, value
     x += dx

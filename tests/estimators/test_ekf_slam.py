@@ -515,6 +515,36 @@ def test_an_update_that_would_make_P_indefinite_changes_nothing(on_indefinite):
     _assert_unchanged(ekf, before)
 
 
+def test_the_covariance_checks_find_each_defect_and_sum_their_parts_as_one_array():
+    """checks.entries_failure against a literal reading of P (its diagonal and the eigenvalues of the robot and landmark
+    blocks): each defect is found with its index, a PSD P passes, and a split of the entries into three parts (the stored,
+    pending and new term's, as :func:`.kernels.correct` passes them) gives exactly the result of their sum."""
+    from slamarena.estimators.ekf_slam.checks import (LANDMARK_BLOCK, NEGATIVE_DIAGONAL, NONFINITE_DIAGONAL, OK, ROBOT_BLOCK,
+                                                      covariance_entries, entries_failure)
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(13, 13))
+    good = A @ A.T
+    cases = [(good, OK, 0)]
+    P = good.copy(); P[7, 7] = np.nan; cases.append((P, NONFINITE_DIAGONAL, 7))
+    P = good.copy(); P[9, 9] = -1.0; P[4, 4] = -0.5; cases.append((P, NEGATIVE_DIAGONAL, 9))
+    P = good.copy(); P[1, 0] = P[0, 1] = 1.5 * np.sqrt(P[0, 0] * P[1, 1]); cases.append((P, ROBOT_BLOCK, 0))
+    P = good.copy(); P[10, 9] = P[9, 10] = 1.5 * np.sqrt(P[9, 9] * P[10, 10]); cases.append((P, LANDMARK_BLOCK, 3))
+    for P, code, k in cases:
+        d, robot, off = covariance_entries(P)
+        blocks = [P[:3, :3]] + [P[s:s + 2, s:s + 2] for s in range(3, 13, 2)]
+        literal = (NONFINITE_DIAGONAL if not np.isfinite(d).all() else NEGATIVE_DIAGONAL if d.min() < 0
+                   else next((ROBOT_BLOCK if i == 0 else LANDMARK_BLOCK for i, B in enumerate(blocks) if np.linalg.eigvalsh(B)[0] < 0), OK))
+        assert literal == code
+        found = entries_failure((d,), (robot,), (off,), 3)
+        assert found[:2] == (code, k)
+        parts = [rng.normal(size=a.shape) for a in (d, robot, off)], [rng.normal(size=a.shape) for a in (d, robot, off)]
+        split = [(a - b - c, b, c) for a, b, c in zip((d, robot, off), *parts)]
+        summed = [(a + b + c,) for a, b, c in split]
+        a, b = entries_failure(*split, 3), entries_failure(*summed, 3)
+        assert a[:2] == b[:2] and (a[2] == b[2] or np.isnan(a[2]) and np.isnan(b[2]))
+
+
 def test_step_interface_defaults_and_noise_from_sequence():
     ekf = EKFSLAM()
     ekf.predict([1.0, 0.1], 0.1)
