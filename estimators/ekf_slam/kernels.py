@@ -10,8 +10,8 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
   vectorised by LLVM);
 * larger d (a deferred or batched update of a whole observation set, d = 2m … 6m): BLAS —
   ``dsyrk`` (``P + α C Cᵀ``) when every s_k is the same α, else ``dsyr2k`` with ``A = C``,
-  ``B = C diag(s)``, ``α = ½`` (``½ (A Bᵀ + B Aᵀ) = C diag(s) Cᵀ``) — called through
-  ``scipy.linalg.cython_blas`` so that it works on the strided live block and factor (leading
+  ``B = C diag(s)``, ``α = ½`` (``½ (A Bᵀ + B Aᵀ) = C diag(s) Cᵀ``) — called from compiled code through
+  ``scipy.linalg.cython_blas`` (no per-call Python or ctypes work) so that it works on the strided live block and factor (leading
   dimensions = their row strides) without a copy. At d ≈ 20 the product is compute-bound (O(d N²/2) flops), where the fused loop
   would be several times slower.
 
@@ -48,10 +48,9 @@ robot block, rows and columns.
 """
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
-from numba import njit
+from llvmlite import binding
+from numba import njit, types
 from numba.extending import get_cython_function_address
 
 from ..kernels import range_bearing, wrap
@@ -63,19 +62,17 @@ __all__ = ["update_lower", "mirror_lower", "add_term_upper", "gain_terms", "inno
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
 
-def _blas(name: str, arguments: int):
-    """A Fortran BLAS routine of scipy.linalg.cython_blas (every argument a pointer)."""
-    return ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * arguments)(get_cython_function_address("scipy.linalg.cython_blas", name))
+def _blas(name: str, arguments: int) -> types.ExternalFunction:
+    """A Fortran BLAS routine of scipy.linalg.cython_blas (every argument a pointer), callable from compiled code: its
+    address is registered under a symbol of this module's own, so the kernels that call it are cached like any other."""
+    symbol = f"slamarena_ekf_slam_{name}"
+    binding.add_symbol(symbol, get_cython_function_address("scipy.linalg.cython_blas", name))
+    return types.ExternalFunction(symbol, types.void(*[types.voidptr] * arguments))
 
 
 # Fortran BLAS: (uplo, trans, n, k, alpha, a, lda, [b, ldb,] beta, c, ldc)
 _dsyrk = _blas("dsyrk", 10)
 _dsyr2k = _blas("dsyr2k", 12)
-#: the scalar arguments, allocated once (a call sets their values) and passed by address: n, k, ldc, lda, ldb; α, β; uplo, trans
-_INTS, _SCALARS, _CHARS = (ctypes.c_int * 5)(), (ctypes.c_double * 2)(0.0, 1.0), ctypes.create_string_buffer(b"UN")
-_N, _K, _LDC, _LDA, _LDB = (ctypes.addressof(_INTS) + 4 * i for i in range(5))
-_ALPHA, _BETA = (ctypes.addressof(_SCALARS) + 8 * i for i in range(2))
-_UPLO, _TRANS = (ctypes.addressof(_CHARS) + i for i in range(2))
 
 
 @njit(cache=True)
@@ -121,11 +118,11 @@ def add_term_upper(P, n, Ut, Ust, r, off):
         P[3 + 2 * j, 4 + 2 * j] += off[j]
 
 
-def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> None:
+@njit(cache=True)
+def update_lower(buffer, n, Ct, s):
     """The lower triangle of buffer[:n, :n] += C diag(s) Cᵀ in place; buffer C-contiguous, Ct = Cᵀ (d × n, rows contiguous), s (d,)."""
-    if not (buffer.flags.c_contiguous and buffer.dtype == np.float64 and Ct.dtype == np.float64 and Ct.strides[1] == 8):
-        raise ValueError("update_lower needs a C-contiguous float64 buffer and a float64 Cᵀ with contiguous rows")
-    s = np.ascontiguousarray(s, dtype=np.float64)
+    if buffer.strides[1] != 8 or buffer.strides[0] != 8 * buffer.shape[1] or Ct.strides[1] != 8:
+        raise ValueError("update_lower needs a C-contiguous buffer and a Cᵀ with contiguous rows")
     d = Ct.shape[0]
     if d == 0 or n == 0:
         return
@@ -135,14 +132,19 @@ def update_lower(buffer: np.ndarray, n: int, Ct: np.ndarray, s: np.ndarray) -> N
     # The C-ordered buffer read as a Fortran matrix (leading dimension = its row length) is Pᵀ = P, and
     # Fortran "U" is its C-ordered lower triangle; the C-ordered d × n Cᵀ is the Fortran n × d C
     # (leading dimension = its row stride), so trans="N" forms C Cᵀ.
-    _INTS[:] = n, d, buffer.shape[1], Ct.strides[0] // 8, n
-    if s.min() == s.max():
-        _SCALARS[0] = s[0]
-        _dsyrk(_UPLO, _TRANS, _N, _K, _ALPHA, Ct.ctypes.data, _LDA, _BETA, buffer.ctypes.data, _LDC)
+    ints = np.array([n, d, buffer.shape[1], Ct.strides[0] // 8, n], dtype=np.int32)      # n, k, ldc, lda, ldb
+    flags = np.array([85, 78], dtype=np.uint8)                                           # uplo "U", trans "N"
+    scalars = np.array([s[0], 1.0])                                                      # α, β
+    if np.all(s == s[0]):
+        _dsyrk(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, Ct.ctypes, ints[3:].ctypes,
+               scalars[1:].ctypes, buffer.ctypes, ints[2:].ctypes)
     else:  # ½ (C Bᵀ + B Cᵀ) with B = C diag(s)
-        B = np.ascontiguousarray(Ct * s[:, None])
-        _SCALARS[0] = 0.5
-        _dsyr2k(_UPLO, _TRANS, _N, _K, _ALPHA, Ct.ctypes.data, _LDA, B.ctypes.data, _LDB, _BETA, buffer.ctypes.data, _LDC)
+        B = np.empty((d, n))
+        for k in range(d):
+            B[k] = Ct[k, :n] * s[k]
+        scalars[0] = 0.5
+        _dsyr2k(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, Ct.ctypes, ints[3:].ctypes,
+                B.ctypes, ints[4:].ctypes, scalars[1:].ctypes, buffer.ctypes, ints[2:].ctypes)
 
 
 @njit(cache=True)
