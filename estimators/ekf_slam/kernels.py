@@ -56,7 +56,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "flush", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -145,6 +145,22 @@ def update_lower(buffer, n, Ct, s):
         scalars[0] = 0.5
         _dsyr2k(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, Ct.ctypes, ints[3:].ctypes,
                 B.ctypes, ints[4:].ctypes, scalars[1:].ctypes, buffer.ctypes, ints[2:].ctypes)
+
+
+@njit(cache=True)
+def flush(P, n, Ut, Ust, sg, r, pend, stored, stored_valid):
+    """Apply the pending term ``Ustᵀ Ut`` (rank r) to the lower triangle (:func:`update_lower`) and to the upper entries a
+    step reads (:func:`add_term_upper`), add its checked entries ``pend`` to the cached ones of the stored P ``stored``
+    (if valid), and clear it."""
+    update_lower(P, n, Ut[:r, :n], sg[:r])
+    add_term_upper(P, n, Ut, Ust, r, pend[2])
+    if stored_valid:
+        stored[0][:] += pend[0]
+        stored[1][:] += pend[1]
+        stored[2][:] += pend[2]
+    pend[0][:] = 0.0
+    pend[1][:] = 0.0
+    pend[2][:] = 0.0
 
 
 @njit(cache=True)

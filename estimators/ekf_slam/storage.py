@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, add_term_upper, correct, correct_run, cross_covariances, mirror_lower, set_robot_block, update_lower
+from .kernels import APPLIED, correct, correct_run, cross_covariances, flush, mirror_lower, set_robot_block
 
 __all__ = ["GrowingState"]
 
@@ -54,11 +54,6 @@ class GrowingState:
         self._stored_entries = (np.zeros(capacity), np.zeros((3, 3)), np.zeros(capacity // 2))
         self._stored_valid = False
         self._r = 0
-
-    def _clear(self) -> None:
-        self._r = 0
-        for a in self._pending:
-            a[:] = 0.0
 
     @property
     def capacity(self) -> int:
@@ -187,17 +182,12 @@ class GrowingState:
 
     def flush(self) -> None:
         """Apply the pending term to the lower triangle (one pass), to the robot rows and the landmark blocks' upper entries
-        (:func:`.kernels.add_term_upper`) and to the cached checked entries."""
+        and to the cached checked entries, and clear it (one compiled call, :func:`.kernels.flush`)."""
         if not self._r:
             return
-        n, P = self.n, self._P
-        update_lower(P, n, self._Ut[:self._r, :n], self._sg[:self._r])
-        add_term_upper(P, n, self._Ut, self._Ust, self._r, self._pending[2])
-        if self._stored_valid:  # the cached entries of the stored P take the term's, which the checks used
-            for cached, term in zip(self._stored_entries, self._pending):
-                cached += term
+        flush(self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._stored_valid)
         self._mirrored = False
-        self._clear()
+        self._r = 0
 
     def grow(self, extra: int) -> slice:
         """Append ``extra`` zero-initialised state entries; returns their slice of ``x``."""
