@@ -102,6 +102,31 @@ def test_victoria_park_batch_reaches_isam2s_optimum_and_association_without_ids_
 
 
 @pytest.mark.realdata
+def test_victoria_park_without_ids_ends_where_the_runs_with_ids_end_under_the_identified_sensor_model():
+    """research/ekf_slam.md, Victoria Park without ids: with the identified sensor model and 3-sighting confirmation, NN and
+    JCBB end within 5 m of the EKF with ids (same model) and of iSAM2 with ids; with the file's model and no management
+    NN ends more than 100 m away."""
+    import numpy as np
+
+    from slamarena import datasets, estimators
+
+    _needs("victoria_park")
+    seq = datasets.load("victoria_park")
+    spec = {(e.label or e.name): e for e in load_config("victoria_park").estimators}
+
+    def final(label: str):
+        est = estimators.create(spec[label].name, **spec[label].resolved_params()).run(seq)
+        return est.poses[-1, :2], est.meta
+
+    with_ids, isam2 = final("ekf_slam_identified")[0], final("gtsam_isam2")[0]
+    for label in ("ekf_slam_nn_managed", "ekf_slam_jcbb_managed"):
+        end, meta = final(label)
+        assert np.hypot(*(end - with_ids)) < 5.0 and np.hypot(*(end - isam2)) < 5.0, label
+        assert meta["n_landmarks"] <= 151, label
+    assert np.hypot(*(final("ekf_slam_nn")[0] - isam2)) > 100.0
+
+
+@pytest.mark.realdata
 def test_kummerle2009_on_intel_laser_slam_beats_graph_mapping_and_grid_slam_beats_scan_matching(tmp_path):
     """Section 3, the Kümmerle relations on Intel: laser graph SLAM below the published graph-mapping row (0.031), grid
     SLAM below the published scan-matching row (0.220)."""
