@@ -268,20 +268,50 @@ class LandmarkBook:
     def observe(self, t: float, matched: np.ndarray, predicted: np.ndarray) -> np.ndarray:
         """After a set at time t: ``matched`` slots (k,), ``predicted`` (range, bearing) (n, 2) of every slot before the set
         (landmarks created in the set: NaN; None without the quality counter). Returns the slots to remove (ascending)."""
-        np.add.at(self.seen, matched, 1)
-        hit = np.zeros(self.seen.size, dtype=bool)
-        hit[matched] = True
-        self.quality[hit] += 1
-        if self.miss_limit is not None:
+        counting = self.miss_limit is not None
+        if counting:
             with np.errstate(invalid="ignore"):
                 visible = (predicted[:, 0] < self.sensor_range) & (np.abs(predicted[:, 1]) < 0.5 * self.sensor_fov)
-            self.quality[visible & ~hit] -= 1
-        unconfirmed = self.managed & (self.seen < self.confirm_sightings) & (t - self.born > self.confirm_window)
-        lost = self.managed & (self.quality < -self.miss_limit) if self.miss_limit is not None else np.zeros_like(unconfirmed)
-        self.removed["unconfirmed"] += int(unconfirmed.sum())
-        self.removed["quality"] += int((lost & ~unconfirmed).sum())
-        return np.flatnonzero(unconfirmed | lost)
+        else:
+            visible = np.zeros(0, dtype=bool)
+        remove, unconfirmed, lost = _book_counts(self.seen, self.quality, self.managed, self.born, np.asarray(matched, dtype=np.int64),
+                                                 visible, float(t), int(self.confirm_sightings), float(self.confirm_window),
+                                                 int(self.miss_limit) if counting else -1, counting)
+        self.removed["unconfirmed"] += unconfirmed
+        self.removed["quality"] += lost
+        return remove
 
     def remove(self, slots: np.ndarray) -> None:
         keep = np.setdiff1d(np.arange(self.seen.size), slots)
         self.managed, self.born, self.seen, self.quality = (a[keep] for a in (self.managed, self.born, self.seen, self.quality))
+
+
+@njit(cache=True)
+def _book_counts(seen, quality, managed, born, matched, visible, t, sightings, window, miss_limit, counting):
+    """:meth:`LandmarkBook.observe`'s counting in one pass, in place: ``seen`` += the matches of each slot, ``quality`` +1 per
+    matched slot and (``counting``) −1 per ``visible`` slot not matched; returns the managed slots to remove (ascending) —
+    unconfirmed (fewer than ``sightings`` since birth, older than ``window``) or lost (quality below −``miss_limit``) — and
+    how many of each (a slot both unconfirmed and lost counts as unconfirmed)."""
+    n = seen.size
+    hit = np.zeros(n, dtype=np.bool_)
+    for s in matched:
+        seen[s] += 1
+        hit[s] = True
+    remove = np.empty(n, dtype=np.int64)
+    k = unconfirmed = lost = 0
+    for s in range(n):
+        if hit[s]:
+            quality[s] += 1
+        elif counting and visible[s]:
+            quality[s] -= 1
+        if not managed[s]:
+            continue
+        if seen[s] < sightings and t - born[s] > window:
+            unconfirmed += 1
+        elif counting and quality[s] < -miss_limit:
+            lost += 1
+        else:
+            continue
+        remove[k] = s
+        k += 1
+    return remove[:k], unconfirmed, lost

@@ -90,3 +90,78 @@ def test_decisions_new_and_rejected_follow_the_two_gates():
     np.testing.assert_array_equal(a.decision, [Decision.MATCHED, Decision.REJECTED, Decision.NEW])
     np.testing.assert_array_equal(a.slot, [0, -1, -1])
     assert abs(g_match - 5.991464547) < 1e-6
+
+
+def _literal_book_counts(seen, quality, managed, born, matched, visible, t, sightings, window, miss_limit):
+    """LandmarkBook.observe's rules written with whole-array numpy operations (the compiled pass is checked against it)."""
+    seen, quality = seen.copy(), quality.copy()
+    np.add.at(seen, matched, 1)
+    hit = np.zeros(seen.size, dtype=bool)
+    hit[matched] = True
+    quality[hit] += 1
+    if miss_limit is not None:
+        quality[visible & ~hit] -= 1
+    unconfirmed = managed & (seen < sightings) & (t - born > window)
+    lost = managed & (quality < -miss_limit) if miss_limit is not None else np.zeros_like(unconfirmed)
+    return seen, quality, np.flatnonzero(unconfirmed | lost), int(unconfirmed.sum()), int((lost & ~unconfirmed).sum())
+
+
+@pytest.mark.parametrize("miss_limit", [None, 2])
+def test_the_landmark_book_counts_as_its_literal_rules(miss_limit):
+    """The compiled counting pass of LandmarkBook.observe against the rules written out: sightings (a slot matched twice in
+    a set counts twice), quality, and the unconfirmed and lost slots to remove, over random books and sets."""
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        n = int(rng.integers(1, 30))
+        book = assoc.LandmarkBook(3, 10.0, miss_limit, 20.0 if miss_limit is not None else None, np.pi)
+        book.managed, book.born = rng.uniform(size=n) < 0.7, rng.uniform(0, 20, n)
+        book.seen, book.quality = rng.integers(1, 5, n), rng.integers(-4, 4, n)
+        matched = rng.integers(0, n, int(rng.integers(0, 6)))
+        predicted = np.column_stack([rng.uniform(0, 30, n), rng.uniform(-np.pi, np.pi, n)])
+        predicted[rng.uniform(size=n) < 0.2] = np.nan                     # created in this set
+        with np.errstate(invalid="ignore"):
+            visible = (predicted[:, 0] < 20.0) & (np.abs(predicted[:, 1]) < 0.5 * np.pi)
+        seen, quality, remove, unconfirmed, lost = _literal_book_counts(book.seen, book.quality, book.managed, book.born, matched,
+                                                                        visible, 21.0, 3, 10.0, miss_limit)
+        got = book.observe(21.0, matched, predicted if miss_limit is not None else None)
+        np.testing.assert_array_equal(got, remove)
+        np.testing.assert_array_equal(book.seen, seen)
+        np.testing.assert_array_equal(book.quality, quality)
+        assert book.removed == {"unconfirmed": unconfirmed, "quality": lost}
+
+
+def test_landmark_management_confirms_removes_and_marginalises():
+    """A standing robot, ids withheld: tree A seen in every set, a single spurious detection B behind the robot (outside the
+    sensor's field, so only the window can remove it), tree C seen three times and then missed while in view. B is removed
+    as unconfirmed once the window has passed, C by the quality counter once it falls below −miss_limit; A is confirmed and
+    kept. A removal marginalises: the other entries of x and P are those before it."""
+    ekf = EKFSLAM(use_ids=False, confirm_sightings=3, confirm_window=10.0, miss_limit=2, sensor_range=20.0, sensor_fov=np.pi,
+                  initial_cov=[1e-4, 1e-4, 1e-6])
+    A, B, C = np.array([5.0, 0.0]), 5.0 * np.array([np.cos(2.0), np.sin(2.0)]), np.array([9.0, -4.0])
+
+    def rows(*points):
+        return np.column_stack([observe(np.zeros(3), np.array(points)), np.full(len(points), -1)])
+
+    ekf.update(rows(A, B), t=0.0)
+    assert ekf.n_landmarks == 2 and not ekf.confirmed.any()
+    for t in range(1, 11):
+        ekf.update(rows(A), t=float(t))
+    assert ekf.n_landmarks == 2 and ekf.confirmed.tolist() == [True, False]          # B's window has not passed (10 − 0 ≯ 10)
+    ekf.update(rows(A), t=11.0)
+    assert ekf.n_landmarks == 1 and ekf.book.removed == {"unconfirmed": 1, "quality": 0}
+    for t in (12.0, 13.0, 14.0):                                                       # C created, seen twice more: confirmed
+        ekf.update(rows(A, C), t=t)
+    assert ekf.n_landmarks == 2 and ekf.confirmed.all()
+    for t in (15.0, 16.0, 17.0, 18.0):                                                 # C's quality 2 → −2: still kept
+        ekf.update(rows(A), t=t)
+    assert ekf.n_landmarks == 2
+    ekf.update(rows(A), t=19.0)                                                        # −3 < −2: removed
+    assert ekf.n_landmarks == 1 and ekf.book.removed == {"unconfirmed": 1, "quality": 1}
+    assert np.linalg.norm(ekf.x[3:5] - A) < 0.05
+
+    ekf.update(rows(C), t=20.0)                                                        # marginalising a slot directly
+    x, P = ekf.x.copy(), ekf.P.copy()
+    ekf._remove_landmarks(np.array([0]))
+    keep = [0, 1, 2, 5, 6]
+    np.testing.assert_array_equal(ekf.x, x[keep])
+    np.testing.assert_array_equal(ekf.P, P[np.ix_(keep, keep)])
