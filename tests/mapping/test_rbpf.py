@@ -158,6 +158,18 @@ def test_filter_reports_resampling_neff_and_memory(room_sequence):
     assert never.meta["resampling_events"] == 0
 
 
+def test_weight_tempering_flattens_the_weights_only(room_sequence):
+    """γ multiplies the log-weights and nothing else: without resampling the draws, the lineages and the best
+    particle (chosen by the untempered Σ log η) are the same for every γ, and N_eff is larger with γ < 1 (with
+    log w = γ Σ log η, N_eff rises monotonically to P as γ falls to 0)."""
+    runs = [RBPF(particles=8, resample_threshold=1e-9, weight_tempering=g).run(room_sequence) for g in (1.0, 1 / 3)]
+    full, flat = runs
+    assert full.meta["resampling_events"] == flat.meta["resampling_events"] == 0
+    assert np.array_equal(full.poses, flat.poses) and full.meta["best_particle"] == flat.meta["best_particle"]
+    assert np.all(flat.diagnostics["neff"] >= full.diagnostics["neff"] - 1e-9)
+    assert np.any(flat.diagnostics["neff"] > full.diagnostics["neff"] + 1e-3)
+
+
 def test_room_drive_is_seeded_and_beats_odometry(room_sequence):
     from slamarena.datasets.estimate import Estimate
     from slamarena.experiments.metrics.reference import reference_of
@@ -256,7 +268,9 @@ def test_sim_loop_closed_implicitly_by_the_best_particle():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="goal not met (research/mapping.md §6): over the world's seeds 0–4 the best of 30 "
-                   "particles beats GridSLAM only on the two drives where GridSLAM drifts most (medians 0.60 against 0.29 m)")
+                   "particles beats GridSLAM only on the two drives where GridSLAM drifts most (medians 0.60 against 0.29 m); "
+                   "weight tempering (γ = 1/2, 1/3, 1/90) and a lower resampling threshold do not meet it over seeds 0–9, "
+                   "nor does the best of 30 lineages kept apart chosen by an oracle (4 of 10)")
 def test_sim_loop_closed_implicitly_over_five_seeds():
     """The issue's goal over the world's seeds 0–4 (the suite's test runs seed 0): the median of the best particle's ATE
     below the median of GridSLAM's."""
