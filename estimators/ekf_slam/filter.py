@@ -113,7 +113,6 @@ from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import FiniteFloat, model_validator
-from scipy.linalg import block_diag
 
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
@@ -657,7 +656,9 @@ class EKFSLAM:
         N = x.shape[0]
         PHt = np.einsum("nmk,mjk->nmj", self._s.columns(idx).reshape(N, m, 5), Hs).reshape(N, 2 * m)    # (N, 2m)
         S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
-        S = 0.5 * (S + S.T) + block_diag(*R)
+        S = 0.5 * (S + S.T)
+        diagonal = np.arange(m)
+        S.reshape(m, 2, m, 2)[diagonal, :, diagonal, :] += R                   # + blockdiag(R_1 … R_m)
         nu = z - observe(x[:3], self._landmarks()[slots])
         nu[:, 1] = wrap_angle(nu[:, 1])
         return self._correct(PHt, S, nu.ravel())

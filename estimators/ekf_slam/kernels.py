@@ -56,7 +56,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "flush", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "flush", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -161,6 +161,24 @@ def flush(P, n, Ut, Ust, sg, r, pend, stored, stored_valid):
     pend[0][:] = 0.0
     pend[1][:] = 0.0
     pend[2][:] = 0.0
+
+
+@njit(cache=True)
+def gather_columns(P, n, cols):
+    """``P[:n, c]`` for each c of cols (k,) from what is current in the stored P: a robot column (c < 3) is a robot row; a
+    landmark column is its row of the lower triangle left of the diagonal and its column from the diagonal down."""
+    out = np.empty((n, cols.size))
+    for k in range(cols.size):
+        c = cols[k]
+        if c < 3:
+            for i in range(n):
+                out[i, k] = P[c, i]
+            continue
+        for i in range(c):
+            out[i, k] = P[c, i]
+        for i in range(c, n):
+            out[i, k] = P[i, c]
+    return out
 
 
 @njit(cache=True)

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, correct, correct_run, cross_covariances, flush, mirror_lower, set_robot_block
+from .kernels import APPLIED, correct, correct_run, cross_covariances, flush, gather_columns, mirror_lower, set_robot_block
 
 __all__ = ["GrowingState"]
 
@@ -133,32 +133,15 @@ class GrowingState:
     def columns(self, idx) -> np.ndarray:
         """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
 
-        Read from what is current in the stored P: a robot column is a robot row; the columns
-        (s, s + 1) of a landmark are its rows left of s and the block ``P[s:, s:s + 2]`` (the
-        lower triangle and the block's upper entry ``P[s, s + 1]``), one strided pass for both.
+        Read from what is current in the stored P (:func:`.kernels.gather_columns`: a robot column is a robot row, a
+        landmark column its row left of the diagonal and the lower triangle below), each distinct column once.
         """
-        P, n = self._P, self.n
-        idx = [int(c) for c in idx]
-        cols = sorted(set(idx))
-        where = None if cols == idx else [cols.index(c) for c in idx]
-        out = np.empty((n, len(cols)))
-        k = 0
-        while k < len(cols):
-            c = cols[k]
-            if c < 3:
-                out[:, k] = P[c, :n]
-                k += 1
-            elif c % 2 == 1 and k + 1 < len(cols) and cols[k + 1] == c + 1:
-                out[:c, k:k + 2] = P[c:c + 2, :c].T
-                out[c:, k:k + 2] = P[c:n, c:c + 2]
-                k += 2
-            else:
-                out[:c, k] = P[c, :c]
-                out[c:, k] = P[c:n, c]
-                k += 1
+        n = self.n
+        cols, where = np.unique(np.asarray(idx, dtype=np.int64), return_inverse=True)
+        out = gather_columns(self._P, n, cols)
         if self._r:
             out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, cols]
-        return out if where is None else out[:, where]
+        return out[:, where]
 
     def rows(self, idx) -> np.ndarray:
         """The current ``P[idx, :]``."""

@@ -156,3 +156,25 @@ def test_the_carried_checked_entries_are_the_stored_covariance_s(sim):
     assert carried > 100  # most sets carried the entries (a growth re-reads them)
     for cached, stored in zip(ekf._s.entries(), covariance_entries(ekf._s.view)):
         np.testing.assert_allclose(cached, stored, rtol=1e-9, atol=1e-15)
+
+
+def test_columns_read_the_current_covariance_with_a_term_pending(sim):
+    """GrowingState.columns (the batch update's and a new landmark's read of P) against the whole current P: robot and
+    landmark columns, unsorted and repeated, read from the stored lower triangle and robot rows plus a pending term."""
+    ekf = EKFSLAM(initial_pose=np.asarray(sim.start_pose, dtype=float), initial_cov=[0.01, 0.01, 0.001])
+    for u, dt, z in _sets(sim, 60, np.random.default_rng(1)):
+        ekf.predict(u, dt)
+        ekf.update(z)
+    s = ekf._s
+    N = s.n
+    rng = np.random.default_rng(2)
+    s._reserve(4)
+    s._Ut[:4, :N] = rng.normal(size=(4, N))                      # a pending term Ustᵀ Ut of rank 4
+    s._Ust[:4, :N] = s._Ut[:4, :N] * np.array([-1.0, 0.5, -0.5, -1.0])[:, None]
+    s._r = 4
+    idx = [N - 1, 0, 4, 3, 2, 0, 7, 8, N - 2]
+    got = s.columns(idx)
+    s._r = 0
+    full = s.P.copy()                                             # the stored P, mirrored
+    expected = full[:, idx] + s._Ust[:4, :N].T @ s._Ut[:4, idx]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
