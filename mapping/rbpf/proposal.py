@@ -28,7 +28,10 @@ polynomials of degree ≤ 5 under the standard normal density φ) are evaluated 
 
 (Grisetti 2007, eqs. 13–16, with the points placed and weighted by the rule instead of a fixed lattice:
 when τ_i is Gaussian the sums are exact — μ_i = ξ*_i, Σ_i = A_i⁻¹, η_i its integral — and where τ_i is not,
-the points measure how it departs.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
+the points measure how it departs — within ±√3 Laplace σ only: at σ_z = 1 the target is a narrow peak on a base as
+wide as Σ_u, and μ_i, Σ_i, η_i are the peak's, Σ_i several times narrower than the target's covariance and η_i short
+of its integral by the base's mass; research/mapping.md §6, checked against the brute-force target in
+tests/mapping/test_rbpf.py.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
 η_i. When the match fails (too few end points on observed cells) the pose is drawn from the motion model and
 the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
 estimate of the same η_i).

@@ -118,6 +118,115 @@ def test_gauss_hermite_points_integrate_a_gaussian_exactly():
     assert np.allclose(NODE_WEIGHTS @ NODES**4, 3.0)
 
 
+def _target_state(k=150):
+    """One lap of the 4 m-laser loop world: the maps of one particle from the true poses of scans 0, 3, …, k − 3,
+    scan k's end points (robot frame), a guess off the truth and a filter step's Σ_u (σ 0.15 m, 0.13 rad)."""
+    from slamarena.datasets.geometry import compose, transform_points
+    from slamarena.datasets.sim.laser import simulate
+    from slamarena.mapping.rbpf.tiled_grid import TiledPyramid
+
+    seq = simulate(max_range=4.0, n_beams=91, sigma_range=0.02, k_r=0.06, k_rt=0.03, k_t=0.085, scan_rate=2.5, laps=1, seed=0)
+    scans, p = seq.scans, RBPF.Params()
+    truth = seq.ground_truth.poses[np.searchsorted(seq.ground_truth.t, scans.t)]
+    maps = TiledPyramid(1, {}, p.resolution, p.levels, p.tile, size=8.0, centre=tuple(truth[0, :2]))
+    for i in range(0, k, 3):
+        r, a = scans.beams(i)
+        hit = r < scans.max_range
+        maps.integrate(compose(truth[i : i + 1], scans.mount), np.where(hit, r, np.minimum(r, 5.0)), a, hit)
+    r, a = scans.beams(k)
+    hit = r < scans.max_range
+    pts = transform_points(scans.mount, np.column_stack([r[hit] * np.cos(a[hit]), r[hit] * np.sin(a[hit])]))
+    return maps, pts, truth[k : k + 1] + np.array([0.05, -0.03, 0.02]), np.diag([0.15**2, 0.15**2, 0.13**2])
+
+
+def _literal_ssr(grid: OccupancyGrid, pts, X):
+    """Σ_n (1 − M(R(ψ) s_n + t))² (K,) at poses X (K, 3), M the bilinear interpolation of σ(log-odds) between the
+    cell centres of ``grid`` (the prior outside it), written out in numpy."""
+    c, s = np.cos(X[:, 2:]), np.sin(X[:, 2:])
+    wx = X[:, :1] + c * pts[:, 0] - s * pts[:, 1]
+    wy = X[:, 1:2] + s * pts[:, 0] + c * pts[:, 1]
+    res = grid.params.resolution
+    gx, gy = (wx - grid.origin[0]) / res - 0.5, (wy - grid.origin[1]) / res - 0.5
+    x0, y0 = np.floor(gx).astype(int), np.floor(gy).astype(int)
+    fx, fy = gx - x0, gy - y0
+    prob = 1.0 / (1.0 + np.exp(-grid.log_odds.astype(float)))
+    h, w = prob.shape
+
+    def m(x, y):
+        inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
+        return np.where(inside, prob[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)], 1.0 / (1.0 + np.exp(-grid.l0)))
+
+    M = (1 - fy) * ((1 - fx) * m(x0, y0) + fx * m(x0 + 1, y0)) + fy * ((1 - fx) * m(x0, y0 + 1) + fx * m(x0 + 1, y0 + 1))
+    return np.sum((1.0 - M) ** 2, axis=1)
+
+
+def _brute_force_target(grid, pts, guess, motion_cov, sigma, centre, half, n=41):
+    """The target τ(ξ) = exp(−Σ r²/2σ_z²) N(ξ; ĝ, Σ_u) on an n³ lattice of ±half (3,) around ``centre`` (3,):
+    its mean (3,), covariance (3, 3), log of its integral (Riemann sum) and the share of its mass on the
+    lattice's faces (small: the box holds the target)."""
+    axes = [np.linspace(-h, h, n) for h in half]
+    D = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    X = centre + D
+    ssr = np.concatenate([_literal_ssr(grid, pts, X[i : i + 8192]) for i in range(0, len(X), 8192)])
+    e = X - guess
+    e[:, 2] = (e[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    log_tau = -0.5 * ssr / sigma**2 - 0.5 * np.einsum("ki,ij,kj->k", e, np.linalg.inv(motion_cov), e) - 0.5 * np.log(np.linalg.det(2 * np.pi * motion_cov))
+    tau = np.exp(log_tau - log_tau.max())
+    w = tau / tau.sum()
+    mean = w @ D
+    cov = np.einsum("k,ki,kj->ij", w, D - mean, D - mean)
+    face = np.any(np.abs(D) >= np.asarray(half) - 1e-12, axis=1)
+    log_eta = log_tau.max() + np.log(tau.sum() * np.prod([a[1] - a[0] for a in axes]))
+    return centre + mean, cov, log_eta, w[face].sum()
+
+
+def _proposal_and_brute_force(sigma, half):
+    from slamarena.mapping.rbpf.proposal import gauss_newton, quadrature
+
+    maps, pts, guess, motion_cov = _target_state()
+    p = RBPF.Params()
+    modes, _ = gauss_newton(maps, pts, guess, np.linalg.inv(motion_cov), sigma, p.iterations, p.tol_translation, p.tol_rotation,
+                           p.max_step_translation, p.max_step_rotation)
+    mu, cov, log_eta, _ = quadrature(maps, pts, modes, guess, motion_cov, sigma)
+    brute = _brute_force_target(maps.finest.dense(0), pts, guess[0], motion_cov, sigma, modes[0], half)
+    return (mu[0], cov[0], log_eta[0]), brute
+
+
+def test_scan_likelihood_kernel_equals_the_literal_sum():
+    """The proposal's numba Σ r² over the tiled map equals the literal numpy sum on the particle's dense grid."""
+    from slamarena.mapping.rbpf.proposal import residuals
+
+    maps, pts, guess, _ = _target_state()
+    X = guess + np.random.default_rng(0).normal(0.0, [0.2, 0.2, 0.1], (50, 3))
+    ssr, _, _ = residuals(maps, pts, X[None])
+    np.testing.assert_allclose(ssr[0], _literal_ssr(maps.finest.dense(0), pts, X), rtol=1e-5, atol=1e-5)
+
+
+def test_proposal_is_the_brute_force_target_where_the_likelihood_is_sharp():
+    """σ_z = 0.25 (about the residuals' own spread): the target is one Gaussian-like peak, and the 27-point fit
+    gives its mean, standard deviations and integral (target on a 41³ lattice of ±(8 cm, 3 cm, 20 mrad) around
+    the mode): mean within 2 mm / 0.5 mrad, standard deviations within 25 %, log η within 0.2."""
+    (mu, cov, log_eta), (mean, bcov, blog_eta, face) = _proposal_and_brute_force(0.25, (0.08, 0.03, 0.02))
+    assert face < 1e-3
+    d = mu - mean
+    d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
+    assert np.all(np.abs(d) < [2e-3, 2e-3, 5e-4]), d
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(bcov)), rtol=0.25)
+    assert abs(log_eta - blog_eta) < 0.2, (log_eta, blog_eta)
+
+
+@pytest.mark.xfail(strict=True, reason="research/mapping.md §6 'Is the proposal the target?': at the shipped σ_z = 1 the "
+                   "target is a narrow peak on a wide base; the 27 points, placed by the peak's curvature, give a heading "
+                   "standard deviation 4× smaller than the target's and log η 1.5 too small")
+def test_proposal_is_the_brute_force_target_at_the_shipped_likelihood():
+    """The same check at the shipped σ_z = 1 (target on a 41³ lattice of ±(0.8 m, 0.7 m, 0.6 rad)): standard
+    deviations within 30 %, log η within 0.3."""
+    (mu, cov, log_eta), (mean, bcov, blog_eta, face) = _proposal_and_brute_force(RBPF.Params().sigma_likelihood, (0.8, 0.7, 0.6))
+    assert face < 1e-3
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(bcov)), rtol=0.3)
+    assert abs(log_eta - blog_eta) < 0.3, (log_eta, blog_eta)
+
+
 def test_fresh_odometry_readings():
     odom = np.array([[0, 0, 0], [0.1, 0, 0], [0.1, 0, 0], [0.1, 0, 0], [np.nan, 0, 0], [0.5, 0, 0], [0.5, 0, 0.1]])
     assert fresh_readings(odom).tolist() == [True, True, False, False, False, True, True]
