@@ -20,6 +20,9 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
 ``add_term_upper(buffer, n, Ut, Ust, r, off)`` adds the pending term to the O(N) upper entries a filter step reads
 (the robot rows, from contiguous rows of U, and each landmark block's ``P[s, s + 1]``) instead of copying them from
 the lower triangle, which would touch one cache line per row.
+``flush(…)`` applies a pending term in one call (:func:`update_lower`, :func:`add_term_upper`, the cached checked entries)
+and clears it; ``gather_columns(buffer, n, cols)`` reads columns of P from what is current in the stored lower triangle and
+robot rows (the batch update's and a new landmark's reads).
 
 The update of one observation set runs in the layout of its rows: ``HP = (PHᵀ)ᵀ`` (d × N) and the factor ``Cᵀ``
 (c × N), so every O(N) loop runs along a contiguous row.
