@@ -20,7 +20,7 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
 ``add_term_upper(buffer, n, Ut, Ust, r, off)`` adds the pending term to the O(N) upper entries a filter step reads
 (the robot rows, from contiguous rows of U, and each landmark block's ``P[s, s + 1]``) instead of copying them from
 the lower triangle, which would touch one cache line per row.
-``flush(…)`` applies a pending term in one call (:func:`update_lower`, :func:`add_term_upper`, the cached checked entries)
+``apply_term(…)`` applies a pending term in one call (:func:`update_lower`, :func:`add_term_upper`, the cached checked entries)
 and clears it; ``gather_columns(buffer, n, cols)`` reads columns of P from what is current in the stored lower triangle and
 robot rows (the batch update's and a new landmark's reads).
 
@@ -59,7 +59,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "flush", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -151,7 +151,7 @@ def update_lower(buffer, n, Ct, s):
 
 
 @njit(cache=True)
-def flush(P, n, Ut, Ust, sg, r, pend, stored, stored_valid):
+def apply_term(P, n, Ut, Ust, sg, r, pend, stored, stored_valid):
     """Apply the pending term ``Ustᵀ Ut`` (rank r) to the lower triangle (:func:`update_lower`) and to the upper entries a
     step reads (:func:`add_term_upper`), add its checked entries ``pend`` to the cached ones of the stored P ``stored``
     (if valid), and clear it."""

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, correct, correct_run, cross_covariances, flush, gather_columns, mirror_lower, set_robot_block
+from .kernels import APPLIED, apply_term, correct, correct_run, cross_covariances, gather_columns, mirror_lower, set_robot_block
 
 __all__ = ["GrowingState"]
 
@@ -165,10 +165,10 @@ class GrowingState:
 
     def flush(self) -> None:
         """Apply the pending term to the lower triangle (one pass), to the robot rows and the landmark blocks' upper entries
-        and to the cached checked entries, and clear it (one compiled call, :func:`.kernels.flush`)."""
+        and to the cached checked entries, and clear it (one compiled call, :func:`.kernels.apply_term`)."""
         if not self._r:
             return
-        flush(self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._stored_valid)
+        apply_term(self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._stored_valid)
         self._mirrored = False
         self._r = 0
 
