@@ -3,14 +3,18 @@
 For n = 25 … 3200 landmarks (N = 3 + 2n), a filter holding n mapped landmarks does steps of
 one prediction plus an update with 10 observations of known landmarks (simulated before each step,
 outside the timed part). Reported, all from
-the same run: the least CPU time (``time.process_time``; the minimum over repeats is the
-estimate least disturbed by other processes on a shared machine) per step of
+the same run: the least CPU time (``time.process_time``; the minimum is the estimate least
+disturbed by other processes on a shared machine) per step, over the repeats of a process and
+over ``trials`` processes per n (3; one with ``--quick``), run interleaved — every n once, then
+every n again — because a process's time drifts with the machine's state by ±10 % between
+processes (seen as exponents that moved by ±0.15 from run to run with one process per n); the
+exponents of each trial are printed beside those of the least. Timed per step:
 
 * the filter with sequential updates (the default: the set's N×N update deferred and applied
   once, rank 20), with batched updates, and with the sequential update applied per observation
   (``defer_covariance=False``, the filter before the deferral: one pass over P per observation);
 * the literal dense reference (``slamarena.estimators.ekf_slam.reference``; up to n = 800, since it
-  costs O(N³) per observation), and the ratio to it;
+  costs O(N³) per observation; in the first trial only), and the ratio to it;
 * the floor the O(n²) step is measured against: a rank-20 symmetric update of a P of the same
   size (``scipy.linalg.blas.dsyrk``, one triangle, in place) and one streaming pass over P
   (``P *= 1`` in place).
@@ -111,23 +115,31 @@ def measure(n: int, repeats: int, with_reference: bool, seed: int = 0) -> dict:
     return row
 
 
-def main(out: Path | None = None, quick: bool = False) -> int:
+def main(out: Path | None = None, quick: bool = False, trials: int | None = None) -> int:
     from rich.console import Console
     from rich.table import Table
 
     sizes = [25, 50, 100, 200, 400] if quick else [25, 50, 100, 200, 400, 800, 1600, 3200]
     ref_max = 200 if quick else 800
     repeats = 10 if quick else 20
+    trials = trials or (1 if quick else 3)
     fit_lo, fit_hi = (100, 400) if quick else (800, 3200)
     console = Console()
-    rows = []
-    for n in sizes:
-        rows.append(measure_single_threaded("slamarena.experiments.benchmarks.ekf_slam", n=n, repeats=repeats, with_reference=n <= ref_max))
-        console.log(f"n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in rows[-1].items()))
-    exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in (*VARIANTS, "syrk20")}
+    runs = []   # one list of rows per trial; a trial measures every n once, each n in a fresh process
+    for trial in range(trials):
+        runs.append([])
+        for n in sizes:
+            runs[-1].append(measure_single_threaded("slamarena.experiments.benchmarks.ekf_slam", n=n, repeats=repeats,
+                                                    with_reference=trial == 0 and n <= ref_max, seed=trial))
+            console.log(f"trial {trial + 1}/{trials}, n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in runs[-1][-1].items()))
+    rows = [{k: min(r[k] for r in same if k in r) for k in same[0]} for same in zip(*runs)]   # least over the trials
+    keys = (*VARIANTS, "syrk20")
+    exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in keys}
+    per_trial = {key: [loglog_slope(run, key, fit_lo, fit_hi) for run in runs] for key in keys}
     ref_exp = loglog_slope(rows, "reference", 100 if quick else 200, ref_max)
 
-    table = Table(title=f"EKF-SLAM CPU time per step (predict + {OBSERVATIONS} observations), least of {repeats}, single-threaded")
+    table = Table(title=f"EKF-SLAM CPU time per step (predict + {OBSERVATIONS} observations), least of {repeats} repeats × {trials} "
+                        "trials, single-threaded")
     for col in ("n", "N", "sequential [ms]", "batch [ms]", "per observation [ms]", "rank-20 syrk [ms]", "one pass [ms]",
                 "sequential / syrk", "reference [ms]", "reference / sequential"):
         table.add_column(col, justify="right")
@@ -139,6 +151,8 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     console.print(table)
     console.print(f"log-log exponent over n ∈ [{fit_lo}, {fit_hi}]: " + ", ".join(f"{k} {v:.2f}" for k, v in exponents.items())
                   + f" (aim for the filter: 2.0 ± 0.2); reference {ref_exp:.2f} over n ≤ {ref_max}")
+    if trials > 1:
+        console.print("the same exponents trial by trial: " + "; ".join(f"{k} " + ", ".join(f"{v:.2f}" for v in vs) for k, vs in per_trial.items()))
     for r in rows:
         if r["n"] >= (400 if quick else 1600):
             console.print(f"n = {r['n']}: sequential / rank-20 syrk = {r['sequential'] / r['syrk20']:.2f}× (aim ≤ 2×), "
