@@ -64,6 +64,8 @@ __all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gath
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
+#: columns per block of :func:`add_term_upper`'s sums
+_ROW_BLOCK = 512
 
 def _blas(name: str, arguments: int) -> types.ExternalFunction:
     """A Fortran BLAS routine of scipy.linalg.cython_blas (every argument a pointer), callable from compiled code: its
@@ -108,15 +110,28 @@ def mirror_lower(P, n):
 @njit(cache=True)
 def add_term_upper(P, n, Ut, Ust, r, off):
     """The term ``Ustᵀ Ut`` (rank r) added to the O(N) upper entries a filter step reads, which :func:`update_lower` does
-    not write: the robot rows P[a, i] (a < 3, i > a), from contiguous rows of U, and each landmark block's P[s, s + 1],
-    whose term is ``off`` (the pending entries, :func:`.checks.low_rank_entries`)."""
-    for k in range(r):
-        u, us = Ut[k], Ust[k]
+    not write: the robot rows P[a, i] (a < 3, i > a), ``Σ_k Ust[k, a] Ut[k, i]``, and each landmark block's P[s, s + 1],
+    whose term is ``off`` (the pending entries, :func:`.checks.low_rank_entries`).
+
+    The robot rows are summed in blocks of ``_ROW_BLOCK`` columns: the three sums of a block stay in cache while the r
+    rows of U stream through it, and each entry of P is written once (not once per term)."""
+    acc = np.empty((3, _ROW_BLOCK))
+    for i0 in range(0, n, _ROW_BLOCK):
+        i1 = min(i0 + _ROW_BLOCK, n)
+        m = i1 - i0
+        a0, a1, a2 = acc[0, :m], acc[1, :m], acc[2, :m]
+        a0[:], a1[:], a2[:] = 0.0, 0.0, 0.0
+        for k in range(r):
+            u = Ut[k, i0:i1]
+            w0, w1, w2 = Ust[k, 0], Ust[k, 1], Ust[k, 2]
+            for i in range(m):
+                a0[i] += w0 * u[i]
+                a1[i] += w1 * u[i]
+                a2[i] += w2 * u[i]
         for a in range(3):
-            w = us[a]
             row = P[a]
-            for i in range(a + 1, n):
-                row[i] += w * u[i]
+            for i in range(max(i0, a + 1), i1):
+                row[i] += acc[a, i - i0]
     for j in range((n - 3) // 2):
         P[3 + 2 * j, 4 + 2 * j] += off[j]
 

@@ -16,7 +16,7 @@ from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam.association import Decision
-from slamarena.estimators.ekf_slam.kernels import mirror_lower, update_lower
+from slamarena.estimators.ekf_slam.kernels import add_term_upper, mirror_lower, update_lower
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 
 
@@ -113,6 +113,30 @@ def test_a_failing_row_leaves_the_earlier_rows_of_its_set_applied(sim):
     np.testing.assert_allclose(a.x, b.x, atol=1e-12)
     np.testing.assert_allclose(a.P, b.P, atol=1e-12)
     np.testing.assert_array_equal(a.P, a.P.T)
+
+
+@pytest.mark.parametrize("n, r", [(1603, 20), (515, 7), (5, 3), (1025, 0)])
+def test_the_term_added_to_the_upper_entries_is_the_literal_one(n, r):
+    """add_term_upper: the robot rows P[a, i > a] receive (Ustᵀ Ut)[a, i] (summed in blocks of columns, block edges
+    included), each landmark block's P[s, s + 1] its pending entry, and nothing else changes."""
+    rng = np.random.default_rng(n + r)
+    capacity = n + 9
+    P = rng.normal(size=(capacity, capacity))
+    Ut, Ust = rng.normal(size=(r + 2, capacity)), rng.normal(size=(r + 2, capacity))   # rows beyond r are not part of the term
+    off = rng.normal(size=capacity // 2)
+    expected = P.copy()
+    term = Ust[:r, :3].T @ Ut[:r, :n]                        # (3, n)
+    for a in range(3):
+        expected[a, a + 1:n] += term[a, a + 1:]
+    s = np.arange(3, n - 1, 2)
+    expected[s, s + 1] += off[:s.size]
+    add_term_upper(P, n, Ut, Ust, r, off)
+    np.testing.assert_allclose(P, expected, rtol=0, atol=1e-12 * max(1.0, np.abs(term).max()))
+    changed = np.zeros_like(P, dtype=bool)
+    for a in range(3):
+        changed[a, a + 1:n] = True
+    changed[s, s + 1] = True
+    np.testing.assert_array_equal(P[~changed], expected[~changed])
 
 
 @pytest.mark.parametrize("n, capacity, d, mixed", [(50, 64, 20, False), (61, 64, 12, True), (301, 512, 7, False), (3, 8, 6, True), (40, 48, 2, False), (9, 9, 4, True)])
