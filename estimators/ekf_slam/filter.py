@@ -124,7 +124,7 @@ from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
 from .checks import CovarianceError, check_augmented, entries_error, innovation_cov_error
-from .kernels import APPLIED, NOT_FINITE, S_INDEFINITE, chain_geometry, robot_chain, semidefinite
+from .kernels import APPLIED, NOT_FINITE, ROBOT_INDEFINITE, S_INDEFINITE
 from .storage import GrowingState
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
@@ -270,6 +270,7 @@ class EKFSLAMParams(Params):
 #: absurd inputs overflow to inf/NaN inside a step; the step checks its result before the state changes
 _OVERFLOW_IS_CHECKED = np.errstate(over="ignore", invalid="ignore")
 _NEW, _MATCHED, _REJECTED = int(Decision.NEW), int(Decision.MATCHED), int(Decision.REJECTED)
+_NONE, _NONE_3, _NONE_33 = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3))   # an argument of a compiled call not given
 
 
 def _matrix(value) -> np.ndarray | None:
@@ -421,34 +422,25 @@ class EKFSLAM:
         covariances or cross-covariances are not finite raises ``ValueError``, one whose robot covariance
         is indefinite raises :class:`CovarianceError` (``on_indefinite="record"``: counted and applied).
         """
-        x, P = self._s.x, self._s.view  # the robot rows and columns, all it reads and writes, are current in it
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         if self.params.jacobians == Linearisation.IDEAL:
             lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
         else:
-            lin = np.zeros((0, 3))                                       # the chain's own poses
-        Q = np.array(Q_body if Q_world is None else np.zeros((0, 3, 3)), dtype=float)       # rotated to the world frame in place
-        poses, D = chain_geometry(x[:3].copy(), np.ascontiguousarray(delta, dtype=float), np.ascontiguousarray(lin, dtype=float), Q)
-        if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
-            if anchor_shift is None and self._carry is None:               # OC: the anchor's offset after the last update set
-                self._carry = self._robot_prior[:2] - poses[0, :2]
-            D[0] = poses[1, :2] - self._robot_prior[:2]
-            if anchor_shift is not None:
-                D[-1] += anchor_shift
-        if Q_world is None:
-            Q_world = Q
-        covs = robot_chain(np.ascontiguousarray(P[:3, :3]), np.ascontiguousarray(D), np.ascontiguousarray(Q_world))
-        P_rm, cross_finite = self._s.cross_covariances(D.sum(axis=0))   # Φ P_rm (3, N − 3)
-        finite = np.isfinite(poses[1:]).all(axis=1) & np.isfinite(covs).all(axis=(1, 2))
-        if not (finite.all() and cross_finite):
-            k = int(np.argmin(finite)) if not finite.all() else len(delta) - 1
+            lin = _NONE_3                                                # the chain's own poses
+        anchored = self.params.jacobians in (Linearisation.FEJ, Linearisation.OC)
+        if anchored and anchor_shift is None and self._carry is None:   # OC: the anchor's offset after the last update set
+            self._carry = self._robot_prior[:2] - self._s.x[:2]
+        record = self.params.on_indefinite == OnIndefinite.RECORD
+        poses, covs, _, outcome, k = self._s.predict_chain(        # the robot rows and columns, all it reads and writes, are current
+            np.ascontiguousarray(delta, dtype=float), np.ascontiguousarray(lin, dtype=float),
+            np.array(Q_body, dtype=float) if Q_world is None else _NONE_33, _NONE_33 if Q_world is None else np.ascontiguousarray(Q_world, dtype=float),
+            self._robot_prior[:2].copy() if anchored else _NONE, _NONE if anchor_shift is None else np.asarray(anchor_shift, dtype=float), record)
+        if outcome == NOT_FINITE:
             raise ValueError(f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
                              "is beyond what the model can represent); the state is unchanged")
-        if not semidefinite(covs):
+        if outcome == ROBOT_INDEFINITE:   # "raise": nothing was committed; "record": committed, and counted here
             self._indefinite(CovarianceError("robot covariance lost positive semi-definiteness during prediction"))
-        self._s.set_robot_block(covs[-1], P_rm)
-        x[:3] = poses[-1]
         self._robot_prior = poses[-1].copy()
         if anchor_shift is not None:
             self._robot_prior[:2] += anchor_shift

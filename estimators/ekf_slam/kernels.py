@@ -47,7 +47,7 @@ displacements D_k at the linearisation poses and the noise rotated to the world 
 ``robot_chain(P0, D, Q)`` runs the 3 × 3 robot-block recursion ``P_{k+1} = G_k P_k G_kᵀ + Q_k`` with
 ``G_k = I + [[0, 0, −D_k,y], [0, 0, D_k,x], [0, 0, 0]]`` and returns every P_k (K, 3, 3); ``semidefinite(covs)``
 checks them; ``cross_covariances(P, n, ΣD)`` forms ``Φ P_rm`` from the robot rows and ``set_robot_block`` writes the
-robot block, rows and columns.
+robot block, rows and columns; ``predict_chain(…)`` is all of it in one call, checked before it commits.
 """
 from __future__ import annotations
 
@@ -59,8 +59,8 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block",
-           "APPLIED", "S_INDEFINITE", "NOT_FINITE"]
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block", "predict_chain",
+           "APPLIED", "S_INDEFINITE", "NOT_FINITE", "ROBOT_INDEFINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
@@ -320,8 +320,9 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
     return HP, S, nu, H
 
 
-#: outcomes of :func:`correct` (a positive value: the failed covariance check, :data:`.checks.NEGATIVE_DIAGONAL` …)
-APPLIED, S_INDEFINITE, NOT_FINITE = 0, -1, -2
+#: outcomes of :func:`correct` (a positive value: the failed covariance check, :data:`.checks.NEGATIVE_DIAGONAL` …) and
+#: of :func:`predict_chain`
+APPLIED, S_INDEFINITE, NOT_FINITE, ROBOT_INDEFINITE = 0, -1, -2, -3
 
 
 @njit(cache=True)
@@ -509,3 +510,42 @@ def set_robot_block(P, n, P_rr, P_rm):
     for i in range(3, n):
         for a in range(3):
             P[i, a] = P_rm[a, i - 3]
+
+
+@njit(cache=True)
+def predict_chain(P, n, x, delta, lin, Q_body, Q_world, first_from, shift, commit_indefinite):
+    """One prediction chain of K body increments δ (K, 3), computed and checked before the state changes, then committed.
+
+    :func:`chain_geometry` (Q_body (K, 3, 3) rotated to the world frame in place, or empty when Q_world (K, 3, 3) is given),
+    then the linearisation's corrections: ``D_0 = x_1 − first_from`` if first_from (2,) is given (FEJ/OC: the chain starts
+    at the robot's linearisation point), ``D_{K−1} += shift`` if shift (2,) is given (OC's re-anchoring);
+    :func:`robot_chain`, :func:`cross_covariances` with ΣD, and the checks: every pose, robot covariance and
+    cross-covariance finite, every robot covariance :func:`semidefinite`. Committed — :func:`set_robot_block` and
+    x[:3] = x_K — if all pass, or if only the semidefiniteness fails and ``commit_indefinite``.
+    Returns (poses (K + 1, 3), covs (K, 3, 3), D (K, 2), outcome, k): :data:`APPLIED`, :data:`NOT_FINITE` (k: the first
+    piece with a non-finite pose or covariance, K − 1 for a non-finite cross-covariance; nothing committed) or
+    :data:`ROBOT_INDEFINITE` (a robot covariance is indefinite; committed only if ``commit_indefinite``).
+    """
+    poses, D = chain_geometry(x[:3].copy(), delta, lin, Q_body)
+    K = D.shape[0]
+    if first_from.size:
+        D[0, 0], D[0, 1] = poses[1, 0] - first_from[0], poses[1, 1] - first_from[1]
+    if shift.size:
+        D[K - 1, 0] += shift[0]
+        D[K - 1, 1] += shift[1]
+    covs = robot_chain(P[:3, :3].copy(), D, Q_body if Q_world.shape[0] == 0 else Q_world)
+    Dsum = np.zeros(2)
+    for k in range(K):
+        Dsum[0] += D[k, 0]
+        Dsum[1] += D[k, 1]
+    P_rm, cross_finite = cross_covariances(P, n, Dsum)
+    for k in range(K):
+        if not (np.all(np.isfinite(poses[k + 1])) and np.all(np.isfinite(covs[k]))):
+            return poses, covs, D, NOT_FINITE, k
+    if not cross_finite:
+        return poses, covs, D, NOT_FINITE, K - 1
+    outcome = APPLIED if semidefinite(covs) else ROBOT_INDEFINITE
+    if outcome == APPLIED or commit_indefinite:
+        set_robot_block(P, n, covs[K - 1], P_rm)
+        x[:3] = poses[K]
+    return poses, covs, D, outcome, 0

@@ -21,7 +21,7 @@ pending, an update needs only a few columns of P, which cost O(N r) (:meth:`Grow
 ``filter.py`` derives why this is the sequential update exactly), and the checked entries of P
 (:meth:`GrowingState.entries`: the stored P's, read once and kept until the stored P may change — any
 access to :attr:`~GrowingState.stored` or :attr:`~GrowingState.P`, which hand out writable views, a flush, a growth or
-a removal; :attr:`~GrowingState.view` reads without invalidating, and :meth:`~GrowingState.set_robot_block` (the
+a removal; :attr:`~GrowingState.view` reads without invalidating, and :meth:`~GrowingState.predict_chain` (the
 prediction) keeps them current —, plus the pending term's, kept incrementally). :meth:`GrowingState.correct` checks one
 update against them and appends it to the pending term in one compiled call (:func:`.kernels.correct`;
 :meth:`GrowingState.correct_run` a run of sequential updates). Entries added while a term
@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, apply_term, correct, correct_run, cross_covariances, gather_columns, mirror_lower, set_robot_block
+from .kernels import APPLIED, ROBOT_INDEFINITE, apply_term, correct, correct_run, gather_columns, mirror_lower, predict_chain
 
 __all__ = ["GrowingState"]
 
@@ -86,17 +86,17 @@ class GrowingState:
         v.flags.writeable = False
         return v
 
-    def cross_covariances(self, Dsum: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Φ P_rm (3, N − 3) of a prediction chain with displacement sum ΣD (2,) and whether it is finite
-        (:func:`.kernels.cross_covariances`); no term may be pending."""
-        return cross_covariances(self._P, self.n, Dsum)
-
-    def set_robot_block(self, P_rr: np.ndarray, P_rm: np.ndarray) -> None:
-        """Write the robot block (3, 3) and the robot rows and columns (3, N − 3), keeping the cached entries current."""
-        set_robot_block(self._P, self.n, P_rr, P_rm)
-        if self._stored_valid:
+    def predict_chain(self, delta: np.ndarray, lin: np.ndarray, Q_body: np.ndarray, Q_world: np.ndarray, first_from: np.ndarray,
+                      shift: np.ndarray, commit_indefinite: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """A prediction chain, checked and committed to the robot entries of x and P in one compiled call
+        (:func:`.kernels.predict_chain`, which states the arguments and the outcome), keeping the cached entries current;
+        no term may be pending. Returns (poses (K + 1, 3), covs (K, 3, 3), D (K, 2), outcome, k)."""
+        out = predict_chain(self._P, self.n, self._x[:self.n], delta, lin, Q_body, Q_world, first_from, shift, commit_indefinite)
+        poses, covs, _, outcome, _ = out
+        if self._stored_valid and (outcome == APPLIED or (outcome == ROBOT_INDEFINITE and commit_indefinite)):
             sd, sr, _ = self._stored_entries
-            sd[:3], sr[:] = np.diagonal(P_rr), P_rr
+            sd[:3], sr[:] = np.diagonal(covs[-1]), covs[-1]
+        return out
 
     def _reserve(self, c: int) -> None:
         """Room for c more rows of the pending term."""

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from slamarena.estimators.ekf_slam import EKFSLAM
-from slamarena.estimators.ekf_slam import filter as ekf_filter
 from slamarena.estimators.models import observe
 from slamarena.experiments.metrics.consistency import monte_carlo, nees
 from slamarena.experiments.metrics.reference import reference_of
@@ -29,11 +28,12 @@ def _observability_matrix(jacobians: str, steps: int = 40, seed: int = 0) -> tup
     ekf = EKFSLAM(jacobians=jacobians, twist_cov=[0.01, 0.01], range_bearing_cov=[0.01, 0.003], initial_cov=0.0)
     n_state = 3 + 2 * len(LANDMARKS)
     record: list = []
-    chain, correct_run = ekf_filter.robot_chain, ekf._s.correct_run
+    chain, correct_run = ekf._s.predict_chain, ekf._s.correct_run
 
-    def recording_chain(P0, D, Q):
-        record.append(("Φ", D.sum(axis=0)))
-        return chain(P0, D, Q)
+    def recording_chain(*args):
+        out = chain(*args)
+        record.append(("Φ", out[2].sum(axis=0)))             # ΣD of the chain: Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]
+        return out
 
     def recording_run(slots, *args):
         out = correct_run(slots, *args)
@@ -41,22 +41,18 @@ def _observability_matrix(jacobians: str, steps: int = 40, seed: int = 0) -> tup
         record.append(("H", slots[:applied].copy(), H[:, :, :3].copy(), H[:, :, 3:].copy()))
         return out
 
-    ekf._s.correct_run = recording_run
+    ekf._s.correct_run, ekf._s.predict_chain = recording_run, recording_chain
     true = np.zeros(3)
-    ekf_filter.robot_chain = recording_chain
-    try:
-        for k in range(steps + 1):
-            if k:
-                u = np.array([1.0, 0.4])
-                dt = 0.2
-                true = true + np.array([u[0] * dt * np.cos(true[2]), u[0] * dt * np.sin(true[2]), u[1] * dt])
-                ekf.predict(u + rng.normal(0.0, 0.1, 2), dt)
-            z = observe(true, LANDMARKS) + rng.normal(0.0, [0.1, 0.05], (len(LANDMARKS), 2))
-            ekf.update(np.column_stack([z, np.arange(len(LANDMARKS))]))
-            if k == 0:
-                record.clear()  # the first set maps the landmarks; M starts from the full state
-    finally:
-        ekf_filter.robot_chain = chain
+    for k in range(steps + 1):
+        if k:
+            u = np.array([1.0, 0.4])
+            dt = 0.2
+            true = true + np.array([u[0] * dt * np.cos(true[2]), u[0] * dt * np.sin(true[2]), u[1] * dt])
+            ekf.predict(u + rng.normal(0.0, 0.1, 2), dt)
+        z = observe(true, LANDMARKS) + rng.normal(0.0, [0.1, 0.05], (len(LANDMARKS), 2))
+        ekf.update(np.column_stack([z, np.arange(len(LANDMARKS))]))
+        if k == 0:
+            record.clear()  # the first set maps the landmarks; M starts from the full state
     rows, T = [], np.eye(n_state)
     for entry in record:
         if entry[0] == "Φ":
