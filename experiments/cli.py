@@ -67,6 +67,8 @@ def run(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask distributed scheduler address: run the cells on that cluster."),
     out: Optional[Path] = typer.Option(None, "--out", help="Results directory (default: the config's output directory)."),
     force: bool = typer.Option(False, "--force", help="Recompute cells that are already cached."),
+    recompute: Optional[list[str]] = typer.Option(None, "--recompute", help="Recompute the cached cells of this method label (repeatable): "
+                                                  "the cache key does not change with the code, so do this after changing a method."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Print the grid of runs and exit."),
     report: bool = typer.Option(False, "--report", help="At the end, write the HTML report and its Markdown twin (report.html, report.md)."),
     list_configs: bool = typer.Option(False, "--list", help="List the shipped configs, one line each, and exit."),
@@ -86,7 +88,7 @@ def run(
     from .runner import run_from_cli
 
     raise typer.Exit(run_from_cli(config=config, jobs=jobs, scheduler=scheduler, out=out, force=force, dry_run=dry_run, make_figures=make_all, report=report,
-                                  seeds=seeds))
+                                  seeds=seeds, recompute=tuple(recompute or ())))
 
 
 @app.command()

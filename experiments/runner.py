@@ -1,6 +1,6 @@
 """The experiment runner: the grid of cells, the cache, parallel execution, summary and tables.
 
-``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force] [--dry-run] [--report]``
+``slamarena run [CONFIG] [--jobs N] [--scheduler ADDRESS] [--out DIR] [--force | --recompute LABEL …] [--dry-run] [--report]``
 
 1. The config is validated (:mod:`slamarena.experiments.config`) before anything runs.
 2. The grid datasets × methods × seeds is expanded into cells (a method with a ``datasets:``
@@ -11,7 +11,8 @@
    a simulator), the SHA-256 of every file of a real dataset (``slamarena.datasets.catalogue``), the
    method spec, the seed and the slamarena version. A cell whose ``metrics.json`` carries its
    key (and the key of the metric settings) is finished and skipped, so an interrupted run
-   resumes where it stopped; ``--force`` recomputes.
+   resumes where it stopped; ``--force`` recomputes every cell, ``--recompute LABEL`` the cells of one method (the key
+   does not change with the code, so after a change to a method its cells are recomputed this way).
 4. Pending cells run in their own processes (:func:`slamarena.experiments.cell.run_cell`): locally on
    ``--jobs`` joblib worker threads, each supervising one cell process (the threads only
    wait; the work, the timeout kill and the memory peak belong to the cell's own process),
@@ -387,8 +388,22 @@ def start_manifest(config: ExperimentConfig, out: Path, cells: list[Cell], pendi
     return manifest
 
 
-def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, force: bool, console) -> dict[str, dict]:
-    """Execute the pending cells with a progress bar; returns the failed ones by id."""
+def forced_cells(config: ExperimentConfig, cells: list[Cell], force: bool, recompute: frozenset[str]) -> set[str]:
+    """Ids of the cells recomputed even if cached: all with ``force``, else those of the methods labelled in ``recompute``."""
+    labels = config.estimator_labels()
+    return {c.id for c in cells if force or labels[c.estimator] in recompute}
+
+
+def check_recompute(config: ExperimentConfig, recompute: frozenset[str]) -> None:
+    """Refuse a ``--recompute`` label that names no method of the config (UsageError, the known labels listed)."""
+    unknown = sorted(set(recompute) - set(config.estimator_labels()))
+    if unknown:
+        raise UsageError(f"--recompute {', '.join(unknown)}: no such method label in {config.name}; "
+                         f"its labels: {', '.join(config.estimator_labels())}")
+
+
+def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, forced: set[str], console) -> dict[str, dict]:
+    """Execute the pending cells (those in ``forced`` recomputed even if cached) with a progress bar; returns the failed ones by id."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     env = _cell_env(config)
@@ -401,7 +416,7 @@ def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, schedule
                 failures[result["id"]] = result
             progress.advance(task)
 
-        execute([_spec(config, c, env, force) for c in pending], config.timeout, jobs, scheduler, on_done)
+        execute([_spec(config, c, env, c.id in forced) for c in pending], config.timeout, jobs, scheduler, on_done)
     return failures
 
 
@@ -435,26 +450,29 @@ def record_interruption(manifest: dict, out: Path, cells: list[Cell], console) -
 
 
 def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None,
-                   make_figures: FigureMaker | None = None, report: bool = False) -> int:
+                   make_figures: FigureMaker | None = None, report: bool = False, recompute: frozenset[str] = frozenset()) -> int:
     """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
     Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
     CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
     they are handed in rather than imported). ``report`` writes ``report.html`` and ``report.md`` at the end
-    (:mod:`slamarena.experiments.report`).
+    (:mod:`slamarena.experiments.report`). ``force`` recomputes every cell, ``recompute`` the cells of the methods with
+    these labels (:func:`check_recompute`).
     """
     from rich.console import Console
 
+    check_recompute(config, recompute)
     console = console or Console(stderr=True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     cells = plan(config, out)
-    pending = [c for c in cells if force or not c.finished()]
+    forced = forced_cells(config, cells, force, recompute)
+    pending = [c for c in cells if c.id in forced or not c.finished()]
     manifest = start_manifest(config, out, cells, pending, jobs, scheduler)
     try:
-        failures = run_cells(config, pending, jobs, scheduler, force, console)
+        failures = run_cells(config, pending, jobs, scheduler, forced, console)
     except KeyboardInterrupt:
         record_interruption(manifest, out, cells, console)
         return 130
@@ -477,7 +495,7 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     return 0 if (frame["status"] == "ok").all() else 1
 
 
-def print_grid(config: ExperimentConfig, out: Path, force: bool, console) -> int:
+def print_grid(config: ExperimentConfig, out: Path, force: bool, console, recompute: frozenset[str] = frozenset()) -> int:
     """``--dry-run``: the resolved parameters of every dataset and method, and the grid of cells with the cached ones."""
     from rich.table import Table
 
@@ -490,11 +508,12 @@ def print_grid(config: ExperimentConfig, out: Path, force: bool, console) -> int
             params.add_row(kind, escape(label), escape(spec.name), escape(", ".join(f"{k}={json.dumps(v)}" for k, v in resolved.items()) or "–"))
     console.print(params)
     cells = plan(config, out)
+    forced = forced_cells(config, cells, force, recompute)
     table = Table(title=f"{escape(config.name)}: {len(cells)} cells → {escape(str(out))}")
     for col in ("dataset", "method", "seed", "status", "directory"):
         table.add_column(col)
     for cell in cells:
-        state = "cached" if (cell.finished() and not force) else "to run"
+        state = "cached" if (cell.finished() and cell.id not in forced) else "to run"
         table.add_row(escape(config.dataset_labels()[cell.dataset]), escape(config.estimator_labels()[cell.estimator]), str(cell.seed), state, escape(str(cell.dir.relative_to(Path(out).resolve()))))
     console.print(table)
     return 0
@@ -529,7 +548,7 @@ def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
 
 
 def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None,
-                 report: bool = False, seeds: int | None = None) -> int:
+                 report: bool = False, seeds: int | None = None, recompute: tuple[str, ...] = ()) -> int:
     """``slamarena run``: validate, then run (or list) the grid; ``seeds`` replaces the config's seeds by 0 … seeds − 1.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
@@ -544,13 +563,16 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
             cfg = cfg.model_copy(update={"seeds": seeds})
         target = cfg.output_dir(out)
         check_run_options(jobs, scheduler, target)
+        recompute = frozenset(recompute)
+        check_recompute(cfg, recompute)
     except (ConfigError, UsageError) as exc:
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2
     if dry_run:
-        return print_grid(cfg, target, force, Console())
+        return print_grid(cfg, target, force, Console(), recompute)
     try:
-        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures, report=report)
+        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures, report=report,
+                              recompute=recompute)
     except SchedulerUnreachable as exc:
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2

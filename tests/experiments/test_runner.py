@@ -134,6 +134,29 @@ def test_changed_metric_settings_reuse_the_estimate_and_force_recomputes(tmp_pat
     assert json.loads((cell / "metrics.json").read_text())["pid"] != second["pid"]
 
 
+def test_recompute_recomputes_the_cells_of_one_method_only(tmp_path):
+    """``--recompute LABEL``: the cached cells of that method are recomputed, the others kept; an unknown label is refused
+    before anything runs, naming the config's labels."""
+    from slamarena.experiments.runner import UsageError, run_from_cli
+
+    text = TINY.replace("seeds: 2", "seeds: 1").replace("  - name: dead_reckoning\n",
+                                                        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: euler\n    params: {motion_model: euler}\n")
+    cfg, path = _config(tmp_path, text)
+    out = tmp_path / "out"
+    assert run_experiment(cfg, out, console=_quiet()) == 0
+    mtimes = lambda: {p.parts[-3]: p.stat().st_mtime_ns for p in out.glob("runs/*/*/*/estimate.npz")}
+    before = mtimes()
+    assert set(before) == {"dead_reckoning", "euler"}
+    assert run_experiment(cfg, out, console=_quiet(), recompute=frozenset({"euler"})) == 0
+    after = mtimes()
+    assert after["dead_reckoning"] == before["dead_reckoning"] and after["euler"] != before["euler"]
+    assert json.loads((out / "manifest.json").read_text())["cells"] == {"total": 2, "to_run": 1, "cached": 1}
+    with pytest.raises(UsageError, match="no such method label.*dead_reckoning, euler"):
+        run_experiment(cfg, out, console=_quiet(), recompute=frozenset({"eular"}))
+    assert run_from_cli(config=path, jobs=1, scheduler=None, out=out, force=False, dry_run=True, recompute=("eular",)) == 2
+    assert mtimes() == after
+
+
 def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
     # a world that validates but whose route cannot be driven (it turns at its first waypoint): the cell fails when run
     broken = "{world: {name: bad, walls: [], route: [[0, 0], [1, 0]], corner_radius: 1.0, description: turns at the start}}"
