@@ -119,7 +119,7 @@ from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..kernels import twist_motion
 from ..models import (ARC, DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, inverse_observation_jacobians,
-                      inverse_observe, observation_jacobians, observe)
+                      inverse_observe, observe)
 from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
@@ -623,12 +623,7 @@ class EKFSLAM:
             if 0 < ready < slots.size:
                 applied = self._update_run(slots[:ready], z[:ready], R[:ready])
                 return applied if applied < ready else ready + self._update_run(slots[ready:], z[ready:], R[ready:])
-        current = self.params.jacobians == Linearisation.STANDARD
-        if current:
-            XL, ML = np.zeros((slots.size, 3)), np.zeros((slots.size, 2))
-        else:
-            xl, ML = self._linearisation_points(slots)
-            XL, ML = np.ascontiguousarray(np.broadcast_to(xl, (slots.size, 3))), np.ascontiguousarray(ML, dtype=float)
+        current, XL, ML = self._jacobian_points(slots)
         applied, outcome, k, value, nis, _, S = self._s.correct_run(
             slots.astype(np.int64), XL, ML, current, z, np.ascontiguousarray(R, dtype=float), self.params.covariance_update == CovarianceUpdate.JOSEPH)
         self.nis_log.extend((v, 2) for v in nis.tolist())
@@ -638,24 +633,23 @@ class EKFSLAM:
             self._s.flush()
         return applied
 
-    def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
-        """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair."""
-        x = self._s.x
-        m = slots.size
-        Hx, Hm = observation_jacobians(*self._linearisation_points(slots))
-        Hs = np.concatenate([Hx, Hm], axis=2)                          # (m, 2, 5)
-        idx = np.concatenate([np.broadcast_to(np.arange(3), (m, 3)), 3 + 2 * slots[:, None] + np.arange(2)], axis=1).ravel()
-        N = x.shape[0]
-        PHt = np.einsum("nmk,mjk->nmj", self._s.columns(idx).reshape(N, m, 5), Hs).reshape(N, 2 * m)    # (N, 2m)
-        S = np.einsum("mjk,mkc->mjc", Hs, PHt[idx].reshape(m, 5, 2 * m)).reshape(2 * m, 2 * m)          # (2m, 2m)
-        S = 0.5 * (S + S.T)
-        diagonal = np.arange(m)
-        S.reshape(m, 2, m, 2)[diagonal, :, diagonal, :] += R                   # + blockdiag(R_1 … R_m)
-        nu = z - observe(x[:3], self._landmarks()[slots])
-        nu[:, 1] = wrap_angle(nu[:, 1])
-        return self._correct(PHt, S, nu.ravel())
+    def _jacobian_points(self, slots: np.ndarray) -> tuple[bool, np.ndarray, np.ndarray]:
+        """Where the compiled updates take H of landmark slots (k,): (True, −, −) at the current estimate (standard), else
+        (False, x̆_r per row (k, 3), m̆ (k, 2)) (:meth:`_linearisation_points`)."""
+        if self.params.jacobians == Linearisation.STANDARD:
+            return True, np.zeros((slots.size, 3)), np.zeros((slots.size, 2))
+        xl, ML = self._linearisation_points(slots)
+        return False, np.ascontiguousarray(np.broadcast_to(xl, (slots.size, 3))), np.ascontiguousarray(ML, dtype=float)
 
-    def _correct(self, PHt: np.ndarray, S: np.ndarray, nu: np.ndarray) -> bool:
+    def _update_batch(self, slots: np.ndarray, z: np.ndarray, R: np.ndarray) -> bool:
+        """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair; HP = H P
+        (2m, N), S = H P Hᵀ + blockdiag(R_1 … R_m) and ν in one compiled call (:meth:`.storage.GrowingState.batch_innovation`)."""
+        current, XL, ML = self._jacobian_points(slots)
+        HP, S, nu = self._s.batch_innovation(slots.astype(np.int64), XL, ML, current, np.ascontiguousarray(z, dtype=float),
+                                             np.ascontiguousarray(R, dtype=float))
+        return self._correct(HP, S, nu)
+
+    def _correct(self, HP: np.ndarray, S: np.ndarray, nu: np.ndarray) -> bool:
         """x ← x + K ν, P ← standard or Joseph form, K = PHᵀ S⁻¹ via the Cholesky factor of the d × d S (d = 2m), O(d N²).
 
         W = PHᵀ L⁻ᵀ (S = L Lᵀ), K = W L⁻¹ = PHᵀ S⁻¹ (N, d), νᵀ S⁻¹ ν = |L⁻¹ ν|², dx = K ν (:func:`.kernels.gain_terms`), and
@@ -667,7 +661,7 @@ class EKFSLAM:
         returns whether it was applied. Not applied: a non-finite NIS, state step or covariance term (counted per row in
         ``rejected["nonfinite"]``), an indefinite S or posterior (``on_indefinite``: raise, or count per row and skip).
         """
-        outcome, nis, k, value = self._s.correct(PHt.T, S, nu, self.params.covariance_update == CovarianceUpdate.JOSEPH)
+        outcome, nis, k, value = self._s.correct(HP, S, nu, self.params.covariance_update == CovarianceUpdate.JOSEPH)
         if outcome != APPLIED:
             self._not_applied(outcome, k, value, S, nu.size // 2)
             return False

@@ -22,7 +22,7 @@ P that is the covariance's storage (:mod:`.storage`; the upper triangle is copie
 the lower triangle, which would touch one cache line per row.
 ``apply_term(…)`` applies a pending term in one call (:func:`update_lower`, :func:`add_term_upper`, the cached checked entries)
 and clears it; ``gather_columns(buffer, n, cols)`` reads columns of P from what is current in the stored lower triangle and
-robot rows (the batch update's and a new landmark's reads).
+robot rows (a new landmark's read of the robot rows).
 
 The update of one observation set runs in the layout of its rows: ``HP = (PHᵀ)ᵀ`` (d × N) and the factor ``Cᵀ``
 (c × N), so every O(N) loop runs along a contiguous row.
@@ -40,7 +40,9 @@ Cholesky factor of S, :func:`gain_terms`, the entries of the update term (:func:
 checks of the entries P would have (:func:`.checks.entries_failure`) and, only if all pass, the commit — x += K ν,
 the term appended to the pending one. ``correct_run(…)`` applies a run of consecutive matched observations of a set
 (``innovation_one`` then ``correct`` each, in order) in one compiled call, stopping at the first that is not applied,
-so a set of m known landmarks costs O(N m r) plus one call.
+so a set of m known landmarks costs O(N m r) plus one call. ``batch_innovation(…)`` is the batch form's
+counterpart of ``innovation_one``: the m observations' HP rows (2m × N) from the same current P, the 2m × 2m S with its
+cross terms, and ν, in one call.
 
 The prediction: ``chain_geometry(x0, δ, lin, Q)`` composes a chain of K body increments (the poses, the world-frame
 displacements D_k at the linearisation poses and the noise rotated to the world frame, one pass);
@@ -59,7 +61,7 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block", "predict_chain",
+__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "batch_innovation", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block", "predict_chain",
            "APPLIED", "S_INDEFINITE", "NOT_FINITE", "ROBOT_INDEFINITE"]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
@@ -263,14 +265,9 @@ def gain_terms(HP, S, L, nu, joseph, Ct):
 
 
 @njit(cache=True)
-def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
-    """(HP (2, n) = (PHᵀ)ᵀ, S (2, 2), ν (2,), H (2, 5)) of one range-bearing observation z of the landmark at entries s, s + 1."""
-    zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
-    range_bearing(xl, ml, zhat, Hx, Hm)                      # H = [H_x, H_m] at the linearisation point
-    H = np.empty((2, 5))
-    H[:, :3], H[:, 3:] = Hx, Hm
-    idx = np.array([0, 1, 2, s, s + 1])
-    HP = np.empty((2, n))
+def _hp_one(P, n, Ut, Ust, r, s, H, HP):
+    """HP (2, n) ← H P[idx, :] for H (2, 5) on the entries idx = (0, 1, 2, s, s + 1), read from the current P (the stored
+    lower triangle and robot rows, and the pending term ``Ustᵀ Ut`` of rank r)."""
     h, hb = HP[0], HP[1]
     a0, a1, a2, a3, a4 = H[0, 0], H[0, 1], H[0, 2], H[0, 3], H[0, 4]
     b0, b1, b2, b3, b4 = H[1, 0], H[1, 1], H[1, 2], H[1, 3], H[1, 4]
@@ -291,9 +288,8 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
     # the pending term: H P[idx, :] += (H Ut[:, idx]ᵀ) Ust, its r rows read once each, two at a time
     g = np.zeros((2, r))
     for k in range(r):
-        for c in range(5):
-            g[0, k] += Ut[k, idx[c]] * H[0, c]
-            g[1, k] += Ut[k, idx[c]] * H[1, c]
+        g[0, k] = Ut[k, 0] * a0 + Ut[k, 1] * a1 + Ut[k, 2] * a2 + Ut[k, s] * a3 + Ut[k, s + 1] * a4
+        g[1, k] = Ut[k, 0] * b0 + Ut[k, 1] * b1 + Ut[k, 2] * b2 + Ut[k, s] * b3 + Ut[k, s + 1] * b4
     for k in range(0, r - 1, 2):
         u, v = Ust[k], Ust[k + 1]
         g0, g1, e0, e1 = g[0, k], g[0, k + 1], g[1, k], g[1, k + 1]
@@ -306,6 +302,31 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
         for i in range(n):
             h[i] += u[i] * g0
             hb[i] += u[i] * e0
+
+
+@njit(cache=True)
+def _jacobian(xl, ml, zhat, Hx, Hm, H):
+    """H = [H_x, H_m] (2, 5) of the range-bearing model at (x̆_r, m̆)."""
+    range_bearing(xl, ml, zhat, Hx, Hm)
+    H[:, :3], H[:, 3:] = Hx, Hm
+
+
+@njit(cache=True)
+def _innovation(x, s, z, zhat, Hx, Hm):
+    """ν = z − h(x_r, m) (2,) at the current estimate, the bearing wrapped."""
+    range_bearing(x[:3], x[s:s + 2], zhat, Hx, Hm)
+    return np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
+
+
+@njit(cache=True)
+def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
+    """(HP (2, n) = (PHᵀ)ᵀ, S (2, 2), ν (2,), H (2, 5)) of one range-bearing observation z of the landmark at entries s, s + 1."""
+    zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+    H = np.empty((2, 5))
+    _jacobian(xl, ml, zhat, Hx, Hm, H)                       # H = [H_x, H_m] at the linearisation point
+    HP = np.empty((2, n))
+    _hp_one(P, n, Ut, Ust, r, s, H, HP)
+    idx = np.array([0, 1, 2, s, s + 1])
     S = np.empty((2, 2))
     for a in range(2):
         for b in range(2):
@@ -315,9 +336,44 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
             S[a, b] = acc
     S[0, 1] = S[1, 0] = 0.5 * (S[0, 1] + S[1, 0])
     S += R
-    range_bearing(x[:3], x[s:s + 2], zhat, Hx, Hm)          # h at the current estimate
-    nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
-    return HP, S, nu, H
+    return HP, S, _innovation(x, s, z, zhat, Hx, Hm), H
+
+
+@njit(cache=True)
+def batch_innovation(P, n, Ut, Ust, r, entries, XL, ML, current, x, Z, R):
+    """(HP (2m, n), S (2m, 2m), ν (2m,)) of m range-bearing observations Z (m, 2) (noise R (m, 2, 2)) of the landmarks at
+    entries (e_j, e_j + 1) (m,), stacked: H_j at (XL[j], ML[j]) or at the current estimate if ``current``; HP rows 2j, 2j + 1
+    = H_j P (:func:`_hp_one`, the current P), ``S[2j + a, 2k + b] = Σ_c HP[2j + a, idx_k[c]] H_k[b, c]``, symmetrised, plus
+    blockdiag(R_1 … R_m); ν_j = z_j − h(x_r, m_j)."""
+    m = entries.size
+    zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+    Hs = np.empty((m, 2, 5))
+    HP = np.empty((2 * m, n))
+    nu = np.empty(2 * m)
+    for j in range(m):
+        e = entries[j]
+        if current:
+            _jacobian(x[:3].copy(), x[e:e + 2].copy(), zhat, Hx, Hm, Hs[j])
+        else:
+            _jacobian(XL[j], ML[j], zhat, Hx, Hm, Hs[j])
+        _hp_one(P, n, Ut, Ust, r, e, Hs[j], HP[2 * j:2 * j + 2])
+        nu[2 * j:2 * j + 2] = _innovation(x, e, Z[j], zhat, Hx, Hm)
+    S = np.empty((2 * m, 2 * m))
+    for k in range(m):
+        e = entries[k]
+        for b in range(2):
+            H = Hs[k, b]
+            for a in range(2 * m):
+                row = HP[a]
+                S[a, 2 * k + b] = row[0] * H[0] + row[1] * H[1] + row[2] * H[2] + row[e] * H[3] + row[e + 1] * H[4]
+    for a in range(2 * m):
+        for b in range(a):
+            S[a, b] = S[b, a] = 0.5 * (S[a, b] + S[b, a])
+    for j in range(m):
+        for a in range(2):
+            for b in range(2):
+                S[2 * j + a, 2 * j + b] += R[j, a, b]
+    return HP, S, nu
 
 
 #: outcomes of :func:`correct` (a positive value: the failed covariance check, :data:`.checks.NEGATIVE_DIAGONAL` …) and

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, ROBOT_INDEFINITE, apply_term, correct, correct_run, gather_columns, mirror_lower, predict_chain
+from .kernels import APPLIED, ROBOT_INDEFINITE, apply_term, batch_innovation, correct, correct_run, gather_columns, mirror_lower, predict_chain
 
 __all__ = ["GrowingState"]
 
@@ -129,6 +129,12 @@ class GrowingState:
             self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._x[:self.n],
             slots, XL, ML, current, Z, R, joseph, 3)
         return q, outcome, k, value, nis, H, S
+
+    def batch_innovation(self, slots: np.ndarray, XL: np.ndarray, ML: np.ndarray, current: bool, Z: np.ndarray,
+                         R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """HP (2m, N), S (2m, 2m) and ν (2m,) of m observations Z (m, 2) of landmark slots (m,) taken together, from the
+        current P (:func:`.kernels.batch_innovation`), O(N m (r + 1))."""
+        return batch_innovation(self._P, self.n, self._Ut, self._Ust, self._r, 3 + 2 * slots, XL, ML, current, self._x[:self.n], Z, R)
 
     def columns(self, idx) -> np.ndarray:
         """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).

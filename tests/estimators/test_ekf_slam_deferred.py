@@ -183,7 +183,7 @@ def test_the_carried_checked_entries_are_the_stored_covariance_s(sim):
 
 
 def test_columns_read_the_current_covariance_with_a_term_pending(sim):
-    """GrowingState.columns (the batch update's and a new landmark's read of P) against the whole current P: robot and
+    """GrowingState.columns (a new landmark's read of P) against the whole current P: robot and
     landmark columns, unsorted and repeated, read from the stored lower triangle and robot rows plus a pending term."""
     ekf = EKFSLAM(initial_pose=np.asarray(sim.start_pose, dtype=float), initial_cov=[0.01, 0.01, 0.001])
     for u, dt, z in _sets(sim, 60, np.random.default_rng(1)):
