@@ -31,6 +31,9 @@ Inverse observation (landmark initialisation) from z = (r, b)::
     m = [x + r cos(θ + b), y + r sin(θ + b)]
     ∂m/∂x = [[1, 0, −r sin(θ + b)], [0, 1, r cos(θ + b)]]      ∂m/∂z = [[cos(θ+b), −r sin(θ+b)], [sin(θ+b), r cos(θ+b)]]
 
+Observation noise (:func:`observation_covariances`): the stated R (2, 2) for every observation (polar), or, for a sensor
+whose noise is isotropic σ² I in the plane (cartesian, σ² = R[0, 0]), ``R_j = diag(σ², σ²/r_j²)`` at range r_j.
+
 Odometry-increment motion x' = x ⊕ δ has ∂x'/∂x = [[1, 0, −s δx − c δy], [0, 1, c δx − s δy], [0, 0, 1]]
 and ∂x'/∂δ = blockdiag(R(θ), 1) (:func:`compose_jacobians`).
 
@@ -39,6 +42,7 @@ All functions broadcast over leading axes.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -59,6 +63,8 @@ __all__ = [
     "compose_chain",
     "DEFAULT_TWIST_COV",
     "DEFAULT_RANGE_BEARING_COV",
+    "RangeBearingNoise",
+    "observation_covariances",
 ]
 
 #: noise of the landmark-SLAM filters when neither the method's parameters nor the sequence state one:
@@ -157,6 +163,29 @@ def observation_jacobians(x, landmarks) -> tuple[np.ndarray, np.ndarray]:
     Hx[..., :, :2] = -Hm
     Hx[..., 1, 2] = -1.0
     return Hx, Hm
+
+
+class RangeBearingNoise(StrEnum):
+    """How the stated observation noise R (2, 2) applies to observation j."""
+
+    POLAR = "polar"          # R_j = R
+    CARTESIAN = "cartesian"  # R_j = diag(σ², σ²/r_j²), σ² = R[0, 0]: isotropic σ² I in the plane (Victoria Park states its trees so)
+
+
+def observation_covariances(R: np.ndarray, ranges: np.ndarray, noise: RangeBearingNoise | str) -> np.ndarray:
+    """R_j (M, 2, 2) of M observations at ranges (M,) [m] under the stated (range, bearing) covariance R (2, 2).
+
+    Cartesian: a point observed at range r with isotropic noise σ² I has range variance σ² and bearing variance σ²/r²,
+    uncorrelated (the polar Jacobian's rows are orthogonal); ranges are floored at 1e-9 m.
+    """
+    R = np.asarray(R, dtype=float)
+    ranges = np.asarray(ranges, dtype=float)
+    if RangeBearingNoise(noise) == RangeBearingNoise.POLAR:
+        return np.broadcast_to(R, (ranges.size, 2, 2))
+    Rz = np.zeros((ranges.size, 2, 2))
+    Rz[:, 0, 0] = R[0, 0]
+    Rz[:, 1, 1] = R[0, 0] / np.maximum(ranges, 1e-9) ** 2
+    return Rz
 
 
 def inverse_observe(x, z) -> np.ndarray:

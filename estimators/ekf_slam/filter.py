@@ -118,8 +118,8 @@ from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..kernels import twist_motion
-from ..models import (ARC, DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, inverse_observation_jacobians,
-                      inverse_observe, observe)
+from ..models import (ARC, DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, RangeBearingNoise, inverse_observation_jacobians,
+                      inverse_observe, observation_covariances, observe)
 from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
@@ -142,12 +142,6 @@ class MotionNoise(StrEnum):
     CONTROL = "control"      # Q = V M Vᵀ, M the twist covariance
     ADDITIVE = "additive"    # Q = Cx · dt
 
-
-class RangeBearingNoise(StrEnum):
-    """Observation noise R_j of row j."""
-
-    POLAR = "polar"          # R_j = R
-    CARTESIAN = "cartesian"  # R_j = diag(σ², σ²/r_j²), σ² = R[0, 0]
 
 
 class UpdateForm(StrEnum):
@@ -558,13 +552,9 @@ class EKFSLAM:
         self.book.remove(slots)
 
     def observation_cov(self, z: np.ndarray) -> np.ndarray:
-        """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]."""
-        if self.params.range_bearing_noise == RangeBearingNoise.POLAR:
-            return np.broadcast_to(self.R, (len(z), 2, 2))
-        Rz = np.zeros((len(z), 2, 2))
-        Rz[:, 0, 0] = self.R[0, 0]
-        Rz[:, 1, 1] = self.R[0, 0] / np.maximum(z[:, 0], 1e-9) ** 2
-        return Rz
+        """R_j (M, 2, 2) of observations z (M, ≥1): R, or diag(σ², σ²/r_j²) for Cartesian sensor noise σ² = R[0, 0]
+        (:func:`~slamarena.estimators.models.observation_covariances`)."""
+        return observation_covariances(self.R, z[:, 0], self.params.range_bearing_noise)
 
     def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)

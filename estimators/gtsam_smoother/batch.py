@@ -41,7 +41,7 @@ from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field
 
-from .graph import (L, OptimizationError, OptimizerParams, X, gtsam_errors, landmark_step_factors, observation_noise, optimize,
+from .graph import (L, OptimizationError, OptimizerParams, X, gtsam_errors, landmark_step_factors, observation_noises, optimize,
                     point_covariances, points_of, poses_of, range_noise, world_pose_covariances)
 from .isam2 import ISAM2Smoother
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
@@ -65,10 +65,10 @@ class BatchSmoother(LandmarkSmoother):
 
     def graph(self, problem: LandmarkProblem, between_cov: np.ndarray) -> gtsam.NonlinearFactorGraph:
         graph = gtsam.NonlinearFactorGraph()
-        obs_noise = observation_noise(problem.R, self.params)
+        obs_noises = observation_noises(problem, self.params)
         rng_noise = range_noise(problem.R_range, self.params)
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
-            graph.push_back(landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noise, rows, rng_noise, range_rows))
+            graph.push_back(landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows))
         for j in self.anchored_beacons(problem):
             graph.add(self.beacon_prior(problem, j))
         return graph

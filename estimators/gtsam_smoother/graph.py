@@ -48,7 +48,7 @@ from .problem import LandmarkProblem
 __all__ = [
     "X", "L", "RobustKernelParams", "OptimizerParams", "RelinearizationParams", "RelativeErrorTol", "AbsoluteErrorTol",
     "RelinearizeSkip", "ComputeCovariances", "noise_model", "information_model", "robustify", "observation_noise",
-    "range_noise", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "OptimizationError", "gtsam_errors", "finite_error",
+    "range_noise", "observation_noises", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "OptimizationError", "gtsam_errors", "finite_error",
     "remaining_decrease", "NEGLIGIBLE_DECREASE",
     "poses_of", "points_of",
 ]
@@ -112,23 +112,32 @@ def observation_noise(R: np.ndarray, kernel: RobustKernelParams | None = None):
     return noise_model(_SWAP @ R @ _SWAP, kernel)
 
 
+def observation_noises(problem: LandmarkProblem, kernel: RobustKernelParams | None = None) -> list:
+    """The noise of each observation's factor (``problem.obs_cov``; one shared model when every observation has the same)."""
+    C = problem.obs_cov
+    if len(C) and np.all(C == C[0]):
+        return [observation_noise(C[0], kernel)] * len(C)
+    return [observation_noise(c, kernel) for c in C]
+
+
 def range_noise(variance: float, kernel: RobustKernelParams | None = None):
     """Noise of a ``RangeFactor2D``: one range of the given variance [m²]."""
     return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), kernel)
 
 
-def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, between_cov: np.ndarray, obs_noise, rows: slice,
+def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, between_cov: np.ndarray, obs_noises: list, rows: slice,
                           rng_noise=None, range_rows: slice = slice(0, 0)) -> gtsam.NonlinearFactorGraph:
     """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k with covariance
     ``between_cov[k − 1]`` (``between_cov`` (K − 1, 3, 3): ``problem.cov``, or what the smoother made of it),
-    pose k's observations and its beacon ranges."""
+    pose k's observations (the rows of the observation arrays, each with its noise of ``obs_noises``,
+    :func:`observation_noises`) and its beacon ranges."""
     graph = gtsam.NonlinearFactorGraph()
     if k == 0:
         graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*problem.start), noise_model(prior_cov)))
     else:
         graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(between_cov[k - 1])))
-    for j, r, b in zip(problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows]):
-        graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r), obs_noise))
+    for j, r, b, noise in zip(problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows], obs_noises[rows]):
+        graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r), noise))
     for j, r in zip(problem.rng_id[range_rows], problem.rng_range[range_rows]):
         graph.add(gtsam.RangeFactor2D(X(k), L(j), float(r), rng_noise))
     return graph

@@ -64,7 +64,7 @@ from slamarena.estimators.stepping import CLOCKS, StepClock
 from slamarena.params import Field
 
 from .graph import (NEGLIGIBLE_DECREASE, L, OptimizationError, RelinearizationParams, X, finite_error, gtsam_errors, isam2_params,
-                    landmark_step_factors, observation_noise, point_covariances, points_of, poses_of, range_noise, remaining_decrease,
+                    landmark_step_factors, observation_noises, point_covariances, points_of, poses_of, range_noise, remaining_decrease,
                     world_pose_covariances)
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
 from .problem import LandmarkProblem
@@ -111,7 +111,7 @@ class ISAM2Smoother(LandmarkSmoother):
         """The smoother on a problem whose ranged beacons are all anchored or observed (:meth:`run` checks that)."""
         K = problem.n_poses
         isam = self.isam()
-        obs_noise = observation_noise(problem.R, self.params)
+        obs_noises = observation_noises(problem, self.params)
         rng_noise = range_noise(problem.R_range, self.params)
         known: set[int] = set()
         online = np.empty((K, 3))
@@ -133,7 +133,7 @@ class ISAM2Smoother(LandmarkSmoother):
                 C = floor_to_uncertainty(given, previous, problem.delta[k - 1], eps)
                 lifted += C is not given
                 between_cov[k - 1] = C
-            factors = landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noise, rows, rng_noise, range_rows)
+            factors = landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows)
             values = gtsam.Values()
             x = problem.start if k == 0 else compose(online[k - 1], problem.delta[k - 1])
             values.insert(X(k), gtsam.Pose2(*x))

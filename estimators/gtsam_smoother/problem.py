@@ -14,8 +14,9 @@ Relative motion (pose k−1 → k)
     :mod:`.noise`. P_δ comes from the filters' own propagation of the motion noise
     (``Noise.twist_cov`` through the motion model's V, or the increments' covariance).
 Observations
-    ``obs_pose`` (N,) pose index, ``obs_id`` (N,), ``obs_range``, ``obs_bearing`` (N,), noise
-    ``R = Noise.range_bearing_cov`` (2, 2) in (range, bearing) order.
+    ``obs_pose`` (N,) pose index, ``obs_id`` (N,), ``obs_range``, ``obs_bearing`` (N,), the stated noise
+    ``R = Noise.range_bearing_cov`` (2, 2) in (range, bearing) order and each observation's ``obs_cov`` (N, 2, 2): R, or
+    ``diag(σ², σ²/r_j²)`` with σ² = R[0, 0] for ``range_bearing_noise="cartesian"`` (:func:`.models.observation_covariances`).
 Beacon ranges (range-only, ``Sequence.beacon_ranges``)
     ``rng_pose`` (M,), ``rng_id`` (M,), ``rng_range`` (M,) with the range offset β = ``beacon_bias``
     already removed (z − β), variance ``R_range`` = ``beacon_range_var``. Beacons share the landmark id space (one
@@ -39,7 +40,7 @@ import numpy as np
 
 from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
-from slamarena.estimators.models import MOTION_MODELS, inverse_observe
+from slamarena.estimators.models import MOTION_MODELS, RangeBearingNoise, inverse_observe, observation_covariances
 from slamarena.estimators.stepping import twist_pieces
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
@@ -82,6 +83,9 @@ class LandmarkProblemParams(PoseChainParams):
 
     range_bearing_cov: Covariance2 | None = Field(
         None, description="covariance of one observation in (range, bearing) order [m², rad²]; None: the sequence's Noise.range_bearing_cov")
+    range_bearing_noise: RangeBearingNoise = Field(
+        RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in the plane, "
+                                             "R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m] (as the filters' option)")
     beacon_range_var: PositiveFinite = Field(1.0, description="variance σ_r² of one beacon range [m²] (no dataset states it)")
     beacon_bias: float = Field(0.0, allow_inf_nan=False, description="offset β of every beacon range, subtracted from it [m]")
 
@@ -97,6 +101,7 @@ class LandmarkProblem:
     obs_range: np.ndarray
     obs_bearing: np.ndarray
     R: np.ndarray
+    obs_cov: np.ndarray
     rng_pose: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     rng_id: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     rng_range: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -378,6 +383,7 @@ def build_problem(sequence: Sequence, params: LandmarkProblemParams = LandmarkPr
         obs_range=obs[2],
         obs_bearing=obs[3],
         R=R,
+        obs_cov=observation_covariances(R, obs[2], params.range_bearing_noise),
         counts=counts,
         **ranges,
     )

@@ -96,6 +96,42 @@ def test_observation_noise_is_in_bearing_range_order():
     np.testing.assert_allclose(observation_noise(R).sigmas(), [0.02, 0.3])
 
 
+@pytest.mark.parametrize("noise", ["polar", "cartesian"])
+def test_each_observation_factor_whitens_with_its_own_covariance(noise):
+    """build_problem + landmark_step_factors: every BearingRangeFactor2D's error at perturbed values is ½ νᵀ R_j⁻¹ ν with
+    ν = z − h in (range, bearing) and R_j the row's covariance — R (polar), diag(σ², σ²/r_j²) (cartesian, the filters'
+    models.observation_covariances)."""
+    from slamarena import datasets
+    from slamarena.estimators.gtsam_smoother.graph import L, landmark_step_factors, observation_noises
+    from slamarena.estimators.gtsam_smoother.problem import LandmarkProblemParams, build_problem
+    from slamarena.estimators.models import observe
+
+    seq = datasets.load("sim:landmarks", n_landmarks=12, laps=1, seed=3)
+    R = np.diag([0.04, 0.003])
+    problem = build_problem(seq, LandmarkProblemParams(range_bearing_cov=R, range_bearing_noise=noise))
+    r = problem.obs_range
+    expected = np.broadcast_to(R, (r.size, 2, 2)) if noise == "polar" else np.stack([np.diag([0.04, 0.04 / ri**2]) for ri in r])
+    np.testing.assert_allclose(problem.obs_cov, expected, rtol=1e-12)
+    rng = np.random.default_rng(0)
+    noises = observation_noises(problem)
+    rows = np.flatnonzero(problem.obs_pose == problem.obs_pose[len(r) // 2])
+    k = int(problem.obs_pose[rows[0]])
+    graph = landmark_step_factors(problem, k, np.eye(3), problem.cov, noises, slice(rows[0], rows[-1] + 1))
+    pose = np.array([1.0, -0.5, 0.3])
+    values = gtsam.Values()
+    values.insert(X(k), gtsam.Pose2(*pose))
+    marks = {}
+    for j in map(int, problem.obs_id[rows]):
+        if j not in marks:
+            marks[j] = pose[:2] + rng.uniform(3.0, 20.0) * np.array([np.cos(a := rng.uniform(-np.pi, np.pi)), np.sin(a)])
+            values.insert(L(j), marks[j])
+    errors = [graph.at(i).error(values) for i in range(1, graph.size())]          # factor 0: the between factor
+    for e, i in zip(errors, rows):
+        h = observe(pose, marks[int(problem.obs_id[i])])
+        nu = np.array([problem.obs_range[i] - h[0], wrap_angle(problem.obs_bearing[i] - h[1])])
+        assert e == pytest.approx(0.5 * nu @ np.linalg.solve(problem.obs_cov[i], nu), rel=1e-9)
+
+
 def test_regularise_lifts_only_the_null_direction():
     V = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
     P = V @ np.diag([0.04, 0.01]) @ V.T  # rank 2: no lateral noise
