@@ -28,6 +28,11 @@ handed to the filter for every prediction piece (at its start) and update.
 Landmarks: the confirmed ones at the end (a tentative landmark, association.LandmarkBook, is not part of the map);
 ``meta`` counts the tentative ones left and those removed (unconfirmed in time, or by the quality counter).
 
+Look-ahead (``window`` > 0; association.hypotheses): before a set is applied, each ambiguous row without an id is decided
+by running a copy of the filter per hypothesis through this set and the next ``window`` sets (their motion included) and
+keeping the hypothesis with the largest log-likelihood; the set is then applied with those decisions. ``meta`` counts
+the rows so decided (``looked_ahead``) and how many of them were matched (``looked_ahead_matched``; the rest are new).
+
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
     assoc_t, assoc_decision     every observation's decision (association.Decision): 0 matched, 1 new, 2 rejected
@@ -35,6 +40,7 @@ Diagnostics (arrays):
     assoc_landmark              id of the landmark matched or created (−1 if rejected)
     assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
+    looked_ahead_t              the stamp of every row decided by the look-ahead (``window`` > 0)
     rejected_nonfinite, rejected_negative_range, rejected_motion, rejected_indefinite   counts
     lockout_rows, lockout_s, lockout_t0
                                 the longest run of consecutive observations that were not new landmarks and were ALL rejected
@@ -77,6 +83,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
     times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
     rejected_motion = 0
+    looked_ahead: list[tuple[float, bool]] = []   # per row decided by the look-ahead: its stamp, whether it was matched (else new)
 
     def predict(filt, chain, t_now: float, t_end: float):
         """Propagate ``filt`` over the motion events ``chain`` from t_now to t_end; (rows used, (poses, covs), where each
@@ -128,6 +135,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
                     continue
                 score[k] = trial.log_likelihood - start
             decided[row] = int(options[np.argmax(score)])
+            looked_ahead.append((t, decided[row] >= 0))
         return decided
 
     timer = CLOCKS[ekf.params.step_clock]
@@ -176,10 +184,12 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         "rejected_motion": np.array(rejected_motion), "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
     }
     decisions = log[:, 0]
+    diagnostics["looked_ahead_t"] = np.array([t for t, _ in looked_ahead], dtype=float)
     lockout = _longest_lockout(diagnostics["assoc_t"], diagnostics["assoc_decision"])
     diagnostics.update(lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2]))
     meta = {
         "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n, "tentative": ekf.n_landmarks - n,
+        "looked_ahead": len(looked_ahead), "looked_ahead_matched": sum(m for _, m in looked_ahead),
         "removed_unconfirmed": ekf.book.removed["unconfirmed"], "removed_quality": ekf.book.removed["quality"],
         **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
         "noise": {"twist_cov": ekf.M.tolist(), "range_bearing_cov": ekf.R.tolist()},
