@@ -85,7 +85,9 @@ Linearisation points (``jacobians=``):
 
 Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
 −1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
-(:mod:`.association`), decided on the estimate before the set is applied. A labelled row of a
+(:mod:`.association`), decided on the estimate before the set is applied; with ``window`` > 0, ``run`` decides a row
+that is ambiguous (:func:`.association.hypotheses`, :meth:`EKFSLAM.ambiguity`) by the sets that follow it and passes the
+decision to :meth:`EKFSLAM.update` (``decide``). A labelled row of a
 mapped landmark is χ²-gated too: applied only if ``d² = νᵀ S⁻¹ ν < χ²₂(known_confidence)``
 (default 0.99999, so a true observation with the stated noise is rejected with probability
 1e-5; an outlier of a real sensor is not applied). ``known_confidence=None`` removes the gate
