@@ -114,9 +114,11 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         blocks.append((table[i:j], table[j] if j < len(table) else None, t_now, t_end))
         t_now, i = t_end, j + 1
 
-    def decisions(b: int) -> dict[int, int]:
+    def look_ahead(b: int) -> dict[int, int]:
         """The look-ahead (``window`` > 0, association.hypotheses): for each ambiguous row of block b's set in turn, the
-        hypothesis whose copy of the filter has the largest log-likelihood over this set and the next ``window`` sets."""
+        hypothesis whose copy of the filter has the largest log-likelihood over this set and the next ``window`` sets
+        (if the filter can carry none of a row's hypotheses through the window, that row and the rest of the set are left to the
+        plain association)."""
         decided: dict[int, int] = {}
         z, t = rb.z[blocks[b][1].start:blocks[b][1].stop], blocks[b][1].t
         while (found := ekf.ambiguity(z, decided)) is not None:
@@ -134,6 +136,8 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
                 except (CovarianceError, ValueError):   # a hypothesis the filter cannot carry through the window
                     continue
                 score[k] = trial.log_likelihood - start
+            if not np.isfinite(score).any():
+                break
             decided[row] = int(options[np.argmax(score)])
             looked_ahead.append((t, decided[row] >= 0))
         return decided
@@ -157,7 +161,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             if ideal:
                 ekf.set_truth(pose=truth([event.t])[0])
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
-            ekf.update(rb.z[event.start:event.stop], event.t, decisions(b) if ekf.params.window else None)
+            ekf.update(rb.z[event.start:event.stop], event.t, look_ahead(b) if ekf.params.window else None)
             nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
             assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
             times.append(event.t)
