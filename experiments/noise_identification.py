@@ -46,7 +46,7 @@ class _Scoring(EKFSLAM):
         super().reset(sequence)
         self.scored: list[tuple[float, float]] = []   # (d², log det S) per labelled re-observation
 
-    def update(self, z, t: float | None = None) -> None:
+    def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
         rows = np.asarray(z, dtype=float).reshape(-1, 3)
         ok = np.all(np.isfinite(rows), axis=1) & (rows[:, 0] >= 0) & np.isin(rows[:, 2], self.landmark_ids)
         if ok.any():
@@ -56,7 +56,7 @@ class _Scoring(EKFSLAM):
             _, S, d2 = compatibility(self.x, self.P, self.observation_cov(mapped), mapped[:, :2])
             pick = np.arange(len(mapped))
             self.scored.extend(zip(d2[pick, slot].tolist(), np.log(np.linalg.det(S[pick, slot])).tolist()))
-        super().update(z, t)
+        super().update(z, t, decide)
 
 
 def innovation_score(sequence, params: dict) -> InnovationScore:

@@ -40,6 +40,22 @@ trusted id, whose existence the filter itself decided):
 The χ² gates use each pair's innovation covariance S (range and bearing jointly, above); rows
 between the match and the new-landmark gates are rejected as ambiguous, so an outlier near a mapped
 landmark is neither applied nor mapped.
+
+Ambiguity and the look-ahead decision (:func:`hypotheses`; the ``window`` of :class:`~.filter.EKFSLAMParams`, run by
+:mod:`.run`). A d² gate does not see how large S is: when the robot's position σ is tens of metres, a single tree is
+within the match gate of many mapped trees and of wherever an unmapped one might stand. Each row j has the hypotheses
+"landmark i" with the predictive density λ_ji and "a tree not in the map" with the density λ_j0 that a perfectly known
+landmark has at the new-landmark gate (the new-landmark likelihood of FastSLAM, p0)::
+
+    log λ_ji = −½ d²_ji − ½ log det S_ji − log 2π          log λ_j0 = −½ χ²₂(new_confidence) − ½ log det R_j − log 2π
+    p(i | z_j) = λ_ji / (λ_j0 + Σ_k λ_jk)                    (i = 0: not in the map)
+
+The row is ambiguous when its most probable hypothesis has p < ``match_confidence``. Its hypotheses (the
+``window_hypotheses`` most probable landmarks among those inside the match gate, and "not in the map") are then decided
+on the evidence of the next ``window`` observation sets: each is applied to a copy of the filter, the copy runs on
+through the window with the plain association, and the hypothesis whose copy explains the window best — the largest
+log-likelihood Σ log λ of all its rows, a matched row scoring the λ of its landmark, a new or rejected row λ_0 (the
+prediction-error decomposition of p(z_window | hypothesis)) — is applied. Unambiguous rows are decided as before.
 """
 from __future__ import annotations
 
@@ -57,7 +73,8 @@ from ..kernels import range_bearing, wrap
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
-__all__ = ["Decision", "chi2_gate", "Association", "LandmarkBook", "compatibility", "pair_d2", "nearest_neighbour", "jcbb"]
+__all__ = ["Decision", "chi2_gate", "Association", "LandmarkBook", "compatibility", "pair_d2", "nearest_neighbour", "jcbb",
+           "log_densities", "hypotheses"]
 
 
 class Decision(IntEnum):
@@ -158,6 +175,30 @@ def _pair_d2(x, P, slots, z, R):
         n0, n1 = z[j, 0] - zhat[0], wrap(z[j, 1] - zhat[1])
         d2[j] = (S[1, 1] * n0 * n0 - (S[0, 1] + S[1, 0]) * n0 * n1 + S[0, 0] * n1 * n1) / det
     return d2, True
+
+
+def log_densities(S: np.ndarray, d2: np.ndarray, R: np.ndarray, gate_new: float) -> tuple[np.ndarray, np.ndarray]:
+    """log λ (M, n) of each pair (innovation covariances S (M, n, 2, 2), d² (M, n)) and log λ_0 (M,) of "not in the map"
+    for rows with noise R (M, 2, 2) (module docstring)."""
+    log_det = lambda A: np.log(A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0])
+    return -0.5 * d2 - 0.5 * log_det(S) - np.log(2 * np.pi), -0.5 * gate_new - 0.5 * log_det(R) - np.log(2 * np.pi)
+
+
+def hypotheses(log_lam: np.ndarray, log_new: np.ndarray, d2: np.ndarray, gate_match: float, confidence: float,
+               limit: int) -> tuple[int, np.ndarray] | None:
+    """The first ambiguous row (module docstring) and its hypotheses — up to ``limit`` landmark slots inside the match gate,
+    most probable first, then −1 ("not in the map") — or None if no row is ambiguous."""
+    if log_lam.shape[1] == 0:
+        return None
+    top = np.maximum(log_lam.max(axis=1), log_new)
+    lam, new = np.exp(log_lam - top[:, None]), np.exp(log_new - top)
+    posterior = lam / (new + lam.sum(axis=1))[:, None]
+    ambiguous = np.flatnonzero(np.maximum(posterior.max(axis=1), new / (new + lam.sum(axis=1))) < confidence)
+    for j in ambiguous.tolist():
+        inside = np.flatnonzero(d2[j] < gate_match)
+        if inside.size:
+            return j, np.r_[inside[np.argsort(-posterior[j, inside])][:limit], -1]
+    return None
 
 
 def _gate_unpaired(d2_min: np.ndarray, gate_new: float) -> np.ndarray:

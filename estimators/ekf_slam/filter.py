@@ -85,7 +85,9 @@ Linearisation points (``jacobians=``):
 
 Data association: rows with ``landmark_id ≥ 0`` (and ``use_ids=True``) by id; rows with id
 −1 (or all rows when ``use_ids=False``) by Mahalanobis nearest neighbour or JCBB
-(:mod:`.association`), decided on the estimate before the set is applied. A labelled row of a
+(:mod:`.association`), decided on the estimate before the set is applied; with ``window`` > 0, ``run`` decides a row
+that is ambiguous (:func:`.association.hypotheses`, :meth:`EKFSLAM.ambiguity`) by the sets that follow it and passes the
+decision to :meth:`EKFSLAM.update` (``decide``). A labelled row of a
 mapped landmark is χ²-gated too: applied only if ``d² = νᵀ S⁻¹ ν < χ²₂(known_confidence)``
 (default 0.99999, so a true observation with the stated noise is rejected with probability
 1e-5; an outlier of a real sensor is not applied). ``known_confidence=None`` removes the gate
@@ -238,6 +240,11 @@ class EKFSLAMParams(Params):
                                 "−miss_limit; None: never; needs sensor_range")
     sensor_range: float | None = Field(None, gt=0.0, description="largest range at which the sensor detects a landmark [m] (the quality counter's field)")
     sensor_fov: float = Field(2 * np.pi, gt=0.0, le=2 * np.pi, description="the sensor's field of view, centred ahead [rad] (the quality counter's field)")
+    window: int = Field(
+        0, ge=0, description="look-ahead of an ambiguous row without a trusted id [observation sets]: its hypotheses (landmarks, or not in "
+                             "the map) are each run through the next `window` sets and the one that explains them best is applied "
+                             "(association.hypotheses; run() only); 0: every row decided on its own set")
+    window_hypotheses: int = Field(3, ge=1, description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)")
     jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
                                                                          "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)")
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
@@ -265,6 +272,17 @@ class EKFSLAMParams(Params):
 _OVERFLOW_IS_CHECKED = np.errstate(over="ignore", invalid="ignore")
 _NEW, _MATCHED, _REJECTED = int(Decision.NEW), int(Decision.MATCHED), int(Decision.REJECTED)
 _NONE, _NONE_3, _NONE_33 = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3))   # an argument of a compiled call not given
+
+
+def _valid_rows(z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of an observation set (M, 3) that are finite with a non-negative range; the masks of the non-finite rows'
+    complement (``finite``) and of the negative ranges."""
+    z = np.asarray(z, dtype=float)
+    if z.ndim != 2 or z.shape[1] != 3:
+        raise ValueError(f"z must be an (M, 3) array [range, bearing, id], got shape {z.shape}")
+    finite = np.all(np.isfinite(z), axis=1)
+    negative = finite & (z[:, 0] < 0)
+    return z[finite & ~negative], finite, negative
 
 
 def _matrix(value) -> np.ndarray | None:
@@ -318,6 +336,7 @@ class EKFSLAM:
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
+        self.log_likelihood = 0.0   # Σ log λ of the rows associated without an id (association.hypotheses)
 
     @property
     def x(self) -> np.ndarray:
@@ -466,23 +485,19 @@ class EKFSLAM:
 
     # ------------------------------------------------------------------ update
     @_OVERFLOW_IS_CHECKED
-    def update(self, z, t: float | None = None) -> None:
+    def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
         """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown) taken at time t [s]
-        (None: the number of sets so far; the landmark management's clock).
+        (None: the number of sets so far; the landmark management's clock). ``decide``: {row of the valid rows: landmark
+        slot, or −1 for a new landmark}, decisions made elsewhere for rows associated without an id (:meth:`ambiguity`).
 
         Rows with a non-finite value or a negative range are counted and dropped. Every other row gets a
         decision (``assoc_log``, decided on the estimate before the set); a row that is not applied —
         ambiguous, outside a gate, or whose update would not be finite (counted in ``rejected["nonfinite"]``)
         or would make P indefinite (``on_indefinite="record"``) — is logged as rejected and changes nothing.
         """
-        z = np.asarray(z, dtype=float)
-        if z.ndim != 2 or z.shape[1] != 3:
-            raise ValueError(f"z must be an (M, 3) array [range, bearing, id], got shape {z.shape}")
-        finite = np.all(np.isfinite(z), axis=1)
-        negative = finite & (z[:, 0] < 0)
+        z, finite, negative = _valid_rows(z)
         self.rejected["nonfinite"] += int((~finite).sum())
         self.rejected["negative_range"] += int(negative.sum())
-        z = z[finite & ~negative]
         self._sets += 1
         self._t = t = float(self._sets if t is None else t)
         if not len(z):
@@ -492,7 +507,7 @@ class EKFSLAM:
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
-        decision, slot, d2 = self._associate(z[:, :2], ids, Rz)
+        decision, slot, d2 = self._associate(z[:, :2], ids, Rz, decide or {})
         if self.params.jacobians == Linearisation.OC:
             self._reanchor(slot[decision == _MATCHED])
         try:
@@ -556,7 +571,22 @@ class EKFSLAM:
         (:func:`~slamarena.estimators.models.observation_covariances`)."""
         return observation_covariances(self.R, z[:, 0], self.params.range_bearing_noise)
 
-    def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def ambiguity(self, z, decided: dict[int, int] | None = None) -> tuple[int, np.ndarray] | None:
+        """The first row of set z (M, 3) (an index into its valid rows, as :meth:`update` numbers them) associated without an
+        id that is ambiguous on the current estimate, and its hypotheses (landmark slots, −1: not in the map), or None
+        (association.hypotheses); rows in ``decided`` are not asked about. The state is not changed."""
+        z = _valid_rows(z)[0]
+        unknown = np.flatnonzero(np.full(len(z), not self.params.use_ids) | (z[:, 2] < 0))
+        unknown = unknown[~np.isin(unknown, list(decided or ()))]
+        if not unknown.size or not self.n_landmarks:
+            return None
+        Rz = self.observation_cov(z[unknown])
+        _, S, d2 = assoc.compatibility(self._s.x, self._s.view, Rz, z[unknown, :2])
+        found = assoc.hypotheses(*assoc.log_densities(S, d2, Rz, self.gate_new), d2, self.gate_match, self.params.match_confidence,
+                                 self.params.window_hypotheses)
+        return None if found is None else (int(unknown[found[0]]), found[1])
+
+    def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decide: dict[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)
         decision = np.full(M, _NEW, dtype=np.int8)
         slot = np.full(M, -1)
@@ -579,12 +609,20 @@ class EKFSLAM:
             # pair_d2 and compatibility read the robot rows and the landmarks' 2 × 2 blocks, current in the stored P;
             # JCBB reads landmark-landmark blocks too, from the whole P
             x = self._s.x
-            nu, _, dist = assoc.compatibility(x, self._s.view, Rz[unknown], z[unknown])
+            nu, S, dist = assoc.compatibility(x, self._s.view, Rz[unknown], z[unknown])
             if self.params.association == AssociationMethod.JCBB:
                 a = assoc.jcbb(x, self._s.P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
+            for k in np.flatnonzero(np.isin(unknown, list(decide))).tolist():   # decided elsewhere (the look-ahead); one row a landmark
+                s = decide[int(unknown[k])]
+                a.decision[(a.slot == s) & (s >= 0)], a.slot[(a.slot == s) & (s >= 0)] = Decision.REJECTED, -1
+                a.decision[k], a.slot[k] = (Decision.MATCHED, s) if s >= 0 else (Decision.NEW, -1)
+                a.d2[k] = dist[k, s] if s >= 0 else dist[k].min(initial=np.inf)
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
+            log_lam, log_new = assoc.log_densities(S, dist, Rz[unknown], self.gate_new)
+            matched = a.slot >= 0
+            self.log_likelihood += float(log_lam[np.flatnonzero(matched), a.slot[matched]].sum() + log_new[~matched].sum())
         return decision, slot, d2
 
     def _linearisation_points(self, slots) -> tuple[np.ndarray, np.ndarray]:

@@ -165,3 +165,67 @@ def test_landmark_management_confirms_removes_and_marginalises():
     keep = [0, 1, 2, 5, 6]
     np.testing.assert_array_equal(ekf.x, x[keep])
     np.testing.assert_array_equal(ekf.P, P[np.ix_(keep, keep)])
+
+
+def _lost_robot_scene() -> datasets.Sequence:
+    """Three landmarks on y = 30 m, A (0, 30), B (4, 30), C (12, 30), mapped at t = 0 from labelled rows by a robot that is
+    sure of its pose. Its odometry then says it stood still (σ_x = 3 m) while it moved 3 m ahead, and from t = 1 on it moves
+    0.5 m per step and sees one landmark per set, without ids: B at t = 1, C at t = 2, 3, B at t = 4, C at t = 5, ….
+
+    Alone, the row of B at t = 1 lies 1 m from A and 3 m from B where the robot believes it is (d² 0.12 against 1.9 with
+    σ_x = 3 m): nearest neighbour (and JCBB, one row) takes it for A, the robot jumps to x ≈ −1, and C is then 4 m from
+    where its observation lands — a duplicate of C. The hypothesis "B" is the one the following sets agree with."""
+    from slamarena.datasets.sequence import Increments, RangeBearing, Sequence
+
+    L = np.array([[0.0, 30.0], [4.0, 30.0], [12.0, 30.0]])
+    steps = 8
+    x_true = np.r_[0.0, 3.0 + 0.5 * np.arange(steps)]                        # at t = 0, 1, …, steps
+    delta = np.column_stack([np.r_[0.0, np.full(steps - 1, 0.5)], np.zeros(steps), np.zeros(steps)])  # odometry to t = 1 … steps
+    cov = np.array([np.diag([9.0 if k == 0 else 1e-4, 1e-6, 1e-6]) for k in range(steps)])
+    seen = [None] + [1, 2, 2, 1, 2, 2, 1, 2][:steps]
+    rows = [(0.0, *observe(np.zeros(3), L[i]), i) for i in range(3)]
+    rows += [(float(k), *observe(np.array([x_true[k], 0.0, 0.0]), L[seen[k]]), -1) for k in range(1, steps + 1)]
+    t, r, b, ids = (np.array(c) for c in zip(*rows))
+    return Sequence("lost robot", motion=Increments(t=np.arange(1.0, steps + 1), delta=delta, cov=cov),
+                    range_bearing=RangeBearing(t=t, range=r, bearing=b, landmark_id=ids.astype(np.int64)), initial_pose=np.zeros(3))
+
+
+@pytest.mark.parametrize("method", ["nn", "jcbb"])
+def test_the_look_ahead_decides_an_ambiguous_row_by_the_sets_that_follow(method):
+    seq = _lost_robot_scene()
+    params = dict(association=method, range_bearing_cov=[1e-2, 1e-4], initial_cov=[1e-10] * 3, confirm_sightings=1)
+    plain, ahead = EKFSLAM(**params).run(seq), EKFSLAM(**params, window=3).run(seq)
+    for est in (plain, ahead):
+        assert est.diagnostics["assoc_t"][3] == 1.0 and est.diagnostics["assoc_given_id"][3] == -1
+    lm, dec = plain.diagnostics["assoc_landmark"], plain.diagnostics["assoc_decision"]
+    assert lm[3] == 0 and dec[3] == Decision.MATCHED                 # one set: B taken for A
+    assert plain.meta["n_landmarks"] == 4 and plain.meta["looked_ahead"] == 0   # and C mapped twice
+    assert abs(plain.poses[-1, 0] - (3.0 + 0.5 * 7)) > 2.0
+    lm, dec = ahead.diagnostics["assoc_landmark"], ahead.diagnostics["assoc_decision"]
+    assert ahead.meta["looked_ahead"] >= 1 and ahead.diagnostics["looked_ahead_t"][0] == 1.0
+    np.testing.assert_array_equal(lm[3:], [1, 2, 2, 1, 2, 2, 1, 2])   # the window: B, then every row its own landmark
+    assert np.all(dec[3:] == Decision.MATCHED) and ahead.meta["n_landmarks"] == 3
+    assert abs(ahead.poses[-1, 0] - (3.0 + 0.5 * 7)) < 0.05
+
+
+def test_an_unambiguous_row_is_not_looked_ahead_and_the_window_changes_nothing_then():
+    """On the separated lattice no row is ambiguous: with a window the run is the run without one."""
+    seq = datasets.load("sim:landmarks", n_landmarks=25, layout="grid", density=0.03, seed=0)
+    plain, ahead = EKFSLAM(use_ids=False).run(seq), EKFSLAM(use_ids=False, window=5).run(seq)
+    assert ahead.meta["looked_ahead"] == 0
+    np.testing.assert_array_equal(plain.poses, ahead.poses)
+    np.testing.assert_array_equal(plain.diagnostics["assoc_landmark"], ahead.diagnostics["assoc_landmark"])
+
+
+def test_hypotheses_are_the_compatible_landmarks_by_posterior_then_not_in_the_map():
+    S = np.broadcast_to(np.eye(2), (2, 3, 2, 2))
+    d2 = np.array([[0.2, 1.0, 9.0], [0.1, 60.0, 70.0]])              # row 0: two landmarks inside the match gate
+    R = np.broadcast_to(0.01 * np.eye(2), (2, 2, 2))
+    g_match, g_new = assoc.chi2_gate(0.95, 2), assoc.chi2_gate(0.99999, 2)
+    log_lam, log_new = assoc.log_densities(S, d2, R, g_new)
+    np.testing.assert_allclose(log_lam, -0.5 * d2 - np.log(2 * np.pi))
+    np.testing.assert_allclose(log_new, -0.5 * g_new - 0.5 * np.log(1e-4) - np.log(2 * np.pi))
+    row, options = assoc.hypotheses(log_lam, log_new, d2, g_match, 0.95, 3)
+    assert row == 0
+    np.testing.assert_array_equal(options, [0, 1, -1])
+    assert assoc.hypotheses(log_lam[1:], log_new[1:], d2[1:], g_match, 0.95, 3) is None   # row 1 alone: p(landmark 0) ≈ 1

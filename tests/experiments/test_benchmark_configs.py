@@ -63,9 +63,9 @@ def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model(
     identified = [e for e in config.estimators if e.resolved_params().get("increment_cov") is not None]
     assert {(e.name, e.resolved_params()["use_ids"], e.resolved_params().get("association")) for e in identified} == {
         ("ekf_slam", True, "nn"), ("ekf_slam", False, "nn"), ("ekf_slam", False, "jcbb"), ("fastslam", True, None), ("fastslam", False, None)}
-    managed = [e.resolved_params() for e in config.estimators if e.name == "ekf_slam" and e.resolved_params()["confirm_sightings"] > 1]
-    keys = ("confirm_sightings", "confirm_window", "miss_limit", "sensor_range", "sensor_fov")
-    assert {p["association"] for p in managed} == {"nn", "jcbb"}   # NN and JCBB with one landmark management
+    managed = [e.resolved_params() for e in config.estimators if e.name == "ekf_slam" and e.resolved_params()["window"] > 0]
+    keys = ("window", "window_hypotheses", "confirm_sightings", "confirm_window", "miss_limit", "sensor_range", "sensor_fov")
+    assert {p["association"] for p in managed} == {"nn", "jcbb"}   # NN and JCBB with one look-ahead and landmark management
     assert len({tuple(p[k] for k in keys) for p in managed}) == 1
 
 
