@@ -161,14 +161,15 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
 
 
 def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
-                 max_step_t: float, max_step_r: float) -> tuple[np.ndarray, int]:
-    """Modes (P, 3) of −log τ for every particle, coarse to fine from the guesses (P, 3) (``info`` = Σ_u⁻¹ (3, 3)),
-    and the iterations taken (summed over levels and particles)."""
-    poses = np.array(guesses, dtype=np.float64)
+                 max_step_t: float, max_step_r: float, start=None, finest_only: bool = False) -> tuple[np.ndarray, int]:
+    """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
+    (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
+    iterations taken (summed over levels and particles)."""
+    poses = np.array(guesses if start is None else start, dtype=np.float64)
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     fine = maps.finest.resolution
     iterations_taken = 0
-    for grid in reversed(maps.levels):
+    for grid in (maps.levels[:1] if finest_only else reversed(maps.levels)):
         iterations_taken += _gauss_newton_level(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution, pts,
                             poses, np.ascontiguousarray(guesses, dtype=np.float64), np.ascontiguousarray(info, dtype=np.float64),
                             1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r)
