@@ -9,7 +9,8 @@ Per scan k (every scan of ``sequence.scans``; P particles, each with a pose ξ_i
 3. A **filter step** when the odometry moved ``update_distance`` or turned ``update_angle`` since the last
    filter step (and at the first ``initial_updates`` usable scans): the improved proposal
    (:mod:`slamarena.mapping.rbpf.proposal`) with Σ_u of the odometry motion since the last filter step,
-   a draw per particle, log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
+   a new pose per particle (``proposal``: a draw from the fitted Gaussian, or the scan-matched optimum of a
+   motion-model draw), log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
    scan at its drawn pose, and when ``N_eff < resample_threshold · P`` systematic resampling (tables copied,
    tiles shared: :mod:`slamarena.mapping.rbpf.tiled_grid`), weights reset.
    Between filter steps each particle **tracks**: its pose becomes the mode of the same target with Σ_u of

@@ -36,6 +36,21 @@ tests/mapping/test_rbpf.py.) The new pose is drawn from ``N(μ_i, Σ_i)`` and th
 the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
 estimate of the same η_i).
 
+**Mode proposal** (``RBPFParams.proposal = "mode"``, what GMapping's code does: a motion-model draw, then the
+scan matcher's optimum from it). With ``Λ = Σ_u⁻¹``:
+
+    x_i ~ N(ĝ_i, Σ_u)                                   (3,)  the motion model's draw
+    ξ*_i = mode of τ_i, Gauss-Newton from x_i            (3,)  (the basin x_i falls in); log η_i by the K points
+    ξ_i  = argmax_ξ p(z | m_i, ξ) N(ξ; x_i, Σ_u)         (3,)  Gauss-Newton on the finest level from ξ*_i
+
+For a Gaussian target (``log p(z | m, ξ) = c − ½ (ξ − ξ_z)ᵀ H_z (ξ − ξ_z)``, ``A = H_z + Λ``) the mode is
+``ξ* = A⁻¹(H_z ξ_z + Λ ĝ)`` and the pose ``ξ = A⁻¹(H_z ξ_z + Λ x) = ξ* + A⁻¹Λ (x − ĝ)`` (the first Gauss-Newton step
+from ξ*), so ``ξ ~ N(ξ*, A⁻¹ΛA⁻¹)``, ``A⁻¹ΛA⁻¹ = A⁻¹ − A⁻¹H_zA⁻¹ ⪯ A⁻¹``: along a direction where the scan adds
+information h to the motion model's λ the variance is the fraction λ/(h + λ) of the target's — all of it where the scan
+says nothing, almost none where it pins the pose. The weight is the target's η_i, as for the Gaussian proposal (the
+exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
+research/mapping.md §6 "The mode proposal" has the derivation and what it costs.
+
 The per-particle loops over end points are numba kernels over all particles at once.
 """
 from __future__ import annotations
