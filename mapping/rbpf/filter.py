@@ -66,7 +66,7 @@ class RBPFParams(PyramidParams):
     """
 
     particles: PositiveInt = Field(30, description="number of particles P")
-    proposal: Literal["gaussian", "mode"] = Field("gaussian", description="gaussian: draw from the Gaussian fitted to the target "
+    proposal: Literal["gaussian", "mode"] = Field("mode", description="gaussian: draw from the Gaussian fitted to the target "
                                                   "(Grisetti 2007); mode: draw from the motion model and keep the scan-matched optimum "
                                                   "of that draw (GMapping's code; module docstring of .proposal)")
     seed: NonNegativeInt = Field(0, description="seed of the draws and of resampling (numpy.random.default_rng)")
