@@ -9,7 +9,8 @@ Per scan k (every scan of ``sequence.scans``; P particles, each with a pose ξ_i
 3. A **filter step** when the odometry moved ``update_distance`` or turned ``update_angle`` since the last
    filter step (and at the first ``initial_updates`` usable scans): the improved proposal
    (:mod:`slamarena.mapping.rbpf.proposal`) with Σ_u of the odometry motion since the last filter step,
-   a draw per particle, log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
+   a new pose per particle (``proposal``: a draw from the fitted Gaussian, or the scan-matched optimum of a
+   motion-model draw), log-weights += log η_i, ``N_eff = 1 / Σ w̃_i²``, every particle's map integrates the
    scan at its drawn pose, and when ``N_eff < resample_threshold · P`` systematic resampling (tables copied,
    tiles shared: :mod:`slamarena.mapping.rbpf.tiled_grid`), weights reset.
    Between filter steps each particle **tracks**: its pose becomes the mode of the same target with Σ_u of
@@ -34,6 +35,7 @@ GridSLAM's, ``particles``, ``filter_steps``, ``resampling_events``, ``memory_per
 from __future__ import annotations
 
 import time
+from typing import Literal
 
 import numpy as np
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
@@ -64,6 +66,9 @@ class RBPFParams(PyramidParams):
     """
 
     particles: PositiveInt = Field(30, description="number of particles P")
+    proposal: Literal["gaussian", "mode"] = Field("mode", description="gaussian: draw from the Gaussian fitted to the target "
+                                                  "(Grisetti 2007); mode: draw from the motion model and keep the scan-matched optimum "
+                                                  "of that draw (GMapping's code; module docstring of .proposal)")
     seed: NonNegativeInt = Field(0, description="seed of the draws and of resampling (numpy.random.default_rng)")
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < resample_threshold · P")
     sigma_likelihood: PositiveFloat = Field(1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)")
@@ -256,23 +261,30 @@ class RBPF:
         return Estimate(method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta)
 
     def _propose(self, pts, guesses, motion_cov, rng):
-        """Draws (P, 3), the number drawn from the motion model, log η (P,) (:mod:`.proposal`) and the matcher's iterations."""
+        """New poses (P, 3), the number drawn from the motion model, log η (P,) (:mod:`.proposal`) and the matcher's
+        iterations. ``proposal="gaussian"``: the mode of τ_i from ĝ_i, the 27 points, a draw from N(μ_i, Σ_i).
+        ``proposal="mode"``: a draw x_i ~ N(ĝ_i, Σ_u), the mode ξ*_i of τ_i from x_i and log η_i around it (the
+        27 points), then the pose is the optimum of p(z | m_i, ξ) N(ξ; x_i, Σ_u) (the finest level, from ξ*_i)."""
         p = self.params
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
-        modes, iterations = gauss_newton(self.maps, pts, guesses, info, sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation,
-                             tol_r=p.tol_rotation, max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+        gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
+                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+        eps = rng.standard_normal((P, 3))
+        from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
+        modes, iterations = gauss_newton(self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn)
         mu, cov, log_eta, known = quadrature(self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood)
         ok = (known >= p.min_beams) & np.isfinite(log_eta) & np.all(np.isfinite(mu), axis=1)
-        cov = cov + 1e-12 * np.eye(3)
-        draws = np.empty((P, 3))
-        eps = rng.standard_normal((P, 3))
-        draws[ok] = mu[ok] + np.einsum("pij,pj->pi", np.linalg.cholesky(cov[ok]), eps[ok])
+        poses = from_motion.copy()
+        if p.proposal == "gaussian":
+            poses[ok] = mu[ok] + np.einsum("pij,pj->pi", np.linalg.cholesky(cov[ok] + 1e-12 * np.eye(3)), eps[ok])
+        elif ok.any():
+            poses[ok], climbed = gauss_newton(self.maps, pts, from_motion[ok], info, start=modes[ok], finest_only=True, **gn)
+            iterations += climbed
         bad = ~ok
         if bad.any():
-            draws[bad] = guesses[bad] + eps[bad] @ np.linalg.cholesky(motion_cov).T
-            ssr, _, _ = residuals(self.maps, pts, draws[bad][:, None, :])
+            ssr, _, _ = residuals(self.maps, pts, from_motion[bad][:, None, :])
             log_eta = log_eta.copy()
             log_eta[bad] = -0.5 * ssr[:, 0] / p.sigma_likelihood**2
-        draws[:, 2] = wrap_angle(draws[:, 2])
-        return draws, int(bad.sum()), log_eta, iterations
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        return poses, int(bad.sum()), log_eta, iterations

@@ -36,6 +36,21 @@ tests/mapping/test_rbpf.py.) The new pose is drawn from ``N(μ_i, Σ_i)`` and th
 the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
 estimate of the same η_i).
 
+**Mode proposal** (``RBPFParams.proposal = "mode"``, what GMapping's code does: a motion-model draw, then the
+scan matcher's optimum from it). With ``Λ = Σ_u⁻¹``:
+
+    x_i ~ N(ĝ_i, Σ_u)                                   (3,)  the motion model's draw
+    ξ*_i = mode of τ_i, Gauss-Newton from x_i            (3,)  (the basin x_i falls in); log η_i by the K points
+    ξ_i  = argmax_ξ p(z | m_i, ξ) N(ξ; x_i, Σ_u)         (3,)  Gauss-Newton on the finest level from ξ*_i
+
+For a Gaussian target (``log p(z | m, ξ) = c − ½ (ξ − ξ_z)ᵀ H_z (ξ − ξ_z)``, ``A = H_z + Λ``) the mode is
+``ξ* = A⁻¹(H_z ξ_z + Λ ĝ)`` and the pose ``ξ = A⁻¹(H_z ξ_z + Λ x) = ξ* + A⁻¹Λ (x − ĝ)`` (the first Gauss-Newton step
+from ξ*), so ``ξ ~ N(ξ*, A⁻¹ΛA⁻¹)``, ``A⁻¹ΛA⁻¹ = A⁻¹ − A⁻¹H_zA⁻¹ ⪯ A⁻¹``: along a direction where the scan adds
+information h to the motion model's λ the variance is the fraction λ/(h + λ) of the target's — all of it where the scan
+says nothing, almost none where it pins the pose. The weight is the target's η_i, as for the Gaussian proposal (the
+exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
+research/mapping.md §6 "The mode proposal" has the derivation and what it costs.
+
 The per-particle loops over end points are numba kernels over all particles at once.
 """
 from __future__ import annotations
@@ -161,14 +176,15 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
 
 
 def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
-                 max_step_t: float, max_step_r: float) -> tuple[np.ndarray, int]:
-    """Modes (P, 3) of −log τ for every particle, coarse to fine from the guesses (P, 3) (``info`` = Σ_u⁻¹ (3, 3)),
-    and the iterations taken (summed over levels and particles)."""
-    poses = np.array(guesses, dtype=np.float64)
+                 max_step_t: float, max_step_r: float, start=None, finest_only: bool = False) -> tuple[np.ndarray, int]:
+    """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
+    (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
+    iterations taken (summed over levels and particles)."""
+    poses = np.array(guesses if start is None else start, dtype=np.float64)
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     fine = maps.finest.resolution
     iterations_taken = 0
-    for grid in reversed(maps.levels):
+    for grid in (maps.levels[:1] if finest_only else reversed(maps.levels)):
         iterations_taken += _gauss_newton_level(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution, pts,
                             poses, np.ascontiguousarray(guesses, dtype=np.float64), np.ascontiguousarray(info, dtype=np.float64),
                             1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r)
