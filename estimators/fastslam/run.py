@@ -163,7 +163,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
         t_now = t_end
         if j < len(table):
             event = table[j]
-            slam.update(rb.z[event.start:event.stop])
+            slam.update(rb.z[event.start:event.stop], event.t)
             weights = np.exp(slam.last_log_w - slam.last_log_w.max())
             weights /= weights.sum()
             mean, cov = mixture_moments(slam.last_sampled, weights, np.zeros((1, 3)), np.zeros((1, 3, 3)))
