@@ -3,7 +3,7 @@
 Between two observation sets the motion is one chain (:meth:`FastSLAM.predict_twists` /
 :meth:`FastSLAM.predict_increments`), cut where ``max_chain`` seconds have passed since the last
 sampling (the particles are then drawn from the motion model). Every observation set is one
-:meth:`FastSLAM.update`.
+:meth:`FastSLAM.update` at its stamp (the clock of the tentative landmarks).
 
 One pose per stamp (every motion and observation event; where several share a stamp, the last — the
 posterior — :func:`slamarena.estimators.stepping.last_per_stamp`):
