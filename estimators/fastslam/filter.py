@@ -40,7 +40,11 @@ likelihoods; FastSLAM 2.0 first conditions the Gaussian on the observations (one
 per observation, with the landmark's uncertainty in the measurement noise), samples from that proposal
 and weights by its normaliser. Both then update each observed landmark's EKF at the sampled pose.
 Known association uses the ids; with ``use_ids=False`` every particle associates on its own by
-maximum likelihood, with existence counters where a perceptual field is stated (``max_range``, ``fov``).
+maximum likelihood, with existence counters where a perceptual field is stated (``max_range``, ``fov``),
+and (``confirm_sightings`` = k > 1) tentative landmarks: a landmark a particle starts is no evidence about
+its path — its sightings take the new-landmark likelihood and do not condition the proposal — until it has
+been seen k times within ``confirm_window`` seconds of its start, and is removed if it has not (per particle,
+the analogue of EKF-SLAM's ``LandmarkBook``).
 
 Resampling
 ----------
@@ -90,6 +94,10 @@ class FastSLAMParams(Params):
     association_confidence: Probability = Field(
         0.9999, description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
                             "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate")
+    confirm_sightings: PositiveInt = Field(
+        1, description="unknown association: a landmark a particle starts is tentative (its sightings weigh as new landmarks and do not condition "
+                       "the proposal) until seen this many times (the first included) within confirm_window, and removed if not; 1: confirmed at once")
+    confirm_window: PositiveFloat = Field(math.inf, description="time [s] from its start a tentative landmark has to reach confirm_sightings")
     max_range: PositiveFloat | None = Field(None, description="perceptual range [m] for the existence counters (unknown association); None: no counters")
     fov: float | None = Field(None, gt=0.0, le=2 * math.pi, description="full field of view [rad] for the existence counters; None: all round")
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < threshold · M")
@@ -104,6 +112,8 @@ class FastSLAMParams(Params):
     def _field_of_view_needs_a_range(self):
         if self.fov is not None and self.max_range is None:
             raise ValueError("fov is the perceptual field of the existence counters and needs max_range")
+        if self.confirm_sightings > 1 and self.use_ids:
+            raise ValueError("confirm_sightings > 1 decides which landmarks a particle keeps without ids; with use_ids the ids decide")
         return self
 
 
@@ -143,6 +153,7 @@ class FastSLAM:
         self._id_of_slot: list[int] = []
         self.rejected = {"nonfinite": 0, "negative_range": 0, "gate": 0}
         self.resamplings = 0
+        self._sets = 0
 
     @property
     def M(self) -> int:
@@ -215,13 +226,16 @@ class FastSLAM:
         self.Sigma_delta = np.zeros((3, 3))
 
     # ------------------------------------------------------------------ update
-    def update(self, z) -> np.ndarray:
-        """Apply one observation set z (k, 3) = rows [range, bearing, id]; returns the slot each particle gave each row (M, k).
+    def update(self, z, t: float | None = None) -> np.ndarray:
+        """Apply one observation set z (k, 3) = rows [range, bearing, id] taken at time t [s] (None: the number of sets so
+        far; the clock of the tentative landmarks); returns the slot each particle gave each row (M, k).
 
         Rows with a non-finite value or a negative range are rejected and counted; with ``use_ids`` a
         negative id is rejected as unlabelled. Resamples when N_eff falls below the threshold.
         """
         z = np.asarray(z, dtype=float).reshape(-1, 3)
+        self._sets += 1
+        t = float(self._sets if t is None else t)
         finite = np.all(np.isfinite(z[:, :2]), axis=1)
         positive = z[:, 0] >= 0
         self.rejected["nonfinite"] += int((~finite).sum())
@@ -249,7 +263,8 @@ class FastSLAM:
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
             update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, self.n_live,
-                             R, self.gate, log_p0, max_range, half_fov, self.store.depth, *self.store.kernel_args(), poses, assoc)
+                             R, self.gate, log_p0, max_range, half_fov, p.confirm_sightings, p.confirm_window, t, self.store.depth,
+                             *self.store.kernel_args(), poses, assoc)
         else:
             poses = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)
             poses[:, 2] = wrap_angle(poses[:, 2])
@@ -310,18 +325,18 @@ class FastSLAM:
 
     # ------------------------------------------------------------------ maps
     def landmarks(self, particle: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Live landmarks of one particle (default: the heaviest): ids (L,), means (L, 2), covariances (L, 2, 2).
+        """Live, confirmed landmarks of one particle (default: the heaviest): ids (L,), means (L, 2), covariances (L, 2, 2).
 
         Ids are the data's ids with known association, the particle's slot numbers otherwise."""
         m = int(np.argmax(self.log_w)) if particle is None else int(particle)
-        mu, S, state = (a[0] for a in self.store.gather(int(self.n_slots[m]), particles=[m]))
-        live = np.flatnonzero(state > 0)
+        mu, S, state, seen, _ = (a[0] for a in self.store.gather(int(self.n_slots[m]), particles=[m]))
+        live = np.flatnonzero((state > 0) & (seen >= (1 if self.params.use_ids else self.params.confirm_sightings)))
         cov = np.stack([S[live, 0], S[live, 1], S[live, 1], S[live, 2]], axis=-1).reshape(-1, 2, 2)
         ids = np.asarray(self._id_of_slot, dtype=np.int64)[live] if self.params.use_ids else live.astype(np.int64)
         return ids, mu[live], cov
 
     def landmark_counts(self) -> np.ndarray:
-        """Live landmarks of every particle (M,), kept by the update (O(M))."""
+        """Live landmarks of every particle (M,), tentative ones included, kept by the update (O(M))."""
         return self.n_live.copy()
 
     def run(self, sequence):

@@ -30,6 +30,14 @@ landmark and the weight takes the new-landmark likelihood ``log_p0``. With a sta
 (max range, field of view) each landmark keeps an existence counter (slot state = counter + 1): +1 when
 matched, −1 when predicted inside the field from the sampled pose and not matched, removed at −1;
 new landmarks start at counter 1.
+
+Tentative landmarks (unknown association, ``confirm`` = k > 1 sightings within ``window`` seconds): a
+landmark started at time t₀ is tentative while it has fewer than k sightings (the starting one included).
+It is a candidate of the association like any other and its EKF is updated when matched, but the row
+takes the new-landmark likelihood ``log_p0`` — as if it started a landmark — and does not condition the
+2.0 proposal: until confirmed, a landmark is no evidence about the path. One still tentative after the set
+at time t with t − t₀ > window is removed. k = 1: every landmark is confirmed when started (the plain
+per-particle maximum likelihood above).
 """
 from __future__ import annotations
 
@@ -173,7 +181,7 @@ def predictive_d2(xhat, P, z, slots, n_slots, R, depth, roots, inner_child, leaf
 
 @njit(cache=True)
 def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, max_range, half_fov,
-                     depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                     confirm, window, t, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
                      free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
     """One observation set z (k, 2) for every particle (module docstring).
 
@@ -184,7 +192,8 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
     R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0: the
     new-landmark log-likelihood added to a particle's weight when an observation starts a landmark.
     Writes the sampled poses to poses_out (M, 3) and each observation's slot to assoc_out (M, k)
-    (−1: not used). max_range ≤ 0 disables the existence counters.
+    (−1: not used). max_range ≤ 0 disables the existence counters. confirm, window: the tentative-landmark
+    rule (unknown association only; confirm = 1: none); t: the time of the set [s] (a new landmark's birth).
     """
     M = xhat.shape[0]
     k = z.shape[0]
@@ -199,6 +208,8 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
         mus = np.zeros((scratch, 2))
         Ss = np.zeros((scratch, 3))
         states = np.zeros(scratch, dtype=np.int64)
+        seens = np.zeros(scratch, dtype=np.int64)
+        borns = np.zeros(scratch)
         taken = np.zeros(scratch, dtype=np.bool_)
         if not known:
             for s in range(n):
@@ -207,6 +218,8 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     mus[s] = leaf_mu[leaf, off]
                     Ss[s] = leaf_S[leaf, off]
                     states[s] = leaf_state[leaf, off]
+                    seens[s] = leaf_seen[leaf, off]
+                    borns[s] = leaf_born[leaf, off]
         target = np.full(k, -1, dtype=np.int64)  # slot matched (≥ 0) or −1: new
         xbar = xhat[m].copy()
         Sx = P[m].copy()
@@ -240,7 +253,11 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     ll = -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
                     if ll > best_ll:
                         best, best_ll, best_nu, best_L, best_Hx, best_Q = s, ll, nu, L, H, Q
-            if best >= 0:
+            if best >= 0 and not known and seens[best] < confirm:  # a tentative landmark: no evidence about the path
+                target[j] = best
+                taken[best] = True
+                log_w[m] += log_p0
+            elif best >= 0:
                 target[j] = best
                 if not known:
                     taken[best] = True
@@ -265,6 +282,8 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                 leaf, off = find(roots[m], s, depth, inner_child)
                 _landmark_update(x, leaf_mu[leaf, off].copy(), leaf_S[leaf, off].copy(), z[j], R[j], new_mu, new_S)
                 state = leaf_state[leaf, off] + 1
+                seen = leaf_seen[leaf, off] + 1
+                born = leaf_born[leaf, off]
             else:
                 s = slots[j] if known else n_slots[m]
                 n_live[m] += 1
@@ -274,21 +293,30 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     n_slots[m] = s + 1
                 _new_landmark(x, z[j], R[j], new_mu, new_S)
                 state = 2 if max_range > 0.0 and not known else 1
-            leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                seen = 1
+                born = t
+            leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
                                  free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
             leaf_mu[leaf, off] = new_mu
             leaf_S[leaf, off] = new_S
             leaf_state[leaf, off] = state
+            leaf_seen[leaf, off] = seen
+            leaf_born[leaf, off] = born
             assoc_out[m, j] = s
-        # negative evidence: live landmarks inside the perceptual field that nothing matched
-        if not known and max_range > 0.0:
+        # the landmarks mapped before this set: negative evidence (live landmarks inside the perceptual field that
+        # nothing matched) and expiry (tentative ones past their window)
+        if not known and (max_range > 0.0 or confirm > 1):
             for s in range(n):
-                if states[s] == 0 or taken[s]:
+                if states[s] == 0:
                     continue
-                range_bearing(x, mus[s], zhat, Hx, Hm)
-                if zhat[0] <= max_range and abs(zhat[1]) <= half_fov:
-                    leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
-                                         free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
-                    leaf_state[leaf, off] -= 1
+                expired = seens[s] + taken[s] < confirm and t - borns[s] > window
+                missed = False
+                if max_range > 0.0 and not taken[s]:
+                    range_bearing(x, mus[s], zhat, Hx, Hm)
+                    missed = zhat[0] <= max_range and abs(zhat[1]) <= half_fov
+                if expired or missed:
+                    leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born,
+                                         leaf_ref, free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+                    leaf_state[leaf, off] = 0 if expired else leaf_state[leaf, off] - 1
                     if leaf_state[leaf, off] == 0:
                         n_live[m] -= 1

@@ -3,7 +3,7 @@
 Between two observation sets the motion is one chain (:meth:`FastSLAM.predict_twists` /
 :meth:`FastSLAM.predict_increments`), cut where ``max_chain`` seconds have passed since the last
 sampling (the particles are then drawn from the motion model). Every observation set is one
-:meth:`FastSLAM.update`.
+:meth:`FastSLAM.update` at its stamp (the clock of the tentative landmarks).
 
 One pose per stamp (every motion and observation event; where several share a stamp, the last — the
 posterior — :func:`slamarena.estimators.stepping.last_per_stamp`):
@@ -163,7 +163,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
         t_now = t_end
         if j < len(table):
             event = table[j]
-            slam.update(rb.z[event.start:event.stop])
+            slam.update(rb.z[event.start:event.stop], event.t)
             weights = np.exp(slam.last_log_w - slam.last_log_w.max())
             weights /= weights.sum()
             mean, cov = mixture_moments(slam.last_sampled, weights, np.zeros((1, 3)), np.zeros((1, 3, 3)))

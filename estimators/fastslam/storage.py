@@ -3,8 +3,9 @@
 Each particle's map is an F-ary tree of depth D (inner levels) whose leaves hold B landmark slots.
 Slot s lives in leaf ``s // B`` at offset ``s % B``; the leaf's index, written in base F with D
 digits (most significant first), is the path from the root. A slot holds the landmark's mean μ (2,),
-its covariance Σ as (σxx, σxy, σyy), and a state: 0 for an empty or removed slot, k ≥ 1 for a live
-landmark (its existence counter).
+its covariance Σ as (σxx, σxy, σyy), a state: 0 for an empty or removed slot, k ≥ 1 for a live
+landmark (its existence counter), and its sightings and birth time (the tentative-landmark rule of
+:mod:`.kernels`).
 
 Nodes are reference counted and shared between particles. Resampling only copies roots
 (``resample``: O(M)); writing a slot copies the nodes on its path that are shared (path copying:
@@ -20,6 +21,8 @@ Pools (numba kernels below; the class grows them in Python before a kernel could
     leaf_mu     (Nl, B, 2)      landmark means [m]
     leaf_S      (Nl, B, 3)      covariances (σxx, σxy, σyy) [m²]
     leaf_state  (Nl, B) int32   0 empty/removed, ≥ 1 live (existence counter)
+    leaf_seen   (Nl, B) int32   sightings since the landmark was started (the starting one included)
+    leaf_born   (Nl, B)         time the landmark was started [s]
     leaf_ref    (Nl,)   int32
 """
 from __future__ import annotations
@@ -89,7 +92,7 @@ def find(root, slot, depth, inner_child):
 
 
 @njit(cache=True)
-def writable(m, slot, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+def writable(m, slot, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
              free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf):
     """(leaf, offset) of ``slot`` in particle m's tree, made private to m: every shared node on the path
     is copied (path copying), missing nodes are created. The caller writes the slot in place."""
@@ -130,6 +133,8 @@ def writable(m, slot, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, lea
             leaf_mu[new] = leaf_mu[child]
             leaf_S[new] = leaf_S[child]
             leaf_state[new] = leaf_state[child]
+            leaf_seen[new] = leaf_seen[child]
+            leaf_born[new] = leaf_born[child]
             leaf_ref[new] = 1
             leaf_ref[child] -= 1
             inner_child[node, digit] = new
@@ -163,7 +168,7 @@ def _resample(roots, ancestors, depth, inner_child, inner_ref, leaf_ref, free_in
 
 
 @njit(cache=True)
-def _gather(roots, n_slots, depth, inner_child, leaf_mu, leaf_S, leaf_state, mu, S, state):
+def _gather(roots, n_slots, depth, inner_child, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, mu, S, state, seen, born):
     for m in range(roots.shape[0]):
         for s in range(n_slots):
             leaf, off = find(roots[m], s, depth, inner_child)
@@ -173,6 +178,8 @@ def _gather(roots, n_slots, depth, inner_child, leaf_mu, leaf_S, leaf_state, mu,
             mu[m, s] = leaf_mu[leaf, off]
             S[m, s] = leaf_S[leaf, off]
             state[m, s] = leaf_state[leaf, off]
+            seen[m, s] = leaf_seen[leaf, off]
+            born[m, s] = leaf_born[leaf, off]
 
 
 class LandmarkStore:
@@ -188,6 +195,8 @@ class LandmarkStore:
         self.leaf_mu = np.zeros((n_leaf, LEAF, 2))
         self.leaf_S = np.zeros((n_leaf, LEAF, 3))
         self.leaf_state = np.zeros((n_leaf, LEAF), dtype=np.int32)
+        self.leaf_seen = np.zeros((n_leaf, LEAF), dtype=np.int32)
+        self.leaf_born = np.zeros((n_leaf, LEAF))
         self.leaf_ref = np.zeros(n_leaf, dtype=np.int32)
         self.free_inner = np.zeros(n_inner, dtype=np.int32)
         self.free_leaf = np.zeros(n_leaf, dtype=np.int32)
@@ -214,7 +223,7 @@ class LandmarkStore:
     def nbytes(self) -> int:
         """Bytes of the nodes in use (the pools' spare capacity not counted)."""
         inner, leaves = self.live_nodes()
-        return inner * (FANOUT * 4 + 4) + leaves * (LEAF * (2 + 3) * 8 + LEAF * 4 + 4)
+        return inner * (FANOUT * 4 + 4) + leaves * (LEAF * (2 + 3 + 1) * 8 + 2 * LEAF * 4 + 4)
 
     def reserve(self, slot: int, writes: int) -> None:
         """Make room for ``writes`` path copies and for addressing ``slot`` (grow depth and pools)."""
@@ -245,6 +254,8 @@ class LandmarkStore:
             self.leaf_mu = _grown(self.leaf_mu, size, 0.0)
             self.leaf_S = _grown(self.leaf_S, size, 0.0)
             self.leaf_state = _grown(self.leaf_state, size, 0)
+            self.leaf_seen = _grown(self.leaf_seen, size, 0)
+            self.leaf_born = _grown(self.leaf_born, size, 0.0)
             self.leaf_ref = _grown(self.leaf_ref, size, 0)
             self.free_leaf = _grown(self.free_leaf, size, 0)
 
@@ -270,19 +281,22 @@ class LandmarkStore:
         _resample(self.roots, np.ascontiguousarray(ancestors, dtype=np.int64), self.depth, self.inner_child, self.inner_ref,
                   self.leaf_ref, self.free_inner, self.top_inner, self.free_leaf, self.top_leaf, *self._stack)
 
-    def gather(self, n_slots: int, particles=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def gather(self, n_slots: int, particles=None) -> tuple[np.ndarray, ...]:
         """Slots 0…n−1 of the given particles (default all, P of them): μ (P, n, 2), Σ as (σxx, σxy, σyy)
-        (P, n, 3), state (P, n)."""
+        (P, n, 3), state (P, n), sightings (P, n), birth time (P, n)."""
         roots = self.roots if particles is None else np.ascontiguousarray(self.roots[np.asarray(particles, dtype=np.int64)])
         mu = np.zeros((roots.size, n_slots, 2))
         S = np.zeros((roots.size, n_slots, 3))
         state = np.zeros((roots.size, n_slots), dtype=np.int32)
-        _gather(roots, n_slots, self.depth, self.inner_child, self.leaf_mu, self.leaf_S, self.leaf_state, mu, S, state)
-        return mu, S, state
+        seen = np.zeros((roots.size, n_slots), dtype=np.int32)
+        born = np.zeros((roots.size, n_slots))
+        _gather(roots, n_slots, self.depth, self.inner_child, self.leaf_mu, self.leaf_S, self.leaf_state, self.leaf_seen, self.leaf_born,
+                mu, S, state, seen, born)
+        return mu, S, state, seen, born
 
     def kernel_args(self) -> tuple:
         """The pools in the order the update kernels take them."""
-        return (self.roots, self.inner_child, self.inner_ref, self.leaf_mu, self.leaf_S, self.leaf_state, self.leaf_ref,
+        return (self.roots, self.inner_child, self.inner_ref, self.leaf_mu, self.leaf_S, self.leaf_state, self.leaf_seen, self.leaf_born, self.leaf_ref,
                 self.free_inner, self.top_inner, self.used_inner, self.free_leaf, self.top_leaf, self.used_leaf)
 
 

@@ -38,14 +38,14 @@ WINDOWS = 3
 
 
 @njit(cache=True)
-def _privatise(n_leaves, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+def _privatise(n_leaves, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
                free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf):
     """Make every particle's tree private: every shared node of every path is copied (path copying on
     one slot per leaf)."""
     for m in range(roots.shape[0]):
         for b in range(n_leaves):
             if find(roots[m], b * LEAF, depth, inner_child)[0] >= 0:
-                writable(m, b * LEAF, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_ref,
+                writable(m, b * LEAF, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
                          free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
 
 

@@ -24,11 +24,17 @@ def _write(store: LandmarkStore, m: int, slot: int, value: float) -> None:
     store.leaf_mu[leaf, off] = (value, -value)
     store.leaf_S[leaf, off] = (value, 0.0, value)
     store.leaf_state[leaf, off] = 1
+    store.leaf_seen[leaf, off] = int(abs(value)) % 5 + 1      # the tentative rule's per-slot state, written with the rest
+    store.leaf_born[leaf, off] = -value
 
 
 def _read(store: LandmarkStore, n: int) -> np.ndarray:
-    mu, _, state = store.gather(n)
-    return np.where(state > 0, mu[..., 0], np.nan)
+    """Each slot's written value (NaN: empty), checked against the sightings and birth time written with it."""
+    mu, _, state, seen, born = store.gather(n)
+    live = state > 0
+    np.testing.assert_array_equal(born[live], -mu[live][:, 0])
+    np.testing.assert_array_equal(seen[live], np.abs(mu[live][:, 0]).astype(int) % 5 + 1)
+    return np.where(live, mu[..., 0], np.nan)
 
 
 # ---------------------------------------------------------------------------- storage
@@ -45,7 +51,8 @@ operations = st.lists(
 @given(operations)
 def test_copy_on_write_maps_behave_like_independent_copies(ops):
     """Against a literal model (one dict per particle, deep-copied at resampling): a write to one particle's
-    landmark is never seen by another, whatever the sharing, and slots beyond the capacity grow the trees."""
+    landmark — its mean, covariance, state, sightings and birth time — is never seen by another, whatever the
+    sharing, and slots beyond the capacity grow the trees."""
     store = LandmarkStore(6)
     model = [dict() for _ in range(6)]
     top = 0
@@ -149,8 +156,39 @@ def test_live_counts_follow_new_and_removed_landmarks_through_resampling():
         f.update(np.column_stack([rng.uniform(1.0, 15.0, k), rng.uniform(-1.2, 1.2, k), np.full(k, -1)]))
         f.log_w = rng.normal(size=6)
         f.resample()
-        _, _, state = f.store.gather(int(f.n_slots.max()))
+        state = f.store.gather(int(f.n_slots.max()))[2]
         np.testing.assert_array_equal(f.landmark_counts(), (state > 0).sum(axis=1))
+
+
+def test_a_tentative_landmark_is_private_to_its_particle_and_no_evidence_until_confirmed():
+    """Two particles sharing one map (after resampling) see the same row: the one whose pose puts it on the shared
+    tentative landmark counts a sighting, the other starts a landmark, and neither change is seen by the other particle.
+    Both rows weigh the new-landmark likelihood (equal weights). After the window, the landmark confirmed by three
+    sightings stays; the other particle's, seen once, is removed — in that particle only."""
+    f = FastSLAM(particles=2, use_ids=False, confirm_sightings=3, confirm_window=10.0, seed=0, range_bearing_cov=[0.01, 1e-4])
+    f.update([[5.0, 0.0, -1]], t=0.0)                            # both particles start slot 0
+    f.log_w = np.array([0.0, -50.0])
+    assert f.resample().tolist() == [0, 0]                       # one map, shared
+    f.x0[1, 1] += 3.0                                            # particle 1 stands 3 m to the side: the row is not slot 0 for it
+    for t in (1.0, 2.0):
+        f.update([[5.0, 0.0, -1]], t=t)
+        np.testing.assert_array_equal(f.log_w, 0.0)              # tentative match and new landmark weigh the same
+    _, _, state, seen, born = f.store.gather(3)
+    np.testing.assert_array_equal(seen[0, :1], [3])              # particle 0: slot 0 seen three times, confirmed
+    np.testing.assert_array_equal(seen[1, :2], [1, 2])           # particle 1: slot 0 seen once; its own slot 1 twice
+    np.testing.assert_array_equal(born[1, :2], [0.0, 1.0])
+    assert f.n_slots.tolist() == [1, 2] and list(f.landmarks(0)[0]) == [0] and len(f.landmarks(1)[0]) == 0
+    f.update([[5.0, 1.5, -1]], t=11.5)                           # past the window: elsewhere, a new landmark for both
+    _, _, state, seen, _ = f.store.gather(3)
+    assert state[0, 0] > 0 and state[1, 0] == 0 and state[1, 1] == 0     # particle 1's tentative slots 0 and 1 expired
+    np.testing.assert_array_equal(f.landmark_counts(), (state > 0).sum(axis=1))
+    assert list(f.landmarks(0)[0]) == [0] and len(f.landmarks(1)[0]) == 0
+
+
+def test_tentative_landmarks_need_unknown_association():
+    with pytest.raises(ValidationError, match="confirm_sightings"):
+        FastSLAM(confirm_sightings=3)                            # with the ids, the ids decide which landmarks exist
+    assert FastSLAM(use_ids=False, confirm_sightings=3).params.confirm_sightings == 3
 
 
 def test_neff_and_systematic_resampling():
@@ -315,7 +353,7 @@ def test_one_update_matches_a_literal_reference(version):
     log_w, n_slots, n_live = np.zeros(M), np.full(M, 4, dtype=np.int64), np.full(M, 4, dtype=np.int64)
     poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
     update_particles(version, True, np.tile(xhat, (M, 1)), np.tile(P, (M, 1, 1)), eps, log_w, z, slots, n_slots, n_live,
-                     np.tile(R, (len(z), 1, 1)), 0.0, 0.0, 0.0, np.pi, store.depth, *store.kernel_args(), poses, assoc)
+                     np.tile(R, (len(z), 1, 1)), 0.0, 0.0, 0.0, np.pi, 1, np.inf, 0.0, store.depth, *store.kernel_args(), poses, assoc)
 
     root = poses[1:4] - poses[0]                                                # columns of the kernel's square root
     draws = iter(poses)
@@ -326,8 +364,125 @@ def test_one_update_matches_a_literal_reference(version):
             np.testing.assert_allclose(poses[0], xbar if version == 2 else xhat, atol=1e-12)
             np.testing.assert_allclose(root.T @ root, Sx if version == 2 else P, atol=1e-12)
         np.testing.assert_allclose(poses[m], (xbar if version == 2 else xhat) + eps[m] @ root, atol=1e-12)
-        mu, S, state = (a[0] for a in store.gather(5, particles=[m]))
+        mu, S, state, _, _ = (a[0] for a in store.gather(5, particles=[m]))
         assert np.all(state > 0) and n_live[m] == 5 and n_slots[m] == 5
         for s in range(5):
             np.testing.assert_allclose(mu[s], new_mu[s], atol=1e-12)
             np.testing.assert_allclose([S[s, 0], S[s, 1], S[s, 1], S[s, 2]], new_S[s].ravel(), atol=1e-12)
+
+
+def _reference_unknown_step(version, xhat, P, book, z, R, gate, log_p0, confirm, window, t, sample):
+    """One particle's update with unknown association and tentative landmarks, literally. ``book``: slot → (μ, Σ, seen,
+    born) of the live landmarks. Each row in turn: the untaken landmark of largest log N(ν; 0, S) with νᵀ S⁻¹ ν ≤ gate (S = L at
+    the current proposal mean for 2.0, Q at the drawn pose for 1.0); a confirmed match weighs log N and conditions the 2.0
+    proposal, a tentative one (seen < confirm) and a new landmark weigh log_p0. Returns log w, the proposal, the drawn pose,
+    each row's slot and the book after the landmark updates and the expiry of the tentative landmarks older than the window."""
+    log_w, xbar, Sx = 0.0, xhat.copy(), P.copy()
+    if version == 1:
+        xbar, Sx = sample(xhat, P), np.zeros((3, 3))
+    taken, target = set(), []
+    for zj in z:
+        best, best_ll = None, -np.inf
+        for s, (mu, Sig, _, _) in book.items():
+            if s in taken:
+                continue
+            zhat, Hx, Hm = _h(xbar, mu)
+            S = Hx @ Sx @ Hx.T + Hm @ Sig @ Hm.T + R
+            nu = _innovation(zj, zhat)
+            if nu @ np.linalg.solve(S, nu) <= gate and _log_normal(nu, S) > best_ll:
+                best, best_ll = s, _log_normal(nu, S)
+        target.append(best)
+        if best is None or book[best][2] < confirm:
+            log_w += log_p0
+            taken.add(best)
+            continue
+        taken.add(best)
+        log_w += best_ll
+        if version == 2:
+            zhat, Hx, Hm = _h(xbar, book[best][0])
+            Q = Hm @ book[best][1] @ Hm.T + R
+            Sx_new = np.linalg.inv(Hx.T @ np.linalg.inv(Q) @ Hx + np.linalg.inv(Sx))
+            xbar = xbar + Sx_new @ Hx.T @ np.linalg.inv(Q) @ _innovation(zj, zhat)
+            Sx = Sx_new
+    x = sample(xbar, Sx) if version == 2 else xbar
+    after, slots, n = dict(book), [], max(book) + 1
+    for zj, s in zip(z, target):
+        if s is None:
+            a = x[2] + zj[1]
+            G = np.array([[np.cos(a), -zj[0] * np.sin(a)], [np.sin(a), zj[0] * np.cos(a)]])
+            after[n] = (x[:2] + zj[0] * np.array([np.cos(a), np.sin(a)]), G @ R @ G.T, 1, t)
+            slots.append(n)
+            n += 1
+            continue
+        mu, Sig, seen, born = book[s]
+        zhat, _, Hm = _h(x, mu)
+        K = Sig @ Hm.T @ np.linalg.inv(Hm @ Sig @ Hm.T + R)
+        after[s] = (mu + K @ _innovation(zj, zhat), (np.eye(2) - K @ Hm) @ Sig, seen + 1, born)
+        slots.append(s)
+    for s in book:
+        if after[s][2] < confirm and t - after[s][3] > window:
+            del after[s]
+    return log_w, x, slots, after
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_unknown_association_with_tentative_landmarks_matches_a_literal_reference(version):
+    """The compiled kernel with per-particle association and the tentative-landmark rule (3 sightings in 10 s) against
+    the rule written out per particle: particles at different predicted poses associate differently (a row matches a
+    confirmed landmark, a tentative one, or starts a landmark); weights, drawn poses, each row's slot, and every
+    landmark's mean, covariance, sightings and birth after the update, with the tentative landmarks past the window gone."""
+    from slamarena.estimators.fastslam.kernels import sqrt_psd
+
+    rng = np.random.default_rng(11)
+    R = np.diag([0.1**2, np.radians(2.0) ** 2])
+    gate, confirm, window, t = 18.42, 3, 10.0, 20.0
+    log_p0 = -0.5 * gate - 0.5 * np.log(np.linalg.det(R)) - np.log(2 * np.pi)
+    mus = [np.array([4.0, 1.0]), np.array([2.0, 3.5]), np.array([3.0, -2.0]), np.array([-1.0, 2.0]), np.array([4.3, 1.4])]
+    seen_born = [(5, 1.0), (1, 12.0), (2, 5.0), (1, 3.0), (2, 15.0)]   # confirmed; tentative; tentative, old; tentative, old; tentative
+    book = {}
+    for s, mu in enumerate(mus):
+        A = rng.normal(size=(2, 2)) * 0.05
+        book[s] = (mu, A @ A.T + 0.004 * np.eye(2), *seen_born[s])
+    x_true = np.array([1.0, -0.5, 0.3])
+    z = np.array([_h(x_true, mus[0])[0], _h(x_true, mus[1])[0], _h(x_true, mus[2])[0], _h(x_true, np.array([0.0, -3.0]))[0]])
+    z += rng.normal(size=z.shape) * [0.05, 0.01]
+    offsets = np.array([[0.0, 0.0, 0.0], [0.05, -0.05, 0.01], [0.4, 0.3, 0.0], [-0.1, 0.1, -0.02], [0.0, 0.0, 0.2]])
+    M = len(offsets)
+    xhat = x_true + offsets
+    B = rng.normal(size=(3, 3)) * [0.05, 0.05, 0.01]
+    P = np.tile(B @ B.T + np.diag([1e-4, 1e-4, 1e-5]), (M, 1, 1))
+    eps = rng.normal(size=(M, 3))
+
+    store = LandmarkStore(M)
+    for m in range(M):
+        for s, (mu, Sig, seen, born) in book.items():
+            store.reserve(s, 1)
+            leaf, off = writable(m, s, store.depth, *store.kernel_args())
+            store.leaf_mu[leaf, off] = mu
+            store.leaf_S[leaf, off] = (Sig[0, 0], Sig[0, 1], Sig[1, 1])
+            store.leaf_state[leaf, off] = 1
+            store.leaf_seen[leaf, off] = seen
+            store.leaf_born[leaf, off] = born
+    store.reserve(len(book) + len(z), M * (len(z) + len(book)))
+    log_w, n_slots, n_live = np.zeros(M), np.full(M, len(book), dtype=np.int64), np.full(M, len(book), dtype=np.int64)
+    poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
+    update_particles(version, False, xhat, P, eps, log_w, z, np.zeros(len(z), dtype=np.int64), n_slots, n_live, np.tile(R, (len(z), 1, 1)),
+                     gate, log_p0, 0.0, np.pi, confirm, window, t, store.depth, *store.kernel_args(), poses, assoc)
+
+    kinds = set()
+    for m in range(M):
+        ref_log_w, x, slots, after = _reference_unknown_step(version, xhat[m], P[m], book, z, R, gate, log_p0, confirm, window, t,
+                                                             lambda mean, cov: mean + sqrt_psd(cov) @ eps[m])
+        assert log_w[m] == pytest.approx(ref_log_w, abs=1e-9)
+        np.testing.assert_allclose(poses[m], x, atol=1e-9)
+        assert assoc[m].tolist() == slots
+        kinds |= {"new" if s >= len(book) else ("confirmed" if book[s][2] >= confirm else "tentative") for s in slots}
+        n = int(n_slots[m])
+        mu, S, state, seen, born = (a[0] for a in store.gather(n, particles=[m]))
+        assert sorted(np.flatnonzero(state > 0).tolist()) == sorted(after) and n_live[m] == len(after)
+        for s, (ref_mu, ref_S, ref_seen, ref_born) in after.items():
+            np.testing.assert_allclose(mu[s], ref_mu, atol=1e-9)
+            np.testing.assert_allclose([S[s, 0], S[s, 1], S[s, 1], S[s, 2]], ref_S.ravel(), atol=1e-12)
+            assert (seen[s], born[s]) == (ref_seen, ref_born)
+    assert kinds == {"new", "confirmed", "tentative"}                  # every branch is exercised
+    assert len({tuple(a) for a in assoc.tolist()}) > 1                  # and the particles associate differently
