@@ -68,7 +68,8 @@ from scipy.stats import chi2
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
 
-from ..models import DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, compose_chain, compose_jacobians
+from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, RangeBearingNoise, compose_chain,
+                      compose_jacobians, observation_covariances)
 from ..stepping import StepClock
 from .kernels import predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
@@ -85,8 +86,8 @@ class FastSLAMParams(Params):
     twist_cov: Covariance2 | None = Field(None, description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default")
     increment_cov: Covariance3 | None = Field(None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's")
     range_bearing_cov: Covariance2 | None = Field(None, description="covariance R of a (range, bearing) observation [m², rad²]; None: the sequence's noise, else the EKF-SLAM default")
-    range_bearing_noise: Literal["polar", "cartesian"] = Field(
-        "polar", description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)")
+    range_bearing_noise: RangeBearingNoise = Field(
+        RangeBearingNoise.POLAR, description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)")
     use_ids: bool = Field(True, description="associate by the ids in the data; False: per-particle maximum likelihood")
     known_confidence: Probability | None = Field(
         None, description="χ²₂ gate on a labelled row of a mapped landmark: rejected (for every particle) when, for particles of more than "
@@ -299,14 +300,9 @@ class FastSLAM:
         return self._slot_of_id[landmark_id]
 
     def _noise(self, z: np.ndarray) -> np.ndarray:
-        """R of every row (k, 2, 2): the same R, or the Cartesian-isotropic form diag(σ², σ²/r²)."""
-        if self.params.range_bearing_noise == "polar":
-            return np.ascontiguousarray(np.broadcast_to(self.R, (len(z), 2, 2)))
-        sigma2 = self.R[0, 0]
-        R = np.zeros((len(z), 2, 2))
-        R[:, 0, 0] = sigma2
-        R[:, 1, 1] = sigma2 / np.maximum(z[:, 0], 1e-6) ** 2
-        return R
+        """R of every row (k, 2, 2): the same R, or the Cartesian-isotropic form diag(σ², σ²/r²)
+        (:func:`~slamarena.estimators.models.observation_covariances`)."""
+        return np.ascontiguousarray(observation_covariances(self.R, z[:, 0], self.params.range_bearing_noise))
 
     def resample(self) -> np.ndarray:
         """Low-variance (systematic) resampling; returns the ancestors (M,)."""
