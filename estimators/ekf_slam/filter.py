@@ -58,6 +58,13 @@ cross-covariance from the current robot rows ``P_k[0:3, :]``; its rows of U are 
 terms are in its stored values, the later ones have non-zero rows for it), so every entry of
 the final P is the sequential one. ``False``: the term is applied after every observation.
 
+Within a run of matched rows the standard form does not even read the growing term per row: every W_i lies in the
+span of the rows ``B_i = H_i P_0`` (2 × N), so ``P_{j−1} = P_0 − Bᵀ M B`` with a small symmetric M (2j × 2j) and row j
+needs only the five entries idx_j of each earlier B_i (``S_j``, its gain's coefficients ``t_j`` in that span, and
+``x_{j−1}[idx_j]`` where h and H_j are evaluated); the run's term ``U = Bᵀ T`` and ``dx = Bᵀ v`` are formed once at its
+end (:func:`.kernels.correct_run` states the recursion). The covariance checks are then made once, on P_m: every
+P_j = P_m + Σ_{i>j} W_i W_iᵀ passes them if P_m does; a run that fails them is redone row by row to find the row.
+
 New landmark (inverse observation model ``m = g(x_r, z)``, ``G_x = ∂g/∂x_r`` 2×3,
 ``G_z = ∂g/∂z`` 2×2)::
 

@@ -39,8 +39,12 @@ and ``ν = z − h(x_r, m)`` at the current estimate. ``correct(…)`` is the re
 Cholesky factor of S, :func:`gain_terms`, the entries of the update term (:func:`.checks.low_rank_entries`), the
 checks of the entries P would have (:func:`.checks.entries_failure`) and, only if all pass, the commit — x += K ν,
 the term appended to the pending one. ``correct_run(…)`` applies a run of consecutive matched observations of a set
-(``innovation_one`` then ``correct`` each, in order) in one compiled call, stopping at the first that is not applied,
-so a set of m known landmarks costs O(N m r) plus one call. ``batch_innovation(…)`` is the batch form's
+in one compiled call, stopping at the first that is not applied: in the standard form in the span of the rows'
+``B_j = H_j P_0`` (``_projected_run``: one read of P per row, the small 2k × 2k algebra of the sequential update, and
+at the end the term's rows ``Uᵀ = Tᵀ B`` by one BLAS product and one check of the entries P will have), else — the
+Joseph form, or a run whose end check fails, to find the row that fails — row by row (``_rows_run``: ``innovation_one``,
+which reads the pending term, then ``correct``), so a set of m known landmarks costs O(N m) reads plus an O(N m²)
+product (row by row: O(N m r)) and one call. ``batch_innovation(…)`` is the batch form's
 counterpart of ``innovation_one``: the m observations' HP rows (2m × N) from the same current P, the 2m × 2m S with its
 cross terms, and ν, in one call.
 
@@ -80,6 +84,9 @@ def _blas(name: str, arguments: int) -> types.ExternalFunction:
 # Fortran BLAS: (uplo, trans, n, k, alpha, a, lda, [b, ldb,] beta, c, ldc)
 _dsyrk = _blas("dsyrk", 10)
 _dsyr2k = _blas("dsyr2k", 12)
+# (transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc) and (trans, m, n, alpha, a, lda, x, incx, beta, y, incy)
+_dgemm = _blas("dgemm", 13)
+_dgemv = _blas("dgemv", 11)
 
 
 @njit(cache=True)
@@ -441,15 +448,8 @@ def correct(HP, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
 
 
 @njit(cache=True)
-def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot):
-    """Sequential updates with observations Z (k, 2), noise R (k, 2, 2) of landmark slots (k,), in order, each by
-    :func:`innovation_one` and :func:`correct`, until one is not applied.
-
-    H of row j is taken at (XL[j], ML[j]), or at the current estimate if ``current`` (x moves with every update).
-    Returns (q, r, outcome, k, value, NIS (k,), H (k, 2, 5), S): rows 0 … q − 1 applied (their NIS and the Jacobians
-    H = [H_x, H_m] they were linearised with), r the pending term's new rank; q < k: row q failed with ``outcome``
-    (:func:`correct`'s, its k and value; S its innovation covariance).
-    """
+def _rows_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot):
+    """:func:`correct_run` row by row: :func:`innovation_one` then :func:`correct` for each row, in order."""
     nis = np.empty(slots.size)
     Hs = np.empty((slots.size, 2, 5))
     for j in range(slots.size):
@@ -464,6 +464,155 @@ def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z
             return j, r, outcome, k, value, nis[:j], Hs[:j], S
         r += 3 * nu.size if joseph else nu.size
     return slots.size, r, APPLIED, 0, 0.0, nis, Hs, np.zeros((2, 2))
+
+
+@njit(cache=True)
+def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, n_robot):
+    """:func:`correct_run` in the span of the rows' ``B_j = H_j P_0`` (standard form; P_0 the current P at the call).
+
+    With ``B`` the stacked B_i of the rows before j (2j, N), ``P_{j−1} = P_0 − Bᵀ M B`` for a symmetric M (2j, 2j), so
+    row j needs only the 5 entries idx_j of each B_i:
+
+        G = B[:, idx_j] H_jᵀ (2j, 2),   S_j = B_j[:, idx_j] H_jᵀ − Gᵀ M G + R_j,   S_j = L Lᵀ
+        H_j P_{j−1} = [−Gᵀ M, I₂] [B; B_j],   W_j = [B; B_j]ᵀ t_j,   t_j = [−M G; I₂] L⁻ᵀ (2j + 2, 2)
+        M ← M + t_j t_jᵀ,   x_j = x_0 + [B; B_j]ᵀ v,   v ← v + t_j L⁻¹ ν_j
+
+    and x_{j−1} at idx_j (where h and, for ``current``, H_j are evaluated) is x_0[idx_j] + B[:, idx_j]ᵀ v. The N-long work
+    is one read of P_0 per row (B_j) and, at the end, ``Uᵀ = Tᵀ B`` (T = [t_1 … t_q], one matrix product), ``dx = Bᵀ v``
+    and the term's checked entries, where the row-by-row form reads the whole pending term and makes some twenty passes
+    over N-vectors per row. The covariance checks are made once, on the entries of P_q: every P_j = P_q + Σ_{i>j} W_i W_iᵀ
+    has them at least as large (diagonal) and its blocks differ from P_q's by positive semi-definite ones, so if P_q
+    passes, every P_j does. Returns :func:`correct_run`'s tuple and whether the end's checks passed; if they did not,
+    nothing was changed (the caller runs the rows one by one to find the row that fails). B is written to rows r … r + 2k
+    of Ut, the scratch of the term being formed, and replaced by Uᵀ there.
+    """
+    k = slots.size
+    B = Ut[r:r + 2 * k]
+    T = np.zeros((2 * k, 2 * k))
+    M = np.zeros((2 * k, 2 * k))
+    v = np.zeros(2 * k)
+    nis = np.empty(k)
+    Hs = np.empty((k, 2, 5))
+    idx = np.empty(5, dtype=np.int64)
+    xc, zhat, Hx, Hm = np.empty(5), np.empty(2), np.empty((2, 3)), np.empty((2, 2))
+    q, outcome, S = k, APPLIED, np.zeros((2, 2))
+    for j in range(k):
+        b = 2 * j
+        e = n_robot + 2 * slots[j]
+        idx[0], idx[1], idx[2], idx[3], idx[4] = 0, 1, 2, e, e + 1
+        for c in range(5):                                      # x_{j−1}[idx]
+            acc = x[idx[c]]
+            for a in range(b):
+                acc += B[a, idx[c]] * v[a]
+            xc[c] = acc
+        H = Hs[j]
+        if current:
+            _jacobian(xc[:3].copy(), xc[3:].copy(), zhat, Hx, Hm, H)
+        else:
+            _jacobian(XL[j], ML[j], zhat, Hx, Hm, H)
+        _hp_one(P, n, Ut, Ust, r, e, H, B[b:b + 2])           # B_j = H_j P_0
+        G = np.empty((b, 2))
+        for a in range(b):
+            for c in range(2):
+                acc = 0.0
+                for d in range(5):
+                    acc += B[a, idx[d]] * H[c, d]
+                G[a, c] = acc
+        MG = np.zeros((b, 2))
+        for a in range(b):
+            for d in range(b):
+                m_ad = M[a, d]
+                MG[a, 0] += m_ad * G[d, 0]
+                MG[a, 1] += m_ad * G[d, 1]
+        S = np.empty((2, 2))
+        for a in range(2):
+            for c in range(2):
+                acc = 0.0
+                for d in range(5):
+                    acc += B[b + a, idx[d]] * H[c, d]
+                for d in range(b):
+                    acc -= G[d, a] * MG[d, c]
+                S[a, c] = acc
+        S[0, 1] = S[1, 0] = 0.5 * (S[0, 1] + S[1, 0])
+        S += R[j]
+        L, ok = _cholesky(S)
+        if not ok:
+            q, outcome = j, S_INDEFINITE
+            break
+        Linv = _lower_inverse(L)
+        nu = _innovation(xc, 3, Z[j], zhat, Hx, Hm)
+        ee = np.array([Linv[0, 0] * nu[0], Linv[1, 0] * nu[0] + Linv[1, 1] * nu[1]])          # L⁻¹ ν
+        t = np.empty((b + 2, 2))                                                                # [−M G; I₂] L⁻ᵀ
+        for a in range(b):
+            t[a, 0] = -MG[a, 0] * Linv[0, 0]
+            t[a, 1] = -(MG[a, 0] * Linv[1, 0] + MG[a, 1] * Linv[1, 1])
+        t[b, 0], t[b, 1], t[b + 1, 0], t[b + 1, 1] = Linv[0, 0], Linv[1, 0], 0.0, Linv[1, 1]
+        nis[j] = ee[0] * ee[0] + ee[1] * ee[1]
+        if not (np.isfinite(nis[j]) and np.all(np.isfinite(t))):
+            q, outcome = j, NOT_FINITE
+            break
+        for a in range(b + 2):
+            T[a, b], T[a, b + 1] = t[a, 0], t[a, 1]
+            v[a] += t[a, 0] * ee[0] + t[a, 1] * ee[1]
+            for d in range(b + 2):
+                M[a, d] += t[a, 0] * t[d, 0] + t[a, 1] * t[d, 1]
+    if q == 0:
+        return q, r, outcome, 0, 0.0, nis[:0], Hs[:0], S, True
+    c = 2 * q
+    # dx = Bᵀ v and Ust = −Tᵀ B by BLAS on the C-ordered rows of Ut and Ust read as Fortran N × c matrices (B_F = Bᵀ; the
+    # leading dimensions are the row strides): dx = B_F v, Ust_F = −B_F T; then Ut's rows ← Uᵀ = −Ust (replacing B)
+    U, Us, dx = Ut[r:r + c], Ust[r:r + c], np.zeros(n)
+    Tc = np.ascontiguousarray(T[:c, :c])
+    ints = np.array([n, c, Ut.strides[0] // 8, Ust.strides[0] // 8, 1], dtype=np.int32)    # m, n = k = ldb, lda, ldc, inc
+    flags = np.array([78, 84], dtype=np.uint8)                                              # "N", "T"
+    scalars = np.array([1.0, 0.0, -1.0])
+    vc = v[:c].copy()
+    _dgemv(flags.ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, U.ctypes, ints[2:].ctypes, vc.ctypes, ints[4:].ctypes,
+           scalars[1:].ctypes, dx.ctypes, ints[4:].ctypes)
+    # Tc read as Fortran is Tᵀ, so transb "T" makes op = T
+    _dgemm(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, ints[1:].ctypes, scalars[2:].ctypes, U.ctypes,
+           ints[2:].ctypes, Tc.ctypes, ints[1:].ctypes, scalars[1:].ctypes, Us.ctypes, ints[3:].ctypes)
+    for a in range(c):
+        u, us = U[a], Us[a]
+        for i in range(n):
+            u[i] = -us[i]
+    for i in range(n):
+        if not np.isfinite(dx[i]):
+            return q, r, outcome, 0, 0.0, nis[:q], Hs[:q], S, False
+    s = -np.ones(c)
+    td, tr, to = low_rank_entries(U, s, n, n_robot)    # a non-finite U makes the diagonal non-finite: the checks fail
+    pd, pr, po = pend
+    sd, sr, so = stored
+    m = to.size
+    if entries_failure((sd[:n], pd[:n], td), (sr, pr, tr), (so[:m], po[:m], to), n_robot)[0] != OK:
+        return q, r, outcome, 0, 0.0, nis[:q], Hs[:q], S, False
+    x += dx
+    x[2] = wrap(x[2])
+    sg[r:r + c] = -1.0
+    pd[:n] += td
+    pr += tr
+    po[:m] += to
+    return q, r + c, outcome, 0, 0.0, nis[:q], Hs[:q], S, True
+
+
+@njit(cache=True)
+def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot):
+    """Sequential updates with observations Z (k, 2), noise R (k, 2, 2) of landmark slots (k,), in order, until one is not
+    applied: the standard form in the span of the rows' H_j P_0 (:func:`_projected_run`), and row by row
+    (:func:`innovation_one` and :func:`correct` each) in the Joseph form or when the projected run's covariance checks
+    fail (to find the row that fails them).
+
+    H of row j is taken at (XL[j], ML[j]), or at the current estimate if ``current`` (x moves with every update).
+    Returns (q, r, outcome, k, value, NIS (k,), H (k, 2, 5), S): rows 0 … q − 1 applied (their NIS and the Jacobians
+    H = [H_x, H_m] they were linearised with), r the pending term's new rank; q < k: row q failed with ``outcome``
+    (:func:`correct`'s, its k and value; S its innovation covariance).
+    """
+    if not joseph:
+        q, r1, outcome, k, value, nis, Hs, S, checked = _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML,
+                                                                       current, Z, R, n_robot)
+        if checked:
+            return q, r1, outcome, k, value, nis, Hs, S
+    return _rows_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot)
 
 
 @njit(cache=True)

@@ -16,7 +16,9 @@ from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam.association import Decision
-from slamarena.estimators.ekf_slam.kernels import add_term_upper, mirror_lower, update_lower
+from slamarena.estimators.ekf_slam.checks import LANDMARK_BLOCK, NEGATIVE_DIAGONAL
+from slamarena.estimators.ekf_slam.kernels import APPLIED, NOT_FINITE, S_INDEFINITE, _projected_run, _rows_run, add_term_upper, correct_run, mirror_lower, update_lower
+from slamarena.estimators.models import observe
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 
 
@@ -113,6 +115,101 @@ def test_a_failing_row_leaves_the_earlier_rows_of_its_set_applied(sim):
     np.testing.assert_allclose(a.x, b.x, atol=1e-12)
     np.testing.assert_allclose(a.P, b.P, atol=1e-12)
     np.testing.assert_array_equal(a.P, a.P.T)
+
+
+def _run_inputs(sim, pending, current, seed):
+    """A filter after 400 steps of sim, its storage with a pending term from a first run of 3 rows (``pending``), and the
+    inputs of a run of 8 rows of mapped landmarks (H at the current estimate, or at perturbed linearisation points)."""
+    ekf = EKFSLAM(initial_pose=np.asarray(sim.start_pose, dtype=float), initial_cov=[0.01, 0.01, 0.001])
+    for u, dt, z in _sets(sim, 400, np.random.default_rng(seed)):
+        ekf.predict(u, dt)
+        ekf.update(z)
+    s, rng = ekf._s, np.random.default_rng(seed)
+    R = np.diag([0.1**2, np.radians(2.0) ** 2])
+    slots = rng.choice(ekf.n_landmarks, 11, replace=False).astype(np.int64)
+
+    def rows(slots):
+        Z = observe(s.x[:3], s.x[3:].reshape(-1, 2)[slots]) + rng.normal(size=(slots.size, 2)) * [0.1, np.radians(2.0)]
+        XL = s.x[:3] + rng.normal(size=(slots.size, 3)) * 0.05
+        ML = s.x[3:].reshape(-1, 2)[slots] + rng.normal(size=(slots.size, 2)) * 0.05
+        return XL, ML, np.ascontiguousarray(Z), np.ascontiguousarray(np.broadcast_to(R, (slots.size, 2, 2)))
+
+    s._reserve(2 * 11)
+    s._refresh_stored_entries()
+    if pending:
+        assert s.correct_run(slots[:3], *rows(slots[:3])[:2], current, *rows(slots[:3])[2:], False)[0] == 3
+    return s, slots[3:], rows(slots[3:])
+
+
+def _state(s):
+    return dict(x=s._x.copy(), Ut=s._Ut.copy(), Ust=s._Ust.copy(), sg=s._sg.copy(), pend=tuple(a.copy() for a in s._pending),
+                stored=tuple(a.copy() for a in s._stored_entries))
+
+
+def _call(kernel, s, state, slots, inputs, current, *extra):
+    XL, ML, Z, R = inputs
+    return kernel(s._P, s.n, state["Ut"], state["Ust"], state["sg"], s._r, state["pend"], state["stored"], state["x"][:s.n], slots,
+                  XL, ML, current, Z, R, *extra)
+
+
+@pytest.mark.parametrize("pending", [False, True], ids=["no term pending", "a term pending"])
+@pytest.mark.parametrize("current", [True, False], ids=["H at the current estimate", "H at given points"])
+def test_the_projected_run_equals_the_row_by_row_run(sim, pending, current):
+    """correct_run's standard form in the span of the rows' H_j P_0 (one read of P per row, the term formed at the end)
+    against the row-by-row form on the same inputs: the rows applied, their NIS and Jacobians, x, the term's rows
+    (each W_j), its signs and its checked entries, to rounding."""
+    s, slots, inputs = _run_inputs(sim, pending, current, seed=3)
+    a, b = _state(s), _state(s)
+    got = _call(_projected_run, s, a, slots, inputs, current, 3)
+    want = _call(_rows_run, s, b, slots, inputs, current, False, 3)
+    assert got[-1] and got[0] == want[0] == slots.size and got[1] == want[1] == s._r + 2 * slots.size and got[2] == want[2] == APPLIED
+    np.testing.assert_allclose(got[5], want[5], rtol=1e-9)                   # NIS
+    np.testing.assert_allclose(got[6], want[6], rtol=1e-9, atol=1e-12)       # H
+    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-12)
+    rows = slice(s._r, want[1])
+    scale = np.abs(b["Ut"][rows]).max()
+    np.testing.assert_allclose(a["Ut"][rows, :s.n], b["Ut"][rows, :s.n], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(a["Ust"][rows, :s.n], b["Ust"][rows, :s.n], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_array_equal(a["sg"][rows], b["sg"][rows])
+    for p, q in zip(a["pend"], b["pend"]):
+        np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * max(1e-12, np.abs(q).max()))
+
+
+@pytest.mark.parametrize("failure", ["negative diagonal", "indefinite S", "non-finite row"])
+def test_a_run_that_fails_a_check_stops_where_the_row_by_row_run_stops(sim, failure):
+    """A run whose row 4 of 8 fails: a landmark's variance that row 4's term makes negative (the projected run's one check
+    at the end fails, and the rows are run one by one to find the row), an indefinite S (R of row 4 negative),
+    a non-finite observation. correct_run stops where the row-by-row run stops, with the same outcome and state."""
+    s, slots, (XL, ML, Z, R) = _run_inputs(sim, True, True, seed=4)
+    if failure == "negative diagonal":   # the cached block of row 4's landmark before the run: P[e, e] between what rows
+        # 0 … 3 and rows 0 … 4 take from it, P[e + 1, e + 1] = 1, P[e + 1, e] = 0
+        e = 3 + 2 * slots[4]
+        probe = _state(s)
+        _call(_rows_run, s, probe, slots, (XL, ML, Z, R), True, False, 3)
+        taken = np.cumsum((probe["Ut"][s._r:s._r + 2 * slots.size, e] ** 2).reshape(-1, 2).sum(axis=1))
+        sd, _, so = s._stored_entries
+        sd[e], sd[e + 1], so[slots[4]] = -s._pending[0][e] + 0.5 * (taken[3] + taken[4]), 1.0, -s._pending[2][slots[4]]
+    elif failure == "indefinite S":
+        R = R.copy()
+        R[4] = -np.eye(2)
+    else:
+        Z = Z.copy()
+        Z[4, 0] = np.inf
+    a, b = _state(s), _state(s)
+    inputs = (XL, ML, Z, R)
+    got = _call(correct_run, s, a, slots, inputs, True, False, 3)
+    want = _call(_rows_run, s, b, slots, inputs, True, False, 3)
+    code = {"negative diagonal": (NEGATIVE_DIAGONAL, LANDMARK_BLOCK), "indefinite S": (S_INDEFINITE,), "non-finite row": (NOT_FINITE,)}[failure]
+    assert want[2] in code and got[0] == want[0] and got[1] == want[1] and got[2] == want[2] and got[3] == want[3]
+    assert want[0] == 4
+    if failure != "negative diagonal":
+        assert _call(_projected_run, s, _state(s), slots, inputs, True, 3)[-1]      # found without the row-by-row pass
+    else:
+        assert not _call(_projected_run, s, _state(s), slots, inputs, True, 3)[-1]  # the end's check fails
+    np.testing.assert_allclose(got[5], want[5], rtol=1e-9)
+    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-12)
+    for p, q in zip(a["pend"], b["pend"]):
+        np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * max(1e-12, np.abs(q).max()))
 
 
 @pytest.mark.parametrize("n, r", [(1603, 20), (515, 7), (5, 3), (1025, 0)])
