@@ -260,7 +260,7 @@ class FastSLAM:
         if len(z):
             top = int(slots.max()) if p.use_ids else int(self.n_slots.max()) + len(z)
             self.store.reserve(top, self.M * (len(z) + (0 if p.use_ids else int(self.n_slots.max()))))
-            log_p0 = -0.5 * self.gate - 0.5 * math.log(np.linalg.det(R).max()) - math.log(2 * math.pi)
+            log_p0 = -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)   # (k,): each row's own R_j
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
             update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, self.n_live,

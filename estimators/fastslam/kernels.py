@@ -26,7 +26,8 @@ New landmark (both): μ = p + r (cos(θ+b), sin(θ+b)), Σ = G_z R G_zᵀ with G
 Unknown association (per particle, maximum likelihood): every live landmark not yet taken in this set is a
 candidate if its d² = νᵀ S⁻¹ ν ≤ ``gate`` (S = Q for 1.0 at the sampled pose, L for 2.0 at x̄); the
 candidate of largest log N(ν; 0, S) is the match. Without a candidate the observation starts a new
-landmark and the weight takes the new-landmark likelihood ``log_p0``. With a stated perceptual field
+landmark and the weight takes the new-landmark likelihood ``log_p0`` of that row, the sensor density at the gate
+under the row's own noise, log p₀_j = −γ/2 − ½ log det R_j − log 2π. With a stated perceptual field
 (max range, field of view) each landmark keeps an existence counter (slot state = counter + 1): +1 when
 matched, −1 when predicted inside the field from the sampled pose and not matched, removed at −1;
 new landmarks start at counter 1.
@@ -189,8 +190,9 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
     Otherwise slots are ignored and each particle associates by maximum likelihood; n_slots (M,) grows.
     n_live (M,): each particle's live landmarks, kept up to date (new +1, removed −1).
     xhat (M, 3), P (M, 3, 3): predicted poses and their covariances; eps (M, 3) standard normals.
-    R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0: the
-    new-landmark log-likelihood added to a particle's weight when an observation starts a landmark.
+    R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0 (k,): each
+    row's new-landmark log-likelihood −γ/2 − ½ log det R_j − log 2π, added to a particle's weight when the row starts a
+    landmark (or sights a tentative one).
     Writes the sampled poses to poses_out (M, 3) and each observation's slot to assoc_out (M, k)
     (−1: not used). max_range ≤ 0 disables the existence counters. confirm, window: the tentative-landmark
     rule (unknown association only; confirm = 1: none); t: the time of the set [s] (a new landmark's birth).
@@ -256,7 +258,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
             if best >= 0 and not known and seens[best] < confirm:  # a tentative landmark: no evidence about the path
                 target[j] = best
                 taken[best] = True
-                log_w[m] += log_p0
+                log_w[m] += log_p0[j]
             elif best >= 0:
                 target[j] = best
                 if not known:
@@ -269,7 +271,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     A = np.eye(3) - _mm(Kx, best_Hx)
                     Sx = _sandwich(A, Sx) + _sandwich(Kx, best_Q)
             elif not known:
-                log_w[m] += log_p0
+                log_w[m] += log_p0[j]
         x = xbar + _mm(sqrt_psd(Sx), eps[m]) if version == 2 else xbar
         x[2] = wrap(x[2])
         poses_out[m] = x

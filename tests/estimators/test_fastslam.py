@@ -353,7 +353,7 @@ def test_one_update_matches_a_literal_reference(version):
     log_w, n_slots, n_live = np.zeros(M), np.full(M, 4, dtype=np.int64), np.full(M, 4, dtype=np.int64)
     poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
     update_particles(version, True, np.tile(xhat, (M, 1)), np.tile(P, (M, 1, 1)), eps, log_w, z, slots, n_slots, n_live,
-                     np.tile(R, (len(z), 1, 1)), 0.0, 0.0, 0.0, np.pi, 1, np.inf, 0.0, store.depth, *store.kernel_args(), poses, assoc)
+                     np.tile(R, (len(z), 1, 1)), 0.0, np.zeros(len(z)), 0.0, np.pi, 1, np.inf, 0.0, store.depth, *store.kernel_args(), poses, assoc)
 
     root = poses[1:4] - poses[0]                                                # columns of the kernel's square root
     draws = iter(poses)
@@ -375,13 +375,13 @@ def _reference_unknown_step(version, xhat, P, book, z, R, gate, log_p0, confirm,
     """One particle's update with unknown association and tentative landmarks, literally. ``book``: slot → (μ, Σ, seen,
     born) of the live landmarks. Each row in turn: the untaken landmark of largest log N(ν; 0, S) with νᵀ S⁻¹ ν ≤ gate (S = L at
     the current proposal mean for 2.0, Q at the drawn pose for 1.0); a confirmed match weighs log N and conditions the 2.0
-    proposal, a tentative one (seen < confirm) and a new landmark weigh log_p0. Returns log w, the proposal, the drawn pose,
+    proposal, a tentative one (seen < confirm) and a new landmark weigh the row's log_p0[j]. Returns log w, the proposal, the drawn pose,
     each row's slot and the book after the landmark updates and the expiry of the tentative landmarks older than the window."""
     log_w, xbar, Sx = 0.0, xhat.copy(), P.copy()
     if version == 1:
         xbar, Sx = sample(xhat, P), np.zeros((3, 3))
     taken, target = set(), []
-    for zj in z:
+    for j, zj in enumerate(z):
         best, best_ll = None, -np.inf
         for s, (mu, Sig, _, _) in book.items():
             if s in taken:
@@ -393,7 +393,7 @@ def _reference_unknown_step(version, xhat, P, book, z, R, gate, log_p0, confirm,
                 best, best_ll = s, _log_normal(nu, S)
         target.append(best)
         if best is None or book[best][2] < confirm:
-            log_w += log_p0
+            log_w += log_p0[j]
             taken.add(best)
             continue
         taken.add(best)
@@ -436,7 +436,7 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
     rng = np.random.default_rng(11)
     R = np.diag([0.1**2, np.radians(2.0) ** 2])
     gate, confirm, window, t = 18.42, 3, 10.0, 20.0
-    log_p0 = -0.5 * gate - 0.5 * np.log(np.linalg.det(R)) - np.log(2 * np.pi)
+    log_p0 = -0.5 * gate - 0.5 * np.log(np.linalg.det(R)) - np.log(2 * np.pi) + np.array([0.0, 0.3, -0.2, 0.5])   # per row (k,)
     mus = [np.array([4.0, 1.0]), np.array([2.0, 3.5]), np.array([3.0, -2.0]), np.array([-1.0, 2.0]), np.array([4.3, 1.4])]
     seen_born = [(5, 1.0), (1, 12.0), (2, 5.0), (1, 3.0), (2, 15.0)]   # confirmed; tentative; tentative, old; tentative, old; tentative
     book = {}
@@ -486,3 +486,19 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
             assert (seen[s], born[s]) == (ref_seen, ref_born)
     assert kinds == {"new", "confirmed", "tentative"}                  # every branch is exercised
     assert len({tuple(a) for a in assoc.tolist()}) > 1                  # and the particles associate differently
+
+
+def test_a_new_landmark_weighs_the_sensor_density_of_its_own_row():
+    """The new-landmark likelihood p₀ of a row is the sensor density at the gate under THAT row's noise,
+    −γ/2 − ½ log det R_j − log 2π: with range-dependent (Cartesian) noise two rows of one set at 30 m and 3 m have p₀
+    differing by ½ log(det R(3 m) / det R(30 m)). Particle 0 re-observes the far landmark (exactly: ν = 0) and starts
+    one for the near row; particle 1, moved away, starts both. Their log-weight difference is log N(0; 0, Q) − log p₀(30 m)."""
+    slam = FastSLAM(version=1, particles=2, use_ids=False, range_bearing_noise="cartesian", range_bearing_cov=np.diag([0.01, 1e-4]))
+    slam.update(np.array([[30.0, 0.0, -1.0]]))
+    slam.x0[1] = [0.0, 5.0, 0.0]
+    slam.update(np.array([[30.0, 0.0, -1.0], [3.0, 0.5, -1.0]]))
+    sigma2 = 0.01
+    Q = np.diag([sigma2, sigma2 / 30.0**2]) * 2                        # Σ of the landmark (from one sighting) seen again, + R
+    log_p0_far = -0.5 * slam.gate - 0.5 * np.log(sigma2**2 / 30.0**2) - np.log(2 * np.pi)
+    expected = (-0.5 * np.log(np.linalg.det(Q)) - np.log(2 * np.pi)) - log_p0_far
+    assert slam.log_w[0] - slam.log_w[1] == pytest.approx(expected, abs=1e-9)
