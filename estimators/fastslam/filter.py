@@ -44,10 +44,7 @@ maximum likelihood, with existence counters where a perceptual field is stated (
 and (``confirm_sightings`` = k > 1) tentative landmarks: a landmark a particle starts is no evidence about
 its path — its sightings take the new-landmark likelihood and do not condition the proposal — until it has
 been seen k times within ``confirm_window`` seconds of its start, and is removed if it has not (per particle,
-the analogue of EKF-SLAM's ``LandmarkBook``). With ``loop_gate: cloud`` a row beyond every particle's own gate is
-gated for each particle under the cloud's pose covariance (the mixture covariance of the predicted poses, the
-uncertainty of the path that no single particle's gate holds): a candidate re-observation, weighed by the particle's
-own likelihood (:mod:`.kernels`).
+the analogue of EKF-SLAM's ``LandmarkBook``).
 
 Resampling
 ----------
@@ -74,8 +71,7 @@ from slamarena.params import Covariance2, Covariance3, Field, Params, Probabilit
 from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, RangeBearingNoise, compose_chain,
                       compose_jacobians, observation_covariances)
 from ..stepping import StepClock
-from .kernels import beyond_every_gate, predictive_d2, sqrt_psd, update_particles
-from .run import mixture_moments
+from .kernels import predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
 
 __all__ = ["FastSLAM", "FastSLAMParams"]
@@ -99,9 +95,6 @@ class FastSLAMParams(Params):
     association_confidence: Probability = Field(
         0.9999, description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
                             "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate")
-    loop_gate: Literal["particle", "cloud"] = Field(
-        "particle", description="unknown association: a row beyond every particle's own gate starts a landmark ('particle'), or is gated for each "
-                                "particle under the cloud's pose covariance — a candidate re-observation weighed by the particle's own likelihood ('cloud')")
     confirm_sightings: PositiveInt = Field(
         1, description="unknown association: a landmark a particle starts is tentative (its sightings weigh as new landmarks and do not condition "
                        "the proposal) until seen this many times (the first included) within confirm_window, and removed if not; 1: confirmed at once")
@@ -120,8 +113,6 @@ class FastSLAMParams(Params):
     def _field_of_view_needs_a_range(self):
         if self.fov is not None and self.max_range is None:
             raise ValueError("fov is the perceptual field of the existence counters and needs max_range")
-        if self.loop_gate != "particle" and self.use_ids:
-            raise ValueError("loop_gate decides associations without ids; with use_ids the ids decide")
         if self.confirm_sightings > 1 and self.use_ids:
             raise ValueError("confirm_sightings > 1 decides which landmarks a particle keeps without ids; with use_ids the ids decide")
         return self
@@ -272,13 +263,8 @@ class FastSLAM:
             log_p0 = -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)   # (k,): each row's own R_j
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
-            wide, Pc = np.zeros(len(z), dtype=np.bool_), np.zeros((3, 3))
-            if not p.use_ids and p.loop_gate == "cloud":
-                wide = beyond_every_gate(xhat, P, np.ascontiguousarray(z[:, :2]), R, self.gate, self.n_slots, self.store.depth, self.store.roots,
-                                         self.store.inner_child, self.store.leaf_mu, self.store.leaf_S, self.store.leaf_state)
-                Pc = mixture_moments(self.x0, self.weights, self.delta[None], self.Sigma_delta[None])[1][0]
             update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, self.n_live,
-                             R, self.gate, log_p0, wide, Pc, max_range, half_fov, p.confirm_sightings, p.confirm_window, t, self.store.depth,
+                             R, self.gate, log_p0, max_range, half_fov, p.confirm_sightings, p.confirm_window, t, self.store.depth,
                              *self.store.kernel_args(), poses, assoc)
         else:
             poses = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)

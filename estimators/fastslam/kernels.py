@@ -39,18 +39,6 @@ takes the new-landmark likelihood ``log_p0`` — as if it started a landmark —
 2.0 proposal: until confirmed, a landmark is no evidence about the path. One still tentative after the set
 at time t with t − t₀ > window is removed. k = 1: every landmark is confirmed when started (the plain
 per-particle maximum likelihood above).
-
-Loop gate under the cloud's covariance (unknown association, ``wide`` rows; :mod:`.filter`'s ``loop_gate: cloud``).
-A particle's gate holds its own pose covariance P_m — the motion since the last sampling — while the uncertainty of
-the path since the landmarks were mapped is the spread of the particles. A row beyond every particle's own gate
-(:func:`beyond_every_gate`, at the predicted poses) is gated for each particle with the cloud's pose covariance Pc
-(the mixture covariance of the predicted poses) in place of its own: the candidates are the landmarks with
-    d²_c = νᵀ L_c⁻¹ ν ≤ gate  and  N(ν; 0, L_c) ≥ p₀_j,   L_c = H_x Pc H_xᵀ + Q,
-the match the one of largest N(ν; 0, L_c): the landmark must explain the row better, under the cloud's uncertainty,
-than a tree not in the map (the EKF's hypothesis test, association.hypotheses; the wider the cloud, the smaller
-d²_c must be — a new tree is beyond every particle's own gate too, and must not be taken for a return), and the match is then a re-observation like any other: the particle's weight takes its OWN predictive likelihood
-N(ν; 0, L) (so the particles nearest to closing the loop are preferred) and the 2.0 proposal is conditioned on it. A
-particle with no candidate under the cloud's gate starts a landmark (weight p₀).
 """
 from __future__ import annotations
 
@@ -62,7 +50,7 @@ from numba import njit
 from ..kernels import range_bearing, wrap
 from .storage import find, writable
 
-__all__ = ["update_particles", "predictive_d2", "beyond_every_gate", "sqrt_psd"]
+__all__ = ["update_particles", "predictive_d2", "sqrt_psd"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -193,31 +181,7 @@ def predictive_d2(xhat, P, z, slots, n_slots, R, depth, roots, inner_child, leaf
 
 
 @njit(cache=True)
-def beyond_every_gate(xhat, P, z, R, gate, n_slots, depth, roots, inner_child, leaf_mu, leaf_S, leaf_state):
-    """Rows (k,) that no particle can match: d² = νᵀ L⁻¹ ν > gate at every particle's predicted pose
-    (L = H_x P_m H_xᵀ + H_m Σ H_mᵀ + R_j) for every live landmark of its map; False where no particle has a landmark."""
-    M, k = xhat.shape[0], z.shape[0]
-    out = np.ones(k, dtype=np.bool_)
-    mapped = False
-    for m in range(M):
-        for s in range(n_slots[m]):
-            leaf, off = find(roots[m], s, depth, inner_child)
-            if leaf < 0 or leaf_state[leaf, off] == 0:
-                continue
-            mapped = True
-            for j in range(k):
-                if out[j]:
-                    nu, L, _, _ = _predictive(xhat[m], P[m], leaf_mu[leaf, off], leaf_S[leaf, off], z[j], R[j], True)
-                    Li, _ = _inv2(L)
-                    if _quad(nu, Li) <= gate:
-                        out[j] = False
-    if not mapped:
-        out[:] = False
-    return out
-
-
-@njit(cache=True)
-def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, wide, Pc, max_range, half_fov,
+def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, max_range, half_fov,
                      confirm, window, t, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
                      free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
     """One observation set z (k, 2) for every particle (module docstring).
@@ -228,8 +192,7 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
     xhat (M, 3), P (M, 3, 3): predicted poses and their covariances; eps (M, 3) standard normals.
     R (k, 2, 2): each observation's noise (the same for all, or range dependent). log_p0 (k,): each
     row's new-landmark log-likelihood −γ/2 − ½ log det R_j − log 2π, added to a particle's weight when the row starts a
-    landmark (or sights a tentative one). wide (k,) bool, Pc (3, 3): the rows gated under the cloud's pose covariance
-    Pc instead of the particle's own (unknown association; :func:`beyond_every_gate`).
+    landmark (or sights a tentative one).
     Writes the sampled poses to poses_out (M, 3) and each observation's slot to assoc_out (M, k)
     (−1: not used). max_range ≤ 0 disables the existence counters. confirm, window: the tentative-landmark
     rule (unknown association only; confirm = 1: none); t: the time of the set [s] (a new landmark's birth).
@@ -281,26 +244,17 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     best, best_nu, best_L, best_Hx, best_Q = s, nu, L, H, Q
                     best_ll = -0.5 * _quad(nu, Li) - 0.5 * math.log(det) - _LOG_2PI
             else:
-                best_rank = -np.inf
                 for s in range(n):
                     if states[s] == 0 or taken[s]:
                         continue
                     nu, L, H, Q = _predictive(xbar, Sx, mus[s], Ss[s], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
                     d2 = _quad(nu, Li)
+                    if d2 > gate:
+                        continue
                     ll = -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
-                    if wide[j]:  # beyond every particle's own gate: the gate under the cloud's pose covariance
-                        Lci, detc = _inv2(_sandwich(H, Pc) + Q)
-                        d2c = _quad(nu, Lci)
-                        rank = -0.5 * d2c - 0.5 * math.log(detc) - _LOG_2PI
-                        if d2c > gate or rank < log_p0[j]:  # less probable under the cloud than a tree not in the map
-                            continue
-                    else:
-                        if d2 > gate:
-                            continue
-                        rank = ll
-                    if rank > best_rank:
-                        best, best_rank, best_ll, best_nu, best_L, best_Hx, best_Q = s, rank, ll, nu, L, H, Q
+                    if ll > best_ll:
+                        best, best_ll, best_nu, best_L, best_Hx, best_Q = s, ll, nu, L, H, Q
             if best >= 0 and not known and seens[best] < confirm:  # a tentative landmark: no evidence about the path
                 target[j] = best
                 taken[best] = True
