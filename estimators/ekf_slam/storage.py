@@ -121,8 +121,9 @@ class GrowingState:
                     joseph: bool) -> tuple[int, int, int, float, np.ndarray, np.ndarray, np.ndarray]:
         """Sequential updates with range-bearing observations Z (k, 2) (noise R (k, 2, 2)) of landmark slots (k,), H at
         (XL[j], ML[j]) or at the current estimate, until one is not applied; one compiled call (:func:`.kernels.correct_run`:
-        O(N (r + 1)) per row plus O(N k²) for the run in the standard form, O(N (r + j)) for row j row by row). Returns q (rows applied), (outcome, k, value) of row q if q < k, the applied rows' NIS (q,) and
-        Jacobians [H_x, H_m] (q, 2, 5), and S of row q."""
+        O(N (r + 1)) per row plus O(N k²) for the run in the standard form, O(N (r + j)) for row j row by row). Returns q
+        (rows applied), (outcome, k, value) of row q if q < k, the applied rows' NIS (q,) and Jacobians [H_x, H_m]
+        (q, 2, 5), and S of row q."""
         self._reserve((6 if joseph else 2) * slots.size)
         self._refresh_stored_entries()
         q, self._r, outcome, k, value, nis, H, S = correct_run(

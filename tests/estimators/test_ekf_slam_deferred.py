@@ -17,9 +17,10 @@ from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.ekf_slam.checks import LANDMARK_BLOCK, NEGATIVE_DIAGONAL
-from slamarena.estimators.ekf_slam.kernels import APPLIED, NOT_FINITE, S_INDEFINITE, _projected_run, _rows_run, add_term_upper, correct_run, mirror_lower, update_lower
-from slamarena.estimators.models import observe
+from slamarena.estimators.ekf_slam.kernels import (APPLIED, NOT_FINITE, S_INDEFINITE, _projected_run, _rows_run, add_term_upper, correct_run,
+                                                   mirror_lower, update_lower)
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
+from slamarena.estimators.models import observe
 
 
 @pytest.fixture(scope="module")
