@@ -54,6 +54,20 @@ resampling — one uniform u₀ ~ U[0, 1/M), pointers u₀ + i/M through the cum
 weights reset to uniform. Maps are shared after resampling: copying a particle is O(1) (its root),
 and a later write copies O(log n) nodes (:mod:`.storage`).
 
+Ancestry (the depletion diagnostic)
+-----------------------------------
+The particles represent the map's uncertainty only back to their most recent common ancestor: before
+its time t_A every particle carries the same path, so the same map of what was seen then. ``t_A``
+(:attr:`FastSLAM.common_ancestor_t`) is kept exactly in O(M) per resampling. Systematic resampling
+gives non-decreasing ancestors (a_m ≤ a_{m+1}), so lineages never cross and the lineages of particles
+m < l < m' lie between those of m and m'. Hence, with s_m (M − 1,) the time at which the lineages of
+neighbours m and m + 1 last shared an ancestor (the start t₀ for the initial particles, all drawn from
+one prior),
+
+    s'_m = t                                   if a_m = a_{m+1}   (t: the resampling's time)
+    s'_m = min(s_{a_m}, …, s_{a_{m+1} − 1})    otherwise,
+    t_A  = min_m s_m.
+
 Randomness comes from one ``numpy.random.Generator`` seeded by ``seed``; the same seed gives the same run.
 """
 from __future__ import annotations
@@ -155,6 +169,8 @@ class FastSLAM:
         self.rejected = {"nonfinite": 0, "negative_range": 0, "gate": 0}
         self.resamplings = 0
         self._sets = 0
+        self._t = float(getattr(sequence, "t0", 0.0))
+        self.split_t = np.full(M - 1, self._t)   # s_m: when the lineages of particles m and m + 1 last met (module docstring)
 
     @property
     def M(self) -> int:
@@ -170,6 +186,11 @@ class FastSLAM:
     def n_eff(self) -> float:
         """Effective sample size 1 / Σ ŵ²."""
         return float(1.0 / np.sum(self.weights**2))
+
+    @property
+    def common_ancestor_t(self) -> float:
+        """t_A: the time of the particles' most recent common ancestor (the start while they have none since it)."""
+        return float(self.split_t.min()) if self.split_t.size else self._t
 
     def predicted(self) -> tuple[np.ndarray, np.ndarray]:
         """Every particle's predicted pose x̂ = x0 ⊕ Δ (M, 3) and its covariance P = J Σ_Δ Jᵀ (M, 3, 3)."""
@@ -237,6 +258,7 @@ class FastSLAM:
         z = np.asarray(z, dtype=float).reshape(-1, 3)
         self._sets += 1
         t = float(self._sets if t is None else t)
+        self._t = t
         finite = np.all(np.isfinite(z[:, :2]), axis=1)
         positive = z[:, 0] >= 0
         self.rejected["nonfinite"] += int((~finite).sum())
@@ -310,6 +332,7 @@ class FastSLAM:
         cumulative[-1] = 1.0
         pointers = (self.rng.uniform(0.0, 1.0 / self.M) + np.arange(self.M) / self.M)
         ancestors = np.searchsorted(cumulative, pointers, side="right").astype(np.int64)
+        self._trace_ancestry(ancestors)
         self.x0 = self.x0[ancestors]
         self.n_slots = self.n_slots[ancestors]
         self.n_live = self.n_live[ancestors]
@@ -318,6 +341,15 @@ class FastSLAM:
         self.resamplings += 1
         self.last_ancestors = ancestors
         return ancestors
+
+    def _trace_ancestry(self, ancestors: np.ndarray) -> None:
+        """s ← s' for non-decreasing ancestors (module docstring, "Ancestry"): O(M)."""
+        a = ancestors
+        split = np.full(a.size - 1, self._t)
+        apart = np.flatnonzero(a[:-1] < a[1:])       # neighbours of different parents: the earliest split between them
+        if apart.size:
+            split[apart] = np.minimum.reduceat(self.split_t[: a[-1]], a[apart])
+        self.split_t = split
 
     # ------------------------------------------------------------------ maps
     def landmarks(self, particle: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,6 +19,8 @@ The other trajectory is kept in the diagnostics. Landmarks: the heaviest particl
 Diagnostics (arrays):
     neff, neff_t            N_eff after every update (before resampling) and its stamp
     resampled               whether that update resampled (bool)
+    common_ancestor_t       after every update, the time of the particles' most recent common ancestor
+                            (:attr:`FastSLAM.common_ancestor_t`): the map is one path's before it
     landmarks_min/mean/max  live landmarks per particle after every update
     best_poses | mean_poses the trajectory not chosen as the estimate's poses
     rejected_nonfinite, rejected_negative_range, rejected_gate, rejected_motion   counts (rejected_gate: labelled rows
@@ -99,7 +101,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
     table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
     history = _History(slam.x0)
     times, means, covs, steps = [], [], [], []
-    neff, neff_t, resampled, counts = [], [], [], []
+    neff, neff_t, resampled, counts, ancestor_t = [], [], [], [], []
     rejected_motion = 0
     t_now = t_sampled = sequence.t0
     timer = CLOCKS[p.step_clock]
@@ -175,6 +177,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
             neff.append(1.0 / np.sum(weights**2))
             neff_t.append(event.t)
             resampled.append(slam.last_ancestors is not None)
+            ancestor_t.append(slam.common_ancestor_t)
             live = slam.landmark_counts()
             counts.append((live.min(), live.mean(), live.max()))
             now = timer()
@@ -188,6 +191,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
     counts = np.asarray(counts, dtype=float).reshape(-1, 3)
     diagnostics = {
         "neff": np.asarray(neff), "neff_t": np.asarray(neff_t), "resampled": np.asarray(resampled, dtype=bool),
+        "common_ancestor_t": np.asarray(ancestor_t, dtype=float),
         "landmarks_min": counts[:, 0], "landmarks_mean": counts[:, 1], "landmarks_max": counts[:, 2],
         "rejected_nonfinite": np.array(slam.rejected["nonfinite"]), "rejected_negative_range": np.array(slam.rejected["negative_range"]),
         "rejected_gate": np.array(slam.rejected["gate"]),

@@ -202,6 +202,44 @@ def test_neff_and_systematic_resampling():
     assert np.all(f.log_w == 0) and f.resamplings == 1
 
 
+def _common_ancestor_by_walking_back(history, t0):
+    """The literal definition: follow every particle's lineage back through the resamplings (t, ancestors) until one
+    particle is left."""
+    alive = None
+    for t, a in reversed(history):
+        alive = np.unique(a if alive is None else a[alive])
+        if alive.size == 1:
+            return t
+    return t0
+
+
+@pytest.mark.parametrize("M", [1, 2, 7, 40])
+def test_the_common_ancestor_time_equals_the_walk_back_through_the_ancestry(M):
+    """The O(M) recurrence of the neighbours' split times (filter docstring, "Ancestry") against walking every lineage
+    back, through 60 resamplings of random weights from flat to one heavy particle; the ancestors are non-decreasing."""
+    f = FastSLAM(particles=M, seed=3)
+    rng = np.random.default_rng(M)
+    history, seen = [], set()
+    for k in range(60):
+        f._t = 10.0 + k
+        f.log_w = rng.normal(0.0, rng.choice([0.1, 1.0, 5.0]), M)
+        a = f.resample()
+        assert np.all(np.diff(a) >= 0)
+        history.append((f._t, a))
+        assert f.common_ancestor_t == _common_ancestor_by_walking_back(history, 0.0), k
+        seen.add(f.common_ancestor_t)
+    assert len(seen) > 5                                 # the lineages met many times, at different depths
+
+
+def test_the_run_reports_the_common_ancestor_time(small_world):
+    """Non-decreasing, never after the update's own stamp, and the start's time before the first coalescence."""
+    est = FastSLAM(particles=30, seed=0).run(small_world)
+    d = est.diagnostics
+    assert d["common_ancestor_t"].shape == d["neff_t"].shape
+    assert np.all(np.diff(d["common_ancestor_t"]) >= 0) and np.all(d["common_ancestor_t"] <= d["neff_t"])
+    assert d["common_ancestor_t"][0] == small_world.t0 and d["common_ancestor_t"][-1] > small_world.t0
+
+
 def test_resampling_happens_below_the_threshold_only(small_world):
     est = FastSLAM(particles=30, resample_threshold=0.5, seed=0).run(small_world)
     d = est.diagnostics
