@@ -6,8 +6,13 @@ A world (:data:`WORLDS`) is a set of wall polylines — line segments of zero th
 and a closed **route**, a polygon of waypoints the robot follows with its corners rounded
 by circular fillets of radius ``corner_radius``. ``"loop"``: a 4 m wide corridor around a
 central block (24 m × 16 m outside) with alcoves and pillars, so that corridors are not
-featureless. ``"rooms"``: an office floor (32 m × 22 m) — a ring corridor around a central
-block, with ten rooms off the corridor behind 1 m doors and some furniture in the rooms.
+featureless. ``"long_loop"``: the same kind at 56 m × 36 m outside (:func:`corridor_loop`: the
+outer walls the rectangle [0, 56] × [0, 36], a 48 m × 28 m block [4, 52] × [4, 32], the route the
+corridor's centre line, 165 m a lap, from (28, 2) heading +x; an alcove, pillar or block recess
+every 8 m on average), a loop long enough that scan matching drifts by metres before it closes
+(research/mapping.md §6 "A loop with something to close"). ``"rooms"``: an office floor
+(32 m × 22 m) — a ring corridor around a central block, with ten rooms off the corridor behind
+1 m doors and some furniture in the rooms.
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
 :func:`true_occupancy` rasterises them for map IoU.
 
@@ -166,7 +171,7 @@ def corridor_loop(width: float, height: float, name: str | None = None) -> World
 
 
 #: world name → World
-WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, _ROOMS)}
+WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS)}
 
 
 def _world(world: str | World) -> World:
@@ -309,7 +314,7 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
+    world: Literal["loop", "long_loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
     n_beams: int = Field(361, ge=1, description="beams per scan")
     fov: float = Field(1.5 * math.pi, gt=0, le=2 * math.pi, description="field of view of a scan, centred ahead [rad]")
     max_range: float = Field(12.0, gt=0, description="sensor range; the reading of a beam without return [m]")
