@@ -6,8 +6,13 @@ A world (:data:`WORLDS`) is a set of wall polylines — line segments of zero th
 and a closed **route**, a polygon of waypoints the robot follows with its corners rounded
 by circular fillets of radius ``corner_radius``. ``"loop"``: a 4 m wide corridor around a
 central block (24 m × 16 m outside) with alcoves and pillars, so that corridors are not
-featureless. ``"rooms"``: an office floor (32 m × 22 m) — a ring corridor around a central
-block, with ten rooms off the corridor behind 1 m doors and some furniture in the rooms.
+featureless. ``"long_loop"``: the same kind at 56 m × 36 m outside (:func:`corridor_loop`: the
+outer walls the rectangle [0, 56] × [0, 36], a 48 m × 28 m block [4, 52] × [4, 32], the route the
+corridor's centre line, 165 m a lap, from (28, 2) heading +x; an alcove, pillar or block recess
+every 8 m on average), a loop long enough that scan matching drifts by metres before it closes
+(research/mapping.md §6 "A loop with something to close"). ``"rooms"``: an office floor
+(32 m × 22 m) — a ring corridor around a central block, with ten rooms off the corridor behind
+1 m doors and some furniture in the rooms.
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
 :func:`true_occupancy` rasterises them for map IoU.
 
@@ -55,7 +60,7 @@ from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 
-__all__ = ["World", "WORLDS", "LaserWorldParams", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
+__all__ = ["World", "WORLDS", "LaserWorldParams", "corridor_loop", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
 
 #: sensor poses × beams × segments evaluated at once by :func:`raycast`
 _BLOCK_ELEMENTS = 1_000_000
@@ -122,8 +127,51 @@ _ROOMS = World(
     description="office floor: ring corridor around a 16 m × 6 m block, ten rooms behind 1 m doors, furniture",
 )
 
+#: the feature kinds of :func:`corridor_loop`, in the order they cycle, and the gaps between feature centres along a side [m]
+_FEATURES, _GAPS = ("alcove", "pillar", "recess"), (7.0, 9.0, 8.0)
+
+
+def corridor_loop(width: float, height: float, name: str | None = None) -> World:
+    """The loop world's kind at any size: a 4 m corridor around a block, features every 8 m on average.
+
+    Outer walls the rectangle ``[0, width] × [0, height]``, the block ``[4, width − 4] × [4, height − 4]``, the
+    route the corridor's centre line (2 m from the outer walls, corners rounded with radius 1.5 m) from
+    ``(width/2, 2)`` heading +x, counter-clockwise. Each side of length L, walked counter-clockwise from its corner,
+    has feature centres at u = 6 m and then after gaps cycling 7, 9, 8 m while u ≤ L − 6; the kinds cycle over the
+    whole loop: an alcove in the outer wall (2 m wide, 1.5 m deep), a pillar (0.5 m square, 0.4 m off the outer
+    wall), a recess in the block wall (1.5 m wide, 0.6 m deep).
+    """
+    if width < 16 or height < 16:
+        raise ValueError(f"corridor_loop needs width and height >= 16 m, got {width} × {height}")
+    sides = (((0.0, 0.0), (1.0, 0.0), width), ((width, 0.0), (0.0, 1.0), height),
+             ((width, height), (-1.0, 0.0), width), ((0.0, height), (0.0, -1.0), height))
+    outer, block, pillars, kind = [], [], [], 0
+    for (ox, oy), (tx, ty), length in sides:
+        at = lambda u, v: (ox + u * tx - v * ty, oy + u * ty + v * tx)  # side frame: u along, v inward
+        outer.append(at(0.0, 0.0))
+        block.append(at(4.0, 4.0))
+        u, gap = 6.0, 0
+        while u <= length - 6.0:
+            what = _FEATURES[kind % 3]
+            if what == "alcove":
+                outer += [at(u - 1.0, 0.0), at(u - 1.0, -1.5), at(u + 1.0, -1.5), at(u + 1.0, 0.0)]
+            elif what == "pillar":
+                pillars.append(tuple(at(a, b) for a, b in ((u - 0.25, 0.4), (u + 0.25, 0.4), (u + 0.25, 0.9), (u - 0.25, 0.9), (u - 0.25, 0.4))))
+            else:
+                block += [at(u - 0.75, 4.0), at(u - 0.75, 4.6), at(u + 0.75, 4.6), at(u + 0.75, 4.0)]
+            kind, u, gap = kind + 1, u + _GAPS[gap % 3], gap + 1
+    w2, h2 = width - 2.0, height - 2.0
+    return World(
+        name=name or f"corridor_loop({width:g}x{height:g})",
+        walls=(tuple(outer + outer[:1]), tuple(block + block[:1]), *pillars),
+        route=((0.5 * width, 2.0), (w2, 2.0), (w2, h2), (2.0, h2), (2.0, 2.0)),
+        corner_radius=1.5,
+        description=f"4 m corridor loop around a {width - 8:g} m × {height - 8:g} m block, an alcove, pillar or recess every 8 m",
+    )
+
+
 #: world name → World
-WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, _ROOMS)}
+WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS)}
 
 
 def _world(world: str | World) -> World:
@@ -266,7 +314,7 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
+    world: Literal["loop", "long_loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
     n_beams: int = Field(361, ge=1, description="beams per scan")
     fov: float = Field(1.5 * math.pi, gt=0, le=2 * math.pi, description="field of view of a scan, centred ahead [rad]")
     max_range: float = Field(12.0, gt=0, description="sensor range; the reading of a beam without return [m]")

@@ -9,7 +9,7 @@ from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import accumulate, between, compose, transform_points
-from slamarena.datasets.sim.laser import WORLDS, LaserWorldParams, World, raycast, route_controls, segments, simulate, true_occupancy
+from slamarena.datasets.sim.laser import WORLDS, LaserWorldParams, World, corridor_loop, raycast, route_controls, segments, simulate, true_occupancy
 from checks import assert_gaussian, assert_rejected_naming
 
 BOX = World(
@@ -99,6 +99,36 @@ def test_route_closes_every_lap_and_stays_clear_of_walls(world):
     np.testing.assert_allclose(gt[-1], gt[0], atol=1e-9)
     around = raycast(gt[::5, :2], gt[::5, 2:3] + np.linspace(-np.pi, np.pi, 72, endpoint=False), segments(world))
     assert around.min() > 0.5
+
+
+def test_long_loop_walls_are_where_the_docstring_says():
+    """``long_loop``: from the route's straights the beams square to the track see the block 2 m to the left (2.6 m
+    in a recess) and the outer wall 2 m to the right (3.5 m in an alcove, 1.1 m at a pillar): a 4 m corridor between
+    the rectangles [0, 56] × [0, 36] and [4, 52] × [4, 32]; 20 features on the 168 m rectangle (one per 8.4 m), in
+    the cycle alcove, pillar, recess."""
+    s = simulate(world="long_loop", n_beams=8)
+    gt = s.ground_truth.poses
+    np.testing.assert_allclose(gt[0], [28.0, 2.0, 0.0])
+    assert s.meta["route_length"] == pytest.approx(2 * (52 + 32) - 4 * (2 - math.pi / 2) * 1.5)
+    u = np.arange(5.1, 51.0, 0.5)  # off every feature edge (whole, quarter and three-quarter metres)
+    v = u[u < 31.0]
+    straight = np.vstack([np.column_stack([u, np.full_like(u, 2.0), np.zeros_like(u)]), np.column_stack([np.full_like(v, 54.0), v, np.full_like(v, np.pi / 2)]),
+                          np.column_stack([u, np.full_like(u, 34.0), np.full_like(u, np.pi)]), np.column_stack([np.full_like(v, 2.0), v, np.full_like(v, -np.pi / 2)])])
+    on_route = np.abs(gt[:, None, :2] - straight[None, :, :2]).sum(axis=2).min(axis=0)
+    assert on_route.max() < 0.02  # the route runs along these lines (poses every 2.5 cm)
+    left, right = raycast(straight[:, :2], straight[:, 2:3] + np.array([[np.pi / 2, -np.pi / 2]]), segments("long_loop")).T
+    assert set(np.round(left, 9)) == {2.0, 2.6} and set(np.round(right, 9)) == {1.1, 2.0, 3.5}
+    assert np.mean((np.round(left, 9) == 2.0) & (np.round(right, 9) == 2.0)) > 0.7
+    walls = segments("long_loop")
+    assert np.allclose(walls.reshape(-1, 2).min(axis=0), -1.5) and np.allclose(walls.reshape(-1, 2).max(axis=0), [57.5, 37.5])
+    world = WORLDS["long_loop"]
+    alcoves, recesses, pillars = (len(world.walls[0]) - 5) // 4, (len(world.walls[1]) - 5) // 4, len(world.walls) - 2
+    assert (alcoves, pillars, recesses) == (7, 7, 6)
+
+
+def test_a_corridor_loop_smaller_than_its_corridors_is_refused():
+    with pytest.raises(ValueError, match="16 m"):
+        corridor_loop(12.0, 30.0)
 
 
 def test_route_speed():
