@@ -101,13 +101,19 @@ def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
     raise ValueError(f"noise convention must be one of {NOISE_CONVENTIONS}, got {convention!r}")
 
 
+#: largest condition number of a noise matrix taken as positive definite: beyond it the matrix is singular to rounding
+#: (the staged files' matrices are within 625) and its inverse meaningless
+MAX_CONDITION = 1e12
+
+
 def _check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
     if matrices.shape[0] == 0:
         return
     eig = np.linalg.eigvalsh(matrices)
-    bad = np.flatnonzero(~(eig[:, 0] > 0))
+    bad = np.flatnonzero(~(eig[:, 0] > eig[:, -1] / MAX_CONDITION))
     if bad.size:
-        raise DataFormatError(path, int(lines[bad[0]]), f"a positive-definite {what} noise matrix", str(eig[bad[0]].tolist()))
+        raise DataFormatError(path, int(lines[bad[0]]), f"a positive-definite {what} noise matrix (condition number below {MAX_CONDITION:g})",
+                              f"eigenvalues {eig[bad[0]].tolist()}")
 
 
 def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np.ndarray]:

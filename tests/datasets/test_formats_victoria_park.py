@@ -110,6 +110,16 @@ def test_singular_noise_is_reported(tmp_path, variant, noise, fragment):
     assert err.value.line == 2 and fragment in str(err.value)
 
 
+def test_noise_singular_only_to_rounding_is_reported(tmp_path):
+    """R = [[1, 1, 1e3], [0, 0, 0], [0, 0, 1]] gives a rank-2 RᵀR whose smallest eigenvalue rounds to a tiny positive
+    number: the fuzz test's case, which reached numpy's inverse and raised LinAlgError."""
+    f = tmp_path / "vp.txt"
+    f.write_text("ODOMETRY 0 1 0 0 0 1 1 1e3 0 0 1\n")
+    with pytest.raises(DataFormatError) as err:
+        vp.read(f, "isam")
+    assert err.value.line == 1 and "positive-definite pose-constraint" in str(err.value)
+
+
 def test_catalogue_reader_options_as_a_params_model_or_keywords():
     path = str(staged("victoria_park/victoriaPark_isam.txt"))
     given = vp.load({"file": path}, "vp", params=vp.VictoriaParkSource(path=path, variant="isam", as_graph=True))
