@@ -39,7 +39,10 @@ def _start(tmp_path, text=SLOW):
     path = tmp_path / "slow.yaml"
     path.write_text(textwrap.dedent(text))
     out = tmp_path / "out"
-    proc = subprocess.Popen([*CLI, "run", str(path), "--out", str(out), "-j", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # SIGINT at its default in the child, as under a terminal: a shell starts background jobs with it ignored, and an
+    # ignored SIGINT is inherited through exec (Python then installs no KeyboardInterrupt handler)
+    proc = subprocess.Popen([*CLI, "run", str(path), "--out", str(out), "-j", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not _cell_processes(proc.pid):
         time.sleep(0.05)
