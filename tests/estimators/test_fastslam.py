@@ -221,11 +221,11 @@ def test_the_common_ancestor_time_equals_the_walk_back_through_the_ancestry(M):
     rng = np.random.default_rng(M)
     history, seen = [], set()
     for k in range(60):
-        f._t = 10.0 + k
+        f.update(np.zeros((0, 3)), t=10.0 + k)              # an empty set at time t: the clock of the next resampling
         f.log_w = rng.normal(0.0, rng.choice([0.1, 1.0, 5.0]), M)
         a = f.resample()
         assert np.all(np.diff(a) >= 0)
-        history.append((f._t, a))
+        history.append((10.0 + k, a))
         assert f.common_ancestor_t == _common_ancestor_by_walking_back(history, 0.0), k
         seen.add(f.common_ancestor_t)
     assert len(seen) > 5                                 # the lineages met many times, at different depths
