@@ -342,9 +342,8 @@ class FastSLAM:
         self.last_ancestors = ancestors
         return ancestors
 
-    def _trace_ancestry(self, ancestors: np.ndarray) -> None:
-        """s ← s' for non-decreasing ancestors (module docstring, "Ancestry"): O(M)."""
-        a = ancestors
+    def _trace_ancestry(self, a: np.ndarray) -> None:
+        """s ← s' for the non-decreasing ancestors a (M,) of a resampling (module docstring, "Ancestry"): O(M)."""
         split = np.full(a.size - 1, self._t)
         apart = np.flatnonzero(a[:-1] < a[1:])       # neighbours of different parents: the earliest split between them
         if apart.size:
