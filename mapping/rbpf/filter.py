@@ -87,6 +87,7 @@ class RBPFParams(PyramidParams):
     tol_rotation: NonNegativeFloat = Field(5e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
     max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
+    step_halvings: NonNegativeInt = Field(0, description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does; 0: every step is taken")
     tile: PositiveInt = Field(64, description="side of the copy-on-write map tiles [cells]")
     clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
     max_usable_range: PositiveFloat | None = Field(15.0, description="longer returns are neither matched nor mapped [m]; None: all returns")
@@ -160,7 +161,7 @@ class RBPF:
         self.maps = TiledPyramid(P, p.model_dump(include=set(CellModelParams.model_fields)), p.resolution, p.levels, p.tile,
                                  size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(start[:2]))
         gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
-                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=p.step_halvings)
 
         poses = np.tile(np.asarray(start, dtype=float), (P, 1))
         anchor, odom_anchor = poses.copy(), (odom[0] if fresh[0] else None)
@@ -269,7 +270,7 @@ class RBPF:
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
         gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
-                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation)
+                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=p.step_halvings)
         eps = rng.standard_normal((P, 3))
         from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
         modes, iterations = gauss_newton(self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn)

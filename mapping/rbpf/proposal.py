@@ -126,30 +126,51 @@ def _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th):
 
 
 @njit(cache=True)
-def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesses, info, inv_var, iterations, tol_t, tol_r, max_t, max_r):
+def _objective(H, g, ssr, info, inv_var, guess, x, y, th):
+    """−log τ up to a constant, the prior's residual e = ĝ − ξ (3,), and A, b of the Gauss-Newton step."""
+    e = np.empty(3)
+    e[0] = guess[0] - x
+    e[1] = guess[1] - y
+    e[2] = (guess[2] - th + np.pi) % (2.0 * np.pi) - np.pi
+    A = H * inv_var + info
+    b = np.empty(3)
+    f = 0.5 * ssr * inv_var
+    for r in range(3):
+        b[r] = g[r] * inv_var + info[r, 0] * e[0] + info[r, 1] * e[1] + info[r, 2] * e[2]
+        f += 0.5 * e[r] * (info[r, 0] * e[0] + info[r, 1] * e[1] + info[r, 2] * e[2])
+    return f, A, b
+
+
+@njit(cache=True)
+def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesses, info, inv_var, iterations, tol_t, tol_r, max_t, max_r, halvings):
     """Gauss-Newton on −log τ (module docstring) for every particle from ``poses`` (P, 3), in place; returns
-    the iterations taken (summed over the particles)."""
+    the iterations taken (summed over the particles). ``halvings`` > 0: a step that does not lower −log τ is
+    halved up to that many times, and the level stops where none does (0: every step is taken)."""
     total = 0
     for p in range(poses.shape[0]):
         table = tables[p]
         x = poses[p, 0]
         y = poses[p, 1]
         th = poses[p, 2]
+        H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
+        f, A, b = _objective(H, g, ssr, info, inv_var, guesses[p], x, y, th)
         for _ in range(iterations):
             total += 1
-            H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
-            e0 = guesses[p, 0] - x
-            e1 = guesses[p, 1] - y
-            e2 = guesses[p, 2] - th
-            e2 = (e2 + np.pi) % (2.0 * np.pi) - np.pi
-            A = H * inv_var + info
-            b = np.empty(3)
-            for r in range(3):
-                b[r] = g[r] * inv_var + info[r, 0] * e0 + info[r, 1] * e1 + info[r, 2] * e2
             d, ok = _solve3(A, b)
             if not ok:
                 break
-            x, y, th, converged = take_step(d, x, y, th, max_t, max_r, tol_t, tol_r)
+            accepted = False
+            for _h in range(halvings + 1):
+                nx, ny, nth, converged = take_step(d.copy(), x, y, th, max_t, max_r, tol_t, tol_r)
+                H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, nx, ny, nth)
+                nf, nA, nb = _objective(H, g, ssr, info, inv_var, guesses[p], nx, ny, nth)
+                if halvings == 0 or nf <= f:
+                    accepted = True
+                    break
+                d *= 0.5
+            if not accepted:
+                break
+            x, y, th, f, A, b = nx, ny, nth, nf, nA, nb
             if converged:
                 break
         poses[p, 0] = x
@@ -176,7 +197,7 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
 
 
 def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
-                 max_step_t: float, max_step_r: float, start=None, finest_only: bool = False) -> tuple[np.ndarray, int]:
+                 max_step_t: float, max_step_r: float, start=None, finest_only: bool = False, halvings: int = 0) -> tuple[np.ndarray, int]:
     """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
     (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
     iterations taken (summed over levels and particles)."""
@@ -187,7 +208,7 @@ def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iteration
     for grid in (maps.levels[:1] if finest_only else reversed(maps.levels)):
         iterations_taken += _gauss_newton_level(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution, pts,
                             poses, np.ascontiguousarray(guesses, dtype=np.float64), np.ascontiguousarray(info, dtype=np.float64),
-                            1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r)
+                            1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r, halvings)
     poses[:, 2] = wrap_angle(poses[:, 2])
     return poses, iterations_taken
 
