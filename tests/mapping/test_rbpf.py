@@ -419,3 +419,28 @@ def test_sim_loop_closed_implicitly_over_five_seeds():
     runs = [_sim_ate({**world, "seed": seed}) for seed in range(5)]
     rbpf, grid = np.median([r[0][0] for r in runs]), np.median([r[1] for r in runs])
     assert rbpf < grid, ([r[0][0] for r in runs], [r[1] for r in runs])
+
+
+@pytest.mark.parametrize("halvings", [0, 4])
+def test_step_halving_makes_the_proposals_gauss_newton_a_descent_that_converges(halvings):
+    """With ``step_halvings`` a step that does not lower −log τ is halved, so the mode search is a descent: restarted at
+    its own result it stays there (tolerances 10⁻⁶), and −log τ never rises. Without it the bilinear map's kinks make the
+    undamped step cycle by millimetres (research/mapping.md §6 "The mode proposal"), which the case 0 asserts."""
+    from slamarena.mapping.rbpf.proposal import gauss_newton, residuals
+
+    maps, pts, guess, motion_cov = _target_state()
+    p, info = RBPF.Params(), np.linalg.inv(motion_cov)
+    gn = dict(sigma=p.sigma_likelihood, iterations=100, tol_t=1e-6, tol_r=1e-6, max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=halvings)
+
+    def cost(x):
+        e = guess[0] - x
+        e[2] = (e[2] + np.pi) % (2 * np.pi) - np.pi
+        return 0.5 * residuals(maps, pts, x[None, None, :])[0][0, 0] / p.sigma_likelihood**2 + 0.5 * e @ info @ e
+
+    mode, _ = gauss_newton(maps, pts, guess, info, **gn)
+    again, _ = gauss_newton(maps, pts, guess, info, start=mode, finest_only=True, **gn)
+    moved = np.abs(again[0] - mode[0])
+    if halvings == 0:
+        assert moved.max() > 1e-3, moved  # the two-cycle the halving removes
+    else:
+        assert moved.max() < 1e-5 and cost(again[0]) <= cost(mode[0]) + 1e-9 and cost(mode[0]) < cost(guess[0].copy()), moved
