@@ -16,7 +16,9 @@ Target of particle i at a filter step (pose ξ ∈ ℝ³, scan end points s_n (N
     A = H / σ_z² + Λ                    Δξ = A⁻¹ (g / σ_z² + Λ (ĝ − ξ))                   (3, 3), (3,)
 
 (the matcher's step with the motion model as its prior), giving the mode ξ*_i and ``A_i`` at ξ*_i on the
-finest level.
+finest level. With ``halvings`` > 0 (``RBPFParams.step_halvings``) a step that does not lower −log τ is halved up to
+that many times and a level stops where none does (a descent; the undamped step settles into a millimetre two-cycle on
+the bilinear map's kinks: research/mapping.md §6).
 
 **K points.** With ``L_i L_iᵀ = A_i⁻¹`` (Laplace covariance) the K = 27 points ``ξ_ij = ξ*_i + L_i u_j`` on the
 tensor 3-point Gauss–Hermite rule (``u_j ∈ {−√3, 0, √3}³``, weights ``w_j = Π (1/6, 2/3, 1/6)``, exact for
@@ -127,7 +129,7 @@ def _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th):
 
 @njit(cache=True)
 def _objective(H, g, ssr, info, inv_var, guess, x, y, th):
-    """−log τ up to a constant, the prior's residual e = ĝ − ξ (3,), and A, b of the Gauss-Newton step."""
+    """−log τ at ξ = (x, y, th) up to a constant, and A (3, 3), b (3,) of the Gauss-Newton step there (module docstring)."""
     e = np.empty(3)
     e[0] = guess[0] - x
     e[1] = guess[1] - y
