@@ -154,25 +154,30 @@ def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesse
         x = poses[p, 0]
         y = poses[p, 1]
         th = poses[p, 2]
-        H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
-        f, A, b = _objective(H, g, ssr, info, inv_var, guesses[p], x, y, th)
+        fresh = False  # whether f, A, b are those of (x, y, th) already (a halving step evaluated them)
         for _ in range(iterations):
             total += 1
+            if not fresh:
+                H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
+                f, A, b = _objective(H, g, ssr, info, inv_var, guesses[p], x, y, th)
             d, ok = _solve3(A, b)
             if not ok:
                 break
-            accepted = False
-            for _h in range(halvings + 1):
-                nx, ny, nth, converged = take_step(d.copy(), x, y, th, max_t, max_r, tol_t, tol_r)
-                H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, nx, ny, nth)
-                nf, nA, nb = _objective(H, g, ssr, info, inv_var, guesses[p], nx, ny, nth)
-                if halvings == 0 or nf <= f:
-                    accepted = True
+            if halvings == 0:
+                x, y, th, converged = take_step(d, x, y, th, max_t, max_r, tol_t, tol_r)
+            else:
+                accepted = False
+                for _h in range(halvings + 1):
+                    nx, ny, nth, converged = take_step(d.copy(), x, y, th, max_t, max_r, tol_t, tol_r)
+                    H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, nx, ny, nth)
+                    nf, nA, nb = _objective(H, g, ssr, info, inv_var, guesses[p], nx, ny, nth)
+                    if nf <= f:
+                        accepted = True
+                        break
+                    d *= 0.5
+                if not accepted:
                     break
-                d *= 0.5
-            if not accepted:
-                break
-            x, y, th, f, A, b = nx, ny, nth, nf, nA, nb
+                x, y, th, f, A, b, fresh = nx, ny, nth, nf, nA, nb, True
             if converged:
                 break
         poses[p, 0] = x
