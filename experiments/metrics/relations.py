@@ -13,8 +13,10 @@ The error of one relation is ``ε_ij = δ*_ij⁻¹ δ_ij`` (``between(δ*, δ)``
 
 Relations whose stamps cannot be matched are dropped and counted. The relations come from
 ``slamarena.datasets.formats.relations`` (stamps of the original log, mapped to the
-Sequence's scan times through ``meta["scan_ipc_timestamp"]`` where present), or are given as arrays
-``(t_i, t_j, δ*)``.
+Sequence's scan times through ``meta["scan_ipc_timestamp"]`` where present), are given as arrays
+``(t_i, t_j, δ*)``, or are derived from a ground-truth trajectory's revisits (:func:`revisit_relations`): the
+relations of a loop's overlap, which are zero-error only for an estimate whose map is consistent where the path
+meets itself — a measure of loop closure that a globally small but unclosed drift does not pass.
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ from slamarena.datasets.geometry import between, interpolate_poses
 
 from .reference import MetricUnavailable
 
-__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "RELATION_OUTPUTS"]
+__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "revisit_relations", "RELATION_OUTPUTS"]
 
 
 class RelationsParams(BaseModel):
@@ -97,6 +99,27 @@ def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_r
         "used": int(ok.sum()), "dropped": int((~ok).sum()),
     }
     return out, {"t": t_i[ok], "trans_error": trans, "rot_error": rot}
+
+
+def revisit_relations(t: np.ndarray, poses: np.ndarray, radius: float = 0.25, min_travel: float = 20.0, stride: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Relations ``(t_i, t_j, δ*_ij)`` between the places a reference trajectory ``poses`` (N, 3) at ``t`` (N,) revisits.
+
+    For every ``stride``-th pose i, j is the later pose nearest to it in position among those at least ``min_travel``
+    metres of path after it; the pair is kept when ``||p_j.xy − p_i.xy|| ≤ radius``, and ``δ*_ij = p_i⁻¹ p_j``.
+    """
+    from scipy.spatial import cKDTree
+
+    t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float).reshape(-1, 3)
+    travel = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1))])
+    tree = cKDTree(poses[:, :2])
+    pairs = []
+    for i in range(0, len(poses), stride):
+        near = np.asarray(tree.query_ball_point(poses[i, :2], radius), dtype=int)
+        near = near[(near > i) & (travel[near] - travel[i] >= min_travel)]
+        if near.size:
+            pairs.append((i, near[np.argmin(np.linalg.norm(poses[near, :2] - poses[i, :2], axis=1))]))
+    i, j = np.array(pairs, dtype=int).reshape(-1, 2).T
+    return t[i], t[j], between(poses[i], poses[j])
 
 
 def _to_sequence_time(data, stamps: np.ndarray, tolerance: float) -> np.ndarray:

@@ -270,6 +270,27 @@ def test_relation_error_known_answer():
     assert split["local"] == 6 and split["local_trans_mean"] < 1e-12 and split["global_trans_mean"] == pytest.approx(0.1)
 
 
+def test_revisit_relations_score_a_loops_overlap():
+    """Two laps of a circle of radius 10 m, 100 poses a lap: every 5th pose of lap 1 is paired with the same place on
+    lap 2 (pose i + 100, 62.8 m of path on). An estimate equal to the truth
+    scores 0; one whose second lap is displaced by 0.3 m scores 0.3 m on every pair: a drift that does not close."""
+    from slamarena.experiments.metrics.relations import revisit_relations
+
+    a = np.linspace(0.0, 4 * np.pi, 200, endpoint=False)
+    truth = np.column_stack([10 * np.sin(a), 10 - 10 * np.cos(a), a])
+    t = np.arange(200) * 0.5
+    t_i, t_j, delta = revisit_relations(t, truth, radius=0.25, min_travel=20.0, stride=5)
+    np.testing.assert_array_equal(t_i, t[0:100:5])
+    np.testing.assert_array_equal(t_j, t[100:200:5])
+    np.testing.assert_allclose(delta, 0.0, atol=1e-9)  # the same pose one lap later
+    assert relation_error(Estimate("x", t, truth), t_i, t_j, delta)[0]["trans_mean"] < 1e-9
+    shifted = truth.copy()
+    shifted[100:, 0] += 0.3
+    res = relation_error(Estimate("x", t, shifted), t_i, t_j, delta)[0]
+    assert res["trans_mean"] == pytest.approx(0.3) and res["rot_mean"] < 1e-9 and res["used"] == 20
+    assert revisit_relations(t, truth, radius=0.25, min_travel=100.0)[0].size == 0  # no revisit is 100 m of path on
+
+
 def test_cost_and_evaluate_records_skipped_metrics():
     t, gt = _truth(K=50)
     e = Estimate("x", t, gt, step_time=np.r_[np.full(49, 0.001), 0.1])
