@@ -87,7 +87,7 @@ class RBPFParams(PyramidParams):
     tol_rotation: NonNegativeFloat = Field(5e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
     max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
-    step_halvings: NonNegativeInt = Field(0, description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does; 0: every step is taken")
+    step_halvings: NonNegativeInt = Field(4, description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does (a descent: research/mapping.md §6, rounds 4–6); 0: every step is taken")
     tile: PositiveInt = Field(64, description="side of the copy-on-write map tiles [cells]")
     clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
     max_usable_range: PositiveFloat | None = Field(15.0, description="longer returns are neither matched nor mapped [m]; None: all returns")
