@@ -207,7 +207,7 @@ def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iteration
                  max_step_t: float, max_step_r: float, start=None, finest_only: bool = False, halvings: int = 0) -> tuple[np.ndarray, int]:
     """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
     (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
-    iterations taken (summed over levels and particles)."""
+    iterations taken (summed over levels and particles); ``halvings`` as ``RBPFParams.step_halvings``."""
     poses = np.array(guesses if start is None else start, dtype=np.float64)
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     fine = maps.finest.resolution
