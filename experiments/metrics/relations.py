@@ -111,10 +111,10 @@ def revisit_relations(t: np.ndarray, poses: np.ndarray, radius: float = 0.25, mi
 
     t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float).reshape(-1, 3)
     travel = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1))])
-    tree = cKDTree(poses[:, :2])
+    starts = np.arange(0, len(poses), stride)
     pairs = []
-    for i in range(0, len(poses), stride):
-        near = np.asarray(tree.query_ball_point(poses[i, :2], radius), dtype=int)
+    for i, near in zip(starts, cKDTree(poses[:, :2]).query_ball_point(poses[starts, :2], radius)):
+        near = np.asarray(near, dtype=int)
         near = near[(near > i) & (travel[near] - travel[i] >= min_travel)]
         if near.size:
             pairs.append((i, near[np.argmin(np.linalg.norm(poses[near, :2] - poses[i, :2], axis=1))]))
