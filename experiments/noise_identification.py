@@ -22,11 +22,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slamarena.estimators.ekf_slam import EKFSLAM
-from slamarena.estimators.ekf_slam.association import compatibility
+from slamarena.estimators.ekf_slam.association import compatibility, log_density
 
 __all__ = ["InnovationScore", "Identification", "innovation_score", "identify"]
-
-_LOG_2PI = float(np.log(2.0 * np.pi))
 
 
 @dataclass(frozen=True)
@@ -44,7 +42,7 @@ class _Scoring(EKFSLAM):
 
     def reset(self, sequence=None) -> None:
         super().reset(sequence)
-        self.scored: list[tuple[float, float]] = []   # (d², log det S) per labelled re-observation
+        self.scored: list[tuple[float, float]] = []   # (d², log N(ν; 0, S)) per labelled re-observation
 
     def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
         rows = np.asarray(z, dtype=float).reshape(-1, 3)
@@ -55,7 +53,7 @@ class _Scoring(EKFSLAM):
             slot = np.array([where[int(i)] for i in mapped[:, 2]])
             _, S, d2 = compatibility(self.x, self.P, self.observation_cov(mapped), mapped[:, :2])
             pick = np.arange(len(mapped))
-            self.scored.extend(zip(d2[pick, slot].tolist(), np.log(np.linalg.det(S[pick, slot])).tolist()))
+            self.scored.extend(zip(d2[pick, slot].tolist(), log_density(S[pick, slot], d2[pick, slot]).tolist()))
         super().update(z, t, decide)
 
 
@@ -65,8 +63,8 @@ def innovation_score(sequence, params: dict) -> InnovationScore:
     ekf.run(sequence)
     if not ekf.scored:
         raise ValueError("no labelled re-observation to score: the sequence needs landmark ids seen more than once")
-    d2, logdet = np.array(ekf.scored).T
-    return InnovationScore(float(np.mean(-0.5 * (d2 + logdet + 2.0 * _LOG_2PI))), float(d2.mean() / 2.0),
+    d2, loglik = np.array(ekf.scored).T
+    return InnovationScore(float(loglik.mean()), float(d2.mean() / 2.0),
                            float(np.mean(d2 > 5.991464547107979)), int(d2.size))
 
 

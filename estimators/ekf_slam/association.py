@@ -74,7 +74,7 @@ from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
 __all__ = ["Decision", "chi2_gate", "Association", "LandmarkBook", "compatibility", "pair_d2", "nearest_neighbour", "jcbb",
-           "log_densities", "hypotheses"]
+           "log_density", "log_densities", "hypotheses"]
 
 
 class Decision(IntEnum):
@@ -177,11 +177,16 @@ def _pair_d2(x, P, slots, z, R):
     return d2, True
 
 
+def log_density(S: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """log N(ν; 0, S) = −½ d² − ½ log |S| − log 2π of 2-D innovations ν with covariances S (..., 2, 2) and
+    squared Mahalanobis distances d² = νᵀS⁻¹ν (...)."""
+    return -0.5 * d2 - 0.5 * np.log(S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]) - np.log(2 * np.pi)
+
+
 def log_densities(S: np.ndarray, d2: np.ndarray, R: np.ndarray, gate_new: float) -> tuple[np.ndarray, np.ndarray]:
     """log λ (M, n) of each pair (innovation covariances S (M, n, 2, 2), d² (M, n)) and log λ_0 (M,) of "not in the map"
     for rows with noise R (M, 2, 2) (module docstring)."""
-    log_det = lambda A: np.log(A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0])
-    return -0.5 * d2 - 0.5 * log_det(S) - np.log(2 * np.pi), -0.5 * gate_new - 0.5 * log_det(R) - np.log(2 * np.pi)
+    return log_density(S, d2), log_density(R, gate_new)
 
 
 def hypotheses(log_lam: np.ndarray, log_new: np.ndarray, d2: np.ndarray, gate_match: float, confidence: float,
