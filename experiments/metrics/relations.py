@@ -29,9 +29,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, interpolate_poses
 
-from .reference import MetricUnavailable
+from .reference import MetricUnavailable, Reference, associate
 
-__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "revisit_relations", "RELATION_OUTPUTS"]
+__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "revisit_relations", "LoopParams", "loop_relation_error",
+           "RELATION_OUTPUTS", "LOOP_OUTPUTS"]
 
 
 class RelationsParams(BaseModel):
@@ -120,6 +121,36 @@ def revisit_relations(t: np.ndarray, poses: np.ndarray, radius: float = 0.25, mi
             pairs.append((i, near[np.argmin(np.linalg.norm(poses[near, :2] - poses[i, :2], axis=1))]))
     i, j = np.array(pairs, dtype=int).reshape(-1, 2).T
     return t[i], t[j], between(poses[i], poses[j])
+
+
+class LoopParams(BaseModel):
+    """The loop metric: :func:`revisit_relations` of the ground truth at the estimate's times, scored by :func:`relation_error`."""
+
+    model_config = ConfigDict(extra="forbid")
+    radius: float = Field(0.25, gt=0, description="a revisit pairs two poses at most this far apart [m]")
+    min_travel: float = Field(20.0, gt=0, description="…and at least this much path apart [m]")
+    stride: int = Field(5, ge=1, description="every stride-th estimate pose starts a pair")
+    max_gap: float = Field(0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it")
+
+
+LOOP_OUTPUTS = {
+    "trans_mean": ("lower", "mean translational error of the loop relations (revisits of the ground truth) [m]"),
+    "trans_std": (None, "std of the translational error of the loop relations [m]"),
+    "rot_mean": ("lower", "mean rotational error of the loop relations [rad]"),
+    "used": (None, "loop relations"),
+}
+
+
+def loop_relation_error(estimate: Estimate, ref: Reference, params: LoopParams = LoopParams()) -> tuple[dict, dict]:
+    """Relation error on the places the ground truth revisits: small only where the estimate's map is consistent where
+    its path meets itself (a closed loop), whatever the drift in between."""
+    assoc = associate(ref, estimate.t, params.max_gap)
+    t = estimate.t[assoc.index]
+    t_i, t_j, delta = revisit_relations(t, assoc.gt, params.radius, params.min_travel, params.stride)
+    if t_i.size == 0:
+        raise MetricUnavailable(f"the ground truth revisits no place (within {params.radius} m after {params.min_travel} m of path)")
+    scores, series = relation_error(Estimate(estimate.method, t, estimate.poses[assoc.index]), t_i, t_j, delta, RelationsParams(tolerance=0.0))
+    return {k: scores[k] for k in LOOP_OUTPUTS}, series
 
 
 def _to_sequence_time(data, stamps: np.ndarray, tolerance: float) -> np.ndarray:

@@ -291,6 +291,24 @@ def test_revisit_relations_score_a_loops_overlap():
     assert revisit_relations(t, truth, radius=0.25, min_travel=100.0)[0].size == 0  # no revisit is 100 m of path on
 
 
+def test_loop_metric_scores_the_revisits_of_the_ground_truth():
+    """The ``loop`` metric on the two-lap circle: 0 for the truth, the second lap's 0.3 m displacement for an estimate
+    that does not close, and unavailable (with the reason) on a path that never revisits a place."""
+    a = np.linspace(0.0, 4 * np.pi, 200, endpoint=False)
+    truth = np.column_stack([10 * np.sin(a), 10 - 10 * np.cos(a), a])
+    t = np.arange(200) * 0.5
+    seq = Sequence("circle", ground_truth=Trajectory(t=t, poses=truth))
+    shifted = truth.copy()
+    shifted[100:, 0] += 0.3
+    loop = lambda poses: evaluate(CellData(Estimate("x", t, poses), seq, reference_of(seq)), {"loop": METRICS["loop"].params()})
+    assert loop(truth)[0]["loop"]["trans_mean"] < 1e-9
+    scores = loop(shifted)[0]["loop"]
+    assert scores["trans_mean"] == pytest.approx(0.3) and scores["used"] == 20
+    one_lap = Sequence("arc", ground_truth=Trajectory(t=t[:100], poses=truth[:100]))
+    skipped = evaluate(CellData(Estimate("x", t[:100], truth[:100]), one_lap, reference_of(one_lap)), {"loop": METRICS["loop"].params()})[2]
+    assert "revisits no place" in skipped["loop"]
+
+
 def test_cost_and_evaluate_records_skipped_metrics():
     t, gt = _truth(K=50)
     e = Estimate("x", t, gt, step_time=np.r_[np.full(49, 0.001), 0.1])
