@@ -1,6 +1,7 @@
 """The claims research/results.md, research/graph_slam.md §8 and research/mapping.md §6 (loop_closure) make in prose,
-asserted on the shipped configs that regenerate their tables, run at reduced size (slow; `pytest -m slow`). The Monte Carlo consistency claims:
-tests/estimators/test_ekf_slam_consistency.py; the pose graphs: tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
+asserted on the shipped configs that regenerate their tables, run at reduced size (slow; `pytest -m slow`). The Monte
+Carlo consistency claims: tests/estimators/test_ekf_slam_consistency.py; the pose graphs:
+tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
 from __future__ import annotations
 
 import pandas as pd
