@@ -389,18 +389,17 @@ LONG_LOOP = {"world": "long_loop", "max_range": 4.0, "n_beams": 91, "sigma_range
 def _closure(seed: int) -> tuple[tuple[float, float], tuple[float, float]]:
     """(loop-relation error, ATE) of the best of 30 particles (filter seed 0, defaults) and of GridSLAM on the
     ``long_loop`` drive of world seed ``seed``. The loop relations pair each place of the first lap with the same
-    place on the second, from the ground truth (``revisit_relations``): their error is small only where the map is
-    consistent where the path meets itself, i.e. where the loop is closed."""
+    place on the second, from the ground truth: their error is small only where the map is
+    consistent where the path meets itself, i.e. where the loop is closed (the ``loop`` metric)."""
     from slamarena.datasets.sim.laser import simulate
     from slamarena.experiments.metrics.reference import reference_of
-    from slamarena.experiments.metrics.relations import relation_error, revisit_relations
+    from slamarena.experiments.metrics.relations import loop_relation_error
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
     from slamarena.mapping.grid_slam import GridSLAM
 
     seq = simulate(**LONG_LOOP, seed=seed)
-    truth = seq.ground_truth.poses[np.searchsorted(seq.ground_truth.t, seq.scans.t)]
-    loop = revisit_relations(seq.scans.t, truth)
-    score = lambda e: (relation_error(e, *loop)[0]["trans_mean"], ate(e, reference_of(seq), ATEParams())[0]["rmse"])
+    ref = reference_of(seq)
+    score = lambda e: (loop_relation_error(e, ref)[0]["trans_mean"], ate(e, ref, ATEParams())[0]["rmse"])
     return score(RBPF(particles=30, seed=0).run(seq)), score(GridSLAM().run(seq))
 
 
