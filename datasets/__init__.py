@@ -5,9 +5,10 @@ through :mod:`slamarena.params`) besides the standard library; on gtsam, when in
 the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), and on pooch only to download
 (:mod:`slamarena.datasets.fetch`).
 """
+
 from .dataroot import data_roots, set_data_root
-from .estimate import Estimate
 from .errors import DataFormatError, DatasetNameError, DatasetNotFoundError, DataWarning
+from .estimate import Estimate
 from .posegraph import PoseGraph
 from .registry import available, load
 from .sequence import (
@@ -26,8 +27,26 @@ from .sequence import (
 )
 
 __all__ = [
-    "load", "available", "set_data_root", "data_roots",
-    "DataFormatError", "DatasetNameError", "DatasetNotFoundError", "DataWarning",
-    "Sequence", "PoseGraph", "Event", "Estimate",
-    "Twist", "Increments", "RangeBearing", "BeaconRanges", "Gps", "Heading", "Scans", "Trajectory", "LandmarkMap", "Noise",
+    "load",
+    "available",
+    "set_data_root",
+    "data_roots",
+    "DataFormatError",
+    "DatasetNameError",
+    "DatasetNotFoundError",
+    "DataWarning",
+    "Sequence",
+    "PoseGraph",
+    "Event",
+    "Estimate",
+    "Twist",
+    "Increments",
+    "RangeBearing",
+    "BeaconRanges",
+    "Gps",
+    "Heading",
+    "Scans",
+    "Trajectory",
+    "LandmarkMap",
+    "Noise",
 ]

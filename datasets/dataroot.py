@@ -24,6 +24,7 @@ directory as the first root (an absolute path is the same file under every root)
 
 Files are never copied into the repository.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,20 +34,46 @@ from pathlib import Path
 from .errors import DatasetNotFoundError
 from .source import Layout
 
-__all__ = ["set_data_root", "data_roots", "locate", "cache_dir", "gtsam_example", "GTSAM_WHEEL", "Directory", "GtsamWheel",
-           "roots", "one_root"]
+__all__ = [
+    "set_data_root",
+    "data_roots",
+    "locate",
+    "cache_dir",
+    "gtsam_example",
+    "GTSAM_WHEEL",
+    "Directory",
+    "GtsamWheel",
+    "roots",
+    "one_root",
+]
 
 _explicit: list[Path] = []
 
 #: relative path of a staged file → the name of its copy in the GTSAM wheel's example data (same content,
 #: checked by tests/datasets/test_dataroot.py against the staged files)
 GTSAM_WHEEL: dict[str, str] = {
-    **{f"gtsam_examples_data/{name}": name for name in (
-        "noisyToyGraph.txt", "optimizedNoisyToyGraph.txt", "orientationsNoisyToyGraph.txt", "pose2example.txt",
-        "toyExample.g2o", "Klaus3.g2o", "pose3example.txt", "pose3example-grid.txt", "simpleGraph10gradIter.txt",
-        "w100.graph", "example.graph")},
+    **{
+        f"gtsam_examples_data/{name}": name
+        for name in (
+            "noisyToyGraph.txt",
+            "optimizedNoisyToyGraph.txt",
+            "orientationsNoisyToyGraph.txt",
+            "pose2example.txt",
+            "toyExample.g2o",
+            "Klaus3.g2o",
+            "pose3example.txt",
+            "pose3example-grid.txt",
+            "simpleGraph10gradIter.txt",
+            "w100.graph",
+            "example.graph",
+        )
+    },
     "gtsam_examples_data/w20000.txt.gz": "w20000.txt",
-    **{f"plaza_range_only/{run}{part}": f"{run}{part}" for run in ("Plaza1", "Plaza2") for part in ("_DR.txt", "_TD.txt", "_.mat")},
+    **{
+        f"plaza_range_only/{run}{part}": f"{run}{part}"
+        for run in ("Plaza1", "Plaza2")
+        for part in ("_DR.txt", "_TD.txt", "_.mat")
+    },
     "victoria_park/victoria_park_gtsam.txt": "victoria_park.txt",
 }
 
@@ -71,7 +98,11 @@ def data_roots(existing_only: bool = True) -> list[Path]:
         candidates += [Path(p).expanduser() for p in env.split(os.pathsep) if p]
     if os.environ.get("SLAMARENA_SEARCH_SHARED", "1") != "0":
         checkout = Path(__file__).resolve().parent.parent
-        candidates += [checkout.parent / "shared" / "datasets", Path.cwd() / "shared" / "datasets", Path.cwd().parent / "shared" / "datasets"]
+        candidates += [
+            checkout.parent / "shared" / "datasets",
+            Path.cwd() / "shared" / "datasets",
+            Path.cwd().parent / "shared" / "datasets",
+        ]
     candidates.append(cache_dir())
     seen: list[Path] = []
     for c in candidates:
@@ -143,7 +174,10 @@ def one_root(layout: Layout, places: list, dataset: str, advice: str) -> dict[st
     (an optional file only from that place); :class:`DatasetNotFoundError` naming what each place lacks otherwise."""
     lacking = []
     for place in places:
-        found = {role: next((p for p in map(place.file, candidates) if p is not None), None) for role, candidates in layout.files.items()}
+        found = {
+            role: next((p for p in map(place.file, candidates) if p is not None), None)
+            for role, candidates in layout.files.items()
+        }
         missing = [role for role in layout.required() if found[role] is None]
         if not missing:
             return {role: path for role, path in found.items() if path is not None}

@@ -1,4 +1,5 @@
 """The errors of the data layer (all are :class:`~slamarena.errors.UserError`: the CLI prints their message alone) and its warning."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -15,6 +15,7 @@ side) and the experiment runner share one type.
                     decisions, rejected-measurement counts — method specific, documented by it
     meta            JSON-serialisable dict (parameters, counts, notes)
 """
+
 from __future__ import annotations
 
 import json
@@ -46,7 +47,9 @@ class Estimate:
             raise ValueError(f"Estimate: {self.poses.shape[0]} poses but {self.t.shape[0]} times")
         if self.t.size > 1 and not np.all(np.diff(self.t) > 0):
             k = int(np.flatnonzero(np.diff(self.t) <= 0)[0])
-            raise ValueError(f"Estimate ({self.method}): times must increase strictly — one pose per stamp — but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}")
+            raise ValueError(
+                f"Estimate ({self.method}): times must increase strictly — one pose per stamp — but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}"
+            )
         if self.pose_cov is not None:
             self.pose_cov = np.asarray(self.pose_cov, dtype=float).reshape(-1, 3, 3)
         if self.landmarks is not None:
@@ -68,11 +71,13 @@ class Estimate:
         tmp.replace(path)
 
     @classmethod
-    def load(cls, path: str | Path) -> "Estimate":
+    def load(cls, path: str | Path) -> Estimate:
         with np.load(path, allow_pickle=False) as data:
             kwargs = {k: data[k] for k in cls._ARRAYS if k in data.files}
             diagnostics = {k[5:]: data[k] for k in data.files if k.startswith("diag/")}
-            return cls(method=str(data["method"]), diagnostics=diagnostics, meta=json.loads(str(data["meta"])), **kwargs)
+            return cls(
+                method=str(data["method"]), diagnostics=diagnostics, meta=json.loads(str(data["meta"])), **kwargs
+            )
 
 
 def _jsonable(value):

@@ -12,6 +12,7 @@ single poses ``(3,)`` or stacks ``(K, 3)`` and broadcasts like numpy.
 
 Angles are wrapped to (−π, π] by :func:`wrap_angle`.
 """
+
 from __future__ import annotations
 
 import numpy as np

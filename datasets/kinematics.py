@@ -9,6 +9,7 @@ module for the motion itself, so simulators and estimators share one implementat
 
 A pose moves as ``x' = x ⊕ δ``.
 """
+
 from __future__ import annotations
 
 from typing import Literal, get_args

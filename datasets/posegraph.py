@@ -14,6 +14,7 @@
 Ground truth, where a dataset has it: ``true_poses`` (N, 3) aligned with ``node_ids`` and
 ``true_landmarks`` (a :class:`~slamarena.datasets.sequence.LandmarkMap`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -55,7 +56,9 @@ class PoseGraph:
         object.__setattr__(self, "edge_i", ints(self.edge_i))
         object.__setattr__(self, "edge_j", ints(self.edge_j))
         object.__setattr__(self, "edge_z", np.ascontiguousarray(self.edge_z, dtype=float).reshape(-1, p))
-        object.__setattr__(self, "edge_information", np.ascontiguousarray(self.edge_information, dtype=float).reshape(-1, r, r))
+        object.__setattr__(
+            self, "edge_information", np.ascontiguousarray(self.edge_information, dtype=float).reshape(-1, r, r)
+        )
         e = self.edge_i.shape[0]
         for key in ("edge_j", "edge_z", "edge_information"):
             if getattr(self, key).shape[0] != e:
@@ -75,7 +78,11 @@ class PoseGraph:
             object.__setattr__(self, "landmark_pose", ints(self.landmark_pose))
             object.__setattr__(self, "landmark_id", ints(self.landmark_id))
             object.__setattr__(self, "landmark_z", np.ascontiguousarray(self.landmark_z, dtype=float).reshape(-1, 2))
-            object.__setattr__(self, "landmark_information", np.ascontiguousarray(self.landmark_information, dtype=float).reshape(-1, 2, 2))
+            object.__setattr__(
+                self,
+                "landmark_information",
+                np.ascontiguousarray(self.landmark_information, dtype=float).reshape(-1, 2, 2),
+            )
             n = self.landmark_pose.shape[0]
             for key in ("landmark_id", "landmark_z", "landmark_information"):
                 if getattr(self, key).shape[0] != n:
@@ -133,5 +140,7 @@ class PoseGraph:
             "landmarks": 0 if self.landmark_id is None else int(np.unique(self.landmark_id).size),
             "ground_truth": self.true_poses is not None,
         }
-        out["meta"] = {k: v for k, v in self.meta.items() if isinstance(v, (str, int, float, bool, list, dict, type(None)))}
+        out["meta"] = {
+            k: v for k, v in self.meta.items() if isinstance(v, (str, int, float, bool, list, dict, type(None)))
+        }
         return out

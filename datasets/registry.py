@@ -25,11 +25,13 @@ catalogued name, or given twice, is a :class:`~slamarena.datasets.errors.Dataset
 :class:`~slamarena.datasets.posegraph.PoseGraph`. Loaders are imported on first use so that the CLI
 starts fast.
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 from slamarena.errors import UnknownNameError
 from slamarena.targets import import_target
@@ -94,9 +96,16 @@ def _catalogued(entry: CatalogueEntry, params: dict) -> Dataset:
         preset = family_format.params(entry.arguments)
         raise DatasetNameError(
             f"dataset {entry.name!r} is catalogued, which fixes its files ({', '.join(f'{k}={getattr(preset, k)!r}' for k in model.location)}): "
-            f"{', '.join(fixed)} cannot be given. {_elsewhere(entry.family)}")
-    return Dataset(entry.name, import_target(entry.reader), family_format.params({**entry.arguments, **params}), entry.layout(), (),
-                   f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {entry.name}")
+            f"{', '.join(fixed)} cannot be given. {_elsewhere(entry.family)}"
+        )
+    return Dataset(
+        entry.name,
+        import_target(entry.reader),
+        family_format.params({**entry.arguments, **params}),
+        entry.layout(),
+        (),
+        f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {entry.name}",
+    )
 
 
 def _elsewhere(family: str) -> str:
@@ -105,9 +114,11 @@ def _elsewhere(family: str) -> str:
     model = family_format.model()
     fields = ", ".join(f"{k}: …" for k in model.location if model.model_fields[k].is_required())
     catalogued = sorted(n for n, e in CATALOGUE.items() if e.family == family)
-    return (f"Any {family} recording: {family}:{model.form} (e.g. {family_format.example}), or in a config {{name: {family}, params: {{{fields}}}}}, "
-            f"where <path> is {model.model_fields['path'].description}; a relative path is looked for in the working directory, "
-            f"then under the data roots." + (f" Catalogued: {', '.join(catalogued)}." if catalogued else ""))
+    return (
+        f"Any {family} recording: {family}:{model.form} (e.g. {family_format.example}), or in a config {{name: {family}, params: {{{fields}}}}}, "
+        f"where <path> is {model.model_fields['path'].description}; a relative path is looked for in the working directory, "
+        f"then under the data roots." + (f" Catalogued: {', '.join(catalogued)}." if catalogued else "")
+    )
 
 
 def _at_path(name: str, family: str, text: str | None, params: dict) -> Dataset:
@@ -120,14 +131,26 @@ def _at_path(name: str, family: str, text: str | None, params: dict) -> Dataset:
             raise DatasetNameError(f"dataset {name!r}: {exc}. {_elsewhere(family)}") from None
     twice = sorted(set(params) & (set(location) | set(family_format.fixed)))
     if twice:
-        raise DatasetNameError(f"dataset {name!r} already sets {', '.join(twice)}; give it once (in the name or in params)")
+        raise DatasetNameError(
+            f"dataset {name!r} already sets {', '.join(twice)}; give it once (in the name or in params)"
+        )
     p = family_format.params({**location, **params})
     fields = set(p.location)
-    same = [n for n, e in CATALOGUE.items() if e.family == family
-            and family_format.params(e.arguments).model_dump(include=fields) == p.model_dump(include=fields)]
+    same = [
+        n
+        for n, e in CATALOGUE.items()
+        if e.family == family
+        and family_format.params(e.arguments).model_dump(include=fields) == p.model_dump(include=fields)
+    ]
     fetch = f" These are the files of the catalogued {same[0]}: slamarena data fetch {same[0]}" if same else ""
-    return Dataset(name if text is not None else f"{family}:{p.spelled()}", import_target(family_format.reader), p, p.layout(),
-                   (Path.cwd(),), _elsewhere(family) + fetch)
+    return Dataset(
+        name if text is not None else f"{family}:{p.spelled()}",
+        import_target(family_format.reader),
+        p,
+        p.layout(),
+        (Path.cwd(),),
+        _elsewhere(family) + fetch,
+    )
 
 
 def resolve(name: str, params: Mapping[str, Any] | None = None) -> Dataset:
@@ -143,7 +166,8 @@ def resolve(name: str, params: Mapping[str, Any] | None = None) -> Dataset:
         return _at_path(name, family, text or None, params)
     raise UnknownNameError(
         f"unknown dataset {name!r}; known: {', '.join(sorted(CATALOGUE) + sorted(SIMULATORS))}; "
-        f"or a recording at a path: <family>:<path> with a family of {', '.join(FORMATS)} (e.g. {FORMATS['utias'].example})")
+        f"or a recording at a path: <family>:<path> with a family of {', '.join(FORMATS)} (e.g. {FORMATS['utias'].example})"
+    )
 
 
 def load(name: str, **params):
@@ -157,5 +181,7 @@ def available() -> list[DatasetInfo]:
     """Every registered dataset with its kind, ground truth and whether its files are present."""
     out = [DatasetInfo(n, "simulation", "yes (simulated)", True, (), "") for n in SIMULATORS]
     for name, entry in CATALOGUE.items():
-        out.append(DatasetInfo(name, entry.kind, entry.ground_truth, resolve(name).present(), entry.files, entry.citation))
+        out.append(
+            DatasetInfo(name, entry.kind, entry.ground_truth, resolve(name).present(), entry.files, entry.citation)
+        )
     return out

@@ -22,10 +22,12 @@ Streams
 ``LandmarkMap``   landmark ids and positions, optional std-devs (ground truth).
 ``Noise``         the dataset's stated noise, each field optional.
 """
+
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
-from typing import Iterator, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -99,7 +101,12 @@ class _Stream:
         kwargs = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            per_row = isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == len(self) and f.metadata.get("per_row", True)
+            per_row = (
+                isinstance(value, np.ndarray)
+                and value.ndim >= 1
+                and value.shape[0] == len(self)
+                and f.metadata.get("per_row", True)
+            )
             kwargs[f.name] = value[index] if per_row else value
         return type(self)(**kwargs)
 
@@ -126,7 +133,7 @@ class Twist(_Stream):
             raise ValueError("Twist.dt must be > 0")
 
     @classmethod
-    def from_stamps(cls, t, v, omega, last_dt: float | None = None) -> "Twist":
+    def from_stamps(cls, t, v, omega, last_dt: float | None = None) -> Twist:
         """Each command holds until the next stamp; the last one for ``last_dt`` (default: median)."""
         t = _f64(t)
         gaps = np.diff(t)
@@ -290,7 +297,9 @@ class Scans(_Stream):
     def __post_init__(self):
         object.__setattr__(self, "t", _f64(self.t))
         ranges = np.asarray(self.ranges)
-        object.__setattr__(self, "ranges", np.ascontiguousarray(ranges, dtype=np.float32 if ranges.dtype == np.float32 else np.float64))
+        object.__setattr__(
+            self, "ranges", np.ascontiguousarray(ranges, dtype=np.float32 if ranges.dtype == np.float32 else np.float64)
+        )
         object.__setattr__(self, "angles", _f64(self.angles))
         object.__setattr__(self, "mount", _f64(self.mount).reshape(3))
         object.__setattr__(self, "max_range", float(self.max_range))
@@ -313,7 +322,9 @@ class Scans(_Stream):
             count = np.asarray(self.beam_count)
             if count.shape != (S,):
                 raise ValueError(f"Scans.beam_count must be ({S},), got {count.shape}")
-            if count.size and (not np.all(np.isfinite(count)) or np.any(count != np.round(count)) or count.min() < 0 or count.max() > B):
+            if count.size and (
+                not np.all(np.isfinite(count)) or np.any(count != np.round(count)) or count.min() < 0 or count.max() > B
+            ):
                 raise ValueError(f"Scans.beam_count must be integers in [0, {B}]")
             object.__setattr__(self, "beam_count", np.ascontiguousarray(count, dtype=np.int64))
             padding = self._padding()
@@ -447,7 +458,13 @@ class Sequence:
     def __post_init__(self):
         if self.motion is not None and not isinstance(self.motion, (Twist, Increments)):
             raise TypeError("Sequence.motion must be Twist or Increments")
-        for stream, cls in (("range_bearing", RangeBearing), ("beacon_ranges", BeaconRanges), ("gps", Gps), ("heading", Heading), ("scans", Scans)):
+        for stream, cls in (
+            ("range_bearing", RangeBearing),
+            ("beacon_ranges", BeaconRanges),
+            ("gps", Gps),
+            ("heading", Heading),
+            ("scans", Scans),
+        ):
             value = getattr(self, stream)
             if value is not None and not isinstance(value, cls):
                 raise TypeError(f"Sequence.{stream} must be {cls.__name__}")
@@ -543,8 +560,21 @@ class Sequence:
                     entry["interlaced_offsets"] = int(np.unique(stream.angle_offset).size)
                 entry["max_range"] = stream.max_range
             out[name] = entry
-        out["ground_truth"] = None if self.ground_truth is None else {"count": len(self.ground_truth), "t0": float(self.ground_truth.t[0]) if len(self.ground_truth) else None, "t1": float(self.ground_truth.t[-1]) if len(self.ground_truth) else None}
+        out["ground_truth"] = (
+            None
+            if self.ground_truth is None
+            else {
+                "count": len(self.ground_truth),
+                "t0": float(self.ground_truth.t[0]) if len(self.ground_truth) else None,
+                "t1": float(self.ground_truth.t[-1]) if len(self.ground_truth) else None,
+            }
+        )
         out["landmarks"] = None if self.landmarks is None else len(self.landmarks)
-        out["noise"] = {f.name: (None if getattr(self.noise, f.name) is None else np.asarray(getattr(self.noise, f.name)).tolist()) for f in fields(self.noise)}
-        out["meta"] = {k: v for k, v in self.meta.items() if isinstance(v, (str, int, float, bool, list, dict, type(None)))}
+        out["noise"] = {
+            f.name: (None if getattr(self.noise, f.name) is None else np.asarray(getattr(self.noise, f.name)).tolist())
+            for f in fields(self.noise)
+        }
+        out["meta"] = {
+            k: v for k, v in self.meta.items() if isinstance(v, (str, int, float, bool, list, dict, type(None)))
+        }
         return out

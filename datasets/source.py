@@ -15,6 +15,7 @@ reads any other recording at a path: ``utias:/data/MRCLAM_Dataset7/robot1``, or 
 ``{name: utias, params: {path: /data/MRCLAM_Dataset7, robot: 1}}``
 (:func:`slamarena.datasets.registry.resolve`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -36,7 +37,7 @@ class Layout:
     def required(self) -> list[str]:
         return [role for role in self.files if role not in self.optional]
 
-    def needing(self, need: dict[str, bool]) -> "Layout":
+    def needing(self, need: dict[str, bool]) -> Layout:
         """The layout with the roles of ``need`` made required (True) or optional (False)."""
         optional = (self.optional - {r for r, v in need.items() if v}) | {r for r, v in need.items() if not v}
         return Layout(self.files, frozenset(optional & set(self.files)))

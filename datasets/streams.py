@@ -6,6 +6,7 @@ A dataset's streams follow from its format (the catalogue entry's reader) or its
 checks them against what each method needs (``REQUIRES`` of the estimator and mapping registries) before any cell
 runs. Ground truth is not a stream here: a method never needs it to run (metrics without it are skipped).
 """
+
 from __future__ import annotations
 
 __all__ = ["STREAMS", "streams_of"]

@@ -4,6 +4,7 @@
 imported on first use (so heavy libraries such as GTSAM load only when a method needs them)
 and constructed with the config's parameters.
 """
+
 from __future__ import annotations
 
 from slamarena.errors import UnknownNameError

@@ -3,6 +3,7 @@
 Online filters also expose ``predict(...)`` and ``update(...)`` for interactive use.
 :class:`~slamarena.datasets.estimate.Estimate` documents the result.
 """
+
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable

@@ -33,6 +33,7 @@ one pose after each row at its stamp (``K`` poses), ``slamarena.datasets.geometr
 ``step_time`` is the wall time of the whole integration divided evenly over the poses (the
 work is one vectorised pass, so there is no per-pose time to measure).
 """
+
 from __future__ import annotations
 
 import time
@@ -55,10 +56,15 @@ __all__ = ["DeadReckoning", "DeadReckoningParams"]
 class DeadReckoningParams(Params):
     """Parameters of :class:`DeadReckoning`."""
 
-    motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")
+    motion_model: Literal["arc", "euler"] = Field(
+        "arc",
+        description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step",
+    )
     propagate_covariance: bool = Field(True, description="compute pose_cov when the sequence states its motion noise")
     initial_sigma: tuple[NonNegativeFloat, NonNegativeFloat, NonNegativeFloat] = Field(
-        (0.0, 0.0, 0.0), description="standard deviations (σx [m], σy [m], σθ [rad]) of the start pose; 0: the start pose is the frame")
+        (0.0, 0.0, 0.0),
+        description="standard deviations (σx [m], σy [m], σθ [rad]) of the start pose; 0: the start pose is the frame",
+    )
 
 
 class DeadReckoning:

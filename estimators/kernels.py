@@ -24,6 +24,7 @@ increment δ_k (K, 3) and the body-frame control noise ``Q_k = V_k M V_kᵀ`` (K
 (the same series below |φ| < 1e-9 and |a| < 1e-4 as the numpy forms; as theirs, the arc's δ heading is wrapped to
 (−π, π] and Euler's is not).
 """
+
 from __future__ import annotations
 
 import math
@@ -81,7 +82,7 @@ def twist_motion(v, omega, dt, arc, M):
             else:
                 sa = math.sin(a) / a
             if abs(a) < 1e-4:
-                dsa = -a / 3.0 + a ** 3 / 30.0
+                dsa = -a / 3.0 + a**3 / 30.0
             else:
                 dsa = (a * math.cos(a) - math.sin(a)) / (a * a)
             c, s = math.cos(a), math.sin(a)

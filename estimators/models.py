@@ -39,6 +39,7 @@ and ∂x'/∂δ = blockdiag(R(θ), 1) (:func:`compose_jacobians`).
 
 All functions broadcast over leading axes.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -168,7 +169,7 @@ def observation_jacobians(x, landmarks) -> tuple[np.ndarray, np.ndarray]:
 class RangeBearingNoise(StrEnum):
     """How the stated observation noise R (2, 2) applies to observation j."""
 
-    POLAR = "polar"          # R_j = R
+    POLAR = "polar"  # R_j = R
     CARTESIAN = "cartesian"  # R_j = diag(σ², σ²/r_j²), σ² = R[0, 0]: isotropic σ² I in the plane (Victoria Park states its trees so)
 
 

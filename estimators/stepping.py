@@ -18,6 +18,7 @@ every written trajectory has strictly increasing stamps (as evo and the TUM form
 wall time, or the process's CPU time (all threads), which other processes on a shared machine
 disturb less (cost studies and benchmarks use it).
 """
+
 from __future__ import annotations
 
 import time

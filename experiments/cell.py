@@ -16,6 +16,7 @@ the cell's files (see :mod:`slamarena.experiments.results`) — ``metrics.json``
 back whole, the estimate is reused and only the metrics are recomputed (unless the spec says
 ``force``); a damaged one is recomputed.
 """
+
 from __future__ import annotations
 
 import json
@@ -26,7 +27,7 @@ import sys
 import threading
 import time
 import traceback
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 __all__ = ["run_cell", "terminate_all", "main"]
@@ -36,7 +37,7 @@ _LIVE_LOCK = threading.Lock()
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
@@ -62,8 +63,13 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
     (cell / "error.json").unlink(missing_ok=True)
     start = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "slamarena.experiments.cell"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True, env={**os.environ, **spec.get("env", {})}, preexec_fn=_die_with_parent if sys.platform == "linux" else None,
+        [sys.executable, "-m", "slamarena.experiments.cell"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, **spec.get("env", {})},
+        preexec_fn=_die_with_parent if sys.platform == "linux" else None,
     )
     with _LIVE_LOCK:
         _LIVE.add(proc)
@@ -73,7 +79,13 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.communicate()
-            return {"id": spec["id"], "status": "timeout", "error": f"timed out after {timeout:g} s (killed)", "traceback": "", "elapsed": time.perf_counter() - start}
+            return {
+                "id": spec["id"],
+                "status": "timeout",
+                "error": f"timed out after {timeout:g} s (killed)",
+                "traceback": "",
+                "elapsed": time.perf_counter() - start,
+            }
     finally:
         with _LIVE_LOCK:
             _LIVE.discard(proc)
@@ -83,12 +95,30 @@ def run_cell(spec: dict, timeout: float | None) -> dict:
     error_file = cell / "error.json"
     if error_file.exists():
         info = json.loads(error_file.read_text())
-        return {"id": spec["id"], "status": "error", "error": info["error"], "traceback": info["traceback"], "elapsed": elapsed}
+        return {
+            "id": spec["id"],
+            "status": "error",
+            "error": info["error"],
+            "traceback": info["traceback"],
+            "elapsed": elapsed,
+        }
     if proc.returncode < 0:
         name = signal.Signals(-proc.returncode).name
-        return {"id": spec["id"], "status": "killed", "error": f"cell process killed by {name}", "traceback": "", "elapsed": elapsed}
+        return {
+            "id": spec["id"],
+            "status": "killed",
+            "error": f"cell process killed by {name}",
+            "traceback": "",
+            "elapsed": elapsed,
+        }
     tail = (stderr or "").strip().splitlines()[-20:]
-    return {"id": spec["id"], "status": "error", "error": f"cell process exited with code {proc.returncode}", "traceback": "\n".join(tail), "elapsed": elapsed}
+    return {
+        "id": spec["id"],
+        "status": "error",
+        "error": f"cell process exited with code {proc.returncode}",
+        "traceback": "\n".join(tail),
+        "elapsed": elapsed,
+    }
 
 
 def _flatten_series(series: dict) -> dict:
@@ -117,8 +147,8 @@ def execute(spec: dict) -> dict:
     """The work of one cell (in the child process); returns the ``metrics.json`` content."""
 
     from slamarena import datasets
-    from slamarena.targets import import_target
     from slamarena.datasets.estimate import Estimate
+    from slamarena.targets import import_target
 
     from .config import method_table
     from .metrics import METRICS, CellData, evaluate, reference_of
@@ -136,7 +166,12 @@ def execute(spec: dict) -> dict:
     estimate_file = cell / "estimate.npz"
     previous = cell / "estimate.json"
     estimate = None
-    if not spec.get("force") and estimate_file.exists() and previous.exists() and read_json(previous).get("key") == spec["key"]:
+    if (
+        not spec.get("force")
+        and estimate_file.exists()
+        and previous.exists()
+        and read_json(previous).get("key") == spec["key"]
+    ):
         try:
             estimate, wall = Estimate.load(estimate_file), read_json(previous)["wall"]
         except Exception:  # a damaged cached estimate (its key matches, its bytes do not): compute it again
@@ -192,7 +227,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         execute(spec)
     except Exception as exc:
-        write_json(Path(spec["dir"]) / "error.json", {"status": "error", "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc(), "finished": _now()})
+        write_json(
+            Path(spec["dir"]) / "error.json",
+            {
+                "status": "error",
+                "error": f"{type(exc).__name__}: {exc}",
+                "traceback": traceback.format_exc(),
+                "finished": _now(),
+            },
+        )
         return 1
     return 0
 

@@ -1,9 +1,12 @@
 """``slamarena data list|info|fetch``."""
+
 from __future__ import annotations
 
 import typer
 
-data_app = typer.Typer(help="Datasets: what is registered, what is present, summaries, downloads.", no_args_is_help=True)
+data_app = typer.Typer(
+    help="Datasets: what is registered, what is present, summaries, downloads.", no_args_is_help=True
+)
 
 
 @data_app.command("list")
@@ -43,8 +46,10 @@ def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/rob
 
 
 @data_app.command("fetch")
-def fetch(name: str = typer.Argument(..., help="A registry name (see `slamarena data list`)."),
-          force: bool = typer.Option(False, "--force", help="Download even when a data root already has the files.")):
+def fetch(
+    name: str = typer.Argument(..., help="A registry name (see `slamarena data list`)."),
+    force: bool = typer.Option(False, "--force", help="Download even when a data root already has the files."),
+):
     """Download a dataset's files (pinned commit URLs, sha256-checked) into the cache data root."""
     from rich.console import Console
 

@@ -16,6 +16,7 @@ front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built 
                         (interlaced logs: one stream, several angle offsets); the relation error when
                         ``--relations`` is given
 """
+
 from __future__ import annotations
 
 import json
@@ -35,8 +36,10 @@ def load_log(log: str):
         return datasets.load(log)
     except UnknownNameError:
         if not Path(log).is_file():
-            raise UserError(f"{log!r} is neither a dataset name (see `slamarena data list`, or <family>:<path> for a "
-                            f"recording at a path) nor a file") from None
+            raise UserError(
+                f"{log!r} is neither a dataset name (see `slamarena data list`, or <family>:<path> for a "
+                f"recording at a path) nor a file"
+            ) from None
     return datasets.load(f"carmen:{log}")
 
 
@@ -55,12 +58,25 @@ def parse_params(pairs: list[str]) -> dict:
     return out
 
 
-def map_command(log: str, method: str = "grid_slam", params: dict | None = None, out: Path = Path("results/maps"), relations: Path | None = None) -> int:
+def map_command(
+    log: str,
+    method: str = "grid_slam",
+    params: dict | None = None,
+    out: Path = Path("results/maps"),
+    relations: Path | None = None,
+) -> int:
     """Run a mapping method of ``slamarena.mapping.REGISTRY`` over a log and write its outputs (module docstring).
     User errors (a bad method, parameter, log or relations file) raise :class:`~slamarena.errors.UserError`."""
     from pydantic import ValidationError
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     from slamarena.errors import UnknownNameError, UserError
     from slamarena.mapping import REGISTRY
@@ -72,7 +88,9 @@ def map_command(log: str, method: str = "grid_slam", params: dict | None = None,
     try:
         slam = import_target(REGISTRY[method])(**(params or {}))
     except ValidationError as exc:
-        raise UserError(f"{method}: " + "; ".join(f"params.{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())) from None
+        raise UserError(
+            f"{method}: " + "; ".join(f"params.{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
+        ) from None
     if relations is not None and not Path(relations).is_file():
         raise UserError(f"relations file {relations} does not exist")
     sequence = load_log(log)
@@ -85,9 +103,19 @@ def map_command(log: str, method: str = "grid_slam", params: dict | None = None,
 
     K = len(sequence.scans)
     t0 = time.perf_counter()
-    with Progress(TextColumn(f"mapping {log} ({method})"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=False) as bar:
+    with Progress(
+        TextColumn(f"mapping {log} ({method})"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=False,
+    ) as bar:
         task = bar.add_task("scans", total=K)
-        estimate = slam.run(sequence, progress=lambda k, _K: bar.update(task, completed=k) if k % 50 == 0 or k == _K else None)
+        estimate = slam.run(
+            sequence, progress=lambda k, _K: bar.update(task, completed=k) if k % 50 == 0 or k == _K else None
+        )
     wall = time.perf_counter() - t0
 
     out = Path(out)
@@ -105,11 +133,20 @@ def map_command(log: str, method: str = "grid_slam", params: dict | None = None,
         written.append("loop_closures.csv")
     duration = float(sequence.scans.t[-1] - sequence.scans.t[0])
     summary = {
-        "log": log, "method": method, "scans": K, "log_duration_s": duration, "wall_s": wall,
+        "log": log,
+        "method": method,
+        "scans": K,
+        "log_duration_s": duration,
+        "wall_s": wall,
         "beam_layouts": 1 if sequence.scans.angle_offset is None else int(np.unique(sequence.scans.angle_offset).size),
-        "per_scan_ms": {"mean": 1e3 * wall / K, "median": 1e3 * float(np.median(estimate.step_time)), "max": 1e3 * float(np.max(estimate.step_time))},
+        "per_scan_ms": {
+            "mean": 1e3 * wall / K,
+            "median": 1e3 * float(np.median(estimate.step_time)),
+            "max": 1e3 * float(np.max(estimate.step_time)),
+        },
         "real_time_factor": duration / wall if duration > 0 and wall > 0 else None,
-        **{k: v for k, v in estimate.meta.items() if k != "params"}, "params": estimate.meta["params"],
+        **{k: v for k, v in estimate.meta.items() if k != "params"},
+        "params": estimate.meta["params"],
     }
     if relations is not None:
         from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
@@ -119,13 +156,23 @@ def map_command(log: str, method: str = "grid_slam", params: dict | None = None,
     written.append("summary.json")
 
     rtf = summary["real_time_factor"]
-    extra = "; ".join(f"{k.replace('_', ' ')} {estimate.meta[k]}" for k in ("bad_beams", "scans_not_matched", "loop_closures", "resamplings") if k in estimate.meta)
-    console.print(f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan" + (f", {rtf:.1f}× faster than real time" if rtf else "")
-                  + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells at {slam.map.params.resolution} m" + (f"; {extra}" if extra else ""))
+    extra = "; ".join(
+        f"{k.replace('_', ' ')} {estimate.meta[k]}"
+        for k in ("bad_beams", "scans_not_matched", "loop_closures", "resamplings")
+        if k in estimate.meta
+    )
+    console.print(
+        f"{K} scans in {wall:.1f} s ({summary['per_scan_ms']['mean']:.2f} ms/scan"
+        + (f", {rtf:.1f}× faster than real time" if rtf else "")
+        + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells at {slam.map.params.resolution} m"
+        + (f"; {extra}" if extra else "")
+    )
     if "relations" in summary:
         r = summary["relations"]
-        console.print(f"relations: {r['used']} used, {r['dropped']} dropped; translation {r['trans_mean']:.3f} ± {r['trans_std']:.3f} m, "
-                      f"rotation {r['rot_mean']:.4f} ± {r['rot_std']:.4f} rad")
+        console.print(
+            f"relations: {r['used']} used, {r['dropped']} dropped; translation {r['trans_mean']:.3f} ± {r['trans_std']:.3f} m, "
+            f"rotation {r['rot_mean']:.4f} ± {r['rot_std']:.4f} rad"
+        )
     console.print(f"wrote {out}/" + ", ".join(written))
     return 0
 
@@ -136,6 +183,8 @@ def write_loop_closures(path: Path, diagnostics: dict) -> None:
     rows = ["node,submap,anchor,search_score,search_nodes,score,accepted,seconds,z_x,z_y,z_theta"]
     for k in range(d["loop_node"].size):
         z = d["loop_z"][k]
-        rows.append(f"{d['loop_node'][k]},{d['loop_submap'][k]},{d['loop_anchor'][k]},{d['loop_search_score'][k]:.6g},{d['loop_search_nodes'][k]},"
-                    f"{d['loop_score'][k]:.6g},{int(d['loop_accepted'][k])},{d['loop_seconds'][k]:.6g},{z[0]:.9g},{z[1]:.9g},{z[2]:.9g}")
+        rows.append(
+            f"{d['loop_node'][k]},{d['loop_submap'][k]},{d['loop_anchor'][k]},{d['loop_search_score'][k]:.6g},{d['loop_search_nodes'][k]},"
+            f"{d['loop_score'][k]:.6g},{int(d['loop_accepted'][k])},{d['loop_seconds'][k]:.6g},{z[0]:.9g},{z[1]:.9g},{z[2]:.9g}"
+        )
     Path(path).write_text("\n".join(rows) + "\n")

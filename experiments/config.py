@@ -30,13 +30,23 @@ Every mistake — an unknown key, a wrong type or value, an unregistered dataset
 parameter the simulator/reader/estimator does not take or rejects — is a
 :class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
 """
+
 from __future__ import annotations
 
 import re
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, create_model, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    create_model,
+    field_validator,
+    model_validator,
+)
 
 from slamarena.errors import UserError
 from slamarena.params import params_model
@@ -44,7 +54,20 @@ from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
 
-__all__ = ["ExperimentConfig", "PublishedRow", "DatasetSpec", "EstimatorSpec", "TableSpec", "MetricsSpec", "ConfigError", "load_config", "shipped_configs", "sanitize", "method_table", "FIGURES"]
+__all__ = [
+    "ExperimentConfig",
+    "PublishedRow",
+    "DatasetSpec",
+    "EstimatorSpec",
+    "TableSpec",
+    "MetricsSpec",
+    "ConfigError",
+    "load_config",
+    "shipped_configs",
+    "sanitize",
+    "method_table",
+    "FIGURES",
+]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
 FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
@@ -96,7 +119,10 @@ def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = 
 
 def problems(exc: ValidationError) -> str:
     """Each error of a parameter model's validation as ``params.<field>: message``."""
-    return "; ".join(f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors())
+    return "; ".join(
+        f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}"
+        for e in exc.errors()
+    )
 
 
 class DatasetSpec(BaseModel):
@@ -134,7 +160,9 @@ class DatasetSpec(BaseModel):
                 raise ValueError(f"dataset {self.name!r}: {problems(exc)}") from None
             except ImportError as exc:
                 raise ValueError(f"dataset {self.name!r}: its reader cannot be imported: {exc}") from None
-            except UserError as exc:  # an unknown name, a location a catalogued name fixes, a path not in the family's form
+            except (
+                UserError
+            ) as exc:  # an unknown name, a location a catalogued name fixes, a path not in the family's form
                 raise ValueError(str(exc)) from None
         require_plain(self.label, "label")
         return self
@@ -156,14 +184,18 @@ class EstimatorSpec(BaseModel):
         try:
             cls = import_target(table[self.name])
         except (ImportError, AttributeError) as exc:
-            raise ValueError(f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}") from None
+            raise ValueError(
+                f"method {self.name!r} is registered ({table[self.name]}) but cannot be imported: {exc}"
+            ) from None
         self._resolved = resolve_params(cls, self.params, f"method {self.name!r}")
         require_plain(self.label, "label")
         return self
 
     def takes_seed(self) -> bool:
         """Whether the runner passes the cell's seed: the method's parameters have one and the config does not fix it."""
-        return "seed" in params_model(import_target(method_table()[self.name])).model_fields and "seed" not in self.params
+        return (
+            "seed" in params_model(import_target(method_table()[self.name])).model_fields and "seed" not in self.params
+        )
 
     def resolved_params(self) -> dict:
         """Every parameter of the method, defaults filled in (its ``Params`` model's canonical form)."""
@@ -194,7 +226,9 @@ class TableSpec(BaseModel):
         known = output_columns()
         for c in columns:
             if c not in known:
-                raise ValueError(f"unknown column {c!r}; columns are <metric>.<output>, e.g. {', '.join(list(known)[:6])}, …")
+                raise ValueError(
+                    f"unknown column {c!r}; columns are <metric>.<output>, e.g. {', '.join(list(known)[:6])}, …"
+                )
         return columns
 
     @field_validator("name")
@@ -209,7 +243,9 @@ class PublishedRow(BaseModel):
     model_config = ConfigDict(extra="forbid")
     label: str = Field(description="the method as the paper names it, e.g. 'graph mapping (Kümmerle 2009)'")
     citation: str = Field(description="where the numbers are printed (paper, table)")
-    values: dict[str, dict[str, float]] = Field(description="dataset label → column (<metric>.<output>) → the published value")
+    values: dict[str, dict[str, float]] = Field(
+        description="dataset label → column (<metric>.<output>) → the published value"
+    )
 
     @field_validator("values")
     @classmethod
@@ -232,11 +268,16 @@ class ExperimentConfig(BaseModel):
     metrics: MetricsSpec = Field(default_factory=_default_metrics)  # type: ignore[valid-type]
     tables: list[TableSpec] = Field(default_factory=list)
     figures: list[Literal[FIGURES]] = list(FIGURES)  # type: ignore[valid-type]
-    published: list[PublishedRow] = Field(default_factory=list, description="reference rows quoted from papers, shown beside ours")
+    published: list[PublishedRow] = Field(
+        default_factory=list, description="reference rows quoted from papers, shown beside ours"
+    )
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
-    single_threaded: bool = Field(False, description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
-                                                     "measurements compare algorithms, not thread counts (cost studies)")
+    single_threaded: bool = Field(
+        False,
+        description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
+        "measurements compare algorithms, not thread counts (cost studies)",
+    )
 
     @field_validator("metrics", mode="before")
     @classmethod
@@ -272,7 +313,9 @@ class ExperimentConfig(BaseModel):
         for k, es in enumerate(self.estimators):
             unknown = sorted(set(es.datasets or []) - set(labels))
             if unknown:
-                raise ValueError(f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
+                raise ValueError(
+                    f"estimators.{k}.datasets names unknown dataset labels {unknown}; labels are: {', '.join(labels)}"
+                )
         requires = method_requires()
         from slamarena.datasets.streams import streams_of
 
@@ -281,19 +324,27 @@ class ExperimentConfig(BaseModel):
                 if es.datasets is not None and label not in es.datasets:
                     continue
                 have = streams_of(ds.name)
-                missing = [" or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have]
+                missing = [
+                    " or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have
+                ]
                 if missing:
-                    raise ValueError(f"estimators.{k} ({es.name}) cannot run on dataset {label!r}: it needs {' and '.join(missing)}, which "
-                                     f"{ds.name} does not provide ({', '.join(sorted(have))}); restrict it with 'datasets: [...]'")
+                    raise ValueError(
+                        f"estimators.{k} ({es.name}) cannot run on dataset {label!r}: it needs {' and '.join(missing)}, which "
+                        f"{ds.name} does not provide ({', '.join(sorted(have))}); restrict it with 'datasets: [...]'"
+                    )
         for k, row in enumerate(self.published):
             unknown = sorted(set(row.values) - set(labels))
             if unknown:
-                raise ValueError(f"published.{k} ({row.label}) names unknown dataset labels {unknown}; labels are: {', '.join(labels)}")
+                raise ValueError(
+                    f"published.{k} ({row.label}) names unknown dataset labels {unknown}; labels are: {', '.join(labels)}"
+                )
         enabled = {k for k, v in self.metrics if v is not None}
         for k, table in enumerate(self.tables):
             missing = sorted({c.split(".")[0] for c in table.columns} - enabled)
             if missing:
-                raise ValueError(f"tables.{k} ({table.name}) uses metrics that are not enabled under metrics: {', '.join(missing)}")
+                raise ValueError(
+                    f"tables.{k} ({table.name}) uses metrics that are not enabled under metrics: {', '.join(missing)}"
+                )
         return self
 
     # ------------------------------------------------------------------ derived
@@ -309,7 +360,12 @@ class ExperimentConfig(BaseModel):
     def enabled_metrics(self) -> dict[str, BaseModel]:
         return {k: v for k, v in self.metrics if v is not None}
 
-    def reduced(self, datasets: list[str] | None = None, estimators: list[str] | None = None, seeds: int | list[int] | None = None) -> "ExperimentConfig":
+    def reduced(
+        self,
+        datasets: list[str] | None = None,
+        estimators: list[str] | None = None,
+        seeds: int | list[int] | None = None,
+    ) -> ExperimentConfig:
         """The same experiment on a part of its grid (the studies' slow tests run a shipped config this way): only the
         dataset and method labels named, ``seeds`` in place of the config's; tables, metrics and published rows as they
         are (those of a dropped dataset dropped). Validated again."""
@@ -335,8 +391,9 @@ class ExperimentConfig(BaseModel):
 def shipped_configs() -> dict[str, str]:
     """The shipped configs (``experiments/configs/*.yaml``): name → the config's one-line ``description``, read
     without validating (listing must not need the data a config names)."""
-    import yaml
     from importlib.resources import files
+
+    import yaml
 
     shipped = files("slamarena.experiments").joinpath("configs")
     out = {}
@@ -350,19 +407,24 @@ def shipped_configs() -> dict[str, str]:
 def load_config(path: str | Path | None = None) -> ExperimentConfig:
     """Read and validate an experiment YAML: a path, or the name of a shipped config
     (``experiments/configs/<name>.yaml``); ``None`` → the shipped ``default``."""
-    import yaml
     from importlib.resources import files
+
+    import yaml
 
     shipped = files("slamarena.experiments").joinpath("configs")
     name = "default" if path is None else str(path)
-    bare = path is None or (Path(name).name == name and not Path(name).suffix)  # "scaling", not "scaling.yaml" or "dir/x"
+    bare = path is None or (
+        Path(name).name == name and not Path(name).suffix
+    )  # "scaling", not "scaling.yaml" or "dir/x"
     if path is not None and Path(path).is_file():
         text, where = Path(path).read_text(), str(path)
     elif bare and shipped.joinpath(f"{name}.yaml").is_file():
         text, where = shipped.joinpath(f"{name}.yaml").read_text(), f"{name}.yaml (shipped)"
     else:
         names = sorted(p.name.removesuffix(".yaml") for p in shipped.iterdir() if p.name.endswith(".yaml"))
-        raise ConfigError(f"{path}: no such config file (a shipped config is named without a suffix: {', '.join(names)})")
+        raise ConfigError(
+            f"{path}: no such config file (a shipped config is named without a suffix: {', '.join(names)})"
+        )
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:

@@ -15,6 +15,7 @@ coordinate ascent from the stated model: each entry in turn moves one grid step 
 move improves it (every model evaluated is returned, in order). The result is a model stated once in a config, as the
 MRCLAM noise is identified against Vicon: it uses the evaluation data and the ids, never the runs without ids.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -42,7 +43,7 @@ class _Scoring(EKFSLAM):
 
     def reset(self, sequence=None) -> None:
         super().reset(sequence)
-        self.scored: list[tuple[float, float]] = []   # (d², log N(ν; 0, S)) per labelled re-observation
+        self.scored: list[tuple[float, float]] = []  # (d², log N(ν; 0, S)) per labelled re-observation
 
     def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
         rows = np.asarray(z, dtype=float).reshape(-1, 3)
@@ -64,8 +65,9 @@ def innovation_score(sequence, params: dict) -> InnovationScore:
     if not ekf.scored:
         raise ValueError("no labelled re-observation to score: the sequence needs landmark ids seen more than once")
     d2, loglik = np.array(ekf.scored).T
-    return InnovationScore(float(loglik.mean()), float(d2.mean() / 2.0),
-                           float(np.mean(d2 > 5.991464547107979)), int(d2.size))
+    return InnovationScore(
+        float(loglik.mean()), float(d2.mean() / 2.0), float(np.mean(d2 > 5.991464547107979)), int(d2.size)
+    )
 
 
 @dataclass
@@ -78,8 +80,14 @@ class Identification:
     trace: list[tuple[dict[tuple[str, int], int], InnovationScore]] = field(default_factory=list)
 
 
-def identify(sequence, params: dict, stated: dict[str, np.ndarray], entries: dict[str, list[int]], step: float = 4.0,
-             max_exponent: int = 6) -> Identification:
+def identify(
+    sequence,
+    params: dict,
+    stated: dict[str, np.ndarray],
+    entries: dict[str, list[int]],
+    step: float = 4.0,
+    max_exponent: int = 6,
+) -> Identification:
     """Coordinate ascent of ℓ over ``stated[name][i, i] · step**k`` (|k| ≤ max_exponent) for each ``i in entries[name]``.
 
     ``params``: the filter's other parameters; ``stated``: each identified covariance parameter's stated (diagonal)
@@ -95,7 +103,7 @@ def identify(sequence, params: dict, stated: dict[str, np.ndarray], entries: dic
     def model_of(k: dict) -> dict[str, np.ndarray]:
         out = {name: np.array(m, dtype=float) for name, m in stated.items()}
         for (name, i), e in k.items():
-            out[name][i, i] *= step ** e
+            out[name][i, i] *= step**e
         return out
 
     def score(k: dict) -> InnovationScore:

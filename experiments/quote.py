@@ -22,6 +22,7 @@ with ``--seeds 3`` for a quick look) is not quoted: it counts as missing, unless
 tables say so in that line (marked †, with what differs) and its values carry a †. A source that is missing leaves
 the page's current text in place and is reported; ``--strict`` makes that an error.
 """
+
 from __future__ import annotations
 
 import fnmatch
@@ -77,7 +78,7 @@ def read_table(path: Path) -> Table:
     if len(table) < 2:
         raise QuoteError(f"{path}: no Markdown table in it")
     cells = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in table]
-    legend = [ln for ln in lines[lines.index(table[-1]) + 1:] if ln.strip()]
+    legend = [ln for ln in lines[lines.index(table[-1]) + 1 :] if ln.strip()]
     return Table(cells[0], cells[2:], legend)
 
 
@@ -85,7 +86,9 @@ def _parse_spec(spec: str, positional: int) -> tuple[list[str], dict[str, str]]:
     words = spec.split()
     args, options = [w for w in words if "=" not in w], dict(w.split("=", 1) for w in words if "=" in w)
     if len(args) != positional and not (positional == 3 and len(args) == 4):
-        raise QuoteError(f"marker {spec!r}: expected {'SOURCE [rows=…] [columns=…]' if positional == 1 else 'SOURCE ROWS COLUMN [mean|range]'}")
+        raise QuoteError(
+            f"marker {spec!r}: expected {'SOURCE [rows=…] [columns=…]' if positional == 1 else 'SOURCE ROWS COLUMN [mean|range]'}"
+        )
     unknown = set(options) - {"rows", "columns"}
     if unknown:
         raise QuoteError(f"marker {spec!r}: unknown option(s) {', '.join(sorted(unknown))} (rows=, columns=)")
@@ -100,17 +103,25 @@ def _source(root: Path, source: str, reduced: bool = False) -> tuple[Path, Path]
     experiment, table = source.split("/")
     path = root / experiment / "tables" / f"{table}.md"
     if not path.is_file():
-        raise MissingSource(f"{path} does not exist: run `slamarena run {experiment}` (results into {root / experiment})")
+        raise MissingSource(
+            f"{path} does not exist: run `slamarena run {experiment}` (results into {root / experiment})"
+        )
     if not reduced and (differs := not_shipped(root / experiment)):
-        raise MissingSource(f"{root / experiment} is not a run of the shipped config ({'; '.join(differs[:3])}): run `slamarena run {experiment}`, "
-                            f"or quote it with --reduced")
+        raise MissingSource(
+            f"{root / experiment} is not a run of the shipped config ({'; '.join(differs[:3])}): run `slamarena run {experiment}`, "
+            f"or quote it with --reduced"
+        )
     return root / experiment, path
 
 
 def _differences(shipped: dict, ran: dict, prefix: str = "") -> list[str]:
     """The settings where the run's config differs from the shipped one, as ``path: ran (shipped: …)``."""
     if isinstance(shipped, dict) and isinstance(ran, dict):
-        return [d for k in sorted(set(shipped) | set(ran)) for d in _differences(shipped.get(k), ran.get(k), f"{prefix}{k}.")]
+        return [
+            d
+            for k in sorted(set(shipped) | set(ran))
+            for d in _differences(shipped.get(k), ran.get(k), f"{prefix}{k}.")
+        ]
     if isinstance(shipped, list) and isinstance(ran, list) and shipped != ran:
         if len(shipped) != len(ran):
             labels = [e.get("label") or e.get("name") if isinstance(e, dict) else e for e in ran]
@@ -138,7 +149,9 @@ def not_shipped(run_dir: Path) -> list[str]:
     ran.pop("output", None)
     shipped.pop("output", None)
     kept = {d.get("label") or sanitize(d["name"]) for d in ran.get("datasets", [])}
-    for row in shipped.get("published", []):  # a dataset left out takes its published values with it: not a difference of its own
+    for row in shipped.get(
+        "published", []
+    ):  # a dataset left out takes its published values with it: not a difference of its own
         row["values"] = {d: v for d, v in row["values"].items() if d in kept}
     return _differences(shipped, ran)
 
@@ -152,8 +165,11 @@ def provenance(run_dir: Path) -> str:
     machine = manifest.get("machine", {})
     cells = manifest.get("cells", {})
     revision = str(manifest.get("git_revision") or "unknown")
-    parts = [f"git {revision[:12]}" + (" with uncommitted changes" if revision.endswith("-dirty") else ""), str(manifest.get("finished") or manifest.get("started") or "")[:10],
-             f"{machine.get('hostname', '?')} ({machine.get('cpus', '?')} CPUs)"]
+    parts = [
+        f"git {revision[:12]}" + (" with uncommitted changes" if revision.endswith("-dirty") else ""),
+        str(manifest.get("finished") or manifest.get("started") or "")[:10],
+        f"{machine.get('hostname', '?')} ({machine.get('cpus', '?')} CPUs)",
+    ]
     if manifest.get("duration_s") is not None:
         parts.append(f"{manifest['duration_s'] / 60:.1f} min with `-j {manifest.get('jobs', 1)}`")
     if cells:
@@ -162,7 +178,11 @@ def provenance(run_dir: Path) -> str:
     line = f"`slamarena run {manifest.get('experiment', name)}`: " + ", ".join(p for p in parts if p)
     differs = not_shipped(run_dir)
     if differs:
-        line += f". **{REDUCED} Not the shipped config** — " + "; ".join(differs[:4]) + (f"; … {len(differs) - 4} more" if len(differs) > 4 else "")
+        line += (
+            f". **{REDUCED} Not the shipped config** — "
+            + "; ".join(differs[:4])
+            + (f"; … {len(differs) - 4} more" if len(differs) > 4 else "")
+        )
     return line + "."
 
 
@@ -173,7 +193,11 @@ def failures(run_dir: Path, table: Table) -> list[str]:
     path = run_dir / SUMMARY
     if not path.is_file():
         return []
-    shown = {(r[table.header.index("dataset")], r[table.header.index("estimator")]) for r in table.rows} if "estimator" in table.header else None
+    shown = (
+        {(r[table.header.index("dataset")], r[table.header.index("estimator")]) for r in table.rows}
+        if "estimator" in table.header
+        else None
+    )
     out = []
     with open(path, newline="") as fh:
         for row in csv.DictReader(fh):
@@ -189,17 +213,28 @@ def render_table(root: Path, spec: str, reduced: bool = False) -> str:
     table = read_table(path)
     rows = table.matching(options["rows"]) if "rows" in options else table.rows
     if not rows:
-        raise QuoteError(f"{spec!r}: rows={options['rows']} matches no row of {path} (keys: {', '.join(table.key(r) for r in table.rows)})")
+        raise QuoteError(
+            f"{spec!r}: rows={options['rows']} matches no row of {path} (keys: {', '.join(table.key(r) for r in table.rows)})"
+        )
     keep = list(range(len(table.header)))
     if "columns" in options:
         wanted = options["columns"].split(",")
-        keep = [k for k, c in enumerate(table.header) if c in KEY_COLUMNS or c == "n"] + [table.column(c) for c in wanted]
+        keep = [k for k, c in enumerate(table.header) if c in KEY_COLUMNS or c == "n"] + [
+            table.column(c) for c in wanted
+        ]
     shown = Table([table.header[k] for k in keep], [[r[k] for k in keep] for r in rows])
     numeric = [k for k, c in enumerate(shown.header) if c not in KEY_COLUMNS]
-    lines = ["| " + " | ".join(shown.header) + " |", "|" + "|".join("---:" if k in numeric else "---" for k in range(len(shown.header))) + "|"]
+    lines = [
+        "| " + " | ".join(shown.header) + " |",
+        "|" + "|".join("---:" if k in numeric else "---" for k in range(len(shown.header))) + "|",
+    ]
     lines += ["| " + " | ".join(r) + " |" for r in shown.rows]
     columns = set(shown.header)
-    legend = [ln for ln in table.legend if not (m := re.match(r"- `?([^`:]+)`?:", ln)) or m.group(1) in columns or "(published)" in ln]
+    legend = [
+        ln
+        for ln in table.legend
+        if not (m := re.match(r"- `?([^`:]+)`?:", ln)) or m.group(1) in columns or "(published)" in ln
+    ]
     return "\n".join([provenance(run_dir), "", *lines, "", *legend, *failures(run_dir, shown)]) + "\n"
 
 
@@ -231,7 +266,9 @@ def _value(root: Path, spec: str, reduced: bool) -> str:
     k = table.column(column)
     rows = table.matching(pattern)
     if not rows:
-        raise QuoteError(f"value {spec!r}: {pattern} matches no row of {path} (keys: {', '.join(table.key(r) for r in table.rows)})")
+        raise QuoteError(
+            f"value {spec!r}: {pattern} matches no row of {path} (keys: {', '.join(table.key(r) for r in table.rows)})"
+        )
     if mode == "range":
         means = [(m, _plain(r[k]).split(" ± ")[0]) for r in rows if (m := _mean(r[k])) is not None]
         if not means:
@@ -239,13 +276,17 @@ def _value(root: Path, spec: str, reduced: bool) -> str:
         lo, hi = min(means)[1], max(means)[1]
         return lo if lo == hi else f"{lo}–{hi}"
     if len(rows) != 1:
-        raise QuoteError(f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); use 'range' or a narrower pattern")
+        raise QuoteError(
+            f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); use 'range' or a narrower pattern"
+        )
     return _plain(rows[0][k]).split(" ± ")[0] if mode == "mean" else _plain(rows[0][k])
 
 
 def markers(text: str) -> list[tuple[str, str]]:
     """The page's markers in order of kind: ``("table", spec)`` …, then ``("value", spec)`` …."""
-    return [("table", m.group("spec").strip()) for m in _TABLE.finditer(text)] + [("value", m.group("spec").strip()) for m in _VALUE.finditer(text)]
+    return [("table", m.group("spec").strip()) for m in _TABLE.finditer(text)] + [
+        ("value", m.group("spec").strip()) for m in _VALUE.finditer(text)
+    ]
 
 
 def update_page(text: str, root: Path, strict: bool = False, reduced: bool = False) -> tuple[str, list[str]]:
@@ -282,5 +323,7 @@ def quote_main(page: Path, root: Path, strict: bool = False, check: bool = False
         return int(new != old)
     if new != old:
         atomic_write_text(page, new)
-    print(f"{page}: {'regenerated' if new != old else 'unchanged'} from {root} ({len(_TABLE.findall(new))} tables, {len(_VALUE.findall(new))} values; {len(missing)} sources missing)")
+    print(
+        f"{page}: {'regenerated' if new != old else 'unchanged'} from {root} ({len(_TABLE.findall(new))} tables, {len(_VALUE.findall(new))} values; {len(missing)} sources missing)"
+    )
     return 0

@@ -25,6 +25,7 @@ direction.
 The document is built once as a list of blocks (:class:`Heading`, :class:`Text`, :class:`Table`, :class:`Figures`,
 :class:`Code`) and rendered twice (:func:`to_html`, :func:`to_markdown`), so the two files say the same.
 """
+
 from __future__ import annotations
 
 import base64
@@ -106,7 +107,7 @@ class Results:
     frame: object | None  # the summary frame (pandas), None if the run wrote none
 
     @classmethod
-    def load(cls, directory: str | Path) -> "Results":
+    def load(cls, directory: str | Path) -> Results:
         import pandas as pd
 
         directory = Path(directory)
@@ -151,7 +152,13 @@ class Results:
         out = []
         for png in sorted((self.dir / "figures").glob("*.png"), key=_figure_order):
             caption = png.with_suffix(CAPTION_SUFFIX)
-            out.append(Figure(png.stem, png, caption.read_text(encoding="utf-8").strip() if caption.is_file() else "(no caption recorded)"))
+            out.append(
+                Figure(
+                    png.stem,
+                    png,
+                    caption.read_text(encoding="utf-8").strip() if caption.is_file() else "(no caption recorded)",
+                )
+            )
         return out
 
     def failed(self):
@@ -189,14 +196,21 @@ def _facts(r: Results) -> list[tuple[str, str]]:
     cells = m.get("cells") or {}
     failed = m.get("failed") or []
     machine = m.get("machine") or {}
-    state = "finished" if m.get("finished") else ("interrupted " + json.dumps(m["interrupted"]) if m.get("interrupted") else "not finished")
+    state = (
+        "finished"
+        if m.get("finished")
+        else ("interrupted " + json.dumps(m["interrupted"]) if m.get("interrupted") else "not finished")
+    )
     return [
         ("results", str(r.dir.resolve())),
         ("command", " ".join(m.get("command") or [])),
         ("started", str(m.get("started"))),
         ("finished", f"{m.get('finished')} ({state})"),
         ("duration", f"{m['duration_s']:.1f} s" if isinstance(m.get("duration_s"), (int, float)) else "–"),
-        ("cells", f"{cells.get('total', '–')} total, {cells.get('to_run', '–')} run, {cells.get('cached', '–')} cached, {len(failed)} failed"),
+        (
+            "cells",
+            f"{cells.get('total', '–')} total, {cells.get('to_run', '–')} run, {cells.get('cached', '–')} cached, {len(failed)} failed",
+        ),
         ("git revision", str(m.get("git_revision"))),
         ("machine", ", ".join(f"{k} {v}" for k, v in machine.items())),
         ("jobs / scheduler", f"{m.get('jobs')} / {m.get('scheduler') or 'local'}"),
@@ -216,10 +230,15 @@ def _caption(r: Results, columns: list[str], published: list[dict]) -> Text:
         items.append(f"{c}: {what}; {direction}; metric {metric} with {_settings(metrics.get(metric))}.")
     for row in published:
         items.append(f"{row.get('label')} (published): {row.get('citation', 'no citation given')}")
-    return Text("n: seeds. Each value is the mean ± standard deviation over the seeds of a dataset and method "
-                "(std with ddof = 1; one seed shows the mean alone); in bold the best mean within each dataset, for columns "
-                "with a better direction." + (" Rows marked (published) are reference values from the literature, "
-                                               "not computed here." if published else ""), items)
+    return Text(
+        "n: seeds. Each value is the mean ± standard deviation over the seeds of a dataset and method "
+        "(std with ddof = 1; one seed shows the mean alone); in bold the best mean within each dataset, for columns "
+        "with a better direction."
+        + (
+            " Rows marked (published) are reference values from the literature, not computed here." if published else ""
+        ),
+        items,
+    )
 
 
 def _table_cells(r: Results, columns: list[str], published: list[dict]):
@@ -232,7 +251,12 @@ def _table_cells(r: Results, columns: list[str], published: list[dict]):
     rows = []
     for row in frame.itertuples(index=False):
         quoted = str(row[1]).endswith(PUBLISHED)
-        rows.append([v if isinstance(v, Cell) else Cell(str(v), frozenset({"published"}) if quoted else frozenset()) for v in row])
+        rows.append(
+            [
+                v if isinstance(v, Cell) else Cell(str(v), frozenset({"published"}) if quoted else frozenset())
+                for v in row
+            ]
+        )
     shown = set(means.index.get_level_values(1))
     return means, rows, [p for p in published if p.get("label", "") + PUBLISHED in shown]
 
@@ -245,9 +269,12 @@ def _monte_carlo_table(r: Results) -> Table | None:
         return None
     header = list(mc.columns)
     rows = [[Cell(_fmt(v)) for v in row] for row in mc.itertuples(index=False)]
-    caption = Text("Consistency over the Monte Carlo seeds: per dataset, method and statistic (pose NEES; NIS with the innovations "
-                   "of one stamp summed), the value averaged over the N runs at the stamps they all share, against the N-run "
-                   "two-sided band [χ²_{N·dof}(α/2), χ²_{N·dof}(1 − α/2)] / N.", [f"{c}: {MONTE_CARLO_COLUMNS[c]}" for c in header if c in MONTE_CARLO_COLUMNS])
+    caption = Text(
+        "Consistency over the Monte Carlo seeds: per dataset, method and statistic (pose NEES; NIS with the innovations "
+        "of one stamp summed), the value averaged over the N runs at the stamps they all share, against the N-run "
+        "two-sided band [χ²_{N·dof}(α/2), χ²_{N·dof}(1 − α/2)] / N.",
+        [f"{c}: {MONTE_CARLO_COLUMNS[c]}" for c in header if c in MONTE_CARLO_COLUMNS],
+    )
     return Table("table-monte_carlo", header, rows, caption)
 
 
@@ -256,7 +283,12 @@ def _failed_table(r: Results, anchor: str) -> tuple[Table | None, list[Code]]:
     if failed is None or not len(failed):
         return None, []
     rows, traces = [], []
-    for f in failed.reindex(columns=["dataset", "estimator", "seed", "status", "error", "traceback"]).astype(object).fillna("").itertuples(index=False):
+    for f in (
+        failed.reindex(columns=["dataset", "estimator", "seed", "status", "error", "traceback"])
+        .astype(object)
+        .fillna("")
+        .itertuples(index=False)
+    ):
         rows.append([Cell(str(x)) for x in (f.dataset, f.estimator, f.seed, f.status, f.error)])
         if str(f.traceback).strip():
             traces.append(Code(str(f.traceback), summary=f"traceback of {f.dataset}/{f.estimator}/{f.seed}"))
@@ -281,8 +313,16 @@ def build(r: Results) -> tuple[str, list]:
     blocks: list = [Heading(1, title)]
     if r.config.get("description"):
         blocks.append(Text(r.config["description"]))
-    blocks += [Heading(2, "Run", "run"), Table("table-run", ["fact", "value"], [[Cell(k), Cell(v)] for k, v in _facts(r)]),
-               Heading(2, "Versions", "versions"), Table("table-versions", ["package", "version"], [[Cell(k), Cell(str(v))] for k, v in (r.manifest.get("versions") or {}).items()])]
+    blocks += [
+        Heading(2, "Run", "run"),
+        Table("table-run", ["fact", "value"], [[Cell(k), Cell(v)] for k, v in _facts(r)]),
+        Heading(2, "Versions", "versions"),
+        Table(
+            "table-versions",
+            ["package", "version"],
+            [[Cell(k), Cell(str(v))] for k, v in (r.manifest.get("versions") or {}).items()],
+        ),
+    ]
     blocks.append(Heading(2, "Tables", "tables"))
     if r.frame is None:
         blocks.append(Text(f"No {SUMMARY}: the run did not finish, so there are no tables."))
@@ -291,7 +331,10 @@ def build(r: Results) -> tuple[str, list]:
         for spec in r.table_specs():
             columns = list(spec["columns"])
             _, rows, cited = _table_cells(r, columns, published)
-            blocks += [Heading(3, spec["name"]), Table(f"table-{spec['name']}", ["dataset", "method", "n", *columns], rows, _caption(r, columns, cited))]
+            blocks += [
+                Heading(3, spec["name"]),
+                Table(f"table-{spec['name']}", ["dataset", "method", "n", *columns], rows, _caption(r, columns, cited)),
+            ]
         mc = _monte_carlo_table(r)
         if mc is not None:
             blocks += [Heading(3, "monte_carlo"), mc]
@@ -303,9 +346,17 @@ def build(r: Results) -> tuple[str, list]:
         blocks.append(not_drawn)
     blocks.append(Heading(2, "Failed cells", "failed"))
     table, traces = _failed_table(r, "table-failed")
-    blocks += [table, *traces] if table else [Text("None: every cell finished." if r.frame is not None else "Unknown (no summary).")]
-    blocks += [Heading(2, "Configuration as run", "config"), Code(_yaml(r.config)),
-               Heading(3, "Resolved parameters (defaults filled in)"), Code(_yaml(r.manifest.get("resolved_params") or {}))]
+    blocks += (
+        [table, *traces]
+        if table
+        else [Text("None: every cell finished." if r.frame is not None else "Unknown (no summary).")]
+    )
+    blocks += [
+        Heading(2, "Configuration as run", "config"),
+        Code(_yaml(r.config)),
+        Heading(3, "Resolved parameters (defaults filled in)"),
+        Code(_yaml(r.manifest.get("resolved_params") or {})),
+    ]
     return title, blocks
 
 
@@ -338,8 +389,10 @@ def _compare_table(a: Results, b: Results, spec: dict) -> Table:
         rows.append(row)
     header = ["dataset", "method", "n A", "n B"] + [f"{c} {side}" for c in columns for side in ("A", "B")]
     caption = _caption(a, columns, [])
-    caption.text = ("A and B side by side; a value of B that differs from A's is highlighted, marked better or worse where the "
-                    "metric has a direction. " + caption.text)
+    caption.text = (
+        "A and B side by side; a value of B that differs from A's is highlighted, marked better or worse where the "
+        "metric has a direction. " + caption.text
+    )
     return Table(f"table-{spec['name']}", header, rows, caption)
 
 
@@ -347,15 +400,29 @@ def build_comparison(a: Results, b: Results) -> tuple[str, list]:
     """The side-by-side report of two results directories (A, B): (title, blocks)."""
     title = f"{a.name}: A = {a.manifest.get('git_revision')} vs B = {b.manifest.get('git_revision')} — slamarena report"
     facts_a, facts_b = dict(_facts(a)), dict(_facts(b))
-    blocks: list = [Heading(1, title), Text(f"A: {a.dir.resolve()}", []), Text(f"B: {b.dir.resolve()}"),
-                    Heading(2, "Run", "run"), Table("table-run", ["fact", "A", "B"], [[Cell(k), *_pair(facts_a[k], facts_b.get(k, ""))] for k in facts_a])]
+    blocks: list = [
+        Heading(1, title),
+        Text(f"A: {a.dir.resolve()}", []),
+        Text(f"B: {b.dir.resolve()}"),
+        Heading(2, "Run", "run"),
+        Table("table-run", ["fact", "A", "B"], [[Cell(k), *_pair(facts_a[k], facts_b.get(k, ""))] for k in facts_a]),
+    ]
     va, vb = a.manifest.get("versions") or {}, b.manifest.get("versions") or {}
-    blocks += [Heading(2, "Versions", "versions"), Table("table-versions", ["package", "A", "B"], [[Cell(k), *_pair(str(va.get(k, "–")), str(vb.get(k, "–")))] for k in dict.fromkeys([*va, *vb])])]
+    blocks += [
+        Heading(2, "Versions", "versions"),
+        Table(
+            "table-versions",
+            ["package", "A", "B"],
+            [[Cell(k), *_pair(str(va.get(k, "–")), str(vb.get(k, "–")))] for k in dict.fromkeys([*va, *vb])],
+        ),
+    ]
     blocks.append(Heading(2, "Configuration", "config"))
     if a.config == b.config:
         blocks.append(Text("A and B ran the same config (below)."))
     else:
-        diff = "".join(difflib.unified_diff(_yaml(a.config).splitlines(True), _yaml(b.config).splitlines(True), "A", "B"))
+        diff = "".join(
+            difflib.unified_diff(_yaml(a.config).splitlines(True), _yaml(b.config).splitlines(True), "A", "B")
+        )
         blocks += [Text("The configs differ (unified diff, A → B):"), Code(diff, marks=frozenset({"changed"}))]
     blocks.append(Heading(2, "Tables", "tables"))
     if a.frame is None or b.frame is None:
@@ -367,7 +434,10 @@ def build_comparison(a: Results, b: Results) -> tuple[str, list]:
     blocks.append(Heading(2, "Figures", "figures"))
     fa, fb = ({f.stem: f for f in r.figures()} for r in (a, b))
     for stem in dict.fromkeys([*fa, *fb]):
-        pair = [fa.get(stem) or Figure(stem, None, "(not drawn in A)"), fb.get(stem) or Figure(stem, None, "(not drawn in B)")]
+        pair = [
+            fa.get(stem) or Figure(stem, None, "(not drawn in A)"),
+            fb.get(stem) or Figure(stem, None, "(not drawn in B)"),
+        ]
         blocks.append(Figures(f"figure-{stem}", pair))
     blocks.append(Heading(2, "Failed cells", "failed"))
     for side, r in (("A", a), ("B", b)):
@@ -411,16 +481,28 @@ def _img(f: Figure) -> str:
 
 def to_html(title: str, blocks: list) -> str:
     """The blocks as one self-contained HTML page (no external resource, no script)."""
-    out = ['<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">',
-           f'<meta name="viewport" content="width=device-width, initial-scale=1"><title>{_esc(title)}</title><style>{_CSS}</style></head><body>']
+    out = [
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">',
+        f'<meta name="viewport" content="width=device-width, initial-scale=1"><title>{_esc(title)}</title><style>{_CSS}</style></head><body>',
+    ]
     for b in blocks:
         if isinstance(b, Heading):
-            out.append(f'<h{b.level}{f" id={_esc(b.anchor)!r}" if b.anchor else ""}>{_esc(b.text)}</h{b.level}>')
+            out.append(f"<h{b.level}{f' id={_esc(b.anchor)!r}' if b.anchor else ''}>{_esc(b.text)}</h{b.level}>")
         elif isinstance(b, Text):
             out.append(_html_text(b))
         elif isinstance(b, Table):
             head = "".join(f"<th>{_esc(h)}</th>" for h in b.header)
-            body = "".join("<tr>" + "".join(f'<td class="{" ".join(sorted(c.marks))}">{_esc(c.text)}</td>' if c.marks else f"<td>{_esc(c.text)}</td>" for c in row) + "</tr>" for row in b.rows)
+            body = "".join(
+                "<tr>"
+                + "".join(
+                    f'<td class="{" ".join(sorted(c.marks))}">{_esc(c.text)}</td>'
+                    if c.marks
+                    else f"<td>{_esc(c.text)}</td>"
+                    for c in row
+                )
+                + "</tr>"
+                for row in b.rows
+            )
             out.append(f'<table id="{_esc(b.anchor)}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>')
             if b.caption:
                 out.append(_html_text(b.caption, "caption"))
@@ -428,7 +510,9 @@ def to_html(title: str, blocks: list) -> str:
             figs = []
             for f in b.figures:
                 img = _img(f) if f.path is not None else ""
-                figs.append(f"<figure>{img}<figcaption class=\"caption\"><b>{_esc(f.stem)}</b>. {_esc(f.caption)}</figcaption></figure>")
+                figs.append(
+                    f'<figure>{img}<figcaption class="caption"><b>{_esc(f.stem)}</b>. {_esc(f.caption)}</figcaption></figure>'
+                )
             out.append(f'<div class="figures" id="{_esc(b.anchor)}">{"".join(figs)}</div>')
         elif isinstance(b, Code):
             cls = f' class="{" ".join(sorted(b.marks))}"' if b.marks else ""
@@ -465,12 +549,19 @@ def to_markdown(title: str, blocks: list, base: Path) -> str:
         elif isinstance(b, Text):
             out.append(_md_text(b))
         elif isinstance(b, Table):
-            lines = ["| " + " | ".join(h.replace("|", "\\|") for h in b.header) + " |", "|" + "|".join("---" for _ in b.header) + "|"]
+            lines = [
+                "| " + " | ".join(h.replace("|", "\\|") for h in b.header) + " |",
+                "|" + "|".join("---" for _ in b.header) + "|",
+            ]
             lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("\n".join(lines) + ("\n\n" + _md_text(b.caption) if b.caption else ""))
         elif isinstance(b, Figures):
             for f in b.figures:
-                image = f"![{f.stem}]({Path(os.path.relpath(f.path.resolve(), base)).as_posix()})\n\n" if f.path is not None else ""
+                image = (
+                    f"![{f.stem}]({Path(os.path.relpath(f.path.resolve(), base)).as_posix()})\n\n"
+                    if f.path is not None
+                    else ""
+                )
                 out.append(f"{image}*{f.stem}.* {f.caption}")
         elif isinstance(b, Code):
             out.append((f"{b.summary}:\n\n" if b.summary else "") + "```\n" + b.text.rstrip("\n") + "\n```")
@@ -478,7 +569,9 @@ def to_markdown(title: str, blocks: list, base: Path) -> str:
 
 
 # ---------------------------------------------------------------------------- entry point
-def write_report(results_dir: str | Path, other: str | Path | None = None, out: str | Path | None = None) -> tuple[Path, Path]:
+def write_report(
+    results_dir: str | Path, other: str | Path | None = None, out: str | Path | None = None
+) -> tuple[Path, Path]:
     """Write the HTML report and its Markdown twin; returns their paths.
 
     One directory: ``<results>/report.html`` and ``report.md``. Two: ``<A>/report_vs_<B's folder name>.html``

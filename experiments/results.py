@@ -20,6 +20,7 @@
 Every file is written to a temporary name in the same directory and renamed over the target
 (``os.replace`` is atomic on POSIX), so a killed run never leaves a half-written file behind.
 """
+
 from __future__ import annotations
 
 import io
@@ -29,7 +30,19 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "save_npz", "load_npz", "write_trajectory_tum", "cell_dir", "MANIFEST", "SUMMARY", "CAPTION_SUFFIX"]
+__all__ = [
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "write_json",
+    "read_json",
+    "save_npz",
+    "load_npz",
+    "write_trajectory_tum",
+    "cell_dir",
+    "MANIFEST",
+    "SUMMARY",
+    "CAPTION_SUFFIX",
+]
 
 MANIFEST = "manifest.json"
 CAPTION_SUFFIX = ".caption"  # figures/<stem>.caption beside figures/<stem>.png

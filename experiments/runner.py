@@ -25,6 +25,7 @@
    and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`); with ``--report``, then
    the report (:mod:`slamarena.experiments.report`).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -36,10 +37,10 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
-from typing import Callable
 
 from rich.markup import escape
 
@@ -77,7 +78,9 @@ class Cell:
             info = read_json(path)
         except (OSError, json.JSONDecodeError):
             return False
-        if not (info.get("status") == "ok" and info.get("key") == self.key and info.get("metrics_key") == self.metrics_key):
+        if not (
+            info.get("status") == "ok" and info.get("key") == self.key and info.get("metrics_key") == self.metrics_key
+        ):
             return False
         return all(readable_npz(self.dir / name) for name in ("estimate.npz", "series.npz"))
 
@@ -137,25 +140,52 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
                 continue
             takes_seed = es.takes_seed()
             for seed in seeds if (ds.is_simulator or takes_seed) else seeds[:1]:
-                key = _digest({
-                    "dataset": {"name": ds.name, "params": ds.resolved_params(), "seed": seed if ds.is_simulator else None, "files": checksums},
-                    "estimator": {"name": es.name, "params": es.resolved_params(), "seed": seed if takes_seed else None},
-                    "seed": seed,
-                    "version": version,
-                })
-                cells.append(Cell(
-                    id=f"{ds_labels[i]}/{es_labels[j]}/{seed}", dataset=i, estimator=j, seed=seed,
-                    dir=cell_dir(out, ds_labels[i], es_labels[j], seed).resolve(),
-                    key=key, metrics_key=_digest({"key": key, "metrics": metrics}), seed_to_estimator=takes_seed,
-                ))
+                key = _digest(
+                    {
+                        "dataset": {
+                            "name": ds.name,
+                            "params": ds.resolved_params(),
+                            "seed": seed if ds.is_simulator else None,
+                            "files": checksums,
+                        },
+                        "estimator": {
+                            "name": es.name,
+                            "params": es.resolved_params(),
+                            "seed": seed if takes_seed else None,
+                        },
+                        "seed": seed,
+                        "version": version,
+                    }
+                )
+                cells.append(
+                    Cell(
+                        id=f"{ds_labels[i]}/{es_labels[j]}/{seed}",
+                        dataset=i,
+                        estimator=j,
+                        seed=seed,
+                        dir=cell_dir(out, ds_labels[i], es_labels[j], seed).resolve(),
+                        key=key,
+                        metrics_key=_digest({"key": key, "metrics": metrics}),
+                        seed_to_estimator=takes_seed,
+                    )
+                )
     return cells
 
 
 def _spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = False) -> dict:
     ds, es = config.datasets[cell.dataset], config.estimators[cell.estimator]
     return {
-        "id": cell.id, "dir": str(cell.dir), "key": cell.key, "metrics_key": cell.metrics_key, "seed": cell.seed,
-        "dataset": {"name": ds.name, "params": ds.params, "label": config.dataset_labels()[cell.dataset], "simulator": ds.is_simulator},
+        "id": cell.id,
+        "dir": str(cell.dir),
+        "key": cell.key,
+        "metrics_key": cell.metrics_key,
+        "seed": cell.seed,
+        "dataset": {
+            "name": ds.name,
+            "params": ds.params,
+            "label": config.dataset_labels()[cell.dataset],
+            "simulator": ds.is_simulator,
+        },
         "estimator": {"name": es.name, "params": es.params, "label": config.estimator_labels()[cell.estimator]},
         "seed_to_estimator": cell.seed_to_estimator,
         "metrics": {k: v.model_dump(mode="json") for k, v in config.enabled_metrics().items()},
@@ -171,7 +201,10 @@ def _cell_env(config: ExperimentConfig) -> dict:
 
     from .benchmarks import SINGLE_THREAD_ENV
 
-    return {"SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots()), **(SINGLE_THREAD_ENV if config.single_threaded else {})}
+    return {
+        "SLAMARENA_DATA": os.pathsep.join(str(p) for p in data_roots()),
+        **(SINGLE_THREAD_ENV if config.single_threaded else {}),
+    }
 
 
 # ---------------------------------------------------------------------------- execution
@@ -231,7 +264,13 @@ def _git_revision() -> str | None:
         rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10)
         if rev.returncode != 0:
             return None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True, text=True, timeout=10)
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
         return rev.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
     except (OSError, subprocess.SubprocessError):
         return None
@@ -241,7 +280,23 @@ def _versions() -> dict:
     from importlib.metadata import PackageNotFoundError, version
 
     out = {"python": platform.python_version()}
-    for pkg in ("slamarena", "numpy", "scipy", "gtsam", "filterpy", "open3d-cpu", "open3d", "kiss-icp", "numba", "pandas", "joblib", "distributed", "pydantic", "matplotlib", "evo"):
+    for pkg in (
+        "slamarena",
+        "numpy",
+        "scipy",
+        "gtsam",
+        "filterpy",
+        "open3d-cpu",
+        "open3d",
+        "kiss-icp",
+        "numba",
+        "pandas",
+        "joblib",
+        "distributed",
+        "pydantic",
+        "matplotlib",
+        "evo",
+    ):
         try:
             out[pkg] = version(pkg)
         except PackageNotFoundError:
@@ -250,11 +305,16 @@ def _versions() -> dict:
 
 
 def _machine() -> dict:
-    return {"hostname": socket.gethostname(), "platform": platform.platform(), "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count()}
+    return {
+        "hostname": socket.gethostname(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+    }
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 # ---------------------------------------------------------------------------- summary
@@ -265,9 +325,19 @@ def collect(config: ExperimentConfig, cells: list[Cell], failures: dict[str, dic
     rows = []
     for cell in cells:
         ds, es = config.datasets[cell.dataset], config.estimators[cell.estimator]
-        row = {"dataset": config.dataset_labels()[cell.dataset], "estimator": config.estimator_labels()[cell.estimator], "seed": cell.seed, "dataset_name": ds.name, "method": es.name}
+        row = {
+            "dataset": config.dataset_labels()[cell.dataset],
+            "estimator": config.estimator_labels()[cell.estimator],
+            "seed": cell.seed,
+            "dataset_name": ds.name,
+            "method": es.name,
+        }
         if cell.id in failures:
-            row.update(status=failures[cell.id]["status"], error=failures[cell.id]["error"], traceback=failures[cell.id]["traceback"])
+            row.update(
+                status=failures[cell.id]["status"],
+                error=failures[cell.id]["error"],
+                traceback=failures[cell.id]["traceback"],
+            )
         elif cell.finished():
             info = read_json(cell.dir / "metrics.json")
             row.update(status="ok", error="", traceback="")
@@ -316,9 +386,13 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
         series = load_npz(cell.dir / "series.npz")
         key = (config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator])
         if Series.NEES in series:
-            groups.setdefault(key + ("nees",), []).append((series[Series.NEES_T], series[Series.NEES], np.full(series[Series.NEES_T].shape, 3.0)))
+            groups.setdefault(key + ("nees",), []).append(
+                (series[Series.NEES_T], series[Series.NEES], np.full(series[Series.NEES_T].shape, 3.0))
+            )
         if Series.NIS in series:
-            groups.setdefault(key + ("nis",), []).append(nis_per_stamp(series[Series.NIS_T], series[Series.NIS], series[Series.NIS_DOF]))
+            groups.setdefault(key + ("nis",), []).append(
+                nis_per_stamp(series[Series.NIS_T], series[Series.NIS], series[Series.NIS_DOF])
+            )
     rows = []
     for (ds, es, stat), runs in groups.items():
         try:
@@ -327,10 +401,21 @@ def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
             continue
         ratio, t = mc["mean"] / mc["dof"], mc["t"]
         span = t[-1] - t[0]
-        rows.append({"dataset": ds, "estimator": es, "statistic": stat, "runs": mc["runs"], "stamps": int(t.size),
-                     "mean_over_dof": float(np.mean(ratio)), "in_band": mc["in_band"],
-                     "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])), "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span])),
-                     "band_lo_over_dof": float(np.mean(mc["lo"] / mc["dof"])), "band_hi_over_dof": float(np.mean(mc["hi"] / mc["dof"]))})
+        rows.append(
+            {
+                "dataset": ds,
+                "estimator": es,
+                "statistic": stat,
+                "runs": mc["runs"],
+                "stamps": int(t.size),
+                "mean_over_dof": float(np.mean(ratio)),
+                "in_band": mc["in_band"],
+                "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])),
+                "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span])),
+                "band_lo_over_dof": float(np.mean(mc["lo"] / mc["dof"])),
+                "band_hi_over_dof": float(np.mean(mc["hi"] / mc["dof"])),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -352,7 +437,20 @@ def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float
     rows = []
     for (ds, es), group in frame.groupby(["dataset", "estimator"], sort=False):
         ok = int((group["status"] == "ok").sum())
-        rows.append(((ds, es, f"{ok}/{len(group)}", fmt(group, "ate.rmse"), fmt(group, "rpe.trans_rmse"), fmt(group, "nees.mean_over_dof"), fmt(group, "cost.step_median", 1e3)), ok == len(group)))
+        rows.append(
+            (
+                (
+                    ds,
+                    es,
+                    f"{ok}/{len(group)}",
+                    fmt(group, "ate.rmse"),
+                    fmt(group, "rpe.trans_rmse"),
+                    fmt(group, "nees.mean_over_dof"),
+                    fmt(group, "cost.step_median", 1e3),
+                ),
+                ok == len(group),
+            )
+        )
         table.add_row(*(escape(str(v)) for v in rows[-1][0]), style="" if ok == len(group) else "red")
     if not console.is_terminal:  # a log file or CI: as wide as the table needs, never squeezed names
         widths = [max([len(c)] + [len(str(r[0][k])) for r in rows]) for k, c in enumerate(columns)]
@@ -360,19 +458,25 @@ def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float
     console.print(table)
     failed = frame[frame["status"] != "ok"]
     for _, row in failed.head(8).iterrows():
-        console.print(f"[red]✗ {escape(str(row['dataset']))}/{escape(str(row['estimator']))}/{row['seed']}[/red] {escape(str(row['status']))}: {escape(str(row['error']))}")
+        console.print(
+            f"[red]✗ {escape(str(row['dataset']))}/{escape(str(row['estimator']))}/{row['seed']}[/red] {escape(str(row['status']))}: {escape(str(row['error']))}"
+        )
     if len(failed) > 8:
         console.print(f"[red]… and {len(failed) - 8} more failed cells (see summary.csv)[/red]")
 
 
 # ---------------------------------------------------------------------------- the steps of a run
-def start_manifest(config: ExperimentConfig, out: Path, cells: list[Cell], pending: list[Cell], jobs: int, scheduler: str | None) -> dict:
+def start_manifest(
+    config: ExperimentConfig, out: Path, cells: list[Cell], pending: list[Cell], jobs: int, scheduler: str | None
+) -> dict:
     """Write ``manifest.json`` as the run starts (``finished`` stays null until it ends)."""
     manifest = {
         "experiment": config.name,
         "config": config.model_dump(mode="json"),
-        "resolved_params": {"datasets": {lbl: ds.resolved_params() for lbl, ds in zip(config.dataset_labels(), config.datasets)},
-                            "estimators": {lbl: es.resolved_params() for lbl, es in zip(config.estimator_labels(), config.estimators)}},
+        "resolved_params": {
+            "datasets": {lbl: ds.resolved_params() for lbl, ds in zip(config.dataset_labels(), config.datasets)},
+            "estimators": {lbl: es.resolved_params() for lbl, es in zip(config.estimator_labels(), config.estimators)},
+        },
         "versions": _versions(),
         "git_revision": _git_revision(),
         "machine": _machine(),
@@ -398,17 +502,38 @@ def check_recompute(config: ExperimentConfig, recompute: frozenset[str]) -> None
     """Refuse a ``--recompute`` label that names no method of the config (UsageError, the known labels listed)."""
     unknown = sorted(set(recompute) - set(config.estimator_labels()))
     if unknown:
-        raise UsageError(f"--recompute {', '.join(unknown)}: no such method label in {config.name}; "
-                         f"its labels: {', '.join(config.estimator_labels())}")
+        raise UsageError(
+            f"--recompute {', '.join(unknown)}: no such method label in {config.name}; "
+            f"its labels: {', '.join(config.estimator_labels())}"
+        )
 
 
-def run_cells(config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, forced: set[str], console) -> dict[str, dict]:
+def run_cells(
+    config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, forced: set[str], console
+) -> dict[str, dict]:
     """Execute the pending cells (those in ``forced`` recomputed even if cached) with a progress bar; returns the failed ones by id."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     env = _cell_env(config)
     failures: dict[str, dict] = {}
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console, transient=False) as progress:
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("elapsed"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=False,
+    ) as progress:
         task = progress.add_task(escape(config.name), total=len(pending))
 
         def on_done(result):
@@ -425,7 +550,9 @@ def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path)
     from .tables import table_specs, write_frame, write_tables
 
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
-    written = write_tables(frame, table_specs(config.tables, config.enabled_metrics()), out / "tables", config.published)
+    written = write_tables(
+        frame, table_specs(config.tables, config.enabled_metrics()), out / "tables", config.published
+    )
     mc_frame = monte_carlo_table(config, cells)
     if len(mc_frame):
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
@@ -445,12 +572,23 @@ def record_interruption(manifest: dict, out: Path, cells: list[Cell], console) -
     manifest["interrupted"] = {"at": _now(), "finished_cells": done, "total_cells": len(cells)}
     write_json(out / MANIFEST, manifest)
     command = " ".join(shlex.quote(a) for a in (manifest["command"] or ["slamarena", "run"]))
-    console.print(f"[yellow]interrupted: {done} of {len(cells)} cells are finished and kept in {escape(str(out))}.[/yellow]")
+    console.print(
+        f"[yellow]interrupted: {done} of {len(cells)} cells are finished and kept in {escape(str(out))}.[/yellow]"
+    )
     console.print(f"resume with the same command (finished cells are skipped): {escape(command)}", highlight=False)
 
 
-def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler: str | None = None, force: bool = False, console=None,
-                   make_figures: FigureMaker | None = None, report: bool = False, recompute: frozenset[str] = frozenset()) -> int:
+def run_experiment(
+    config: ExperimentConfig,
+    out: Path,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    force: bool = False,
+    console=None,
+    make_figures: FigureMaker | None = None,
+    report: bool = False,
+    recompute: frozenset[str] = frozenset(),
+) -> int:
     """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
     Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
@@ -480,8 +618,14 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     tables = write_outputs(config, cells, frame, out)
     figure_files, figure_errors = draw_figures(config, out, make_figures)
     elapsed = time.perf_counter() - t_start
-    manifest.update(finished=_now(), duration_s=elapsed, failed=sorted(failures), tables=[str(p.relative_to(out)) for p in tables],
-                    figures=[str(Path(p).relative_to(out)) for p in figure_files], figure_errors=figure_errors)
+    manifest.update(
+        finished=_now(),
+        duration_s=elapsed,
+        failed=sorted(failures),
+        tables=[str(p.relative_to(out)) for p in tables],
+        figures=[str(Path(p).relative_to(out)) for p in figure_files],
+        figure_errors=figure_errors,
+    )
     write_json(out / MANIFEST, manifest)
     _console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
     for name, err in figure_errors.items():
@@ -495,17 +639,27 @@ def run_experiment(config: ExperimentConfig, out: Path, jobs: int = 1, scheduler
     return 0 if (frame["status"] == "ok").all() else 1
 
 
-def print_grid(config: ExperimentConfig, out: Path, force: bool, console, recompute: frozenset[str] = frozenset()) -> int:
+def print_grid(
+    config: ExperimentConfig, out: Path, force: bool, console, recompute: frozenset[str] = frozenset()
+) -> int:
     """``--dry-run``: the resolved parameters of every dataset and method, and the grid of cells with the cached ones."""
     from rich.table import Table
 
     params = Table(title=f"{escape(config.name)}: resolved parameters (defaults filled in)", show_lines=True)
     for col in ("", "label", "name", "parameters"):
         params.add_column(col, overflow="fold")
-    for kind, labels, specs in (("dataset", config.dataset_labels(), config.datasets), ("method", config.estimator_labels(), config.estimators)):
+    for kind, labels, specs in (
+        ("dataset", config.dataset_labels(), config.datasets),
+        ("method", config.estimator_labels(), config.estimators),
+    ):
         for label, spec in zip(labels, specs):
             resolved = spec.resolved_params()
-            params.add_row(kind, escape(label), escape(spec.name), escape(", ".join(f"{k}={json.dumps(v)}" for k, v in resolved.items()) or "–"))
+            params.add_row(
+                kind,
+                escape(label),
+                escape(spec.name),
+                escape(", ".join(f"{k}={json.dumps(v)}" for k, v in resolved.items()) or "–"),
+            )
     console.print(params)
     cells = plan(config, out)
     forced = forced_cells(config, cells, force, recompute)
@@ -514,7 +668,13 @@ def print_grid(config: ExperimentConfig, out: Path, force: bool, console, recomp
         table.add_column(col)
     for cell in cells:
         state = "cached" if (cell.finished() and cell.id not in forced) else "to run"
-        table.add_row(escape(config.dataset_labels()[cell.dataset]), escape(config.estimator_labels()[cell.estimator]), str(cell.seed), state, escape(str(cell.dir.relative_to(Path(out).resolve()))))
+        table.add_row(
+            escape(config.dataset_labels()[cell.dataset]),
+            escape(config.estimator_labels()[cell.estimator]),
+            str(cell.seed),
+            state,
+            escape(str(cell.dir.relative_to(Path(out).resolve()))),
+        )
     console.print(table)
     return 0
 
@@ -547,8 +707,18 @@ def check_run_options(jobs: int, scheduler: str | None, out: Path) -> None:
             break
 
 
-def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Path | None, force: bool, dry_run: bool, make_figures: FigureMaker | None = None,
-                 report: bool = False, seeds: int | None = None, recompute: tuple[str, ...] = ()) -> int:
+def run_from_cli(
+    config: Path | None,
+    jobs: int,
+    scheduler: str | None,
+    out: Path | None,
+    force: bool,
+    dry_run: bool,
+    make_figures: FigureMaker | None = None,
+    report: bool = False,
+    seeds: int | None = None,
+    recompute: tuple[str, ...] = (),
+) -> int:
     """``slamarena run``: validate, then run (or list) the grid; ``seeds`` replaces the config's seeds by 0 … seeds − 1.
 
     Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
@@ -571,8 +741,17 @@ def run_from_cli(config: Path | None, jobs: int, scheduler: str | None, out: Pat
     if dry_run:
         return print_grid(cfg, target, force, Console(), recompute)
     try:
-        return run_experiment(cfg, target, jobs=jobs, scheduler=scheduler, force=force, console=console, make_figures=make_figures, report=report,
-                              recompute=recompute)
+        return run_experiment(
+            cfg,
+            target,
+            jobs=jobs,
+            scheduler=scheduler,
+            force=force,
+            console=console,
+            make_figures=make_figures,
+            report=report,
+            recompute=recompute,
+        )
     except SchedulerUnreachable as exc:
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2

@@ -8,6 +8,7 @@ dataset is marked — bold in Markdown and LaTeX, a trailing ``*`` in CSV — wh
 says which direction is better (``slamarena.experiments.metrics`` outputs: lower or higher).
 The CSV also carries the raw ``<column>_mean`` / ``<column>_std`` numbers.
 """
+
 from __future__ import annotations
 
 import re
@@ -21,7 +22,20 @@ from .results import atomic_write_text
 
 __all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns", "table_specs"]
 
-_DEFAULTS = ("ate.rmse", "ate.heading_rmse", "rpe.trans_rmse", "rpe.rot_rmse", "nees.mean_over_dof", "nees.in_band", "nis.mean_over_dof", "map.rmse", "relations.trans_mean", "cost.step_median", "cost.wall", "cost.peak_rss_mb")
+_DEFAULTS = (
+    "ate.rmse",
+    "ate.heading_rmse",
+    "rpe.trans_rmse",
+    "rpe.rot_rmse",
+    "nees.mean_over_dof",
+    "nees.in_band",
+    "nis.mean_over_dof",
+    "map.rmse",
+    "relations.trans_mean",
+    "cost.step_median",
+    "cost.wall",
+    "cost.peak_rss_mb",
+)
 
 
 def default_columns(enabled) -> list[str]:
@@ -73,7 +87,9 @@ def aggregate(frame: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, pd
 PUBLISHED = " (published)"
 
 
-def with_published(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, published) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+def with_published(
+    means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, published
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Append the published reference rows (config ``published:``) for the datasets and columns of a table: each
     row ``(dataset, "<label> (published)")`` with the quoted values, n = 0, never marked best, after our rows of
     that dataset (a dataset this run has no row for gets none)."""
@@ -92,7 +108,10 @@ def with_published(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, 
     means = pd.concat([means, extra])
     stds = pd.concat([stds, pd.DataFrame(np.nan, index=index, columns=stds.columns)])
     best = pd.concat([best, pd.DataFrame(False, index=index, columns=best.columns)])
-    order = sorted(range(len(means)), key=lambda k: (list(dict.fromkeys(means.index.get_level_values(0))).index(means.index[k][0]), k))
+    order = sorted(
+        range(len(means)),
+        key=lambda k: (list(dict.fromkeys(means.index.get_level_values(0))).index(means.index[k][0]), k),
+    )
     return means.iloc[order], stds.iloc[order], best.iloc[order]
 
 
@@ -125,10 +144,16 @@ def _markdown(cells: pd.DataFrame, text_columns: int = 2) -> str:
 
 def _latex(cells: pd.DataFrame, text_columns: int = 2) -> str:
     """A booktabs tabular; text columns (and the header) are escaped here, once; the others are already LaTeX."""
-    lines = [f"\\begin{{tabular}}{{{'l' * text_columns + 'r' * (len(cells.columns) - text_columns)}}}", "\\toprule",
-             " & ".join(_tex_escape(str(c)) for c in cells.columns) + r" \\", "\\midrule"]
+    lines = [
+        f"\\begin{{tabular}}{{{'l' * text_columns + 'r' * (len(cells.columns) - text_columns)}}}",
+        "\\toprule",
+        " & ".join(_tex_escape(str(c)) for c in cells.columns) + r" \\",
+        "\\midrule",
+    ]
     for row in cells.itertuples(index=False):
-        lines.append(" & ".join(_tex_escape(str(v)) if k < text_columns else str(v) for k, v in enumerate(row)) + r" \\")
+        lines.append(
+            " & ".join(_tex_escape(str(v)) if k < text_columns else str(v) for k, v in enumerate(row)) + r" \\"
+        )
     lines += ["\\bottomrule", "\\end{tabular}"]
     return "\n".join(lines) + "\n"
 
@@ -137,10 +162,19 @@ def to_markdown(means, stds, best, published=()) -> str:
     """The table, then what each column is (from the metric's outputs) and where published rows come from."""
     described = output_columns()
     legend = "".join(f"- `{c}`: {described[c][1]}\n" for c in best.columns if c in described)
-    sources = "".join(f"- {r['label']}{PUBLISHED}: {r['citation']}\n" for r in (p if isinstance(p, dict) else p.model_dump() for p in published)
-                      if any(r["label"] + PUBLISHED == e for e in means.index.get_level_values(1)))
-    return (_markdown(_cells(means, stds, best, lambda s: f"**{s}**")) + "\nn: seeds; mean ± std over seeds; best per dataset in bold"
-            + ("; rows marked (published) quote the paper, n –" if sources else "") + ".\n\n" + legend + sources)
+    sources = "".join(
+        f"- {r['label']}{PUBLISHED}: {r['citation']}\n"
+        for r in (p if isinstance(p, dict) else p.model_dump() for p in published)
+        if any(r["label"] + PUBLISHED == e for e in means.index.get_level_values(1))
+    )
+    return (
+        _markdown(_cells(means, stds, best, lambda s: f"**{s}**"))
+        + "\nn: seeds; mean ± std over seeds; best per dataset in bold"
+        + ("; rows marked (published) quote the paper, n –" if sources else "")
+        + ".\n\n"
+        + legend
+        + sources
+    )
 
 
 def to_latex(means, stds, best, published=()) -> str:
@@ -150,7 +184,9 @@ def to_latex(means, stds, best, published=()) -> str:
 
 def to_csv(means, stds, best, published=()) -> str:
     cells = _cells(means, stds, best, lambda s: f"{s}*")
-    raw = pd.concat([means.drop(columns="n").add_suffix("_mean"), stds.add_suffix("_std")], axis=1).reset_index(drop=True)
+    raw = pd.concat([means.drop(columns="n").add_suffix("_mean"), stds.add_suffix("_std")], axis=1).reset_index(
+        drop=True
+    )
     return pd.concat([cells, raw], axis=1).to_csv(index=False)
 
 

@@ -3,6 +3,7 @@
 ``REGISTRY`` maps experiment-config names to ``"module:Class"`` (imported on first use);
 each class implements ``run(sequence) -> Estimate`` like the estimators.
 """
+
 from __future__ import annotations
 
 REGISTRY: dict[str, str] = {

@@ -5,6 +5,7 @@ least the sensor's ``max_range`` (it clears space only); *usable* otherwise when
 ``limit`` (``min(max_range, max_usable_range)``): matched and mapped. Readings between ``limit`` and
 ``max_range`` are neither.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -33,11 +33,18 @@ walls lie along two perpendicular directions, whatever the map's rotation; two e
 apart give cos 45° = 0.71). Heading drift bends corridors and lowers R; it is blind to
 translation. Numbers compare maps of the same building, not buildings.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["occupancy_agreement", "true_occupancy_on", "map_sharpness", "hits_on_occupied", "wall_orientation_concentration"]
+__all__ = [
+    "occupancy_agreement",
+    "true_occupancy_on",
+    "map_sharpness",
+    "hits_on_occupied",
+    "wall_orientation_concentration",
+]
 
 
 def _dilate(mask: np.ndarray, tol: int) -> np.ndarray:
@@ -60,7 +67,9 @@ def occupancy_agreement(grid, true_occupied: np.ndarray, tol: int = 1) -> dict:
     return {
         "iou": float((est & true_occupied).sum() / union) if union else float("nan"),
         "precision": float((est & _dilate(true_occupied, tol)).sum() / est.sum()) if est.any() else float("nan"),
-        "recall": float((seen_truth & _dilate(est, tol)).sum() / seen_truth.sum()) if seen_truth.any() else float("nan"),
+        "recall": float((seen_truth & _dilate(est, tol)).sum() / seen_truth.sum())
+        if seen_truth.any()
+        else float("nan"),
         "occupied_cells": int(est.sum()),
         "true_cells_observed": int(seen_truth.sum()),
         "tol_cells": int(tol),
@@ -76,7 +85,9 @@ def true_occupancy_on(grid, world="loop", truth_in_map=(0.0, 0.0, 0.0)) -> np.nd
     seg = laser.segments(w).reshape(-1, 2, 2)
     moved = transform_points(np.asarray(truth_in_map, dtype=float), seg)
     walls = tuple((tuple(a), tuple(b)) for a, b in moved.tolist())
-    moved_world = laser.World(name=f"{w.name} (moved)", walls=walls, route=w.route, corner_radius=w.corner_radius, description=w.description)
+    moved_world = laser.World(
+        name=f"{w.name} (moved)", walls=walls, route=w.route, corner_radius=w.corner_radius, description=w.description
+    )
     occupied, _ = laser.true_occupancy(grid.params.resolution, moved_world, origin=grid.origin, shape=grid.shape)
     return occupied
 
@@ -87,9 +98,13 @@ def map_sharpness(grid) -> dict:
     known = np.abs(grid.log_odds - grid.l0) > 1e-6
     occupied, free = p > grid.params.occupied_threshold, p < grid.params.free_threshold
     n = int(known.sum())
-    return {"known_cells": n, "occupied_cells": int(occupied.sum()), "free_cells": int(free.sum()),
-            "decided_fraction": float((occupied | free).sum() / n) if n else float("nan"),
-            "sharpness": float(np.mean(np.abs(2.0 * p[known] - 1.0))) if n else float("nan")}
+    return {
+        "known_cells": n,
+        "occupied_cells": int(occupied.sum()),
+        "free_cells": int(free.sum()),
+        "decided_fraction": float((occupied | free).sum() / n) if n else float("nan"),
+        "sharpness": float(np.mean(np.abs(2.0 * p[known] - 1.0))) if n else float("nan"),
+    }
 
 
 def _end_points(scans, pose, k, max_range):
@@ -97,7 +112,9 @@ def _end_points(scans, pose, k, max_range):
 
     r, a = scans.beams(k)
     ok = np.isfinite(r) & (r > 0) & (r < max_range)
-    return ok, transform_points(compose(np.asarray(pose, dtype=float), scans.mount), np.column_stack([r * np.cos(a), r * np.sin(a)]))
+    return ok, transform_points(
+        compose(np.asarray(pose, dtype=float), scans.mount), np.column_stack([r * np.cos(a), r * np.sin(a)])
+    )
 
 
 def hits_on_occupied(grid, scans, poses, index, tol: int = 1) -> float:

@@ -21,6 +21,7 @@ For scan k (robot pose ``x_k = (x, y, θ)``):
    ``initial_updates`` scans, then when the pose moved more than ``update_distance`` or turned more than
    ``update_angle`` since the last insertion.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,7 +64,9 @@ class FrontEnd:
         self.scans = scans
         self.matcher = make_matcher(params.matcher, **params.matcher_params)
         self.odom = scans.pose if (params.use_odometry and scans.pose is not None) else None
-        self.limit = scans.max_range if params.max_usable_range is None else min(scans.max_range, params.max_usable_range)
+        self.limit = (
+            scans.max_range if params.max_usable_range is None else min(scans.max_range, params.max_usable_range)
+        )
         self._fresh = 0
         self.stalled = np.zeros(len(scans), dtype=bool)
         self.last_insert: np.ndarray | None = None
@@ -71,13 +74,17 @@ class FrontEnd:
 
     def start_pose(self, fallback: np.ndarray) -> np.ndarray:
         """The first scan's odometry pose when it has one, else ``fallback``."""
-        pose = self.scans.pose[0] if self.scans.pose is not None and np.all(np.isfinite(self.scans.pose[0])) else fallback
+        pose = (
+            self.scans.pose[0] if self.scans.pose is not None and np.all(np.isfinite(self.scans.pose[0])) else fallback
+        )
         return np.asarray(pose, dtype=float).copy()
 
     def beams(self, k: int) -> ScanBeams:
         r, a = self.scans.beams(k)
         bad, no_return, usable = classify(r, self.scans.max_range, self.limit)
-        points = transform_points(self.scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
+        points = transform_points(
+            self.scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])])
+        )
         return ScanBeams(r, a, bad, no_return, usable, points)
 
     def guess(self, k: int, estimates: np.ndarray, previous: np.ndarray) -> np.ndarray:
@@ -104,8 +111,12 @@ class FrontEnd:
         """Whether the scan at ``pose`` is inserted (the motion filter)."""
         p = self.params
         last = self.last_insert
-        return (last is None or self.insertions < p.initial_updates or np.hypot(*(pose[:2] - last[:2])) > p.update_distance
-                or abs(wrap_angle(pose[2] - last[2])) > p.update_angle)
+        return (
+            last is None
+            or self.insertions < p.initial_updates
+            or np.hypot(*(pose[:2] - last[:2])) > p.update_distance
+            or abs(wrap_angle(pose[2] - last[2])) > p.update_angle
+        )
 
     def inserted(self, pose: np.ndarray) -> None:
         """Note that the scan at ``pose`` was inserted."""

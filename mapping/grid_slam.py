@@ -13,6 +13,7 @@ Result: :class:`~slamarena.datasets.estimate.Estimate` with one pose per scan at
 covariance, hence not ``pose_cov``). After ``run`` the map is ``self.maps`` (a
 :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
 """
+
 from __future__ import annotations
 
 import time
@@ -49,16 +50,32 @@ class GridSLAMParams(PyramidParams):
     lasers also come from glass and dark surfaces, and long clearing rays erase walls they pass.
     """
 
-    matcher: Literal[tuple(MATCHERS)] = Field("gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS")
-    matcher_params: dict[str, Any] = Field(default_factory=dict, description="the matcher's parameters (its Params model)")
-    use_odometry: bool = Field(True, description="guess each pose from the scans' odometry poses (else: the previous pose)")
-    update_distance: NonNegativeFloat = Field(0.4, description="update the map when the pose moved more than this since the last update [m]")
-    update_angle: NonNegativeFloat = Field(0.9, description="update the map when the pose turned more than this since the last update [rad]")
-    initial_updates: NonNegativeInt = Field(10, description="update the map at every usable scan until it holds this many scans")
+    matcher: Literal[tuple(MATCHERS)] = Field(
+        "gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS"
+    )
+    matcher_params: dict[str, Any] = Field(
+        default_factory=dict, description="the matcher's parameters (its Params model)"
+    )
+    use_odometry: bool = Field(
+        True, description="guess each pose from the scans' odometry poses (else: the previous pose)"
+    )
+    update_distance: NonNegativeFloat = Field(
+        0.4, description="update the map when the pose moved more than this since the last update [m]"
+    )
+    update_angle: NonNegativeFloat = Field(
+        0.9, description="update the map when the pose turned more than this since the last update [rad]"
+    )
+    initial_updates: NonNegativeInt = Field(
+        10, description="update the map at every usable scan until it holds this many scans"
+    )
     clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
-    max_usable_range: PositiveFloat | None = Field(None, description="longer returns are neither matched nor mapped [m]; None: all returns")
+    max_usable_range: PositiveFloat | None = Field(
+        None, description="longer returns are neither matched nor mapped [m]; None: all returns"
+    )
     min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
-    reference_scans: PositiveInt = Field(10, description="point matchers match against the end points of this many last map-update scans")
+    reference_scans: PositiveInt = Field(
+        10, description="point matchers match against the end points of this many last map-update scans"
+    )
 
     @field_validator("matcher_params")
     @classmethod
@@ -94,19 +111,32 @@ class GridSLAM:
         poses = np.zeros((K, 3))
         step_time = np.zeros(K)
         diag = {
-            "bad_beams": np.zeros(K, np.int64), "no_return_beams": np.zeros(K, np.int64), "usable_beams": np.zeros(K, np.int64),
-            "matched": np.zeros(K, bool), "map_updated": np.zeros(K, bool), "score": np.full(K, np.nan),
-            "iterations": np.zeros(K, np.int64), "match_cov": np.full((K, 3, 3), np.nan),
+            "bad_beams": np.zeros(K, np.int64),
+            "no_return_beams": np.zeros(K, np.int64),
+            "usable_beams": np.zeros(K, np.int64),
+            "matched": np.zeros(K, bool),
+            "map_updated": np.zeros(K, bool),
+            "score": np.full(K, np.nan),
+            "iterations": np.zeros(K, np.int64),
+            "match_cov": np.full((K, 3, 3), np.nan),
         }
         pose = front.start_pose(sequence.start_pose)
-        self.maps = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
+        self.maps = MapPyramid(
+            p.model_dump(include=set(PyramidParams.model_fields)),
+            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
+            centre=tuple(pose[:2]),
+        )
         keyframes: list[np.ndarray] = []
         n_beams = np.zeros(K, np.int64)
         for k in range(K):
             t0 = time.perf_counter()
             beams = front.beams(k)
             n_beams[k] = beams.r.size
-            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = beams.bad.sum(), beams.no_return.sum(), beams.usable.sum()
+            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = (
+                beams.bad.sum(),
+                beams.no_return.sum(),
+                beams.usable.sum(),
+            )
             pose = front.guess(k, poses, pose)
             if front.last_insert is not None:
                 res = front.match(self.maps if front.matcher.kind == "grid" else np.concatenate(keyframes), beams, pose)
@@ -115,7 +145,14 @@ class GridSLAM:
                     diag["matched"][k] = True
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
             if len(beams.points) >= p.min_beams and front.due(pose):
-                self.maps.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range)
+                self.maps.integrate(
+                    beams.r[beams.mapped],
+                    beams.a[beams.mapped],
+                    pose,
+                    scans.mount,
+                    max_range=front.limit,
+                    clear_range=p.clear_range,
+                )
                 if front.matcher.kind == "points":
                     keyframes = (keyframes + [transform_points(pose, beams.points)])[-p.reference_scans :]
                 front.inserted(pose)
@@ -136,4 +173,6 @@ class GridSLAM:
             "map_shape": list(self.map.shape),
             "map_origin": self.map.origin.tolist(),
         }
-        return Estimate(method="grid_slam", t=scans.t.copy(), poses=poses, step_time=step_time, diagnostics=diag, meta=meta)
+        return Estimate(
+            method="grid_slam", t=scans.t.copy(), poses=poses, step_time=step_time, diagnostics=diag, meta=meta
+        )

@@ -6,6 +6,7 @@ shifted by half a cell so that cell centres lie on multiples of the level's reso
 the coarse levels are true coarse maps (not blurred copies of the fine one): a scan
 matched on level k sees smooth, wide basins, the fine level gives accuracy.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,14 +22,18 @@ __all__ = ["MapPyramid", "MapPyramidParams", "PyramidParams"]
 class PyramidParams(CellModelParams):
     """The levels and the cell model of a map pyramid (what GridSLAM configures; the extent comes from the data)."""
 
-    resolution: PositiveFloat = Field(0.05, description="cell side of the finest level, level 0 [m]; level k has resolution · 2^k")
+    resolution: PositiveFloat = Field(
+        0.05, description="cell side of the finest level, level 0 [m]; level k has resolution · 2^k"
+    )
     levels: PositiveInt = Field(3, description="number of levels")
 
 
 class MapPyramidParams(PyramidParams):
     """Parameters of :class:`MapPyramid`: :class:`PyramidParams` and the initial extent."""
 
-    size: PositiveFloat = Field(20.0, description="side of the initial square every level covers [m] (grids grow as scans reach beyond)")
+    size: PositiveFloat = Field(
+        20.0, description="side of the initial square every level covers [m] (grids grow as scans reach beyond)"
+    )
     centre: tuple[float, float] = Field((0.0, 0.0), description="centre of the initial square [m]")
 
 
@@ -45,7 +50,9 @@ class MapPyramid:
         for k in range(p.levels):
             res = p.resolution * 2**k
             n = max(int(np.ceil(p.size / res)), 1)
-            corner = np.round(np.asarray(p.centre) / res) * res - (n // 2 + 0.5) * res  # half-cell shift: cell centres on multiples of res
+            corner = (
+                np.round(np.asarray(p.centre) / res) * res - (n // 2 + 0.5) * res
+            )  # half-cell shift: cell centres on multiples of res
             self.levels.append(OccupancyGrid(cell_model, resolution=res, width=n, height=n, origin=tuple(corner)))
         self.version = 0
 
@@ -53,8 +60,16 @@ class MapPyramid:
     def finest(self) -> OccupancyGrid:
         return self.levels[0]
 
-    def integrate(self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None,
-                  also: "tuple[MapPyramid, ...] | list[MapPyramid]" = ()) -> int:
+    def integrate(
+        self,
+        ranges,
+        angles,
+        pose,
+        mount=(0.0, 0.0, 0.0),
+        max_range: float = np.inf,
+        clear_range: float | None = None,
+        also: tuple[MapPyramid, ...] | list[MapPyramid] = (),
+    ) -> int:
         """Integrate one scan into every level; returns the cells updated on the finest level.
 
         ``also``: other pyramids with the same levels (every pyramid's level k lies on the lattice of cell centres

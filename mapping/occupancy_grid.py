@@ -34,6 +34,7 @@ the half-cell origin shift the notes mention (their formula ``(w − origin) / r
 both the rounding and the shift; see research/mapping.md). The grid grows in whole blocks of
 cells when a scan reaches beyond it, keeping every existing cell at its world position.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -48,7 +49,17 @@ from slamarena.params import Field, Params
 
 from .raytrace import bresenham
 
-__all__ = ["OccupancyGrid", "OccupancyGridParams", "CellModelParams", "logit", "probability", "load_map_server", "ROS_FREE", "ROS_OCCUPIED", "ROS_UNKNOWN"]
+__all__ = [
+    "OccupancyGrid",
+    "OccupancyGridParams",
+    "CellModelParams",
+    "logit",
+    "probability",
+    "load_map_server",
+    "ROS_FREE",
+    "ROS_OCCUPIED",
+    "ROS_UNKNOWN",
+]
 
 ROS_FREE, ROS_OCCUPIED, ROS_UNKNOWN = 0, 100, -1
 #: map_server trinary PGM pixel values (map_saver): occupied black, free white, unknown grey
@@ -88,15 +99,20 @@ class CellModelParams(Params):
     free_threshold: OpenProbability = Field(0.25, description="a cell with p below this is free")
     occupied_threshold: OpenProbability = Field(0.65, description="a cell with p above this is occupied")
     clamp: tuple[OpenProbability, OpenProbability] | None = Field(
-        (0.12, 0.97), description="probabilities (p_min, p_max) the log-odds are clamped to; None: no clamping")
-    hit_guard: NonNegativeInt = Field(0, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off")
+        (0.12, 0.97), description="probabilities (p_min, p_max) the log-odds are clamped to; None: no clamping"
+    )
+    hit_guard: NonNegativeInt = Field(
+        0, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off"
+    )
 
     @model_validator(mode="after")
     def _ordered(self):
         if not self.p_miss < self.p_prior < self.p_hit:
             raise ValueError(f"need p_miss < p_prior < p_hit, got {self.p_miss}, {self.p_prior}, {self.p_hit}")
         if not self.free_threshold < self.occupied_threshold:
-            raise ValueError(f"need free_threshold < occupied_threshold, got {self.free_threshold}, {self.occupied_threshold}")
+            raise ValueError(
+                f"need free_threshold < occupied_threshold, got {self.free_threshold}, {self.occupied_threshold}"
+            )
         if self.clamp is not None and not self.clamp[0] < self.p_prior < self.clamp[1]:
             raise ValueError(f"clamp (p_min, p_max) must lie around p_prior = {self.p_prior}, got {self.clamp}")
         return self
@@ -109,8 +125,11 @@ class OccupancyGridParams(CellModelParams):
     width: PositiveInt = Field(200, description="initial number of columns (x) [cells]")
     height: PositiveInt = Field(200, description="initial number of rows (y) [cells]")
     origin: tuple[float, float] | None = Field(
-        None, description="world position of the lower-left corner of cell (0, 0) [m]; None: the grid centred on (0, 0)")
-    grow: bool = Field(True, description="grow in blocks of 64 cells when a scan reaches beyond the grid (else drop those cells)")
+        None, description="world position of the lower-left corner of cell (0, 0) [m]; None: the grid centred on (0, 0)"
+    )
+    grow: bool = Field(
+        True, description="grow in blocks of 64 cells when a scan reaches beyond the grid (else drop those cells)"
+    )
     dtype: Literal["float32", "float64"] = Field("float32", description="storage type of the log-odds")
 
 
@@ -122,9 +141,14 @@ class OccupancyGrid:
     def __init__(self, params: OccupancyGridParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         p = self.params
-        self.origin = np.array(p.origin if p.origin is not None else (-0.5 * p.width * p.resolution, -0.5 * p.height * p.resolution), dtype=float)
+        self.origin = np.array(
+            p.origin if p.origin is not None else (-0.5 * p.width * p.resolution, -0.5 * p.height * p.resolution),
+            dtype=float,
+        )
         self.l_hit, self.l_miss, self.l0 = float(logit(p.p_hit)), float(logit(p.p_miss)), float(logit(p.p_prior))
-        self.l_min, self.l_max = (float(logit(p.clamp[0])), float(logit(p.clamp[1]))) if p.clamp is not None else (-np.inf, np.inf)
+        self.l_min, self.l_max = (
+            (float(logit(p.clamp[0])), float(logit(p.clamp[1]))) if p.clamp is not None else (-np.inf, np.inf)
+        )
         self.log_odds = np.full((p.height, p.width), self.l0, dtype=p.dtype)
         self.version = 0
         self.cell_updates = 0
@@ -137,7 +161,9 @@ class OccupancyGrid:
     def world_to_grid(self, xy) -> np.ndarray:
         """Integer cell indices ``(…, 2)`` as ``(ix, iy)``: rounding with the half-cell shift."""
         xy = np.asarray(xy, dtype=float)
-        return np.floor((xy - self.origin - 0.5 * self.params.resolution) / self.params.resolution + 0.5).astype(np.int64)
+        return np.floor((xy - self.origin - 0.5 * self.params.resolution) / self.params.resolution + 0.5).astype(
+            np.int64
+        )
 
     def grid_to_world(self, ij) -> np.ndarray:
         """World position ``(…, 2)`` of the centres of cells ``(ix, iy)``."""
@@ -176,7 +202,9 @@ class OccupancyGrid:
         self.version += 1
 
     # ------------------------------------------------------------------ update
-    def scan_cells(self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None) -> ScanCells:
+    def scan_cells(
+        self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None
+    ) -> ScanCells:
         """The free and hit cells of one scan (deduplicated; a hit wins over free).
 
         ``pose`` is the robot pose, ``mount`` the sensor pose in the robot frame. Invalid
@@ -217,7 +245,10 @@ class OccupancyGrid:
         if self.params.hit_guard and hits.size:
             g = np.arange(-self.params.hit_guard, self.params.hit_guard + 1)
             hx, hy = hits % self.shape[1], hits // self.shape[1]
-            gx, gy = (v.ravel() for v in np.broadcast_arrays(hx[:, None, None] + g[None, None, :], hy[:, None, None] + g[None, :, None]))
+            gx, gy = (
+                v.ravel()
+                for v in np.broadcast_arrays(hx[:, None, None] + g[None, None, :], hy[:, None, None] + g[None, :, None])
+            )
             near = (gx >= 0) & (gx < self.shape[1]) & (gy >= 0) & (gy < self.shape[0])
             scratch[gy[near] * self.shape[1] + gx[near]] = -2
         scratch[hits] = -1
@@ -235,14 +266,16 @@ class OccupancyGrid:
         self.version += 1
         return n
 
-    def cells_in(self, cells: ScanCells, other: "OccupancyGrid") -> ScanCells:
+    def cells_in(self, cells: ScanCells, other: OccupancyGrid) -> ScanCells:
         """``cells`` (flat indices of this grid) as flat indices of ``other``, a grid on the same lattice (same
         resolution, origins a whole number of cells apart): the same world cells, so one scan traced once updates
         several grids. ``other`` grows to hold them (if it grows; else the cells outside it are dropped)."""
         res = self.params.resolution
         offset = (self.origin - other.origin) / res
         if other.params.resolution != res or not np.allclose(offset, np.rint(offset), rtol=0.0, atol=1e-6):
-            raise ValueError(f"grids not on one lattice: resolutions {res}, {other.params.resolution}, origins {self.origin}, {other.origin}")
+            raise ValueError(
+                f"grids not on one lattice: resolutions {res}, {other.params.resolution}, origins {self.origin}, {other.origin}"
+            )
         w = self.shape[1]
         both = np.concatenate([cells.free, cells.hit])
         if both.size == 0:
@@ -257,7 +290,9 @@ class OccupancyGrid:
         is_free = np.arange(both.size) < cells.free.size
         return ScanCells(flat[inside & is_free], flat[inside & ~is_free])
 
-    def integrate(self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None) -> int:
+    def integrate(
+        self, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range: float = np.inf, clear_range: float | None = None
+    ) -> int:
         """Trace and apply one scan (see :meth:`scan_cells`); returns the number of cells updated."""
         return self.apply(self.scan_cells(ranges, angles, pose, mount, max_range, clear_range))
 

@@ -7,6 +7,7 @@ reading is no new reading. A mapper moves a pose by the odometry only at fresh r
 increment from the last fresh reading, ``⊖o_f ⊕ o_k``, applied to its pose at that reading (not to its
 latest pose, which it may have corrected in between): the motion of the frozen stretch is applied once.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -12,6 +12,7 @@ integer arithmetic, all cells of all beams are produced at once: ``np.repeat`` l
 ``D + 1`` steps of every beam and the closed form fills them in. The loop form lives in the
 tests as the reference the closed form is checked against (all octants, degenerate lines).
 """
+
 from __future__ import annotations
 
 import numpy as np

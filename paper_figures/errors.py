@@ -5,6 +5,7 @@ linearly interpolated onto them); the band spans the 10–90 % range across seed
 logarithmic (errors of the methods of one run differ by orders of magnitude: dead reckoning's metres,
 a smoother's centimetres) with robust limits (:func:`slamarena.paper_figures.style.robust_limits`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -27,7 +28,11 @@ def _across_seeds(runs, key):
 
 
 def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
-    runs, styles = figure_runs(results_dir, lambda r: r.series.get(Series.ATE_T, np.zeros(0)).size > 0, "no ATE series (is the ate metric enabled?)")
+    runs, styles = figure_runs(
+        results_dir,
+        lambda r: r.series.get(Series.ATE_T, np.zeros(0)).size > 0,
+        "no ATE series (is the ate metric enabled?)",
+    )
     written = []
     for (dataset,), group in by(runs, "dataset").items():
         methods = by(group, "estimator")
@@ -36,7 +41,10 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         drawn = {ax_p: [], ax_h: []}
         for (estimator,), seeds in methods.items():
             style = styles(estimator)
-            for ax, key, scale in ((ax_p, Series.ATE_POSITION_ERROR, 1.0), (ax_h, Series.ATE_HEADING_ERROR, 180 / np.pi)):
+            for ax, key, scale in (
+                (ax_p, Series.ATE_POSITION_ERROR, 1.0),
+                (ax_h, Series.ATE_HEADING_ERROR, 180 / np.pi),
+            ):
                 t, mean, lo, hi = _across_seeds(seeds, key)
                 ax.plot(t, mean * scale, **style)
                 drawn[ax].append(mean * scale)
@@ -47,8 +55,11 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             ax.set_ylabel(label)
         ax_h.set_xlabel("time [s]")
         n = len({r.seed for r in group})
-        caption = (f"{dataset}: ATE position (top) and heading (bottom) error over time after each cell's ATE alignment, "
-                   f"mean over {n} seed{'s' * (n > 1)}" + (" with the 10–90 % range across seeds shaded" if n > 1 else "")
-                   + "; log scale, y range spanning 0.5–99.5 % of the drawn values.")
+        caption = (
+            f"{dataset}: ATE position (top) and heading (bottom) error over time after each cell's ATE alignment, "
+            f"mean over {n} seed{'s' * (n > 1)}"
+            + (" with the 10–90 % range across seeds shaded" if n > 1 else "")
+            + "; log scale, y range spanning 0.5–99.5 % of the drawn values."
+        )
         written += save(fig, out_dir, f"errors_{dataset}", caption)
     return written

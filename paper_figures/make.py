@@ -5,10 +5,11 @@ to the module function that draws them; each reads the results directory and wri
 PDF into ``<results>/figures``, with the figure's caption beside them (``<stem>.caption``, read by the
 report, :mod:`slamarena.experiments.report`).
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from . import errors, maps, nees, neff, relations, scaling, trajectories
 from .runs import FigureSkipped
@@ -26,7 +27,9 @@ FIGURES: dict[str, Callable[[Path, Path], list[Path]]] = {
 }
 
 
-def make_all(results_dir: str | Path, only: list[str] | None = None, verbose: bool = True) -> tuple[list[Path], dict[str, str]]:
+def make_all(
+    results_dir: str | Path, only: list[str] | None = None, verbose: bool = True
+) -> tuple[list[Path], dict[str, str]]:
     """Draw the figures (all, or ``only`` these kinds); returns (files written, kind → reason skipped)."""
     results_dir = Path(results_dir)
     out = results_dir / "figures"

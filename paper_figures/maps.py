@@ -19,6 +19,7 @@ a second panel, "before loop closure", and its accepted loop closures (``loop_no
 ``loop_accepted`` with ``node_scan``: :mod:`slamarena.mapping.laser_slam`) are drawn on the panel after it as
 segments between the two nodes they join.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -92,14 +93,24 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             style = styles(run.estimator)
             d = est.diagnostics
             if "front_end_poses" in d:
-                panels.append((f"{run.estimator}, before loop closure", est.t, A.poses(d["front_end_poses"]), style, None))
+                panels.append(
+                    (f"{run.estimator}, before loop closure", est.t, A.poses(d["front_end_poses"]), style, None)
+                )
             loops = None
             if {"loop_node", "loop_anchor", "loop_accepted", "node_scan"} <= set(d):
                 nodes = A.poses(est.poses[d["node_scan"]])[:, :2]
                 ok = d["loop_accepted"].astype(bool)
                 loops = np.stack([nodes[d["loop_node"][ok]], nodes[d["loop_anchor"][ok]]], axis=1)
                 loops_drawn += len(loops)
-            panels.append((f"{run.estimator}" + (", after loop closure" if "front_end_poses" in d else ""), est.t, A.poses(est.poses), style, loops))
+            panels.append(
+                (
+                    f"{run.estimator}" + (", after loop closure" if "front_end_poses" in d else ""),
+                    est.t,
+                    A.poses(est.poses),
+                    style,
+                    loops,
+                )
+            )
         points = [end_points(scans, t, poses, stride) for _, t, poses, _, _ in panels]
         # the extent of the maps that are maps: a baseline's drift (odometry) would shrink every other panel to a corner;
         # it is clipped to that extent instead
@@ -112,12 +123,36 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         ncols = min(3, len(panels))
         nrows = -(-len(panels) // ncols)
         aspect = (edges[1][-1] - edges[1][0]) / (edges[0][-1] - edges[0][0])
-        fig, axes = figure(PAGE, nrows * PAGE / ncols * min(max(aspect, 0.5), 1.5) + 0.5, nrows=nrows, ncols=ncols, sharex=True, sharey=True)
+        fig, axes = figure(
+            PAGE,
+            nrows * PAGE / ncols * min(max(aspect, 0.5), 1.5) + 0.5,
+            nrows=nrows,
+            ncols=ncols,
+            sharex=True,
+            sharey=True,
+        )
         for ax, (title, t, poses, style, loops), pts in zip(axes.flat, panels, points):
             counts, _, _ = np.histogram2d(pts[:, 0], pts[:, 1], bins=edges)
-            shade = np.log1p(counts.T) / max(np.log1p(np.percentile(counts[counts > 0], 99)), 1e-9) if counts.any() else counts.T
-            ax.imshow(np.clip(shade, 0, 1), origin="lower", cmap="gray_r", extent=(edges[0][0], edges[0][-1], edges[1][0], edges[1][-1]), interpolation="nearest")
-            ax.plot(poses[:, 0], poses[:, 1], color=style["color"], linestyle=style.get("linestyle", "-"), linewidth=0.6, label=style["label"])
+            shade = (
+                np.log1p(counts.T) / max(np.log1p(np.percentile(counts[counts > 0], 99)), 1e-9)
+                if counts.any()
+                else counts.T
+            )
+            ax.imshow(
+                np.clip(shade, 0, 1),
+                origin="lower",
+                cmap="gray_r",
+                extent=(edges[0][0], edges[0][-1], edges[1][0], edges[1][-1]),
+                interpolation="nearest",
+            )
+            ax.plot(
+                poses[:, 0],
+                poses[:, 1],
+                color=style["color"],
+                linestyle=style.get("linestyle", "-"),
+                linewidth=0.6,
+                label=style["label"],
+            )
             if loops is not None and len(loops):
                 for a, b in loops:
                     ax.plot([a[0], b[0]], [a[1], b[1]], color="#CC3311", linewidth=0.5, label="accepted loop closure")
@@ -129,11 +164,18 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         panels_used(axes, len(panels), "x [m]")
         for ax in axes[:, 0]:
             ax.set_ylabel("y [m]")
-        caption = (f"{dataset}, seed {seed}: the laser scans' end points placed at each trajectory (moved into the ground-truth frame "
-                   f"by the cell's ATE alignment), {'every scan' if stride == 1 else f'one scan in {stride}'}, hit counts per {size:.2g} m cell on a log "
-                   f"grey scale, the trajectory drawn over them" + (f"; {loops_drawn} accepted loop closures as red segments between the nodes "
-                   "they join" if loops_drawn else "") + ". A blurred or doubled wall is a pose error. The view spans the maps of the "
-                   "SLAM methods; a dead-reckoning panel is clipped to it (its drift leaves the view).")
+        caption = (
+            f"{dataset}, seed {seed}: the laser scans' end points placed at each trajectory (moved into the ground-truth frame "
+            f"by the cell's ATE alignment), {'every scan' if stride == 1 else f'one scan in {stride}'}, hit counts per {size:.2g} m cell on a log "
+            f"grey scale, the trajectory drawn over them"
+            + (
+                f"; {loops_drawn} accepted loop closures as red segments between the nodes they join"
+                if loops_drawn
+                else ""
+            )
+            + ". A blurred or doubled wall is a pose error. The view spans the maps of the "
+            "SLAM methods; a dead-reckoning panel is clipped to it (its drift leaves the view)."
+        )
         written += save(fig, out_dir, f"maps_{dataset}", caption)
     if not written:
         raise FigureSkipped("; ".join(missing))

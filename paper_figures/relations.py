@@ -9,6 +9,7 @@ the better method; the gap between curves at a given fraction is a ratio of erro
 the ``relations`` table), and beside them the published rows of the config (``published:``, marked
 "(published)") where they give ``relations.trans_mean`` / ``relations.rot_mean``.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,7 +23,10 @@ from .style import COLUMN, PAGE, figure, figure_runs, log_axis, robust_limits, s
 
 __all__ = ["plot", "ecdf"]
 
-PANELS = ((Series.RELATIONS_TRANS_ERROR, "trans", 1.0, "translational error [m]"), (Series.RELATIONS_ROT_ERROR, "rot", 180 / np.pi, "rotational error [deg]"))
+PANELS = (
+    (Series.RELATIONS_TRANS_ERROR, "trans", 1.0, "translational error [m]"),
+    (Series.RELATIONS_ROT_ERROR, "rot", 180 / np.pi, "rotational error [deg]"),
+)
 
 
 def ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -36,8 +40,11 @@ def _pooled(seeds, key) -> np.ndarray:
 
 
 def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
-    runs, styles = figure_runs(results_dir, lambda r: r.series.get(Series.RELATIONS_TRANS_ERROR, np.zeros(0)).size > 0,
-                               "no relation errors (the relations metric is off, or no dataset has a relations file)")
+    runs, styles = figure_runs(
+        results_dir,
+        lambda r: r.series.get(Series.RELATIONS_TRANS_ERROR, np.zeros(0)).size > 0,
+        "no relation errors (the relations metric is off, or no dataset has a relations file)",
+    )
     written = []
     logs = by(runs, "dataset")
     for (dataset,), group in logs.items():
@@ -52,13 +59,20 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             log_axis(ax, "x", robust_limits([_pooled(group, key) * scale], log=True))
             ax.set_xlabel(label)
         axes[0, 0].set_ylabel("fraction of relations")
-        caption = (f"{dataset}: distribution of the relation errors ε_ij = δ*_ij⁻¹ δ_ij (Kümmerle et al. 2009) of each method, "
-                   f"the fraction of relations whose translational (left) or rotational (right) error is at most x, log x axis; "
-                   f"relations matched per method (seeds pooled): {', '.join(counts)}.")
+        caption = (
+            f"{dataset}: distribution of the relation errors ε_ij = δ*_ij⁻¹ δ_ij (Kümmerle et al. 2009) of each method, "
+            f"the fraction of relations whose translational (left) or rotational (right) error is at most x, log x axis; "
+            f"relations matched per method (seeds pooled): {', '.join(counts)}."
+        )
         written += save(fig, out_dir, f"relations_{dataset}", caption)
 
-    published = [row for row in load_manifest(results_dir).get("config", {}).get("published", [])
-                 if any(f"relations.{stat}_mean" in values for values in row.get("values", {}).values() for _, stat, _, _ in PANELS)]
+    published = [
+        row
+        for row in load_manifest(results_dir).get("config", {}).get("published", [])
+        if any(
+            f"relations.{stat}_mean" in values for values in row.get("values", {}).values() for _, stat, _, _ in PANELS
+        )
+    ]
     labels = [d for (d,) in logs]
     present = {r.estimator for r in runs}
     methods = [m for m in styles.labels() if m in present]
@@ -74,23 +88,46 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 if seeds:
                     e = _pooled(seeds, key) * scale
                     values.append(e)
-                    ax.errorbar(i - 0.4 + (k + 0.5) * width, e.mean(), yerr=[[min(e.std(), 0.9 * e.mean())], [e.std()]], marker="o", markersize=3,
-                                color=style["color"], linestyle="none", elinewidth=0.8, capsize=1.5, label=estimator)
+                    ax.errorbar(
+                        i - 0.4 + (k + 0.5) * width,
+                        e.mean(),
+                        yerr=[[min(e.std(), 0.9 * e.mean())], [e.std()]],
+                        marker="o",
+                        markersize=3,
+                        color=style["color"],
+                        linestyle="none",
+                        elinewidth=0.8,
+                        capsize=1.5,
+                        label=estimator,
+                    )
         for k, row in enumerate(published, start=len(methods)):
             for i, dataset in enumerate(labels):
                 v = row["values"].get(dataset, {})
                 if f"relations.{stat}_mean" in v:
                     m, s = v[f"relations.{stat}_mean"] * scale, v.get(f"relations.{stat}_std", 0.0) * scale
                     values.append([m])
-                    ax.errorbar(i - 0.4 + (k + 0.5) * width, m, yerr=[[min(s, 0.9 * m)], [s]], marker="s", markersize=3, markerfacecolor="white",
-                                color="0.3", linestyle="none", elinewidth=0.8, capsize=1.5, label=f"{row['label']} (published)")
+                    ax.errorbar(
+                        i - 0.4 + (k + 0.5) * width,
+                        m,
+                        yerr=[[min(s, 0.9 * m)], [s]],
+                        marker="s",
+                        markersize=3,
+                        markerfacecolor="white",
+                        color="0.3",
+                        linestyle="none",
+                        elinewidth=0.8,
+                        capsize=1.5,
+                        label=f"{row['label']} (published)",
+                    )
         log_axis(ax, "y", robust_limits(values, log=True))
         ax.set_xticks(range(len(labels)), labels, rotation=20 if len(labels) > 3 else 0)
         ax.set_xlim(-0.5, len(labels) - 0.5)
         ax.set_ylabel(label)
         ax.grid(False, axis="x")
     cited = "".join(f" {row['label']} (published): {row['citation']}." for row in published)
-    caption = ("Relation error per log: each method's mean ± std over its relations (seeds pooled), translational (left) and "
-               "rotational (right), log scale (a lower bar is cut at 10 % of the mean)." + cited)
+    caption = (
+        "Relation error per log: each method's mean ± std over its relations (seeds pooled), translational (left) and "
+        "rotational (right), log scale (a lower bar is cut at 10 % of the mean)." + cited
+    )
     written += save(fig, out_dir, "relations", caption)
     return written

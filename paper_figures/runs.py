@@ -1,4 +1,5 @@
 """Reading an experiment's results directory (the layout of :mod:`slamarena.experiments.results`)."""
+
 from __future__ import annotations
 
 import json
@@ -90,7 +91,10 @@ def config_entries(results_dir: str | Path, kind: str) -> list[tuple[str, str]]:
     """(label, registry name) of the config's ``datasets`` or ``estimators`` in their order (``manifest.json``)."""
     from slamarena.experiments.config import sanitize
 
-    return [(spec.get("label") or sanitize(spec["name"]), spec["name"]) for spec in load_manifest(results_dir).get("config", {}).get(kind, [])]
+    return [
+        (spec.get("label") or sanitize(spec["name"]), spec["name"])
+        for spec in load_manifest(results_dir).get("config", {}).get(kind, [])
+    ]
 
 
 def load_manifest(results_dir: str | Path) -> dict:

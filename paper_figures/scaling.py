@@ -13,13 +13,13 @@ Crossovers: two methods' fitted lines meet where ``a₁ + b₁ log x = a₂ + b�
 inside the swept range is marked on the axes; one outside it (an extrapolation of the fits) is only named in the
 caption, and only within a factor ``EXTRAPOLATE`` of the range.
 """
+
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
 import numpy as np
-
 from matplotlib.ticker import NullFormatter
 
 from .runs import FigureSkipped, by, load_runs
@@ -27,7 +27,11 @@ from .style import PAGE, MethodStyles, figure, save
 
 __all__ = ["plot", "find_sweeps", "fit_slope", "crossovers", "spread", "EXTRAPOLATE"]
 
-COSTS = (("cost/step_median", "median step time [s]"), ("cost/step_total", "total step time [s]"), ("cost/wall", "wall time [s]"))
+COSTS = (
+    ("cost/step_median", "median step time [s]"),
+    ("cost/step_total", "total step time [s]"),
+    ("cost/wall", "wall time [s]"),
+)
 EXTRAPOLATE = 10.0
 
 
@@ -44,7 +48,7 @@ def spread(levels: np.ndarray, gap: float) -> np.ndarray:
     order = np.argsort(levels, kind="stable")
     groups = [[float(levels[i])] for i in order]
     merged = True
-    while merged:                                             # merge neighbouring groups whose spaced extents overlap
+    while merged:  # merge neighbouring groups whose spaced extents overlap
         merged = False
         out, centres = [], []
         for g in groups:
@@ -69,11 +73,15 @@ def crossovers(fits: dict[str, tuple[float, float]]) -> list[tuple[str, str, flo
     out = []
     names = list(fits)
     for i, m in enumerate(names):
-        for n in names[i + 1:]:
+        for n in names[i + 1 :]:
             (b1, a1), (b2, a2) = fits[m], fits[n]
             if np.isclose(b1, b2):
                 continue
-            out.append((m, n, float(np.exp((a2 - a1) / (b1 - b2)))) if b1 > b2 else (n, m, float(np.exp((a1 - a2) / (b2 - b1)))))
+            out.append(
+                (m, n, float(np.exp((a2 - a1) / (b1 - b2))))
+                if b1 > b2
+                else (n, m, float(np.exp((a1 - a2) / (b2 - b1))))
+            )
     return out
 
 
@@ -116,7 +124,7 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         for ax, (key, label) in zip(axes[0], COSTS):
             metric, output = key.split("/")
             fits = {}
-            labels = []                                       # (x, log10 y, text, colour) of each fitted line's end
+            labels = []  # (x, log10 y, text, colour) of each fitted line's end
             for (estimator,), group in by(swept, "estimator").items():
                 points = {}
                 for r in group:
@@ -135,23 +143,49 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                 labels.append((x[-1], np.log10(np.exp(a) * x[-1] ** b), f"{b:.2f}", style["color"]))
             if labels:
                 low, high = np.log10(ax.get_ylim())
-                at = spread(np.array([lv for _, lv, _, _ in labels]), 0.07 * (high - low))   # ≈ one 6 pt line of the axis
+                at = spread(
+                    np.array([lv for _, lv, _, _ in labels]), 0.07 * (high - low)
+                )  # ≈ one 6 pt line of the axis
                 for (xe, _, text, colour), lv in zip(labels, at):
-                    ax.annotate(text, (xe, 10**lv), xytext=(3, 0), textcoords="offset points", fontsize=6, color=colour, va="center")
+                    ax.annotate(
+                        text,
+                        (xe, 10**lv),
+                        xytext=(3, 0),
+                        textcoords="offset points",
+                        fontsize=6,
+                        color=colour,
+                        va="center",
+                    )
             for slower, faster, x_star in crossovers(fits):
                 if lo <= x_star <= hi:
                     b, a = fits[slower]
-                    ax.plot([x_star], [np.exp(a) * x_star**b], marker="D", markersize=4, markerfacecolor="none", color="black", linestyle="none", label="crossover of two fits")
+                    ax.plot(
+                        [x_star],
+                        [np.exp(a) * x_star**b],
+                        marker="D",
+                        markersize=4,
+                        markerfacecolor="none",
+                        color="black",
+                        linestyle="none",
+                        label="crossover of two fits",
+                    )
                     notes.append(f"{label.split(' [')[0]}: {slower} passes {faster} at {param} ≈ {x_star:.3g}")
                 elif lo / EXTRAPOLATE <= x_star <= hi * EXTRAPOLATE:
-                    notes.append(f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, outside the sweep (extrapolated)")
+                    notes.append(
+                        f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, outside the sweep (extrapolated)"
+                    )
             ticks = sorted(set(values.values()))
-            ax.set_xticks(ticks, [f"{v:g}" for v in ticks], rotation=45 if len(ticks) > 5 else 0)   # a third of a page: 7 labels crowd
+            ax.set_xticks(
+                ticks, [f"{v:g}" for v in ticks], rotation=45 if len(ticks) > 5 else 0
+            )  # a third of a page: 7 labels crowd
             ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel(param)
             ax.set_ylabel(label)
-        caption = (f"{name}: cost against {param} on log-log axes, mean over seeds (points) and the least-squares line "
-                   f"log y = a + b log {param} per method, its exponent b written at the line's end. Crossovers (◇) are where two "
-                   f"fitted lines meet inside the sweep. " + ("; ".join(notes) + "." if notes else "No two fits cross within the sweep."))
+        caption = (
+            f"{name}: cost against {param} on log-log axes, mean over seeds (points) and the least-squares line "
+            f"log y = a + b log {param} per method, its exponent b written at the line's end. Crossovers (◇) are where two "
+            f"fitted lines meet inside the sweep. "
+            + ("; ".join(notes) + "." if notes else "No two fits cross within the sweep.")
+        )
         written += save(fig, out_dir, f"scaling_{name.replace(':', '_')}_{param}", caption)
     return written

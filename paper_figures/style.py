@@ -21,6 +21,7 @@ the data.
 Axis limits. :func:`robust_limits` spans the 0.5–99.5 % quantiles of the values drawn (and what must stay visible,
 such as a χ² band), so one outlier (a prior's NEES of 1e-20 at t = 0) does not stretch a log axis over 20 decades.
 """
+
 from __future__ import annotations
 
 import os
@@ -34,7 +35,22 @@ import numpy as np  # noqa: E402
 
 from slamarena.experiments.results import CAPTION_SUFFIX  # noqa: E402
 
-__all__ = ["plt", "apply", "figure", "panel_grid", "figure_runs", "panels_used", "log_axis", "save", "legend_outside", "robust_limits", "MethodStyles", "TRUTH", "COLUMN", "PAGE"]
+__all__ = [
+    "plt",
+    "apply",
+    "figure",
+    "panel_grid",
+    "figure_runs",
+    "panels_used",
+    "log_axis",
+    "save",
+    "legend_outside",
+    "robust_limits",
+    "MethodStyles",
+    "TRUTH",
+    "COLUMN",
+    "PAGE",
+]
 
 COLUMN = 3.5  # inches: one column of a two-column paper
 PAGE = 7.16  # inches: the text width of a two-column paper
@@ -137,11 +153,14 @@ class MethodStyles:
             if name == "dead_reckoning":
                 self._style[label] = dict(DEAD_RECKONING)
             else:
-                self._style[label] = {"color": MUTED[others % len(MUTED)], "linestyle": LINESTYLES[(others // len(MUTED)) % len(LINESTYLES)]}
+                self._style[label] = {
+                    "color": MUTED[others % len(MUTED)],
+                    "linestyle": LINESTYLES[(others // len(MUTED)) % len(LINESTYLES)],
+                }
                 others += 1
 
     @classmethod
-    def of(cls, results_dir: str | Path, runs) -> "MethodStyles":
+    def of(cls, results_dir: str | Path, runs) -> MethodStyles:
         """The styles of a results directory: the methods of its ``manifest.json`` config in order, then any
         other method label of ``runs`` (sorted)."""
         from .runs import config_entries
@@ -170,7 +189,9 @@ def legend_outside(fig, ncols: int | None = None) -> None:
         fig.legend(list(entries.values()), list(entries), loc="outside lower center", ncols=n, handlelength=2.2)
 
 
-def robust_limits(values, log: bool = False, include=(), quantiles=(0.5, 99.5), margin: float = 0.05) -> tuple[float, float]:
+def robust_limits(
+    values, log: bool = False, include=(), quantiles=(0.5, 99.5), margin: float = 0.05
+) -> tuple[float, float]:
     """Axis limits that span the ``quantiles`` of the finite ``values`` (positive ones on a log axis) and every
     value of ``include``, widened by ``margin`` of the span (in decades on a log axis)."""
     v = np.concatenate([np.ravel(np.asarray(x, dtype=float)) for x in values]) if len(values) else np.zeros(0)

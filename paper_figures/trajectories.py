@@ -11,6 +11,7 @@ Two curves cannot be told apart on the map when they lie closer than ``RESOLVABL
 close over half their length (:func:`overlapping`), a second panel shows each estimate's ATE position error over
 time on a log axis, where the methods separate.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -50,14 +51,16 @@ def _aligned_landmarks(run):
     return xy, cov
 
 
-def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray]], extent: float, resolvable: float = RESOLVABLE) -> list[tuple[str, str]]:
+def overlapping(
+    curves: dict[str, tuple[np.ndarray, np.ndarray]], extent: float, resolvable: float = RESOLVABLE
+) -> list[tuple[str, str]]:
     """Pairs of curves (name → (t, xy)) whose median distance, at the first one's stamps inside the second's
     span, is below ``resolvable · extent``: on the map they are one line."""
     pairs = []
     names = list(curves)
     for i, a in enumerate(names):
         ta, pa = curves[a]
-        for b in names[i + 1:]:
+        for b in names[i + 1 :]:
             tb, pb = curves[b]
             inside = (ta >= tb[0]) & (ta <= tb[-1])
             if inside.sum() < 2:
@@ -91,13 +94,26 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         extent = float(np.max(np.ptp(xy, axis=0)))
         merged = overlapping(curves, extent)
         with_errors = bool(merged) and any(Series.ATE_POSITION_ERROR in r.series for r in shown)
-        fig, axes = figure(COLUMN, COLUMN * (1.25 if with_errors else 0.9) + 0.15 * (len(shown) + 2) / 2 + 0.3,
-                           nrows=2 if with_errors else 1, height_ratios=[2.6, 1] if with_errors else None)
+        fig, axes = figure(
+            COLUMN,
+            COLUMN * (1.25 if with_errors else 0.9) + 0.15 * (len(shown) + 2) / 2 + 0.3,
+            nrows=2 if with_errors else 1,
+            height_ratios=[2.6, 1] if with_errors else None,
+        )
         ax = axes[0, 0]
         if truth is not None:
             ax.plot(truth["poses"][:, 0], truth["poses"][:, 1], **TRUTH)
             if "landmarks" in truth:
-                ax.scatter(truth["landmarks"][:, 0], truth["landmarks"][:, 1], marker="x", s=12, color="black", linewidths=0.6, label="true landmarks", zorder=3)
+                ax.scatter(
+                    truth["landmarks"][:, 0],
+                    truth["landmarks"][:, 1],
+                    marker="x",
+                    s=12,
+                    color="black",
+                    linewidths=0.6,
+                    label="true landmarks",
+                    zorder=3,
+                )
         ellipses = False
         for run in shown:
             style = styles(run.estimator)
@@ -113,9 +129,16 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        caption = (f"{dataset}, seed {seed}: ground truth (black) and each method's estimate after its ATE alignment "
-                   f"(estimates are in the ground-truth frame)" + ("; true landmarks ×, estimated landmarks • with their 95 % "
-                   "covariance ellipses (χ²₂(0.95) = 5.99)" if ellipses else "") + ".")
+        caption = (
+            f"{dataset}, seed {seed}: ground truth (black) and each method's estimate after its ATE alignment "
+            f"(estimates are in the ground-truth frame)"
+            + (
+                "; true landmarks ×, estimated landmarks • with their 95 % covariance ellipses (χ²₂(0.95) = 5.99)"
+                if ellipses
+                else ""
+            )
+            + "."
+        )
         if with_errors:
             ax_e = axes[1, 0]
             values = []
@@ -127,9 +150,11 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             log_axis(ax_e, "y", robust_limits(values, log=True))
             ax_e.set_xlabel("time [s]")
             ax_e.set_ylabel("position error [m]")
-            caption += (" Lower panel: ATE position error over time (log scale), because "
-                        + "; ".join(f"{a} and {b}" for a, b in merged)
-                        + f" lie within {RESOLVABLE:.0%} of the plot's extent of each other on the map.")
+            caption += (
+                " Lower panel: ATE position error over time (log scale), because "
+                + "; ".join(f"{a} and {b}" for a, b in merged)
+                + f" lie within {RESOLVABLE:.0%} of the plot's extent of each other on the map."
+            )
         written += save(fig, out_dir, f"trajectories_{dataset}", caption)
     if not written:
         raise FigureSkipped("no trajectory to draw")

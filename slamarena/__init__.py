@@ -13,6 +13,7 @@ For a notebook, the few names most scripts need::
 
 They are imported on first use, so ``import slamarena`` stays cheap.
 """
+
 from __future__ import annotations
 
 from pathlib import Path as _Path

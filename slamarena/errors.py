@@ -2,6 +2,7 @@
 
 The command line prints such an error's message alone and exits with code 2; any other exception is a
 bug of slamarena and keeps its traceback (``slamarena.experiments.cli.main``)."""
+
 from __future__ import annotations
 
 __all__ = ["UserError", "UnknownNameError"]

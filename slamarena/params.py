@@ -28,10 +28,12 @@ runs, and a cell's cache key hashes :meth:`Params.canonical` (defaults included,
 recomputes what it changes). Covariances are given as a scalar, the diagonal or the full matrix and are
 stored as the full matrix (:func:`covariance`), so two spellings of one covariance hash alike.
 """
+
 from __future__ import annotations
 
 import functools
-from typing import Annotated, Any, Callable, Mapping, Self
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any, Self
 
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
@@ -45,10 +47,12 @@ class Params(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
 
     @classmethod
-    def of(cls, params: "Params | Mapping[str, Any] | None" = None, overrides: Mapping[str, Any] | None = None) -> Self:
+    def of(cls, params: Params | Mapping[str, Any] | None = None, overrides: Mapping[str, Any] | None = None) -> Self:
         """The validated model of ``params`` (a model of this class, a mapping or None) with ``overrides`` applied."""
         if params is not None and not isinstance(params, (cls, Mapping)):
-            raise TypeError(f"{cls.__name__}: parameters are a {cls.__name__} or a mapping, got {type(params).__name__}")
+            raise TypeError(
+                f"{cls.__name__}: parameters are a {cls.__name__} or a mapping, got {type(params).__name__}"
+            )
         base = params.model_dump() if isinstance(params, BaseModel) else dict(params or {})
         return cls.model_validate({**base, **dict(overrides or {})})
 
@@ -90,7 +94,9 @@ def _as_covariance(n: int):
         if a.shape == (n,):
             a = np.diag(a)
         if a.shape != (n, n):
-            raise ValueError(f"a covariance here is a scalar, {n} diagonal values or an {n}×{n} matrix, got shape {a.shape}")
+            raise ValueError(
+                f"a covariance here is a scalar, {n} diagonal values or an {n}×{n} matrix, got shape {a.shape}"
+            )
         if not np.all(np.isfinite(a)):
             raise ValueError("a covariance must be finite")
         if not np.allclose(a, a.T, rtol=1e-9, atol=1e-12):

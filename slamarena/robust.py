@@ -6,6 +6,7 @@ or Cauchy m-estimator of width ``k`` in units of the whitened error (standard de
 whitened size e costs e²/2 up to k and grows linearly (Huber) or logarithmically (Cauchy, ρ = k²/2 log(1 + e²/k²))
 beyond, so one wrong constraint cannot pull the solution by more than its bounded influence.
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -21,8 +22,12 @@ __all__ = ["RobustKernelParams", "robustify", "noise_model", "information_model"
 class RobustKernelParams(Params):
     """The robust kernel on the factors that may hold outliers (observations, GPS, loop closures)."""
 
-    robust: Literal["none", "huber", "cauchy"] = Field("none", description="m-estimator of those factors; none: plain least squares")
-    robust_k: PositiveFloat = Field(1.345, description="width of the m-estimator [standard deviations of the whitened error]")
+    robust: Literal["none", "huber", "cauchy"] = Field(
+        "none", description="m-estimator of those factors; none: plain least squares"
+    )
+    robust_k: PositiveFloat = Field(
+        1.345, description="width of the m-estimator [standard deviations of the whitened error]"
+    )
 
 
 def robustify(base, kernel: RobustKernelParams | None):
@@ -32,7 +37,9 @@ def robustify(base, kernel: RobustKernelParams | None):
 
     if kernel is None or kernel.robust == "none":
         return base
-    estimator = {"huber": gtsam.noiseModel.mEstimator.Huber, "cauchy": gtsam.noiseModel.mEstimator.Cauchy}[kernel.robust]
+    estimator = {"huber": gtsam.noiseModel.mEstimator.Huber, "cauchy": gtsam.noiseModel.mEstimator.Cauchy}[
+        kernel.robust
+    ]
     return gtsam.noiseModel.Robust.Create(estimator.Create(kernel.robust_k), base)
 
 

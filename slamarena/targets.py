@@ -1,6 +1,7 @@
 """The one resolver of registry targets: every registry (datasets, simulators, estimators, mappers,
 matchers, benchmarks) names what it builds as a ``"package.module:attribute"`` string, imported on
 first use so that a command loads only the libraries the work needs."""
+
 from __future__ import annotations
 
 import importlib

@@ -1,6 +1,7 @@
 """Helpers shared by the tests: locating staged datasets, statistical assertions and covariance comparisons.
 
 Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -97,4 +98,6 @@ def with_beacon_ranges(seq: Sequence, sigma: float, bias: float = 0.0, seed: int
     truth = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, rb.t)
     xy = seq.landmarks.xy[np.searchsorted(seq.landmarks.ids, rb.landmark_id)]
     r = np.hypot(*(xy - truth[:, :2]).T) + bias + sigma * np.random.default_rng(seed).standard_normal(len(rb))
-    return dataclasses.replace(seq, range_bearing=None, beacon_ranges=BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id))
+    return dataclasses.replace(
+        seq, range_bearing=None, beacon_ranges=BeaconRanges(t=rb.t, range=r, beacon_id=rb.landmark_id)
+    )

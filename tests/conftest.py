@@ -1,4 +1,5 @@
 """Shared fixtures (helpers to import live in tests/checks.py)."""
+
 from __future__ import annotations
 
 import pytest

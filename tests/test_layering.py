@@ -1,5 +1,6 @@
 """The layering of ARCHITECTURE.md, checked on the source: datasets → (estimators, mapping) → experiments → paper_figures,
 all under the one ``slamarena`` namespace (no module imports a top-level ``datasets``, ``estimators``, …)."""
+
 from __future__ import annotations
 
 import ast
@@ -11,8 +12,20 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 LAYER = {"datasets": 0, "estimators": 1, "mapping": 1, "experiments": 2, "paper_figures": 3}
-BASE = {"slamarena", "slamarena.targets", "slamarena.params", "slamarena.errors", "slamarena.robust"}  # the namespace's own modules, below every layer
-DATASETS_MAY_IMPORT = {"numpy", "scipy", "pydantic", "pooch", "gtsam"}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example data
+BASE = {
+    "slamarena",
+    "slamarena.targets",
+    "slamarena.params",
+    "slamarena.errors",
+    "slamarena.robust",
+}  # the namespace's own modules, below every layer
+DATASETS_MAY_IMPORT = {
+    "numpy",
+    "scipy",
+    "pydantic",
+    "pooch",
+    "gtsam",
+}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example data
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
@@ -48,7 +61,9 @@ def test_no_package_imports_from_a_layer_above_it(package):
             top = _layer_of(module)
             if top is None:
                 continue
-            if LAYER[top] > LAYER[package] and not (package == "experiments" and path.name == "cli.py" and top == "paper_figures"):
+            if LAYER[top] > LAYER[package] and not (
+                package == "experiments" and path.name == "cli.py" and top == "paper_figures"
+            ):
                 offences.append(f"{path.relative_to(ROOT)}:{line} imports {module}")
             if {package, top} == {"estimators", "mapping"}:
                 offences.append(f"{path.relative_to(ROOT)}:{line} imports {module} (a side-by-side layer)")
@@ -73,7 +88,9 @@ def test_datasets_depends_on_numpy_scipy_pydantic_and_the_standard_library_only(
         f"{path.relative_to(ROOT)}:{line} imports {module}"
         for path in _sources("datasets")
         for line, module in _imports(path)
-        if module.split(".")[0] not in stdlib | DATASETS_MAY_IMPORT and module not in BASE and _layer_of(module) != "datasets"
+        if module.split(".")[0] not in stdlib | DATASETS_MAY_IMPORT
+        and module not in BASE
+        and _layer_of(module) != "datasets"
     ]
     assert not offences, "\n".join(offences)
 

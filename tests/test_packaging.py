@@ -1,4 +1,5 @@
 """The distribution: one ``slamarena`` namespace mapped from the design's root folders, nothing else installed at top level."""
+
 from __future__ import annotations
 
 import importlib.metadata
@@ -43,8 +44,23 @@ def test_the_wheel_installs_under_slamarena_only(tmp_path):
         shutil.copytree(ROOT / folder, source / folder, ignore=shutil.ignore_patterns("__pycache__"))
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(ROOT / name, source / name)
-    subprocess.run([sys.executable, "-m", "pip", "wheel", str(source), "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path)],
-                   check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            str(source),
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(tmp_path),
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     (wheel,) = tmp_path.glob("slamarena-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names}
@@ -76,6 +92,8 @@ def test_import_target_names_the_bad_string():
 
     from slamarena import import_target
 
-    assert import_target("slamarena.datasets.geometry:wrap_angle")(4.0) == __import__("pytest").approx(4.0 - 2 * 3.141592653589793)
+    assert import_target("slamarena.datasets.geometry:wrap_angle")(4.0) == __import__("pytest").approx(
+        4.0 - 2 * 3.141592653589793
+    )
     with pytest.raises(ValueError, match="package.module:attribute"):
         import_target("slamarena.datasets.geometry.wrap_angle")

@@ -40,6 +40,7 @@ malformed) goes through :func:`numpy.fromstring` as before, and a token that fai
 reported by the same error path as before. ``tests/datasets/test_text.py`` compares both paths bit
 for bit on the staged MRCLAM and Intel files and against ``float()`` on generated decimals.
 """
+
 from __future__ import annotations
 
 import bz2
@@ -52,7 +53,23 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["read_bytes", "read_lines", "records", "binary_lines", "numeric_table", "check_finite", "check_unique", "tags", "numbers", "fixed", "check_monotonic", "bodies_of", "upper_triangle", "upper_triangular", "Lines"]
+__all__ = [
+    "read_bytes",
+    "read_lines",
+    "records",
+    "binary_lines",
+    "numeric_table",
+    "check_finite",
+    "check_unique",
+    "tags",
+    "numbers",
+    "fixed",
+    "check_monotonic",
+    "bodies_of",
+    "upper_triangle",
+    "upper_triangular",
+    "Lines",
+]
 
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
@@ -140,7 +157,7 @@ def _scan(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     One boolean work array serves every pass (fresh large temporaries cost a page fault per 4 KiB).
     """
     work = np.empty(2 * b.size + 3, dtype=bool)
-    token, scratch = work[:b.size + 2], work[b.size + 2:]  # token: b's bytes between two separators
+    token, scratch = work[: b.size + 2], work[b.size + 2 :]  # token: b's bytes between two separators
     token[0] = token[-1] = False
     np.greater(b, 32, out=token[1:-1])
     below = [np.count_nonzero(np.less(b, c, out=scratch[1:])) for c in (9, 14, 32)]
@@ -221,7 +238,9 @@ def _parse_row(body: str | bytes) -> np.ndarray | None:
     return values
 
 
-def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray, run: bool = False) -> np.ndarray | None:
+def _parse_tokens(
+    blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray, run: bool = False
+) -> np.ndarray | None:
     """The float64 value of every token ``blob[starts[i]:ends[i]]``; ``None`` if one is not a number.
 
     Plain decimals go through :func:`_decimal_block`, every other token through numpy's parser.
@@ -230,27 +249,29 @@ def _parse_tokens(blob: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarr
     """
     if starts.size == 0:
         return np.zeros(0)
-    whole = blob[starts[0]:ends[-1]] if run else None
+    whole = blob[starts[0] : ends[-1]] if run else None
     head = np.full(32, 32, dtype=np.uint8)  # the first bytes, behind 16 spaces: windows of tokens ending early
-    head[16:16 + min(b.size, 16)] = b[:16]
+    head[16 : 16 + min(b.size, 16)] = b[:16]
     windows = np.ndarray(shape=(max(b.size - 15, 0),), dtype="V16", buffer=blob, strides=(1,))
     early = np.ndarray(shape=(17,), dtype="V16", buffer=head, strides=(1,))
     values = np.empty(starts.size)
     ok = np.empty(starts.size, dtype=bool)
     for a in range(0, starts.size, _BLOCK):
-        s, e = starts[a:a + _BLOCK], ends[a:a + _BLOCK]
+        s, e = starts[a : a + _BLOCK], ends[a : a + _BLOCK]
         if e[0] >= 16:
             x = windows[e - 16]
         else:  # tokens ending within the first 16 bytes: windows of the space-padded head
             x = early[np.minimum(e, 16)]
             late = e > 16
             x[late] = windows[e[late] - 16]
-        values[a:a + _BLOCK], ok[a:a + _BLOCK] = _decimal_block(x, b[s], e - s)
+        values[a : a + _BLOCK], ok[a : a + _BLOCK] = _decimal_block(x, b[s], e - s)
         if a == 0 and whole is not None and 2 * np.count_nonzero(ok[:_BLOCK]) < ok[:_BLOCK].size:
             return _exactly(_parse_row(whole), starts.size)  # mostly other numbers (judged on the first block)
     if not ok.all():
         other = np.flatnonzero(~ok)
-        rest = _exactly(_parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())])), other.size)
+        rest = _exactly(
+            _parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())])), other.size
+        )
         if rest is None:
             return None
         values[other] = rest
@@ -274,7 +295,9 @@ def _first_bad_token(bodies: list[str], counts: np.ndarray) -> tuple[int, str]:
     return 0, bodies[0][:80] if bodies else ""
 
 
-def numbers(path: str, bodies: list[str], line_numbers: np.ndarray, what: str, valid=None, expected: str = "") -> tuple[np.ndarray, np.ndarray]:
+def numbers(
+    path: str, bodies: list[str], line_numbers: np.ndarray, what: str, valid=None, expected: str = ""
+) -> tuple[np.ndarray, np.ndarray]:
     """Parse the numeric ``bodies`` (one string per record) in bulk.
 
     Returns the flat float64 values and the number of fields of each record. ``valid(counts)``
@@ -330,18 +353,20 @@ def numeric_table(path: str | Path, ncols: int, what: str, comment: str = "#") -
     bad = np.flatnonzero(data & (counts != ncols))
     if bad.size:
         k = int(bad[0])
-        got = blob[line_start[k]:line_end[k]].decode("latin-1")
-        raise DataFormatError(path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}")
+        got = blob[line_start[k] : line_end[k]].decode("latin-1")
+        raise DataFormatError(
+            path, k + 1, f"{ncols} numeric fields in {what}", f"{counts[k]} fields: {got[:80].strip()}"
+        )
     k0 = first[rows[0]]
     run = first[rows[-1]] - k0 == (rows.size - 1) * ncols  # the data tokens are one run
     if run:
-        starts, ends = starts[k0:k0 + rows.size * ncols], ends[k0:k0 + rows.size * ncols]
+        starts, ends = starts[k0 : k0 + rows.size * ncols], ends[k0 : k0 + rows.size * ncols]
     else:  # comment lines between data lines: drop their tokens
         keep = np.repeat(data[has], counts[has])
         starts, ends = starts[keep], ends[keep]
     values = _parse_tokens(blob, b, starts, ends, run)
     if values is None:
-        bodies = [blob[line_start[r]:line_end[r]].decode("latin-1") for r in rows]
+        bodies = [blob[line_start[r] : line_end[r]].decode("latin-1") for r in rows]
         row, token = _first_bad_token(bodies, counts[rows])
         raise DataFormatError(path, int(rows[row]) + 1, f"numeric fields in {what}", token)
     return values.reshape(rows.size, ncols), rows + 1
@@ -361,7 +386,9 @@ def check_unique(path: str, ids: np.ndarray, line_numbers: np.ndarray, what: str
     if first.size != ids.size:
         k = int(np.setdiff1d(np.arange(ids.size), first)[0])
         earlier = int(line_numbers[np.flatnonzero(ids == ids[k])[0]])
-        raise DataFormatError(path, int(line_numbers[k]), f"unique {what} ids (also declared on line {earlier})", str(ids[k]))
+        raise DataFormatError(
+            path, int(line_numbers[k]), f"unique {what} ids (also declared on line {earlier})", str(ids[k])
+        )
 
 
 def check_monotonic(path: str, t: np.ndarray, line_numbers: np.ndarray, what: str) -> None:
@@ -373,7 +400,9 @@ def check_monotonic(path: str, t: np.ndarray, line_numbers: np.ndarray, what: st
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         k = int(back[0]) + 1
-        raise DataFormatError(path, int(line_numbers[k]), f"non-decreasing time in {what} (previous {t[k - 1]!r})", str(t[k]))
+        raise DataFormatError(
+            path, int(line_numbers[k]), f"non-decreasing time in {what} (previous {t[k - 1]!r})", str(t[k])
+        )
 
 
 def bodies_of(lines: list[str], rows: np.ndarray, skip: int = 1) -> list[str]:

@@ -63,6 +63,7 @@ stamp stepping back instead. The original stamps of the scans read are kept in
 ``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them; the log's relations file, where one is
 staged or given (``relations``), is ``meta["relations"]``, which the relation metric scores by default.
 """
+
 from __future__ import annotations
 
 import bisect
@@ -184,11 +185,13 @@ def strictly_increasing(t: np.ndarray) -> np.ndarray:
     t = np.maximum.accumulate(np.asarray(t, dtype=float))
     if t.size < 2 or np.all(np.diff(t) > 0):
         return t
-    starts = np.flatnonzero(np.r_[True, np.diff(t) > 0])           # first index of each run of equal values
+    starts = np.flatnonzero(np.r_[True, np.diff(t) > 0])  # first index of each run of equal values
     length = np.diff(np.r_[starts, t.size])
     steps = np.diff(t[starts])
     median = np.median(steps) if steps.size else 1.0
-    step = np.minimum(np.r_[steps, median], median) / length  # each run's share of the gap to the next, at most one median step
+    step = (
+        np.minimum(np.r_[steps, median], median) / length
+    )  # each run's share of the gap to the next, at most one median step
     run = np.repeat(np.arange(starts.size), length)
     return t[starts][run] + (np.arange(t.size) - starts[run]) * step[run]
 
@@ -220,9 +223,11 @@ def _dropped(path: str, rows: np.ndarray, reason: str) -> list[int]:
     numbers = (np.sort(rows) + 1).tolist()
     if numbers:
         shown = ", ".join(map(str, numbers[:5])) + (", …" if len(numbers) > 5 else "")
-        warnings.warn(f"{path}:{numbers[0]}: {len(numbers)} message(s) dropped, {reason} "
-                      f"({'line' if len(numbers) == 1 else 'lines'} {shown}; all in meta['dropped_lines'])",
-                      DataWarning)
+        warnings.warn(
+            f"{path}:{numbers[0]}: {len(numbers)} message(s) dropped, {reason} "
+            f"({'line' if len(numbers) == 1 else 'lines'} {shown}; all in meta['dropped_lines'])",
+            DataWarning,
+        )
     return numbers
 
 
@@ -239,21 +244,38 @@ def _interlaced_with(chosen: int, n: np.ndarray, start: np.ndarray, step: np.nda
     """Layouts that interlace with layout ``chosen``: the same angular step, a start less than one
     step away, and at most one beam more or fewer (the same field of view within one step)."""
     tol = 1e-6
-    return (np.abs(step - step[chosen]) <= tol) & (np.abs(start - start[chosen]) < step[chosen] - tol) & (np.abs(n - n[chosen]) <= 1)
+    return (
+        (np.abs(step - step[chosen]) <= tol)
+        & (np.abs(start - start[chosen]) < step[chosen] - tol)
+        & (np.abs(n - n[chosen]) <= 1)
+    )
 
 
 class CarmenParams(Params):
     """Options of the CARMEN reader (:func:`read`, :func:`load`)."""
 
     max_range: PositiveFloat | None = Field(
-        None, description="readings >= max_range are no return [m] (the log's sentinel); None: ROBOTLASER1's stated max range, else the largest reading")
-    corrected: bool = Field(False, description="a SLAM-corrected log: its scan poses are the ground truth, echo ODOM lines are skipped")
-    beams: PositiveInt | None = Field(None, description="keep only the most common layout with this many beams (no interlacing); None: the most common layout")
-    interlaced: bool = Field(True, description="keep the layouts that interlace with the chosen one (angle_offset, beam_count)")
-    strict_time: bool = Field(False, description="raise at the first timestamp stepping back instead of making stamps non-decreasing")
+        None,
+        description="readings >= max_range are no return [m] (the log's sentinel); None: ROBOTLASER1's stated max range, else the largest reading",
+    )
+    corrected: bool = Field(
+        False, description="a SLAM-corrected log: its scan poses are the ground truth, echo ODOM lines are skipped"
+    )
+    beams: PositiveInt | None = Field(
+        None,
+        description="keep only the most common layout with this many beams (no interlacing); None: the most common layout",
+    )
+    interlaced: bool = Field(
+        True, description="keep the layouts that interlace with the chosen one (angle_offset, beam_count)"
+    )
+    strict_time: bool = Field(
+        False, description="raise at the first timestamp stepping back instead of making stamps non-decreasing"
+    )
     relations: Path | None = Field(
-        None, description="a relations file of this log (Kümmerle et al. 2009), recorded as meta['relations'] for the relation metric; "
-                          "None: the catalogue's staged one, if any")
+        None,
+        description="a relations file of this log (Kümmerle et al. 2009), recorded as meta['relations'] for the relation metric; "
+        "None: the catalogue's staged one, if any",
+    )
 
 
 @with_params(CarmenParams)
@@ -271,14 +293,18 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     flaser_rows = np.flatnonzero(tag == "FLASER")
     rl_rows = np.flatnonzero(tag == "ROBOTLASER1")
     if flaser_rows.size and rl_rows.size:
-        raise _fail(lines, int(max(flaser_rows[0], rl_rows[0])), "one laser message type per log (FLASER or ROBOTLASER1)")
+        raise _fail(
+            lines, int(max(flaser_rows[0], rl_rows[0])), "one laser message type per log (FLASER or ROBOTLASER1)"
+        )
     scan_rows = flaser_rows if flaser_rows.size else rl_rows
     if not scan_rows.size:
         raise DataFormatError(lines.path, None, "FLASER or ROBOTLASER1 messages", "none")
     parse = _flaser if flaser_rows.size else _robotlaser
     values, first, n, laser_pose, robot_pose, scan_ts, layout, stated_max = parse(lines, scan_rows)
 
-    odo = fixed(lines.path, _heads(lines, odom_rows), odom_rows + 1, 7, "an ODOM message (x y theta tv rv accel ts host lts)")
+    odo = fixed(
+        lines.path, _heads(lines, odom_rows), odom_rows + 1, 7, "an ODOM message (x y theta tv rv accel ts host lts)"
+    )
     odo_ts = odo[:, 6]
     # corrected logs echo each scan's corrected pose in the ODOM line right after it (usually with
     # timestamp 0; some echoes carry garbage stamps, and freiburg-campus stamps ALL odometry 0)
@@ -287,7 +313,11 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     pos = np.searchsorted(messages, odom_rows)
     prev_line = np.where(pos > 0, messages[np.maximum(pos - 1, 0)], -1) if odom_rows.size else odom_rows
     echo = np.isin(prev_line, scan_rows) if params.corrected else np.zeros(len(odo), dtype=bool)
-    echo_matches = int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum()) if params.corrected else 0
+    echo_matches = (
+        int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum())
+        if params.corrected
+        else 0
+    )
     zero_odom_count = int((odo_ts == 0).sum())
     odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
 
@@ -317,18 +347,27 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     if params.strict_time:
         check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
         check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
-    timed = np.flatnonzero(keep)  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
+    timed = np.flatnonzero(
+        keep
+    )  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
     scan_faults = clock_faults(scan_ts[timed])
     odo_faults = clock_faults(odo_ts) if not params.corrected else np.zeros(len(odo), dtype=bool)
     if _carries_time(scan_ts[timed], scan_faults) and (params.corrected or _carries_time(odo_ts, odo_faults)):
-        dropped["bad_timestamp"] = _dropped(lines.path, np.concatenate([scan_rows[timed[scan_faults]], odom_rows[odo_faults]]),
-                                            f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log")
+        dropped["bad_timestamp"] = _dropped(
+            lines.path,
+            np.concatenate([scan_rows[timed[scan_faults]], odom_rows[odo_faults]]),
+            f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log",
+        )
         keep[timed[scan_faults]] = False
         odo, odo_ts, odom_rows = odo[~odo_faults], odo_ts[~odo_faults], odom_rows[~odo_faults]
         scan_t = strictly_increasing(scan_ts[keep])
         odo_t = strictly_increasing(odo_ts) if odo_ts.size else odo_ts
-        meta["time_source"] = "ipc_timestamp (running maximum within each message type, equal stamps spread to the next)"
-        meta["time_adjusted_messages"] = int((scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum()))
+        meta["time_source"] = (
+            "ipc_timestamp (running maximum within each message type, equal stamps spread to the next)"
+        )
+        meta["time_adjusted_messages"] = int(
+            (scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum())
+        )
     else:
         # the stamps carry no time: the scan index; each ODOM at the index of the next scan in file order
         scan_t = np.arange(keep.sum(), dtype=float)
@@ -336,8 +375,11 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         meta["time_source"] = "scan index (ipc timestamps zero, negative, alike or off their clock in most messages)"
         meta["time_adjusted_messages"] = 0
         dropped["bad_timestamp"] = []
-        warnings.warn(f"{lines.path}: the ipc timestamps carry no time (zero, negative, alike or off their clock in most "
-                      "messages): t is the scan index", DataWarning)
+        warnings.warn(
+            f"{lines.path}: the ipc timestamps carry no time (zero, negative, alike or off their clock in most "
+            "messages): t is the scan index",
+            DataWarning,
+        )
 
     B = int(n_l[members].max())
     base = float(start_l[members].min())
@@ -383,34 +425,62 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         meta["max_range_source"] = "ROBOTLASER1 max_range" if stated_max is not None else "largest reading of the log"
     else:
         meta["max_range_source"] = "given (the dataset's no-return sentinel)"
-    scans = Scans(t=scan_t, ranges=ranges, angles=angles, max_range=max_range, mount=mount, pose=robot_pose[keep],
-                  angle_offset=angle_offset, beam_count=beam_count)
+    scans = Scans(
+        t=scan_t,
+        ranges=ranges,
+        angles=angles,
+        max_range=max_range,
+        mount=mount,
+        pose=robot_pose[keep],
+        angle_offset=angle_offset,
+        beam_count=beam_count,
+    )
     ignored = {str(t): int((tag == t).sum()) for t in present if t not in ("ODOM", "FLASER", "ROBOTLASER1", "PARAM")}
-    meta.update({
-        "format": "CARMEN log", "file": lines.path, "corrected": params.corrected,
-        "scan_message": "FLASER" if flaser_rows.size else "ROBOTLASER1",
-        "scans": int(keep.sum()), "odom_messages": int(len(odo)),
-        "skipped_echo_odom": int(echo.sum()),
-        "echo_odom_matching_scan_pose": echo_matches,
-        "zero_time_odom": zero_odom_count,
-        "dropped_scans_other_layout": dropped_other_layout,
-        "dropped_lines": dropped,
-        "interlaced": bool(members.sum() > 1),
-        "beam_layouts": [{"beams": int(n_l[k]), "start": float(start_l[k]), "step": float(step_l[k]), "scans": int(counts[k]),
-                          "chosen": bool(members[k]), "angle_offset": float(offset_l[k]) if members[k] else None}
-                         for k in range(len(layouts))],
-        "no_return_readings": int((ranges >= max_range).sum()),
-        "mount_spread": float(np.abs(mounts - mount).max()) if mounts.size else 0.0,
-        "ignored_messages": ignored,
-        "params": _params(lines, np.flatnonzero(tag == "PARAM")),
-        "scan_ipc_timestamp": scan_ts[keep],
-        "odom_ipc_timestamp": odo_ts,
-        "noise": "not stated by the log",
-    })
+    meta.update(
+        {
+            "format": "CARMEN log",
+            "file": lines.path,
+            "corrected": params.corrected,
+            "scan_message": "FLASER" if flaser_rows.size else "ROBOTLASER1",
+            "scans": int(keep.sum()),
+            "odom_messages": int(len(odo)),
+            "skipped_echo_odom": int(echo.sum()),
+            "echo_odom_matching_scan_pose": echo_matches,
+            "zero_time_odom": zero_odom_count,
+            "dropped_scans_other_layout": dropped_other_layout,
+            "dropped_lines": dropped,
+            "interlaced": bool(members.sum() > 1),
+            "beam_layouts": [
+                {
+                    "beams": int(n_l[k]),
+                    "start": float(start_l[k]),
+                    "step": float(step_l[k]),
+                    "scans": int(counts[k]),
+                    "chosen": bool(members[k]),
+                    "angle_offset": float(offset_l[k]) if members[k] else None,
+                }
+                for k in range(len(layouts))
+            ],
+            "no_return_readings": int((ranges >= max_range).sum()),
+            "mount_spread": float(np.abs(mounts - mount).max()) if mounts.size else 0.0,
+            "ignored_messages": ignored,
+            "params": _params(lines, np.flatnonzero(tag == "PARAM")),
+            "scan_ipc_timestamp": scan_ts[keep],
+            "odom_ipc_timestamp": odo_ts,
+            "noise": "not stated by the log",
+        }
+    )
     if params.relations is not None:
         meta["relations"] = str(params.relations)
-    return Sequence(name=name or Path(path).name, motion=motion, scans=scans, ground_truth=truth,
-                    initial_pose=initial, noise=Noise(), meta=meta)
+    return Sequence(
+        name=name or Path(path).name,
+        motion=motion,
+        scans=scans,
+        ground_truth=truth,
+        initial_pose=initial,
+        noise=Noise(),
+        meta=meta,
+    )
 
 
 class CarmenSource(CarmenParams, SourceParams):

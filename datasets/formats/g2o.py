@@ -17,6 +17,7 @@ Vertices and landmarks share one id space. A file without VERTEX lines (CSAIL, m
 (VERTEX_XY) are kept in ``meta["landmark_ids"]`` / ``meta["landmark_xy"]``. Any other record
 type is an error (the reader does not silently ignore data).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -27,8 +28,8 @@ from slamarena.params import Field, with_params
 
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
-from ._text import check_unique, record_values, records, upper_triangle
 from . import isam
+from ._text import check_unique, record_values, records, upper_triangle
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
@@ -39,7 +40,9 @@ OTHER = {"FIX": 1}
 
 def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
     ids = values[:, cols]
-    bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=-1) if ids.ndim > 1 else ((ids != np.round(ids)) | (ids < 0)))
+    bad = np.flatnonzero(
+        ((ids != np.round(ids)) | (ids < 0)).any(axis=-1) if ids.ndim > 1 else ((ids != np.round(ids)) | (ids < 0))
+    )
     if bad.size:
         raise DataFormatError(path, int(rows[bad[0]]) + 1, "non-negative integer ids", str(ids[bad[0]]))
     return ids.astype(np.int64)
@@ -75,8 +78,19 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     if is3d.any():
         v, vrows = table["VERTEX_SE3:QUAT"]
         e, erows = table["EDGE_SE3:QUAT"]
-        return _graph(lines.path, name, 3, _ids(lines.path, v, vrows, 0), v[:, 1:8], vrows,
-                      _ids(lines.path, e, erows, [0, 1]), e[:, 2:9], upper_triangle(e[:, 9:30], 6), erows, meta)
+        return _graph(
+            lines.path,
+            name,
+            3,
+            _ids(lines.path, v, vrows, 0),
+            v[:, 1:8],
+            vrows,
+            _ids(lines.path, e, erows, [0, 1]),
+            e[:, 2:9],
+            upper_triangle(e[:, 9:30], 6),
+            erows,
+            meta,
+        )
     v, vrows = table["VERTEX_SE2"]
     e, erows = table["EDGE_SE2"]
     lv, lvrows = table["VERTEX_XY"]
@@ -84,17 +98,35 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
     extra = {}
     if le.shape[0]:
         lm = _ids(lines.path, le, lerows, [0, 1])
-        extra = dict(landmark_pose=lm[:, 0], landmark_id=lm[:, 1], landmark_z=le[:, 2:4],
-                     landmark_information=upper_triangle(le[:, 4:7], 2), landmark_kind="xy")
+        extra = dict(
+            landmark_pose=lm[:, 0],
+            landmark_id=lm[:, 1],
+            landmark_z=le[:, 2:4],
+            landmark_information=upper_triangle(le[:, 4:7], 2),
+            landmark_kind="xy",
+        )
     if lv.shape[0]:
         meta["landmark_ids"] = _ids(lines.path, lv, lvrows, 0)
         meta["landmark_xy"] = lv[:, 1:3]
-    graph = _graph(lines.path, name, 2, _ids(lines.path, v, vrows, 0), v[:, 1:4], vrows,
-                   _ids(lines.path, e, erows, [0, 1]), e[:, 2:5], upper_triangle(e[:, 5:11], 3), erows, meta, **extra)
+    graph = _graph(
+        lines.path,
+        name,
+        2,
+        _ids(lines.path, v, vrows, 0),
+        v[:, 1:4],
+        vrows,
+        _ids(lines.path, e, erows, [0, 1]),
+        e[:, 2:5],
+        upper_triangle(e[:, 5:11], 3),
+        erows,
+        meta,
+        **extra,
+    )
     if ground_truth is not None:
         true_poses, _ = isam.true_poses_and_landmarks(ground_truth, graph.node_ids)
-        graph = PoseGraph(**{**graph.__dict__, "true_poses": true_poses,
-                             "meta": {**graph.meta, "ground_truth": str(ground_truth)}})
+        graph = PoseGraph(
+            **{**graph.__dict__, "true_poses": true_poses, "meta": {**graph.meta, "ground_truth": str(ground_truth)}}
+        )
     return graph
 
 
@@ -105,14 +137,26 @@ def _graph(path, name, dim, vertex_ids, vertex_poses, vrows, edge_ids, z, info, 
         missing = ~np.isin(edge_ids, node_ids).all(axis=1)
         if missing.any():
             k = int(np.flatnonzero(missing)[0])
-            raise DataFormatError(path, int(erows[k]) + 1, "an edge between declared vertices", str(edge_ids[k].tolist()))
+            raise DataFormatError(
+                path, int(erows[k]) + 1, "an edge between declared vertices", str(edge_ids[k].tolist())
+            )
     else:
         pose_ends = [edge_ids.ravel()]
         if "landmark_pose" in landmarks:
             pose_ends.append(landmarks["landmark_pose"])
         node_ids, poses = np.unique(np.concatenate(pose_ends)), None
-    return PoseGraph(name=name, node_ids=node_ids, edge_i=edge_ids[:, 0], edge_j=edge_ids[:, 1], edge_z=z,
-                     edge_information=info, poses=poses, dim=dim, meta=meta, **landmarks)
+    return PoseGraph(
+        name=name,
+        node_ids=node_ids,
+        edge_i=edge_ids[:, 0],
+        edge_j=edge_ids[:, 1],
+        edge_z=z,
+        edge_information=info,
+        poses=poses,
+        dim=dim,
+        meta=meta,
+        **landmarks,
+    )
 
 
 def _fmt(a: np.ndarray) -> list[str]:
@@ -135,7 +179,9 @@ def write(path: str | Path, graph: PoseGraph) -> None:
     if "landmark_ids" in graph.meta:
         out += [f"VERTEX_XY {i} {p}" for i, p in zip(graph.meta["landmark_ids"], _fmt(graph.meta["landmark_xy"]))]
     info = graph.edge_information[:, rows, cols]
-    out += [f"EDGE_SE2 {i} {j} {z} {n}" for i, j, z, n in zip(graph.edge_i, graph.edge_j, _fmt(graph.edge_z), _fmt(info))]
+    out += [
+        f"EDGE_SE2 {i} {j} {z} {n}" for i, j, z, n in zip(graph.edge_i, graph.edge_j, _fmt(graph.edge_z), _fmt(info))
+    ]
     if graph.landmark_pose is not None:
         if np.isin(graph.landmark_id, graph.node_ids).any():
             raise ValueError("g2o shares one id space between poses and landmarks; landmark ids collide with pose ids")
@@ -143,8 +189,10 @@ def write(path: str | Path, graph: PoseGraph) -> None:
             raise ValueError("g2o.write writes landmark edges of kind 'xy' only")
         r2, c2 = np.triu_indices(2)
         linfo = graph.landmark_information[:, r2, c2]
-        out += [f"EDGE_SE2_XY {i} {j} {z} {n}" for i, j, z, n in
-                zip(graph.landmark_pose, graph.landmark_id, _fmt(graph.landmark_z), _fmt(linfo))]
+        out += [
+            f"EDGE_SE2_XY {i} {j} {z} {n}"
+            for i, j, z, n in zip(graph.landmark_pose, graph.landmark_id, _fmt(graph.landmark_z), _fmt(linfo))
+        ]
     Path(path).write_text("\n".join(out) + "\n")
 
 

@@ -15,6 +15,7 @@ Ground-truth files (``groundtruth/*_groundtruth.txt``) hold the same constraints
 the true poses are the composition of the consecutive constraints ``i → i+1`` from (0, 0, 0), the
 true landmarks ``pose ⊕ (dx, dy)`` of their first noise-free observation.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -32,7 +33,18 @@ from ..sequence import LandmarkMap
 from ..source import Layout, SourceParams
 from ._text import record_values, records, upper_triangle, upper_triangular
 
-__all__ = ["IsamRecords", "read_records", "information", "noise_information", "read", "true_poses_and_landmarks", "load", "GraphSource", "IsamSource", "NoiseConvention"]
+__all__ = [
+    "IsamRecords",
+    "read_records",
+    "information",
+    "noise_information",
+    "read",
+    "true_poses_and_landmarks",
+    "load",
+    "GraphSource",
+    "IsamSource",
+    "NoiseConvention",
+]
 
 POSE_TAGS = ("ODOMETRY", "EDGE2")
 #: what a record's noise columns hold (:func:`information`)
@@ -75,12 +87,20 @@ def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE
         ids = arr[:, cols]
         bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
         if bad.size:
-            raise DataFormatError(lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80])
+            raise DataFormatError(
+                lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80]
+            )
     return IsamRecords(
         path=lines.path,
-        pose_i=p[:, 0].astype(np.int64), pose_j=p[:, 1].astype(np.int64), pose_z=p[:, 2:5], pose_noise=p[:, 5:11],
+        pose_i=p[:, 0].astype(np.int64),
+        pose_j=p[:, 1].astype(np.int64),
+        pose_z=p[:, 2:5],
+        pose_noise=p[:, 5:11],
         pose_line=pose_rows + 1,
-        lm_pose=q[:, 0].astype(np.int64), lm_id=q[:, 1].astype(np.int64), lm_z=q[:, 2:4], lm_noise=q[:, 4:7],
+        lm_pose=q[:, 0].astype(np.int64),
+        lm_id=q[:, 1].astype(np.int64),
+        lm_z=q[:, 2:4],
+        lm_noise=q[:, 4:7],
         lm_line=lm_rows + 1,
     )
 
@@ -112,14 +132,21 @@ def _check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray,
     eig = np.linalg.eigvalsh(matrices)
     bad = np.flatnonzero(~(eig[:, 0] > eig[:, -1] / MAX_CONDITION))
     if bad.size:
-        raise DataFormatError(path, int(lines[bad[0]]), f"a positive-definite {what} noise matrix (condition number below {MAX_CONDITION:g})",
-                              f"eigenvalues {eig[bad[0]].tolist()}")
+        raise DataFormatError(
+            path,
+            int(lines[bad[0]]),
+            f"a positive-definite {what} noise matrix (condition number below {MAX_CONDITION:g})",
+            f"eigenvalues {eig[bad[0]].tolist()}",
+        )
 
 
 def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np.ndarray]:
     """Information matrices of the pose and landmark records, each checked positive definite at its line."""
     out = []
-    for noise, n, lines, what in ((rec.pose_noise, 3, rec.pose_line, "pose-constraint"), (rec.lm_noise, 2, rec.lm_line, "landmark")):
+    for noise, n, lines, what in (
+        (rec.pose_noise, 3, rec.pose_line, "pose-constraint"),
+        (rec.lm_noise, 2, rec.lm_line, "landmark"),
+    ):
         if convention == "covariance":
             _check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
         info = information(noise, n, convention)
@@ -128,8 +155,13 @@ def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np
     return out[0], out[1]
 
 
-def read(path: str | Path, noise: NoiseConvention = "sqrt_information", ground_truth: str | Path | None = None,
-         name: str | None = None, shared_ids: bool = False) -> PoseGraph:
+def read(
+    path: str | Path,
+    noise: NoiseConvention = "sqrt_information",
+    ground_truth: str | Path | None = None,
+    name: str | None = None,
+    shared_ids: bool = False,
+) -> PoseGraph:
     """An iSAM-format file as a :class:`PoseGraph` (landmark edges of kind ``"xy"``).
 
     ``shared_ids``: poses and landmarks share one id space (Victoria Park); otherwise landmark ids
@@ -140,20 +172,37 @@ def read(path: str | Path, noise: NoiseConvention = "sqrt_information", ground_t
     node_ids = np.unique(np.concatenate([rec.pose_i, rec.pose_j, rec.lm_pose]))
     if shared_ids and np.isin(rec.lm_id, node_ids).any():
         k = int(np.flatnonzero(np.isin(rec.lm_id, node_ids))[0])
-        raise DataFormatError(rec.path, int(rec.lm_line[k]), "a landmark id distinct from every pose id", str(rec.lm_id[k]))
-    meta = {"format": "iSAM text", "file": rec.path, "noise_convention": noise,
-            "landmark_id_space": "shared with poses" if shared_ids else "separate from poses"}
+        raise DataFormatError(
+            rec.path, int(rec.lm_line[k]), "a landmark id distinct from every pose id", str(rec.lm_id[k])
+        )
+    meta = {
+        "format": "iSAM text",
+        "file": rec.path,
+        "noise_convention": noise,
+        "landmark_id_space": "shared with poses" if shared_ids else "separate from poses",
+    }
     true_poses = true_landmarks = None
     if ground_truth is not None:
         true_poses, true_landmarks = true_poses_and_landmarks(ground_truth, node_ids)
         meta["ground_truth"] = str(ground_truth)
     has_lm = rec.lm_pose.size > 0
     return PoseGraph(
-        name=name or Path(path).name, node_ids=node_ids, edge_i=rec.pose_i, edge_j=rec.pose_j, edge_z=rec.pose_z,
-        edge_information=info, poses=None, dim=2,
-        landmark_pose=rec.lm_pose if has_lm else None, landmark_id=rec.lm_id if has_lm else None,
-        landmark_z=rec.lm_z if has_lm else None, landmark_information=lm_info if has_lm else None, landmark_kind="xy",
-        true_poses=true_poses, true_landmarks=true_landmarks, meta=meta,
+        name=name or Path(path).name,
+        node_ids=node_ids,
+        edge_i=rec.pose_i,
+        edge_j=rec.pose_j,
+        edge_z=rec.pose_z,
+        edge_information=info,
+        poses=None,
+        dim=2,
+        landmark_pose=rec.lm_pose if has_lm else None,
+        landmark_id=rec.lm_id if has_lm else None,
+        landmark_z=rec.lm_z if has_lm else None,
+        landmark_information=lm_info if has_lm else None,
+        landmark_kind="xy",
+        true_poses=true_poses,
+        true_landmarks=true_landmarks,
+        meta=meta,
     )
 
 
@@ -166,7 +215,9 @@ def true_poses_and_landmarks(path: str | Path, node_ids: np.ndarray) -> tuple[np
     expected = np.arange(start + 1, start + 1 + j.size)
     if not np.array_equal(j, expected):
         missing = np.setdiff1d(np.arange(start + 1, j.max(initial=start) + 1), j)
-        raise DataFormatError(rec.path, None, "a consecutive constraint i → i+1 for every pose", f"none into pose {missing[:1].tolist()}")
+        raise DataFormatError(
+            rec.path, None, "a consecutive constraint i → i+1 for every pose", f"none into pose {missing[:1].tolist()}"
+        )
     poses = accumulate(np.zeros(3), rec.pose_z[chain[first]])
     ids = np.arange(start, start + poses.shape[0])
     row = np.searchsorted(ids, node_ids)
@@ -185,8 +236,9 @@ class GraphSource(SourceParams):
 
     location: ClassVar[tuple[str, ...]] = ("path", "ground_truth")
     path: str = Field(description="a graph file")
-    ground_truth: str | None = Field(None, description="the noise-free iSAM file of the same graph, found where the graph is; "
-                                                       "None: no ground truth")
+    ground_truth: str | None = Field(
+        None, description="the noise-free iSAM file of the same graph, found where the graph is; None: no ground truth"
+    )
 
     def layout(self) -> Layout:
         return Layout({"graph": (self.path,), **({"ground_truth": (self.ground_truth,)} if self.ground_truth else {})})
@@ -197,7 +249,9 @@ class IsamSource(GraphSource):
 
     location: ClassVar[tuple[str, ...]] = ("path", "ground_truth", "noise")
     path: str = Field(description="a file in the iSAM text format (ODOMETRY/EDGE2 and LANDMARK lines)")
-    noise: NoiseConvention = Field("sqrt_information", description="what the noise columns hold (iSAM files: the square-root information)")
+    noise: NoiseConvention = Field(
+        "sqrt_information", description="what the noise columns hold (iSAM files: the square-root information)"
+    )
 
 
 @with_params(IsamSource)

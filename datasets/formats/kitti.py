@@ -2,6 +2,7 @@
 
 Sensor frame: x forward, y left, z up (metres); reflectance in [0, 1].
 """
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -18,6 +18,7 @@ Datasets 1 and 6 are catalogued as ``utias:1/robot<k>``, ``utias:6/robot<k>``).
 
 The dataset states no sensor noise, so :class:`Noise` is left empty (``meta["noise"]`` says so).
 """
+
 from __future__ import annotations
 
 import re
@@ -104,8 +105,16 @@ def read_robot(
         "noise": "not stated by the dataset",
         "time": "UNIX seconds",
     }
-    return Sequence(name=name, motion=motion, range_bearing=rb, ground_truth=truth, landmarks=lmap,
-                    initial_pose=initial, noise=Noise(), meta=meta)
+    return Sequence(
+        name=name,
+        motion=motion,
+        range_bearing=rb,
+        ground_truth=truth,
+        landmarks=lmap,
+        initial_pose=initial,
+        noise=Noise(),
+        meta=meta,
+    )
 
 
 class MrclamSource(SourceParams):
@@ -113,8 +122,10 @@ class MrclamSource(SourceParams):
 
     location: ClassVar[tuple[str, ...]] = ("path", "robot")
     form: ClassVar[str] = "<path>/robot<k>"
-    path: str = Field(description="a directory in the MRCLAM layout: Barcodes.dat, Landmark_Groundtruth.dat, Robot<k>_Odometry.dat, "
-                                  "Robot<k>_Measurement.dat and, where recorded, Robot<k>_Groundtruth.dat (each plain or .gz)")
+    path: str = Field(
+        description="a directory in the MRCLAM layout: Barcodes.dat, Landmark_Groundtruth.dat, Robot<k>_Odometry.dat, "
+        "Robot<k>_Measurement.dat and, where recorded, Robot<k>_Groundtruth.dat (each plain or .gz)"
+    )
     robot: PositiveInt = Field(description="k, the robot whose Robot<k>_*.dat files are read")
 
     @classmethod
@@ -132,9 +143,16 @@ class MrclamSource(SourceParams):
             return joined(self.path, f"{stem}.dat"), joined(self.path, f"{stem}.dat.gz")
 
         k = self.robot
-        return Layout({"odometry": dat(f"Robot{k}_Odometry"), "measurement": dat(f"Robot{k}_Measurement"),
-                       "barcodes": dat("Barcodes"), "landmarks": dat("Landmark_Groundtruth"),
-                       "groundtruth": dat(f"Robot{k}_Groundtruth")}, frozenset({"groundtruth"}))
+        return Layout(
+            {
+                "odometry": dat(f"Robot{k}_Odometry"),
+                "measurement": dat(f"Robot{k}_Measurement"),
+                "barcodes": dat("Barcodes"),
+                "landmarks": dat("Landmark_Groundtruth"),
+                "groundtruth": dat(f"Robot{k}_Groundtruth"),
+            },
+            frozenset({"groundtruth"}),
+        )
 
 
 @with_params(MrclamSource)

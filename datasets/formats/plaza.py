@@ -38,6 +38,7 @@ What the reader does about the files' quirks (each counted in ``meta``):
 Catalogued: ``plaza:Plaza1``, ``plaza:Plaza2``; any run in this layout: ``plaza:<dir>/<run>`` (its path
 without the suffixes, :class:`PlazaSource`; the ``.mat`` file is optional there).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -78,8 +79,17 @@ def read_mat(path: str | Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
         if name not in data:
             raise DataFormatError(path, None, f"a variable {name!r}", "no such variable")
         value = data[name]
-        if not (isinstance(value, np.ndarray) and (np.issubdtype(value.dtype, np.number) or value.dtype == bool) and not np.iscomplexobj(value)):
-            raise DataFormatError(path, None, f"a real numeric matrix for variable {name!r}", type(value).__name__ if not isinstance(value, np.ndarray) else str(value.dtype))
+        if not (
+            isinstance(value, np.ndarray)
+            and (np.issubdtype(value.dtype, np.number) or value.dtype == bool)
+            and not np.iscomplexobj(value)
+        ):
+            raise DataFormatError(
+                path,
+                None,
+                f"a real numeric matrix for variable {name!r}",
+                type(value).__name__ if not isinstance(value, np.ndarray) else str(value.dtype),
+            )
         out[name] = value.astype(float)
     return out
 
@@ -108,28 +118,48 @@ def _ranges(path: Path, strict_time: bool) -> tuple[BeaconRanges, dict]:
         k = int(np.flatnonzero((ids != np.round(ids)) | (ids < 0))[0])
         raise DataFormatError(path, int(lines[k]), "a non-negative integer beacon id", str(ids[k]))
     stream = BeaconRanges(t=t[order], range=rows[order, 3], beacon_id=ids[order].astype(np.int64))
-    meta = {"range_rows": int(len(rows)), "range_rows_out_of_order": int(late.sum()),
-            "robot_ids": np.unique(rows[:, 1]).astype(int).tolist()}
+    meta = {
+        "range_rows": int(len(rows)),
+        "range_rows_out_of_order": int(late.sum()),
+        "robot_ids": np.unique(rows[:, 1]).astype(int).tolist(),
+    }
     return stream, meta
 
 
 class PlazaParams(Params):
     """Options of the Plaza reader (:func:`read_run`, :func:`read`)."""
 
-    strict_time: bool = Field(False, description="raise at the first range row stepping back in time instead of sorting the rows")
-    align_heading: bool = Field(True, description="rotate the ground-truth headings by π when they point against the direction of travel")
+    strict_time: bool = Field(
+        False, description="raise at the first range row stepping back in time instead of sorting the rows"
+    )
+    align_heading: bool = Field(
+        True, description="rotate the ground-truth headings by π when they point against the direction of travel"
+    )
 
 
 @with_params(PlazaParams)
-def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None = None, name: str = "plaza", /, *,
-             params: PlazaParams) -> Sequence:
+def read_run(
+    odometry: str | Path,
+    ranges: str | Path,
+    truth: str | Path | None = None,
+    name: str = "plaza",
+    /,
+    *,
+    params: PlazaParams,
+) -> Sequence:
     """One Plaza run from its files (see the module docstring); ``truth`` is the ``.mat`` file."""
     odo, odo_lines = numeric_table(odometry, 3, "an odometry row (t delta_distance delta_heading)")
     check_monotonic(str(odometry), odo[:, 0], odo_lines, "odometry")
     delta = np.column_stack([odo[:, 1], np.zeros(len(odo)), odo[:, 2]])
     beacon_ranges, meta = _ranges(Path(ranges), params.strict_time)
-    meta = {"dataset": "CMU Plaza (range-only)", "files": [str(p) for p in (odometry, ranges, truth) if p is not None],
-            "odometry_rows": int(len(odo)), **meta, "noise": "not stated by the dataset", "time": "seconds (dataset clock)"}
+    meta = {
+        "dataset": "CMU Plaza (range-only)",
+        "files": [str(p) for p in (odometry, ranges, truth) if p is not None],
+        "odometry_rows": int(len(odo)),
+        **meta,
+        "noise": "not stated by the dataset",
+        "time": "seconds (dataset clock)",
+    }
 
     ground_truth = landmarks = initial = None
     if truth is not None:
@@ -144,28 +174,45 @@ def read_run(odometry: str | Path, ranges: str | Path, truth: str | Path | None 
         if flip:
             poses[:, 2] = wrap_angle(poses[:, 2] + np.pi)
         meta["ground_truth_heading"] = {
-            "travel_minus_heading_median_rad": offset, "steps_agreeing": agreement, "rotated_by_pi": bool(flip),
-            "note": "GT heading points against the direction of travel; rotated by pi" if flip else "GT heading as in the file"}
+            "travel_minus_heading_median_rad": offset,
+            "steps_agreeing": agreement,
+            "rotated_by_pi": bool(flip),
+            "note": "GT heading points against the direction of travel; rotated by pi"
+            if flip
+            else "GT heading as in the file",
+        }
         ground_truth = Trajectory(t=gt[:, 0], poses=poses)
         landmarks = LandmarkMap(ids=tl[:, 0].astype(np.int64), xy=tl[:, 1:3])
         initial = ground_truth.poses[0]
         meta["ground_truth_kind"] = "GPS-based reference of the authors (poses) + surveyed beacons"
         unknown = np.setdiff1d(np.unique(beacon_ranges.beacon_id), landmarks.ids)
         meta["ranges_to_unknown_beacons"] = int(np.isin(beacon_ranges.beacon_id, unknown).sum())
-    return Sequence(name=name, motion=Increments(t=odo[:, 0], delta=delta), beacon_ranges=beacon_ranges,
-                    ground_truth=ground_truth, landmarks=landmarks, initial_pose=initial, noise=Noise(), meta=meta)
+    return Sequence(
+        name=name,
+        motion=Increments(t=odo[:, 0], delta=delta),
+        beacon_ranges=beacon_ranges,
+        ground_truth=ground_truth,
+        landmarks=landmarks,
+        initial_pose=initial,
+        noise=Noise(),
+        meta=meta,
+    )
 
 
 class PlazaSource(PlazaParams, SourceParams):
     """Where a Plaza run's files are, and the reader's options."""
 
     location: ClassVar[tuple[str, ...]] = ("path",)
-    path: str = Field(description="a run's path without its suffixes: <dir>/PlazaN names PlazaN_DR.txt (odometry), PlazaN_TD.txt "
-                                  "(ranges) and, where there is one, PlazaN_.mat (ground truth and beacons)")
+    path: str = Field(
+        description="a run's path without its suffixes: <dir>/PlazaN names PlazaN_DR.txt (odometry), PlazaN_TD.txt "
+        "(ranges) and, where there is one, PlazaN_.mat (ground truth and beacons)"
+    )
 
     def layout(self) -> Layout:
-        return Layout({"odometry": (f"{self.path}_DR.txt",), "ranges": (f"{self.path}_TD.txt",), "truth": (f"{self.path}_.mat",)},
-                      frozenset({"truth"}))
+        return Layout(
+            {"odometry": (f"{self.path}_DR.txt",), "ranges": (f"{self.path}_TD.txt",), "truth": (f"{self.path}_.mat",)},
+            frozenset({"truth"}),
+        )
 
 
 @with_params(PlazaSource)

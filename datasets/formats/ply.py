@@ -5,6 +5,7 @@
 vertices in ASCII files and ignored (counted in the result's ``"_ignored_elements"``); list
 properties are not supported (an error says so). A cloud without a vertex is an error.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,9 +17,24 @@ from ._text import numbers
 
 __all__ = ["read", "points", "write"]
 
-TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2", "ushort": "u2",
-         "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4",
-         "double": "f8", "float64": "f8"}
+TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
 
 
 def _header(path: Path, data: bytes):
@@ -75,8 +91,14 @@ def read(path: str | Path) -> dict:
         if len(lines) < n:
             raise DataFormatError(path, header_lines + len(lines), f"{n} vertex lines", f"{len(lines)}")
         line_numbers = header_lines + 1 + np.arange(n)
-        values, _ = numbers(str(path), lines[:n], line_numbers, "a PLY vertex line", lambda c: c == len(props),
-                            f"{len(props)} vertex properties")
+        values, _ = numbers(
+            str(path),
+            lines[:n],
+            line_numbers,
+            "a PLY vertex line",
+            lambda c: c == len(props),
+            f"{len(props)} vertex properties",
+        )
         table = values.reshape(n, len(props))
         out = {name: table[:, k].astype(t) for k, (name, t) in enumerate(props)}
     out["_ignored_elements"] = [e[0] for e in elements[1:]]
@@ -93,7 +115,9 @@ def write(path: str | Path, properties: dict, binary: bool = True) -> None:
     """Write vertex properties (name → (N,) array; float32/float64/int types kept)."""
     names = [k for k in properties if not k.startswith("_")]
     arrays = [np.asarray(properties[k]) for k in names]
-    inverse = {v: k for k, v in TYPES.items() if k in ("char", "uchar", "short", "ushort", "int", "uint", "float", "double")}
+    inverse = {
+        v: k for k, v in TYPES.items() if k in ("char", "uchar", "short", "ushort", "int", "uint", "float", "double")
+    }
     kinds = [inverse[a.dtype.str[1:]] for a in arrays]
     header = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0", f"element vertex {len(arrays[0])}"]
     header += [f"property {k} {n}" for k, n in zip(kinds, names)] + ["end_header"]

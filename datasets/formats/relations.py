@@ -6,6 +6,7 @@ ipc_timestamp ``t1`` to the scan with ipc_timestamp ``t2``, in the frame of the 
 ``meta["scan_ipc_timestamp"]``). Some published files carry a leading tag per line (``FLASER``…):
 a first non-numeric token is skipped when every line has one.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,7 +52,9 @@ def read(path: str | Path) -> Relations:
     if first_numeric.any() and not first_numeric.all():
         k = int(rows[np.flatnonzero(~first_numeric)[0]])
         raise DataFormatError(lines.path, k + 1, "a relation: t1 t2 x y z roll pitch yaw", lines[k][:80])
-    v = fixed(lines.path, bodies_of(lines, rows, 1 if skip else 0), rows + 1, 8, "a relation (t1 t2 x y z roll pitch yaw)")
+    v = fixed(
+        lines.path, bodies_of(lines, rows, 1 if skip else 0), rows + 1, 8, "a relation (t1 t2 x y z roll pitch yaw)"
+    )
     return Relations(t1=v[:, 0], t2=v[:, 1], motion=v[:, 2:8])
 
 

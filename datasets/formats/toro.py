@@ -14,6 +14,7 @@ diag(1/σ_bearing², 1/σ_range²). ``EQUIV`` pairs have no edge in :class:`Pose
 in ``meta["equivalences"]`` (and counted). Files whose ``EDGE2`` noise follows the iSAM
 square-root convention (w20000) are read with :mod:`slamarena.datasets.formats.isam` instead.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -52,7 +53,9 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
         ids = values[:, :2] if record != "VERTEX2" else values[:, :1]
         bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
         if bad.size:
-            raise DataFormatError(lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80])
+            raise DataFormatError(
+                lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80]
+            )
         table[record] = (values, rows)
     v, vrows = table["VERTEX2"]
     e, erows = table["EDGE2"]
@@ -66,7 +69,9 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
         missing = ~np.isin(edge_ids, node_ids).all(axis=1)
         if missing.any():
             k = int(np.flatnonzero(missing)[0])
-            raise DataFormatError(lines.path, int(erows[k]) + 1, "an EDGE2 between declared vertices", str(edge_ids[k].tolist()))
+            raise DataFormatError(
+                lines.path, int(erows[k]) + 1, "an EDGE2 between declared vertices", str(edge_ids[k].tolist())
+            )
     else:
         node_ids = np.unique(edge_ids)
     sig = br[:, 4:6]
@@ -75,14 +80,32 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
         raise DataFormatError(lines.path, int(brows[k]) + 1, "positive BR standard deviations", str(sig[k].tolist()))
     landmarks = {}
     if br.shape[0]:
-        landmarks = dict(landmark_pose=br[:, 0].astype(np.int64), landmark_id=br[:, 1].astype(np.int64),
-                         landmark_z=br[:, 2:4], landmark_information=np.stack([np.diag(1.0 / s**2) for s in sig]),
-                         landmark_kind="bearing_range")
-    meta = {"format": "TORO", "file": lines.path, "noise_convention": "information (TORO order xx xy yy tt xt yt)",
-            "equivalences": q.astype(np.int64).tolist(), "equivalence_count": int(q.shape[0])}
-    return PoseGraph(name=name or Path(path).name, node_ids=node_ids, edge_i=edge_ids[:, 0], edge_j=edge_ids[:, 1],
-                     edge_z=e[:, 2:5], edge_information=info, poses=v[:, 1:4] if v.shape[0] else None, dim=2,
-                     meta=meta, **landmarks)
+        landmarks = dict(
+            landmark_pose=br[:, 0].astype(np.int64),
+            landmark_id=br[:, 1].astype(np.int64),
+            landmark_z=br[:, 2:4],
+            landmark_information=np.stack([np.diag(1.0 / s**2) for s in sig]),
+            landmark_kind="bearing_range",
+        )
+    meta = {
+        "format": "TORO",
+        "file": lines.path,
+        "noise_convention": "information (TORO order xx xy yy tt xt yt)",
+        "equivalences": q.astype(np.int64).tolist(),
+        "equivalence_count": int(q.shape[0]),
+    }
+    return PoseGraph(
+        name=name or Path(path).name,
+        node_ids=node_ids,
+        edge_i=edge_ids[:, 0],
+        edge_j=edge_ids[:, 1],
+        edge_z=e[:, 2:5],
+        edge_information=info,
+        poses=v[:, 1:4] if v.shape[0] else None,
+        dim=2,
+        meta=meta,
+        **landmarks,
+    )
 
 
 class ToroSource(SourceParams):

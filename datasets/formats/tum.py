@@ -4,6 +4,7 @@ Planar poses map to TUM as z = 0 and a rotation θ about z: q = (0, 0, sin θ/2,
 Reading back, θ = 2·atan2(qz, qw) after normalising q; :func:`read` returns the full 3D rows
 too, and :func:`to_se2` refuses rows that are not planar rotations about z (|qx|, |qy| > tol).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -29,7 +30,9 @@ class TumTrajectory:
         q = self.quat / np.linalg.norm(self.quat, axis=1, keepdims=True)
         tilted = np.flatnonzero((np.abs(q[:, :2]) > tol).any(axis=1))
         if tilted.size:
-            raise ValueError(f"{self.path}: row {int(tilted[0])} is not a rotation about z (qx, qy = {q[tilted[0], :2]})")
+            raise ValueError(
+                f"{self.path}: row {int(tilted[0])} is not a rotation about z (qx, qy = {q[tilted[0], :2]})"
+            )
         return Trajectory(t=self.t, poses=np.column_stack([self.xyz[:, :2], quaternion_to_yaw(q)]))
 
 
@@ -62,5 +65,7 @@ def read_trajectory(path: str | Path) -> Trajectory:
 def write(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
     """Write planar poses ``(N, 3)`` at times ``t`` as TUM lines (17 significant digits)."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-    table = np.column_stack([np.asarray(t, dtype=float), poses[:, :2], np.zeros(len(poses)), yaw_to_quaternion(poses[:, 2])])
+    table = np.column_stack(
+        [np.asarray(t, dtype=float), poses[:, :2], np.zeros(len(poses)), yaw_to_quaternion(poses[:, 2])]
+    )
     np.savetxt(path, table, fmt="%.17g", header="timestamp x y z qx qy qz qw")

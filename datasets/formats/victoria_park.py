@@ -25,6 +25,7 @@ As a :class:`PoseGraph` (:func:`read_graph`): odometry edges and landmark edges 
 Catalogued: ``victoria_park`` (GTSAM's copy; the GTSAM wheel ships it) and ``victoria_park:isam``; any
 file in the format: ``victoria_park:<file>`` with its ``variant`` (:class:`VictoriaParkSource`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -70,8 +71,12 @@ def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park
     chain_ok = rec.pose_i[1:] == rec.pose_j[:-1]
     if not chain_ok.all():
         k = int(np.flatnonzero(~chain_ok)[0]) + 1
-        raise DataFormatError(rec.path, int(rec.pose_line[k]), f"ODOMETRY from the previous pose {rec.pose_j[k - 1]}",
-                              f"ODOMETRY {rec.pose_i[k]} {rec.pose_j[k]}")
+        raise DataFormatError(
+            rec.path,
+            int(rec.pose_line[k]),
+            f"ODOMETRY from the previous pose {rec.pose_j[k - 1]}",
+            f"ODOMETRY {rec.pose_i[k]} {rec.pose_j[k]}",
+        )
     pose_ids = np.concatenate([rec.pose_i[:1], rec.pose_j])
     index = np.searchsorted(pose_ids, rec.lm_pose)
     unknown = (index >= pose_ids.size) | (pose_ids[np.clip(index, 0, pose_ids.size - 1)] != rec.lm_pose)
@@ -80,7 +85,9 @@ def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park
         raise DataFormatError(rec.path, int(rec.pose_line[k]), "increasing pose ids", str(pose_ids[k + 1]))
     if unknown.any():
         k = int(np.flatnonzero(unknown)[0])
-        raise DataFormatError(rec.path, int(rec.lm_line[k]), "a LANDMARK seen from a pose of the odometry chain", str(rec.lm_pose[k]))
+        raise DataFormatError(
+            rec.path, int(rec.lm_line[k]), "a LANDMARK seen from a pose of the odometry chain", str(rec.lm_pose[k])
+        )
     if not np.all(np.diff(index) >= 0):
         k = int(np.flatnonzero(np.diff(index) < 0)[0]) + 1
         raise DataFormatError(rec.path, int(rec.lm_line[k]), "LANDMARK lines in pose order", str(rec.lm_pose[k]))
@@ -90,23 +97,35 @@ def read(path: str | Path, variant: Variant = "isam", name: str = "victoria_park
     motion = Increments(t=np.arange(1, pose_ids.size, dtype=float), delta=rec.pose_z, cov=odo_cov)
     rng = np.hypot(rec.lm_z[:, 0], rec.lm_z[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):  # a point at the sensor has no bearing: NaN, kept
-        J = np.stack([np.stack([rec.lm_z[:, 0] / rng, rec.lm_z[:, 1] / rng], -1),
-                      np.stack([-rec.lm_z[:, 1] / rng**2, rec.lm_z[:, 0] / rng**2], -1)], -2)
+        J = np.stack(
+            [
+                np.stack([rec.lm_z[:, 0] / rng, rec.lm_z[:, 1] / rng], -1),
+                np.stack([-rec.lm_z[:, 1] / rng**2, rec.lm_z[:, 0] / rng**2], -1),
+            ],
+            -2,
+        )
     bearing = np.arctan2(rec.lm_z[:, 1], rec.lm_z[:, 0])
     rb = RangeBearing(t=index.astype(float), range=rng, bearing=bearing, landmark_id=rec.lm_id)
     rb_cov = J @ lm_cov @ np.swapaxes(J, -1, -2)
     sigma2 = float(np.median(lm_cov[:, 0, 0])) if len(lm_cov) else 0.0
     r_med = float(np.median(rng)) if rng.size else 1.0
-    noise = Noise(increment_cov=np.median(odo_cov, axis=0),
-                  range_bearing_cov=np.diag([sigma2, sigma2 / r_med**2]) if rng.size else None)
+    noise = Noise(
+        increment_cov=np.median(odo_cov, axis=0),
+        range_bearing_cov=np.diag([sigma2, sigma2 / r_med**2]) if rng.size else None,
+    )
     meta = {
-        "dataset": "Victoria Park", "variant": variant, "file": rec.path, "noise_convention": convention,
+        "dataset": "Victoria Park",
+        "variant": variant,
+        "file": rec.path,
+        "noise_convention": convention,
         "time": "no timestamps in the file: t is the pose index",
-        "pose_ids": pose_ids, "ground_truth_kind": "none",
+        "pose_ids": pose_ids,
+        "ground_truth_kind": "none",
         "landmark_noise": f"Cartesian sigma^2 = {sigma2:g} m^2 per axis; bearing std = sigma / range "
-                          f"(Noise.range_bearing_cov at the median range {r_med:.2f} m)",
+        f"(Noise.range_bearing_cov at the median range {r_med:.2f} m)",
         "range_bearing_cov_per_observation": rb_cov,
-        "poses": int(pose_ids.size), "landmarks_observed": int(np.unique(rec.lm_id).size),
+        "poses": int(pose_ids.size),
+        "landmarks_observed": int(np.unique(rec.lm_id).size),
         "observations": int(rec.lm_id.size),
     }
     return Sequence(name=name, motion=motion, range_bearing=rb, initial_pose=np.zeros(3), noise=noise, meta=meta)
@@ -116,9 +135,14 @@ class VictoriaParkSource(SourceParams):
     """A Victoria Park file (what its noise columns hold belongs to the file) and the reader's option."""
 
     location: ClassVar[tuple[str, ...]] = ("path", "variant")
-    path: str = Field(description="a file in the iSAM text format with ODOMETRY and LANDMARK lines (one odometry chain)")
-    variant: Variant = Field("gtsam", description="what its noise columns hold: 'gtsam' covariance (GTSAM's copy) or "
-                                                  "'isam' square-root information (iSAM's copy)")
+    path: str = Field(
+        description="a file in the iSAM text format with ODOMETRY and LANDMARK lines (one odometry chain)"
+    )
+    variant: Variant = Field(
+        "gtsam",
+        description="what its noise columns hold: 'gtsam' covariance (GTSAM's copy) or "
+        "'isam' square-root information (iSAM's copy)",
+    )
     as_graph: bool = Field(False, description="a PoseGraph with landmark edges instead of a Sequence")
 
     def layout(self) -> Layout:

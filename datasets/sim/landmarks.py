@@ -54,6 +54,7 @@ Randomness: ``numpy.random.SeedSequence(seed)`` is split into independent stream
 landmarks, the control noise, the observation noise and the random choice of observations, so e.g. changing the sensor noise
 leaves the landmarks and the odometry of a seed unchanged.
 """
+
 from __future__ import annotations
 
 import math
@@ -125,7 +126,9 @@ def _ring_layout(rng, n, geo) -> np.ndarray:
 LAYOUTS = {"random": _random_layout, "grid": _grid_layout, "ring": _ring_layout}
 
 
-def _lap_controls(half_a: float, half_b: float, radius: float, speed: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def _lap_controls(
+    half_a: float, half_b: float, radius: float, speed: float, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
     """True (v, ω) of one lap: (straight 2a, turn, straight 2b, turn) × 2."""
     n_a = max(int(round(2 * half_a / (speed * dt))), 0)
     n_b = max(int(round(2 * half_b / (speed * dt))), 0)
@@ -148,22 +151,32 @@ class LandmarkWorldParams(Params):
     density: float = Field(0.05, gt=0, description="landmarks per area of band [1/m²]; sets the route length")
     band: float = Field(8.0, gt=0, description="largest landmark distance to the route [m]")
     clearance: float = Field(1.0, ge=0, description="smallest landmark distance to the route [m]; < band")
-    turn_radius: float = Field(4.0, gt=0, description="turning radius r of the route's corners [m] (smaller if the route is short)")
+    turn_radius: float = Field(
+        4.0, gt=0, description="turning radius r of the route's corners [m] (smaller if the route is short)"
+    )
     aspect: float = Field(1.5, gt=0, description="long straight / short straight of the route [1]")
     speed: float = Field(1.0, gt=0, description="speed on the straights [m/s]")
     laps: int = Field(1, ge=1, description="laps of the route")
     dt: float = Field(0.1, gt=0, description="duration of a control row [s]")
-    motion_model: kinematics.MotionModel = Field("arc", description="motion model that drives the truth (datasets.kinematics)")
+    motion_model: kinematics.MotionModel = Field(
+        "arc", description="motion model that drives the truth (datasets.kinematics)"
+    )
     sigma_v: float = Field(0.1, ge=0, description="std of a row's speed error σ_v [m/s]")
     sigma_omega: float = Field(0.05, ge=0, description="std of a row's turn-rate error σ_ω [rad/s]")
     max_range: float = Field(10.0, gt=0, description="sensor range [m]")
-    fov: float = Field(math.pi, gt=0, le=2 * math.pi, description="full field of view, centred ahead [rad]; 2π sees all round")
+    fov: float = Field(
+        math.pi, gt=0, le=2 * math.pi, description="full field of view, centred ahead [rad]; 2π sees all round"
+    )
     sigma_range: float = Field(0.1, ge=0, description="std of the range noise σ_r [m]")
     sigma_bearing: float = Field(math.radians(1.0), ge=0, description="std of the bearing noise σ_b [rad]")
     max_observations: PositiveInt | None = Field(None, description="keep m visible landmarks per step; None: all")
-    observation_choice: Literal["nearest", "random"] = Field("nearest", description="which m of max_observations: the nearest, or drawn at random")
+    observation_choice: Literal["nearest", "random"] = Field(
+        "nearest", description="which m of max_observations: the nearest, or drawn at random"
+    )
     t0: float = Field(0.0, description="first stamp [s]")
-    seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (landmarks, control noise, observation noise)")
+    seed: int = Field(
+        0, ge=0, description="seed of numpy.random.SeedSequence (landmarks, control noise, observation noise)"
+    )
 
     @model_validator(mode="after")
     def _clearance_below_band(self):
@@ -192,9 +205,18 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
     start = np.array([-half_a, -half_b - radius, 0.0])
     dts_lap = np.full(v_lap.size, float(dt))
 
-    ss_landmarks, ss_controls, ss_obs, ss_choice = np.random.SeedSequence(p.seed).spawn(4)  # the first three as with spawn(3)
-    geo = dict(half_a=half_a, half_b=half_b, radius=radius, band=band, clearance=clearance, density=density,
-               lap_poses=kinematics.integrate(p.motion_model, start, v_lap, w_lap, dts_lap))
+    ss_landmarks, ss_controls, ss_obs, ss_choice = np.random.SeedSequence(p.seed).spawn(
+        4
+    )  # the first three as with spawn(3)
+    geo = dict(
+        half_a=half_a,
+        half_b=half_b,
+        radius=radius,
+        band=band,
+        clearance=clearance,
+        density=density,
+        lap_poses=kinematics.integrate(p.motion_model, start, v_lap, w_lap, dts_lap),
+    )
     xy = LAYOUTS[p.layout](np.random.default_rng(ss_landmarks), n, geo)
 
     # ---------------------------------------------------------------- controls and truth
@@ -211,7 +233,7 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
     choice_rng = np.random.default_rng(ss_choice)
     block = max(1, _BLOCK_ELEMENTS // n)
     for lo in range(1, K + 1, block):
-        x = truth[lo:lo + block]
+        x = truth[lo : lo + block]
         r = np.hypot(xy[None, :, 0] - x[:, None, 0], xy[None, :, 1] - x[:, None, 1])
         step, lm = np.nonzero(r <= p.max_range)
         rr = r[step, lm]
@@ -221,7 +243,9 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
         order = np.lexsort((lm, rr, step))  # by step, then nearest first
         step, lm, rr, bb = step[order], lm[order], rr[order], bb[order]
         if p.max_observations is not None:
-            if p.observation_choice == "random":   # rank each step's rows by a random key, keep m, then nearest first again
+            if (
+                p.observation_choice == "random"
+            ):  # rank each step's rows by a random key, keep m, then nearest first again
                 shuffle = np.lexsort((choice_rng.random(step.size), step))
                 step, lm, rr, bb = step[shuffle], lm[shuffle], rr[shuffle], bb[shuffle]
             first = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])
@@ -249,7 +273,13 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
     meta = dict(
         dataset="sim:landmarks",
         **p.canonical(),
-        route=dict(half_a=half_a, half_b=half_b, turn_radius=radius, length=float(v_lap.sum() * dt), steps_per_lap=int(v_lap.size)),
+        route=dict(
+            half_a=half_a,
+            half_b=half_b,
+            turn_radius=radius,
+            length=float(v_lap.sum() * dt),
+            steps_per_lap=int(v_lap.size),
+        ),
         world_extent=[-extent[0], -extent[1], extent[0], extent[1]],
         steps=int(K),
         observation_stamping="set k is the true pose at t_{k+1}, after Twist row k; no set at t0",
@@ -261,6 +291,9 @@ def simulate(*, params: LandmarkWorldParams) -> Sequence:
         ground_truth=Trajectory(t=t, poses=truth),
         landmarks=LandmarkMap(ids=np.arange(n), xy=xy),
         initial_pose=start,
-        noise=Noise(twist_cov=np.diag([p.sigma_v**2, p.sigma_omega**2]), range_bearing_cov=np.diag([p.sigma_range**2, p.sigma_bearing**2])),
+        noise=Noise(
+            twist_cov=np.diag([p.sigma_v**2, p.sigma_omega**2]),
+            range_bearing_cov=np.diag([p.sigma_range**2, p.sigma_bearing**2]),
+        ),
         meta=meta,
     )

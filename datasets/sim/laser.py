@@ -45,6 +45,7 @@ drops out (probability ``dropout``) — reads exactly ``max_range`` ("no return"
 ``Scans.max_range``). ``Scans.pose`` is the odometry pose (the noisy increments accumulated
 from the true start pose) at each scan: what a log attaches to its scans.
 """
+
 from __future__ import annotations
 
 import math
@@ -60,7 +61,17 @@ from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 
-__all__ = ["World", "WORLDS", "LaserWorldParams", "corridor_loop", "segments", "raycast", "true_occupancy", "route_controls", "simulate"]
+__all__ = [
+    "World",
+    "WORLDS",
+    "LaserWorldParams",
+    "corridor_loop",
+    "segments",
+    "raycast",
+    "true_occupancy",
+    "route_controls",
+    "simulate",
+]
 
 #: sensor poses × beams × segments evaluated at once by :func:`raycast`
 _BLOCK_ELEMENTS = 1_000_000
@@ -93,8 +104,25 @@ def _wall_with_doors(fixed: float, lo: float, hi: float, doors, horizontal: bool
 _LOOP = World(
     name="loop",
     walls=(
-        ((0, 0), (8, 0), (8, -1.5), (10, -1.5), (10, 0), (24, 0), (24, 9), (25.5, 9), (25.5, 11), (24, 11), (24, 16),
-         (14, 16), (14, 17.5), (12, 17.5), (12, 16), (0, 16), (0, 0)),
+        (
+            (0, 0),
+            (8, 0),
+            (8, -1.5),
+            (10, -1.5),
+            (10, 0),
+            (24, 0),
+            (24, 9),
+            (25.5, 9),
+            (25.5, 11),
+            (24, 11),
+            (24, 16),
+            (14, 16),
+            (14, 17.5),
+            (12, 17.5),
+            (12, 16),
+            (0, 16),
+            (0, 0),
+        ),
         ((4, 4), (15, 4), (15, 4.6), (16.5, 4.6), (16.5, 4), (20, 4), (20, 12), (4, 12), (4, 4)),
         _box(16.0, 0.4, 16.5, 0.9),
         _box(22.8, 5.5, 23.3, 6.0),
@@ -118,9 +146,16 @@ _ROOMS = World(
         *_wall_with_doors(27.0, 5.0, 17.0, ((7.5, 8.5), (13.5, 14.5)), horizontal=False),
         *(((x, 0), (x, 5)) for x in (11, 16, 21)),
         *(((x, 17), (x, 22)) for x in (11, 16, 21)),
-        ((0, 5), (5, 5)), ((0, 17), (5, 17)), ((27, 5), (32, 5)), ((27, 17), (32, 17)),
-        ((0, 11), (5, 11)), ((27, 11), (32, 11)),
-        _box(2.0, 1.5, 4.0, 2.5), _box(13.0, 19.0, 14.0, 21.0), _box(29.0, 13.0, 31.0, 14.0), _box(17.5, 1.0, 19.5, 2.0),
+        ((0, 5), (5, 5)),
+        ((0, 17), (5, 17)),
+        ((27, 5), (32, 5)),
+        ((27, 17), (32, 17)),
+        ((0, 11), (5, 11)),
+        ((27, 11), (32, 11)),
+        _box(2.0, 1.5, 4.0, 2.5),
+        _box(13.0, 19.0, 14.0, 21.0),
+        _box(29.0, 13.0, 31.0, 14.0),
+        _box(17.5, 1.0, 19.5, 2.0),
     ),
     route=((16.0, 6.5), (25.5, 6.5), (25.5, 15.5), (6.5, 15.5), (6.5, 6.5)),
     corner_radius=1.2,
@@ -143,8 +178,12 @@ def corridor_loop(width: float, height: float, name: str | None = None) -> World
     """
     if width < 16 or height < 16:
         raise ValueError(f"corridor_loop needs width and height >= 16 m, got {width} × {height}")
-    sides = (((0.0, 0.0), (1.0, 0.0), width), ((width, 0.0), (0.0, 1.0), height),
-             ((width, height), (-1.0, 0.0), width), ((0.0, height), (0.0, -1.0), height))
+    sides = (
+        ((0.0, 0.0), (1.0, 0.0), width),
+        ((width, 0.0), (0.0, 1.0), height),
+        ((width, height), (-1.0, 0.0), width),
+        ((0.0, height), (0.0, -1.0), height),
+    )
     outer, block, pillars, kind = [], [], [], 0
     for (ox, oy), (tx, ty), length in sides:
         at = lambda u, v: (ox + u * tx - v * ty, oy + u * ty + v * tx)  # side frame: u along, v inward
@@ -156,7 +195,18 @@ def corridor_loop(width: float, height: float, name: str | None = None) -> World
             if what == "alcove":
                 outer += [at(u - 1.0, 0.0), at(u - 1.0, -1.5), at(u + 1.0, -1.5), at(u + 1.0, 0.0)]
             elif what == "pillar":
-                pillars.append(tuple(at(a, b) for a, b in ((u - 0.25, 0.4), (u + 0.25, 0.4), (u + 0.25, 0.9), (u - 0.25, 0.9), (u - 0.25, 0.4))))
+                pillars.append(
+                    tuple(
+                        at(a, b)
+                        for a, b in (
+                            (u - 0.25, 0.4),
+                            (u + 0.25, 0.4),
+                            (u + 0.25, 0.9),
+                            (u - 0.25, 0.9),
+                            (u - 0.25, 0.4),
+                        )
+                    )
+                )
             else:
                 block += [at(u - 0.75, 4.0), at(u - 0.75, 4.6), at(u + 0.75, 4.6), at(u + 0.75, 4.0)]
             kind, u, gap = kind + 1, u + _GAPS[gap % 3], gap + 1
@@ -207,9 +257,9 @@ def raycast(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, max_
     out = np.full((P, B), np.inf)
     block = max(1, _BLOCK_ELEMENTS // max(1, B * walls.shape[0]))
     for lo in range(0, P, block):
-        o = origins[lo:lo + block, None, None, :]  # (p, 1, 1, 2)
-        dx = np.cos(directions[lo:lo + block])[:, :, None]  # (p, B, 1)
-        dy = np.sin(directions[lo:lo + block])[:, :, None]
+        o = origins[lo : lo + block, None, None, :]  # (p, 1, 1, 2)
+        dx = np.cos(directions[lo : lo + block])[:, :, None]  # (p, B, 1)
+        dy = np.sin(directions[lo : lo + block])[:, :, None]
         wx = a[None, None, :, 0] - o[..., 0]  # (p, 1, S)
         wy = a[None, None, :, 1] - o[..., 1]
         denom = dx * e[:, 1] - dy * e[:, 0]  # d × e, (p, B, S)
@@ -218,11 +268,13 @@ def raycast(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, max_
             u = (wx * dy - wy * dx) / denom
         hit = (denom != 0) & (t > 0) & (u >= 0) & (u <= 1)
         nearest = np.where(hit, t, np.inf).min(axis=2)
-        out[lo:lo + block] = np.where(nearest <= max_range, nearest, np.inf)
+        out[lo : lo + block] = np.where(nearest <= max_range, nearest, np.inf)
     return out
 
 
-def true_occupancy(resolution: float, world: str | World = "loop", origin=None, shape=None, margin: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def true_occupancy(
+    resolution: float, world: str | World = "loop", origin=None, shape=None, margin: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """The walls rasterised: a boolean grid ``occupied[iy, ix]`` and its ``origin`` (2,).
 
     Conventions of :mod:`slamarena.mapping.occupancy_grid`: ``origin`` is the lower-left corner of cell
@@ -314,13 +366,17 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "long_loop", "rooms"] | World = Field("loop", description="a world of WORLDS by name, or a World")
+    world: Literal["loop", "long_loop", "rooms"] | World = Field(
+        "loop", description="a world of WORLDS by name, or a World"
+    )
     n_beams: int = Field(361, ge=1, description="beams per scan")
     fov: float = Field(1.5 * math.pi, gt=0, le=2 * math.pi, description="field of view of a scan, centred ahead [rad]")
     max_range: float = Field(12.0, gt=0, description="sensor range; the reading of a beam without return [m]")
     sigma_range: float = Field(0.01, ge=0, description="std of the range noise [m]")
     dropout: float = Field(0.0, ge=0, lt=1, description="probability that a beam drops out (reads max_range)")
-    mount: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="sensor pose in the robot frame (x [m], y [m], θ [rad])")
+    mount: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="sensor pose in the robot frame (x [m], y [m], θ [rad])"
+    )
     speed: float = Field(0.5, gt=0, description="speed along the route [m/s]")
     laps: int = Field(1, ge=1, description="laps of the route")
     odom_rate: float = Field(20.0, gt=0, description="odometry rate 1/dt [Hz]")
@@ -386,7 +442,9 @@ def simulate(*, params: LaserWorldParams) -> Sequence:
     return Sequence(
         name=f"sim:laser({w.name},seed={p.seed})",
         motion=Increments(t=t[1:], delta=noisy, cov=cov),
-        scans=Scans(t=t[k_scan], ranges=ranges, angles=angles, max_range=p.max_range, mount=mount, pose=odometry[k_scan]),
+        scans=Scans(
+            t=t[k_scan], ranges=ranges, angles=angles, max_range=p.max_range, mount=mount, pose=odometry[k_scan]
+        ),
         ground_truth=Trajectory(t=t, poses=truth),
         initial_pose=start,
         noise=Noise(),

@@ -54,6 +54,7 @@ Ground truth: the true pose at every command stamp and at the end of the last ro
 interpolation. Defaults follow the design notes: R_gps = diag(1e-4, 1e-4) (1 cm RTK),
 R_imu = 1e-3 rad², Δt = 0.02 s.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,7 +72,9 @@ from ..sequence import Gps, Heading, Noise, Sequence, Trajectory, Twist
 __all__ = ["simulate", "LocalizationWorldParams", "command_profile", "first_order_response"]
 
 
-def command_profile(rng: np.random.Generator, t: np.ndarray, v_mean: float, v_amplitude: float, omega_amplitude: float, ramp: float) -> tuple[np.ndarray, np.ndarray]:
+def command_profile(
+    rng: np.random.Generator, t: np.ndarray, v_mean: float, v_amplitude: float, omega_amplitude: float, ramp: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Smooth random (v, ω) commands at times ``t`` measured from the start (see module docstring)."""
     out = []
     for _ in range(2):
@@ -99,10 +102,10 @@ def first_order_response(u: np.ndarray, a: float, w0: np.ndarray) -> np.ndarray:
     block = int(np.clip(20.0 / -math.log(a), 1, 4096)) if a < 1.0 else 4096
     powers = a ** np.arange(block + 1.0)
     for s in range(0, u.shape[0], block):
-        chunk = u[s:s + block]
+        chunk = u[s : s + block]
         B = chunk.shape[0]
-        scaled = np.cumsum(chunk / powers[1:B + 1, None], axis=0)
-        w[s + 1:s + B + 1] = powers[1:B + 1, None] * (w[s] + scaled)
+        scaled = np.cumsum(chunk / powers[1 : B + 1, None], axis=0)
+        w[s + 1 : s + B + 1] = powers[1 : B + 1, None] * (w[s] + scaled)
     return w
 
 
@@ -132,7 +135,9 @@ def _interval(episode: tuple) -> tuple:
 Interval = Annotated[tuple[float, float], AfterValidator(_interval)]
 #: ``(t_start, t_end, factor)`` (both wheels) or ``(t_start, t_end, left, right)``: ground/wheel speed ratios ≥ 0
 SlipEpisode = Annotated[
-    tuple[float, float, NonNegativeFloat] | tuple[float, float, NonNegativeFloat, NonNegativeFloat], AfterValidator(_interval)]
+    tuple[float, float, NonNegativeFloat] | tuple[float, float, NonNegativeFloat, NonNegativeFloat],
+    AfterValidator(_interval),
+]
 
 
 class LocalizationWorldParams(Params):
@@ -140,36 +145,51 @@ class LocalizationWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    duration: float = Field(120.0, ge=1.0, description="length of the run [s] (≥ 1 s: the input noise is measured over 1-s windows)")
+    duration: float = Field(
+        120.0, ge=1.0, description="length of the run [s] (≥ 1 s: the input noise is measured over 1-s windows)"
+    )
     cmd_rate: float = Field(50.0, gt=0, description="command rate 1/T [Hz]")
     gps_rate: float = Field(5.0, gt=0, description="GPS rate [Hz]")
     imu_rate: float = Field(50.0, gt=0, description="IMU yaw rate [Hz]")
     gps_sigma: float = Field(0.01, ge=0, description="std of the GPS noise per axis [m]")
     imu_var: float = Field(0.001, ge=0, description="variance of the IMU yaw noise [rad²]")
     imu_bias: float = Field(0.0, description="constant IMU yaw bias [rad]")
-    gps_outages: tuple[Interval, ...] = Field((), description="intervals [t_start, t_end) of sequence time without GPS fixes [s]")
+    gps_outages: tuple[Interval, ...] = Field(
+        (), description="intervals [t_start, t_end) of sequence time without GPS fixes [s]"
+    )
     gps_outlier_fraction: float = Field(0.0, ge=0, le=1, description="probability that a GPS fix is an outlier")
     gps_outlier_magnitude: float = Field(10.0, ge=0, description="displacement of a GPS outlier, random direction [m]")
-    slip: tuple[SlipEpisode, ...] = Field((), description="slip episodes (t_start [s], t_end [s], factor) or (t_start, t_end, left, right): ground/wheel speed ratios")
-    motion_source: Literal["cmd_vel", "odometry"] = Field("cmd_vel", description="Sequence.motion: the commands or the wheel odometry")
+    slip: tuple[SlipEpisode, ...] = Field(
+        (),
+        description="slip episodes (t_start [s], t_end [s], factor) or (t_start, t_end, left, right): ground/wheel speed ratios",
+    )
+    motion_source: Literal["cmd_vel", "odometry"] = Field(
+        "cmd_vel", description="Sequence.motion: the commands or the wheel odometry"
+    )
     v_mean: float = Field(1.0, description="mean commanded speed [m/s]")
     v_amplitude: float = Field(0.5, ge=0, description="amplitude of the commanded speed's variation [m/s]")
     omega_amplitude: float = Field(0.4, ge=0, description="amplitude of the commanded turn rate [rad/s]")
     ramp: float = Field(2.0, ge=0, description="fade-in of the commands from rest [s]")
     wheel_base: float = Field(0.5, gt=0, description="track width b [m]")
     actuator_tau: float = Field(0.1, ge=0, description="time constant τ of the wheels' first-order lag [s]; 0: no lag")
-    actuator_sigma: float = Field(0.02, ge=0, description="stationary std of the executed wheel speed around the lagged command [m/s]")
+    actuator_sigma: float = Field(
+        0.02, ge=0, description="stationary std of the executed wheel speed around the lagged command [m/s]"
+    )
     encoder_sigma: float = Field(2e-4, ge=0, description="std of the encoder noise per wheel per row [m]")
     substeps: int = Field(10, ge=1, description="fine integration steps per command row")
     start: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="start pose (x [m], y [m], θ [rad])")
     t0: float = Field(0.0, description="first stamp [s]")
-    seed: int = Field(0, ge=0, description="seed of numpy.random.SeedSequence (profile, actuators, encoders, GPS, outliers, IMU)")
+    seed: int = Field(
+        0, ge=0, description="seed of numpy.random.SeedSequence (profile, actuators, encoders, GPS, outliers, IMU)"
+    )
 
     @model_validator(mode="after")
     def _whole_steps(self):
         if self.duration * self.cmd_rate < 1 or self.cmd_rate * self.substeps < 1:
-            raise ValueError(f"duration × cmd_rate ({self.duration * self.cmd_rate:g}) and cmd_rate × substeps "
-                             f"({self.cmd_rate * self.substeps:g}) must be ≥ 1: at least one command row, fine steps of at most 1 s")
+            raise ValueError(
+                f"duration × cmd_rate ({self.duration * self.cmd_rate:g}) and cmd_rate × substeps "
+                f"({self.cmd_rate * self.substeps:g}) must be ≥ 1: at least one command row, fine steps of at most 1 s"
+            )
         return self
 
 
@@ -231,7 +251,11 @@ def simulate(*, params: LocalizationWorldParams) -> Sequence:
     direction = rng_outlier.uniform(0.0, 2.0 * np.pi, t_gps.size)
     xy[outlier] += p.gps_outlier_magnitude * np.column_stack([np.cos(direction), np.sin(direction)])[outlier]
     t_imu = _stamps(p.t0, t_fine[-1], p.imu_rate)
-    yaw = wrap_angle(interpolate_poses(t_fine, fine, t_imu)[:, 2] + p.imu_bias + math.sqrt(p.imu_var) * rng_imu.standard_normal(t_imu.size))
+    yaw = wrap_angle(
+        interpolate_poses(t_fine, fine, t_imu)[:, 2]
+        + p.imu_bias
+        + math.sqrt(p.imu_var) * rng_imu.standard_normal(t_imu.size)
+    )
 
     meta = dict(
         dataset="sim:localization",
@@ -239,7 +263,10 @@ def simulate(*, params: LocalizationWorldParams) -> Sequence:
         twist_psd=psd.tolist(),
         twist_psd_unit="[(m/s)^2 s, (m/s)(rad/s) s; ., (rad/s)^2 s]: covariance of the input error integrated over 1 s, per second",
         gps_outlier_index=np.flatnonzero(outlier).tolist(),
-        encoder_twist_cov=[[p.encoder_sigma**2 / (2 * T * T), 0.0], [0.0, 2 * p.encoder_sigma**2 / (p.wheel_base * T) ** 2]],
+        encoder_twist_cov=[
+            [p.encoder_sigma**2 / (2 * T * T), 0.0],
+            [0.0, 2 * p.encoder_sigma**2 / (p.wheel_base * T) ** 2],
+        ],
     )
     return Sequence(
         name=f"sim:localization({p.motion_source},seed={p.seed})",

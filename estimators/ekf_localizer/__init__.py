@@ -12,6 +12,7 @@ Modules:
 * :mod:`.diagnostics` — the record of NIS values, rejections and recoveries;
 * :mod:`.run` — ``EKFLocalizer.run(sequence)``: one pose per event of a :class:`Sequence`.
 """
+
 from .diagnostics import SENSORS, Diagnostics
 from .filter import KINDS, EKFLocalizer, EKFLocalizerParams, compass_to_yaw
 

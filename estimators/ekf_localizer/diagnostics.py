@@ -16,10 +16,12 @@ gps, imu, landmark, beacon (in time order), ``rejected_<sensor>_<reason>`` and `
 counts, and ``nis``, ``nis_dof``, ``nis_t``: all sensors merged in time order (the names
 :mod:`slamarena.experiments.metrics` reads).
 """
+
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable, Literal
+from typing import Literal
 
 import numpy as np
 

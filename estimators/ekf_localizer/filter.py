@@ -81,6 +81,7 @@ R_imu = 1e-3; and (not in the notes) R_landmark = diag(0.1², 0.05²), R_beacon 
 max_rejections 5, history 1 s, initial_cov = diag(1e-4, 1e-4, 1e-4), heading in ENU. ``use_sequence_noise=True`` replaces R_gps, R_imu,
 R_landmark, twist_cov and increment_cov by the noise the sequence states (e.g. a simulator's true noise).
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -103,10 +104,22 @@ from .history import History, Snapshot
 __all__ = ["EKFLocalizer", "EKFLocalizerParams", "compass_to_yaw", "KINDS", "SEQUENCE_NOISE"]
 
 #: input kinds of :meth:`EKFLocalizer.process` → the sensor they are counted under
-KINDS: dict[str, str] = {"twist": MOTION, "increment": MOTION, "gps": "gps", "imu": "imu", "landmark": "landmark", "beacon": "beacon"}
+KINDS: dict[str, str] = {
+    "twist": MOTION,
+    "increment": MOTION,
+    "gps": "gps",
+    "imu": "imu",
+    "landmark": "landmark",
+    "beacon": "beacon",
+}
 #: the parameters ``use_sequence_noise`` replaces → the ``Noise`` field of the sequence that replaces each
-SEQUENCE_NOISE: dict[str, str] = {"R_gps": "gps_cov", "R_imu": "yaw_var", "R_landmark": "range_bearing_cov", "twist_cov": "twist_cov",
-                                  "increment_cov": "increment_cov"}
+SEQUENCE_NOISE: dict[str, str] = {
+    "R_gps": "gps_cov",
+    "R_imu": "yaw_var",
+    "R_landmark": "range_bearing_cov",
+    "twist_cov": "twist_cov",
+    "increment_cov": "increment_cov",
+}
 #: the gate confidence of a sensor a per-sensor ``gate_confidence`` leaves out
 DEFAULT_GATE_CONFIDENCE = 0.999
 
@@ -188,7 +201,10 @@ def _positive_dt(dt, what: str) -> float:
 
 def _is_covariance(C: np.ndarray) -> bool:
     """Symmetric and positive semi-definite (to rounding)."""
-    return bool(np.allclose(C, C.T, rtol=1e-9, atol=1e-12) and np.linalg.eigvalsh(0.5 * (C + C.T)).min() >= -1e-12 * max(1.0, np.abs(C).max()))
+    return bool(
+        np.allclose(C, C.T, rtol=1e-9, atol=1e-12)
+        and np.linalg.eigvalsh(0.5 * (C + C.T)).min() >= -1e-12 * max(1.0, np.abs(C).max())
+    )
 
 
 def _finite_positions(xy, what: str) -> np.ndarray:
@@ -206,7 +222,9 @@ def _checked(t: float, kind: str, value):
         return float(v), float(omega), _positive_dt(dt, f"twist at t={t}")
     if kind == "increment":
         delta, cov = value if isinstance(value, tuple) and len(value) == 2 else (value, None)
-        return np.asarray(delta, dtype=float).reshape(3), None if cov is None else np.asarray(cov, dtype=float).reshape(3, 3)
+        return np.asarray(delta, dtype=float).reshape(3), None if cov is None else np.asarray(cov, dtype=float).reshape(
+            3, 3
+        )
     if kind == "gps":
         return np.asarray(value, dtype=float).reshape(2)
     if kind == "imu":
@@ -221,33 +239,60 @@ class EKFLocalizerParams(Params):
     """Parameters of :class:`EKFLocalizer` (the design notes' defaults, or a stated choice: module docstring)."""
 
     motion_model: Literal["euler", "arc"] = Field(
-        "euler", description="motion model of Twist input (estimators.models): the notes' Euler step or the exact constant-twist arc")
+        "euler",
+        description="motion model of Twist input (estimators.models): the notes' Euler step or the exact constant-twist arc",
+    )
     Q: Covariance3 = Field(
-        (0.01, 0.01, 0.01), description="state process noise of (x [m²], y [m²], θ [rad²]) per nominal step or per second (q_unit)")
+        (0.01, 0.01, 0.01),
+        description="state process noise of (x [m²], y [m²], θ [rad²]) per nominal step or per second (q_unit)",
+    )
     q_unit: Literal["per_step", "per_second"] = Field(
-        "per_step", description="Q is added per nominal_dt (scaled as a random walk) or is a density per second [unit²/s]")
-    nominal_dt: float = Field(0.02, gt=0.0, allow_inf_nan=False, description="the step Δt₀ that a per_step Q is given for [s]")
+        "per_step",
+        description="Q is added per nominal_dt (scaled as a random walk) or is a density per second [unit²/s]",
+    )
+    nominal_dt: float = Field(
+        0.02, gt=0.0, allow_inf_nan=False, description="the step Δt₀ that a per_step Q is given for [s]"
+    )
     twist_cov: Covariance2 | None = Field(
-        None, description="noise of one (v [(m/s)²], ω [(rad/s)²]) command, held over its period; None: no control noise")
+        None,
+        description="noise of one (v [(m/s)²], ω [(rad/s)²]) command, held over its period; None: no control noise",
+    )
     increment_cov: Covariance3 = Field(
         (1e-4, 1e-4, 1e-4),
-        description="covariance of an odometry increment (dx [m²], dy [m²], dθ [rad²]) where neither its row nor the sequence states one")
+        description="covariance of an odometry increment (dx [m²], dy [m²], dθ [rad²]) where neither its row nor the sequence states one",
+    )
     R_gps: Covariance2 = Field((1e-4, 1e-4), description="GPS noise of (x [m²], y [m²])")
     R_imu: covariance(1) = Field(1e-3, description="IMU yaw noise [rad²]")
     R_landmark: Covariance2 = Field((0.01, 0.0025), description="landmark noise of (range [m²], bearing [rad²])")
     R_beacon: covariance(1) = Field(1.0, description="beacon range noise [m²]")
-    beacon_bias: float = Field(0.0, allow_inf_nan=False, description="constant offset β added to every predicted beacon range [m]")
+    beacon_bias: float = Field(
+        0.0, allow_inf_nan=False, description="constant offset β added to every predicted beacon range [m]"
+    )
     gate_confidence: Probability | dict[Sensor, Probability] = Field(
-        DEFAULT_GATE_CONFIDENCE, description="χ² gate confidence, for every sensor or per sensor (gps, imu, landmark, beacon; "
-        f"one left out: {DEFAULT_GATE_CONFIDENCE}); 1 disables a gate")
-    history_length: float = Field(1.0, ge=0.0, allow_inf_nan=False, description="time span of the snapshots kept to replay delayed input [s]")
+        DEFAULT_GATE_CONFIDENCE,
+        description="χ² gate confidence, for every sensor or per sensor (gps, imu, landmark, beacon; "
+        f"one left out: {DEFAULT_GATE_CONFIDENCE}); 1 disables a gate",
+    )
+    history_length: float = Field(
+        1.0, ge=0.0, allow_inf_nan=False, description="time span of the snapshots kept to replay delayed input [s]"
+    )
     max_rejections: NonNegativeInt = Field(
-        5, description="consecutive gated-out measurements of one sensor after which the filter inflates P and applies the next; 0: never")
-    initial_cov: Covariance3 = Field((1e-4, 1e-4, 1e-4), description="covariance of the start pose (x [m²], y [m²], θ [rad²])")
+        5,
+        description="consecutive gated-out measurements of one sensor after which the filter inflates P and applies the next; 0: never",
+    )
+    initial_cov: Covariance3 = Field(
+        (1e-4, 1e-4, 1e-4), description="covariance of the start pose (x [m²], y [m²], θ [rad²])"
+    )
     heading_convention: Literal["enu", "compass"] = Field(
-        "enu", description="IMU heading: ENU yaw (counter-clockwise from east) or compass heading (clockwise from magnetic north)")
-    magnetic_declination: float = Field(0.0, allow_inf_nan=False, description="declination D of a compass heading, east positive [rad]")
-    use_sequence_noise: bool = Field(False, description="replace R_gps, R_imu, R_landmark, twist_cov, increment_cov by the noise the sequence states")
+        "enu",
+        description="IMU heading: ENU yaw (counter-clockwise from east) or compass heading (clockwise from magnetic north)",
+    )
+    magnetic_declination: float = Field(
+        0.0, allow_inf_nan=False, description="declination D of a compass heading, east positive [rad]"
+    )
+    use_sequence_noise: bool = Field(
+        False, description="replace R_gps, R_imu, R_landmark, twist_cov, increment_cov by the noise the sequence states"
+    )
 
 
 class EKFLocalizer:
@@ -263,7 +308,9 @@ class EKFLocalizer:
         confidence = self.params.gate_confidence
         if not isinstance(confidence, dict):
             confidence = dict.fromkeys(SENSORS, confidence)
-        self.gate = {sensor: _chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()}
+        self.gate = {
+            sensor: _chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()
+        }
         self._use_noise(self.params)
         self.reset()
 
@@ -472,8 +519,10 @@ class EKFLocalizer:
         """Propagate with the rows of ``twist`` (a sequence's whole motion stream) instead of the commands of
         timed input; δ and ∂δ/∂u of every row are computed once, vectorised."""
         self._source = twist
-        self._row_cache = (self.model.increment(twist.v, twist.omega, twist.dt),
-                           self.model.jacobians(np.zeros((len(twist), 3)), twist.v, twist.omega, twist.dt)[1])
+        self._row_cache = (
+            self.model.increment(twist.v, twist.omega, twist.dt),
+            self.model.jacobians(np.zeros((len(twist), 3)), twist.v, twist.omega, twist.dt)[1],
+        )
 
     def _advance(self, t: float) -> None:
         source = self._source if self._source is not None else self._history.twist()
@@ -499,7 +548,11 @@ class EKFLocalizer:
         if kind == "gps":
             self.update_gps(value)
         elif kind == "imu":
-            self.update_imu(compass_to_yaw(value, self.params.magnetic_declination) if self.params.heading_convention == "compass" else value)
+            self.update_imu(
+                compass_to_yaw(value, self.params.magnetic_declination)
+                if self.params.heading_convention == "compass"
+                else value
+            )
         elif kind == "landmark":
             for r, b, mx, my in value:
                 self.update_landmark(r, b, (mx, my))

@@ -11,11 +11,12 @@ the whole history (:attr:`History.start`) cannot be replayed and is rejected (``
 The twist commands of timed input are logged here too, as long as they reach into the history:
 a replay propagates with the commands that were in force, including ones that arrived late.
 """
+
 from __future__ import annotations
 
 from bisect import bisect_right, insort
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 import numpy as np
 

@@ -14,6 +14,7 @@ holds the parameters (``params``: :meth:`Params.canonical`), the noise in force 
 parameters ``use_sequence_noise`` replaces, as used), ``rejected`` (sensor → reason → count) and
 ``recoveries`` (sensor → count); ``Estimate.diagnostics`` the arrays of :mod:`.diagnostics`.
 """
+
 from __future__ import annotations
 
 import time
@@ -59,9 +60,13 @@ def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
         pose_cov=covs,
         step_time=steps,
         diagnostics=record.arrays(),
-        meta={"sequence": sequence.name, "params": localizer.params.canonical(),
-              "noise": {name: getattr(localizer.noise, name) for name in SEQUENCE_NOISE},
-              "rejected": record.rejected, "recoveries": record.recoveries},
+        meta={
+            "sequence": sequence.name,
+            "params": localizer.params.canonical(),
+            "noise": {name: getattr(localizer.noise, name) for name in SEQUENCE_NOISE},
+            "rejected": record.rejected,
+            "recoveries": record.recoveries,
+        },
     )
 
 

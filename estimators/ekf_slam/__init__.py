@@ -4,6 +4,7 @@
 The model, state layout and equations are stated in :mod:`.filter`. ``EKFSLAM`` is imported on
 first access (with ``EKFSLAMParams``), so importing this package does not load numba.
 """
+
 from .checks import CovarianceError
 
 __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError"]

@@ -57,6 +57,7 @@ through the window with the plain association, and the hypothesis whose copy exp
 log-likelihood Σ log λ of all its rows, a matched row scoring the λ of its landmark, a new or rejected row λ_0 (the
 prediction-error decomposition of p(z_window | hypothesis)) — is applied. Unambiguous rows are decided as before.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -73,16 +74,27 @@ from ..kernels import range_bearing, wrap
 from ..models import observation_jacobians, observe
 from .checks import CovarianceError
 
-__all__ = ["Decision", "chi2_gate", "Association", "LandmarkBook", "compatibility", "pair_d2", "nearest_neighbour", "jcbb",
-           "log_density", "log_densities", "hypotheses"]
+__all__ = [
+    "Decision",
+    "chi2_gate",
+    "Association",
+    "LandmarkBook",
+    "compatibility",
+    "pair_d2",
+    "nearest_neighbour",
+    "jcbb",
+    "log_density",
+    "log_densities",
+    "hypotheses",
+]
 
 
 class Decision(IntEnum):
     """What is done with an observation (the int8 code of ``Estimate.diagnostics["assoc_decision"]``)."""
 
-    MATCHED = 0    # applied as an observation of a mapped landmark
-    NEW = 1        # starts a landmark
-    REJECTED = 2   # ambiguous (between the gates) or an outlier of a labelled landmark
+    MATCHED = 0  # applied as an observation of a mapped landmark
+    NEW = 1  # starts a landmark
+    REJECTED = 2  # ambiguous (between the gates) or an outlier of a labelled landmark
 
 
 def chi2_gate(confidence: float, dof: int) -> float:
@@ -105,11 +117,13 @@ def _innovation_cov(x: np.ndarray, P: np.ndarray, slots: np.ndarray) -> tuple[np
     base = 3 + 2 * slots
     L = np.column_stack([x[base], x[base + 1]])
     Hx, Hm = observation_jacobians(xr, L)
-    Pri = np.stack([P[:3, base], P[:3, base + 1]], axis=-1).transpose(1, 0, 2)   # (k, 3, 2)
+    Pri = np.stack([P[:3, base], P[:3, base + 1]], axis=-1).transpose(1, 0, 2)  # (k, 3, 2)
     rows = base[:, None, None] + np.arange(2)[None, :, None]
-    Pii = P[rows, rows.transpose(0, 2, 1)]                                        # (k, 2, 2)
+    Pii = P[rows, rows.transpose(0, 2, 1)]  # (k, 2, 2)
     cross = Hx @ Pri @ Hm.transpose(0, 2, 1)
-    return observe(xr, L), Hx @ P[:3, :3] @ Hx.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1) + Hm @ Pii @ Hm.transpose(0, 2, 1)
+    return observe(xr, L), Hx @ P[:3, :3] @ Hx.transpose(0, 2, 1) + cross + cross.transpose(
+        0, 2, 1
+    ) + Hm @ Pii @ Hm.transpose(0, 2, 1)
 
 
 def _mahalanobis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -123,7 +137,9 @@ def _mahalanobis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
         return (d * n0 * n0 - (b + c) * n0 * n1 + a * n1 * n1) / det
 
 
-def compatibility(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def compatibility(
+    x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Innovations ν (M, n, 2), covariances S (M, n, 2, 2) and Mahalanobis d² (M, n); R (M, 2, 2) per observation."""
     n = (x.shape[0] - 3) // 2
     M = z.shape[0]
@@ -141,7 +157,13 @@ def pair_d2(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, slots: n
     of the compatibility test for k given pairs, one compiled loop (:func:`_pair_d2`)."""
     if slots.size == 0:
         return np.zeros(0)
-    d2, ok = _pair_d2(x, P, np.ascontiguousarray(slots, dtype=np.int64), np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(R, dtype=float))
+    d2, ok = _pair_d2(
+        x,
+        P,
+        np.ascontiguousarray(slots, dtype=np.int64),
+        np.ascontiguousarray(z, dtype=float),
+        np.ascontiguousarray(R, dtype=float),
+    )
     if not ok:
         raise CovarianceError("an innovation covariance is not positive definite")
     return d2
@@ -159,7 +181,7 @@ def _pair_d2(x, P, slots, z, R):
     for j in range(k):
         e = 3 + 2 * slots[j]
         idx[3], idx[4] = e, e + 1
-        range_bearing(x[:3], x[e:e + 2], zhat, Hx, Hm)
+        range_bearing(x[:3], x[e : e + 2], zhat, Hx, Hm)
         H[:, :3], H[:, 3:] = Hx, Hm
         S = R[j].copy()
         for a in range(2):
@@ -189,8 +211,9 @@ def log_densities(S: np.ndarray, d2: np.ndarray, R: np.ndarray, gate_new: float)
     return log_density(S, d2), log_density(R, gate_new)
 
 
-def hypotheses(log_lam: np.ndarray, log_new: np.ndarray, d2: np.ndarray, gate_match: float, confidence: float,
-               limit: int) -> tuple[int, np.ndarray] | None:
+def hypotheses(
+    log_lam: np.ndarray, log_new: np.ndarray, d2: np.ndarray, gate_match: float, confidence: float, limit: int
+) -> tuple[int, np.ndarray] | None:
     """The first ambiguous row (module docstring) and its hypotheses — up to ``limit`` landmark slots inside the match gate,
     most probable first, then −1 ("not in the map") — or None if no row is ambiguous."""
     if log_lam.shape[1] == 0:
@@ -222,8 +245,17 @@ def nearest_neighbour(d2: np.ndarray, gate_match: float, gate_new: float) -> Ass
     return Association(decision, np.where(matched, best, -1), d2_min)
 
 
-def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndarray, nu: np.ndarray,
-         gate_match: float, gate_new: float, confidence: float) -> Association:
+def jcbb(
+    x: np.ndarray,
+    P: np.ndarray,
+    R: np.ndarray,
+    z: np.ndarray,
+    d2: np.ndarray,
+    nu: np.ndarray,
+    gate_match: float,
+    gate_new: float,
+    confidence: float,
+) -> Association:
     """Joint compatibility branch and bound (see the module docstring)."""
     M, n = d2.shape
     if n == 0:
@@ -246,7 +278,7 @@ def jcbb(x: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, d2: np.ndar
         H = np.zeros((2, width))
         k = local[s]
         H[:, :3] = Hx[k]
-        H[:, 3 + 2 * k: 5 + 2 * k] = Hm[k]
+        H[:, 3 + 2 * k : 5 + 2 * k] = Hm[k]
         return H
 
     def joint_nis(pairs: list[tuple[int, int]]) -> float:
@@ -290,8 +322,14 @@ class LandmarkBook:
     creating one included), ``confirmed``, ``quality`` (matches − predicted-visible misses).
     """
 
-    def __init__(self, confirm_sightings: int, confirm_window: float, miss_limit: int | None,
-                 sensor_range: float | None, sensor_fov: float):
+    def __init__(
+        self,
+        confirm_sightings: int,
+        confirm_window: float,
+        miss_limit: int | None,
+        sensor_range: float | None,
+        sensor_fov: float,
+    ):
         self.confirm_sightings, self.confirm_window = confirm_sightings, confirm_window
         self.miss_limit, self.sensor_range, self.sensor_fov = miss_limit, sensor_range, sensor_fov
         self.managed = np.zeros(0, dtype=bool)
@@ -320,16 +358,28 @@ class LandmarkBook:
                 visible = (predicted[:, 0] < self.sensor_range) & (np.abs(predicted[:, 1]) < 0.5 * self.sensor_fov)
         else:
             visible = np.zeros(0, dtype=bool)
-        remove, unconfirmed, lost = _book_counts(self.seen, self.quality, self.managed, self.born, np.asarray(matched, dtype=np.int64),
-                                                 visible, float(t), int(self.confirm_sightings), float(self.confirm_window),
-                                                 int(self.miss_limit) if counting else -1, counting)
+        remove, unconfirmed, lost = _book_counts(
+            self.seen,
+            self.quality,
+            self.managed,
+            self.born,
+            np.asarray(matched, dtype=np.int64),
+            visible,
+            float(t),
+            int(self.confirm_sightings),
+            float(self.confirm_window),
+            int(self.miss_limit) if counting else -1,
+            counting,
+        )
         self.removed["unconfirmed"] += unconfirmed
         self.removed["quality"] += lost
         return remove
 
     def remove(self, slots: np.ndarray) -> None:
         keep = np.setdiff1d(np.arange(self.seen.size), slots)
-        self.managed, self.born, self.seen, self.quality = (a[keep] for a in (self.managed, self.born, self.seen, self.quality))
+        self.managed, self.born, self.seen, self.quality = (
+            a[keep] for a in (self.managed, self.born, self.seen, self.quality)
+        )
 
 
 @njit(cache=True)

@@ -9,13 +9,23 @@ result is checked before it is committed (:func:`check_entries` on the entries P
 :func:`check_augmented` for a new landmark), and a failing step leaves P as it was. A failure
 raises :class:`CovarianceError` (or is counted, when the filter is told to record instead of raise).
 """
+
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-__all__ = ["CovarianceError", "innovation_cov_error", "covariance_entries", "low_rank_entries", "entries_failure", "entries_error",
-           "check_entries", "check_covariance", "check_augmented"]
+__all__ = [
+    "CovarianceError",
+    "innovation_cov_error",
+    "covariance_entries",
+    "low_rank_entries",
+    "entries_failure",
+    "entries_error",
+    "check_entries",
+    "check_covariance",
+    "check_augmented",
+]
 
 #: relative tolerance for "negative" (round-off of a semi-definite zero block is not an error)
 _TOL = 1e-12
@@ -74,7 +84,7 @@ def entries_failure(d, robot, off, n_robot):
         if v < least:
             k, least = i, v
     tol = _TOL * scale
-    if least < -tol:                                             # the most negative entry, if any is below −tol
+    if least < -tol:  # the most negative entry, if any is below −tol
         return NEGATIVE_DIAGONAL, k, least
     R = np.zeros((n_robot, n_robot))
     for part in robot:
@@ -94,10 +104,14 @@ def entries_failure(d, robot, off, n_robot):
 
 def entries_error(code: int, k: int, value: float) -> CovarianceError:
     """The error :func:`check_entries` raises for a failure found by :func:`entries_failure`."""
-    return CovarianceError({NONFINITE_DIAGONAL: "covariance has non-finite diagonal entries",
-                            NEGATIVE_DIAGONAL: f"covariance diagonal entry {k} is negative: {value!r}",
-                            ROBOT_BLOCK: "robot covariance block is not positive semi-definite",
-                            LANDMARK_BLOCK: f"covariance block of landmark slot {k} is not positive semi-definite (det {value!r})"}[code])
+    return CovarianceError(
+        {
+            NONFINITE_DIAGONAL: "covariance has non-finite diagonal entries",
+            NEGATIVE_DIAGONAL: f"covariance diagonal entry {k} is negative: {value!r}",
+            ROBOT_BLOCK: "robot covariance block is not positive semi-definite",
+            LANDMARK_BLOCK: f"covariance block of landmark slot {k} is not positive semi-definite (det {value!r})",
+        }[code]
+    )
 
 
 def covariance_entries(P: np.ndarray, n_robot: int = 3) -> Entries:
@@ -136,7 +150,11 @@ def check_augmented(entries: Entries, block: np.ndarray, n_robot: int = 3) -> No
 
 def check_entries(d: np.ndarray, robot: np.ndarray, off: np.ndarray, n_robot: int = 3) -> None:
     """The checks on the entries they read: the diagonal d, the robot block, and ``off[k] = P[s + 1, s]`` of landmark k."""
-    code, k, value = entries_failure((np.ascontiguousarray(d, dtype=np.float64),), (np.ascontiguousarray(robot, dtype=np.float64),),
-                                     (np.ascontiguousarray(off, dtype=np.float64),), n_robot)
+    code, k, value = entries_failure(
+        (np.ascontiguousarray(d, dtype=np.float64),),
+        (np.ascontiguousarray(robot, dtype=np.float64),),
+        (np.ascontiguousarray(off, dtype=np.float64),),
+        n_robot,
+    )
     if code != OK:
         raise entries_error(code, k, value)

@@ -115,6 +115,7 @@ rejected or failing step leaves x and P exactly as they were:
   positive definiteness raises :class:`~.checks.CovarianceError` (``on_indefinite="record"``:
   counted in ``rejected["indefinite"]``; an observation is then skipped, a prediction applied).
 """
+
 from __future__ import annotations
 
 from enum import StrEnum
@@ -127,8 +128,17 @@ from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from ..kernels import twist_motion
-from ..models import (ARC, DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, RangeBearingNoise, inverse_observation_jacobians,
-                      inverse_observe, observation_covariances, observe)
+from ..models import (
+    ARC,
+    DEFAULT_RANGE_BEARING_COV,
+    DEFAULT_TWIST_COV,
+    MOTION_MODELS,
+    RangeBearingNoise,
+    inverse_observation_jacobians,
+    inverse_observe,
+    observation_covariances,
+    observe,
+)
 from ..stepping import StepClock
 from . import association as assoc
 from .association import Decision
@@ -136,9 +146,22 @@ from .checks import CovarianceError, check_augmented, entries_error, innovation_
 from .kernels import APPLIED, NOT_FINITE, ROBOT_INDEFINITE, S_INDEFINITE
 from .storage import GrowingState
 
-__all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError", "MotionNoise", "RangeBearingNoise", "UpdateForm", "CovarianceUpdate",
-           "LandmarkInit", "AssociationMethod", "Linearisation", "OnIndefinite",
-           "DEFAULT_TWIST_COV", "DEFAULT_RANGE_BEARING_COV", "NEW_ID_BASE"]
+__all__ = [
+    "EKFSLAM",
+    "EKFSLAMParams",
+    "CovarianceError",
+    "MotionNoise",
+    "RangeBearingNoise",
+    "UpdateForm",
+    "CovarianceUpdate",
+    "LandmarkInit",
+    "AssociationMethod",
+    "Linearisation",
+    "OnIndefinite",
+    "DEFAULT_TWIST_COV",
+    "DEFAULT_RANGE_BEARING_COV",
+    "NEW_ID_BASE",
+]
 
 #: fall-back noise when neither the parameters nor the sequence state it
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
@@ -148,30 +171,29 @@ NEW_ID_BASE = 1_000_000
 class MotionNoise(StrEnum):
     """Prediction noise Q of the robot block."""
 
-    CONTROL = "control"      # Q = V M Vᵀ, M the twist covariance
-    ADDITIVE = "additive"    # Q = Cx · dt
-
+    CONTROL = "control"  # Q = V M Vᵀ, M the twist covariance
+    ADDITIVE = "additive"  # Q = Cx · dt
 
 
 class UpdateForm(StrEnum):
     """How the matched observations of one set are applied."""
 
     SEQUENTIAL = "sequential"  # one 2-row update per observation
-    BATCH = "batch"            # one stacked 2m-row update
+    BATCH = "batch"  # one stacked 2m-row update
 
 
 class CovarianceUpdate(StrEnum):
     """Form of the covariance update."""
 
-    STANDARD = "standard"    # P ← (I − KH) P
-    JOSEPH = "joseph"        # P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ
+    STANDARD = "standard"  # P ← (I − KH) P
+    JOSEPH = "joseph"  # P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ
 
 
 class LandmarkInit(StrEnum):
     """Covariance of a new landmark."""
 
-    JACOBIAN = "jacobian"    # propagated through the inverse observation model
-    INIT_P = "initP"         # init_cov · I₂, uncorrelated (the matrix-dimensions reference)
+    JACOBIAN = "jacobian"  # propagated through the inverse observation model
+    INIT_P = "initP"  # init_cov · I₂, uncorrelated (the matrix-dimensions reference)
 
 
 class AssociationMethod(StrEnum):
@@ -184,17 +206,17 @@ class AssociationMethod(StrEnum):
 class Linearisation(StrEnum):
     """Linearisation point of the Jacobians (the ``jacobians`` parameter; module docstring)."""
 
-    STANDARD = "standard"    # the current estimate
-    FEJ = "fej"              # first estimates
-    OC = "oc"                # observability-constrained linearisation points (Huang et al. 2010)
-    IDEAL = "ideal"          # the truth (set_truth)
+    STANDARD = "standard"  # the current estimate
+    FEJ = "fej"  # first estimates
+    OC = "oc"  # observability-constrained linearisation points (Huang et al. 2010)
+    IDEAL = "ideal"  # the truth (set_truth)
 
 
 class OnIndefinite(StrEnum):
     """What a loss of positive definiteness does."""
 
-    RAISE = "raise"          # raise CovarianceError
-    RECORD = "record"        # count it (rejected["indefinite"]); skip the observation (a prediction is applied)
+    RAISE = "raise"  # raise CovarianceError
+    RECORD = "record"  # count it (rejected["indefinite"]); skip the observation (a prediction is applied)
 
 
 #: a χ² gate's confidence, strictly inside (0, 1)
@@ -204,81 +226,168 @@ Confidence = Annotated[float, Field(gt=0.0, lt=1.0)]
 class EKFSLAMParams(Params):
     """Parameters of :class:`EKFSLAM`."""
 
-    motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")
-    motion_noise: MotionNoise = Field(MotionNoise.CONTROL, description="prediction noise: 'control' Q = V M Vᵀ (M = twist_cov), 'additive' Q = Cx·dt on the robot block")
+    motion_model: Literal["arc", "euler"] = Field(
+        "arc",
+        description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step",
+    )
+    motion_noise: MotionNoise = Field(
+        MotionNoise.CONTROL,
+        description="prediction noise: 'control' Q = V M Vᵀ (M = twist_cov), 'additive' Q = Cx·dt on the robot block",
+    )
     twist_cov: Covariance2 | None = Field(
-        None, description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else DEFAULT_TWIST_COV")
+        None,
+        description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else DEFAULT_TWIST_COV",
+    )
     Cx: Covariance3 | None = Field(
-        None, description="additive robot-block noise per second of (x, y, θ) [m²/s, m²/s, rad²/s]; required with motion_noise='additive'")
+        None,
+        description="additive robot-block noise per second of (x, y, θ) [m²/s, m²/s, rad²/s]; required with motion_noise='additive'",
+    )
     increment_cov: Covariance3 | None = Field(
-        None, description="covariance of an odometry increment (dx, dy, dθ) [m², m², rad²], overriding Increments.cov; "
-                          "None: Increments.cov, else Noise.increment_cov")
+        None,
+        description="covariance of an odometry increment (dx, dy, dθ) [m², m², rad²], overriding Increments.cov; "
+        "None: Increments.cov, else Noise.increment_cov",
+    )
     range_bearing_cov: Covariance2 | None = Field(
-        None, description="R, covariance of an observation (range, bearing) [m², rad²]; None: the sequence's Noise.range_bearing_cov, "
-                          "else DEFAULT_RANGE_BEARING_COV")
+        None,
+        description="R, covariance of an observation (range, bearing) [m², rad²]; None: the sequence's Noise.range_bearing_cov, "
+        "else DEFAULT_RANGE_BEARING_COV",
+    )
     range_bearing_noise: RangeBearingNoise = Field(
-        RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in "
-                                             "Cartesian coordinates (as Victoria Park states it), R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m]")
-    update: UpdateForm = Field(UpdateForm.SEQUENTIAL, description="'sequential': one update per matched observation; 'batch': one stacked update per observation set")
+        RangeBearingNoise.POLAR,
+        description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in "
+        "Cartesian coordinates (as Victoria Park states it), R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m]",
+    )
+    update: UpdateForm = Field(
+        UpdateForm.SEQUENTIAL,
+        description="'sequential': one update per matched observation; 'batch': one stacked update per observation set",
+    )
     defer_covariance: bool = Field(
-        True, description="apply the N×N covariance update of an observation set once, at its end (rank 2m, one pass over P; the same "
-                          "result as applying it per observation, up to rounding); False: one pass over P per observation")
-    covariance_update: CovarianceUpdate = Field(CovarianceUpdate.STANDARD, description="'standard' (I − KH) P or 'joseph' (I − KH) P (I − KH)ᵀ + K R Kᵀ")
-    init: LandmarkInit = Field(LandmarkInit.JACOBIAN, description="new-landmark covariance: 'jacobian' through the inverse observation model, 'initP' init_cov · I₂ uncorrelated")
-    init_cov: float = Field(1.0, gt=0.0, allow_inf_nan=False, description="variance of each coordinate of a new landmark with init='initP' [m²]")
-    association: AssociationMethod = Field(AssociationMethod.NEAREST_NEIGHBOUR, description="association of rows without a trusted id: 'nn' Mahalanobis nearest neighbour or 'jcbb'")
-    use_ids: bool = Field(True, description="trust the landmark ids of the data (False: associate every row by `association`)")
+        True,
+        description="apply the N×N covariance update of an observation set once, at its end (rank 2m, one pass over P; the same "
+        "result as applying it per observation, up to rounding); False: one pass over P per observation",
+    )
+    covariance_update: CovarianceUpdate = Field(
+        CovarianceUpdate.STANDARD, description="'standard' (I − KH) P or 'joseph' (I − KH) P (I − KH)ᵀ + K R Kᵀ"
+    )
+    init: LandmarkInit = Field(
+        LandmarkInit.JACOBIAN,
+        description="new-landmark covariance: 'jacobian' through the inverse observation model, 'initP' init_cov · I₂ uncorrelated",
+    )
+    init_cov: float = Field(
+        1.0,
+        gt=0.0,
+        allow_inf_nan=False,
+        description="variance of each coordinate of a new landmark with init='initP' [m²]",
+    )
+    association: AssociationMethod = Field(
+        AssociationMethod.NEAREST_NEIGHBOUR,
+        description="association of rows without a trusted id: 'nn' Mahalanobis nearest neighbour or 'jcbb'",
+    )
+    use_ids: bool = Field(
+        True, description="trust the landmark ids of the data (False: associate every row by `association`)"
+    )
     match_confidence: Confidence = Field(0.95, description="χ²₂ gate of a match (d² below its quantile)")
     new_confidence: Confidence = Field(
-        0.99999, description="χ²₂ gate beyond which an unmatched row starts a landmark (between the gates: rejected as ambiguous); "
-                             "at 0.99999 a true re-observation lands beyond it with probability 1e-5")
+        0.99999,
+        description="χ²₂ gate beyond which an unmatched row starts a landmark (between the gates: rejected as ambiguous); "
+        "at 0.99999 a true re-observation lands beyond it with probability 1e-5",
+    )
     jcbb_confidence: Confidence = Field(0.95, description="χ²_2k gate of a joint hypothesis of k pairings in JCBB")
     known_confidence: Confidence | None = Field(
-        0.99999, description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
-                             "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
-                             "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)")
+        0.99999,
+        description="χ²₂ gate of a labelled row of a mapped landmark: beyond χ²₂(known_confidence) it is rejected as an outlier "
+        "(at 0.99999 a true observation with the stated noise is rejected with probability 1e-5); "
+        "None: no gate, every labelled row with a finite d² is applied (as in the notes; oracle comparisons)",
+    )
     confirm_sightings: int = Field(
-        1, ge=1, description="a landmark created from a row without a trusted id stays tentative until seen this many times (the creating "
-                             "sighting included) within confirm_window; 1: confirmed at once (association.LandmarkBook)")
-    confirm_window: float = Field(np.inf, gt=0.0, description="time [s] a tentative landmark has to reach confirm_sightings; removed (marginalised) after it")
+        1,
+        ge=1,
+        description="a landmark created from a row without a trusted id stays tentative until seen this many times (the creating "
+        "sighting included) within confirm_window; 1: confirmed at once (association.LandmarkBook)",
+    )
+    confirm_window: float = Field(
+        np.inf,
+        gt=0.0,
+        description="time [s] a tentative landmark has to reach confirm_sightings; removed (marginalised) after it",
+    )
     miss_limit: int | None = Field(
-        None, ge=0, description="quality counter (Dissanayake et al. 2001): a landmark created from a row without a trusted id is removed when "
-                                "its matches minus its misses (sets in which it is predicted in the sensor's field and not matched) fall below "
-                                "−miss_limit; None: never; needs sensor_range")
-    sensor_range: float | None = Field(None, gt=0.0, description="largest range at which the sensor detects a landmark [m] (the quality counter's field)")
-    sensor_fov: float = Field(2 * np.pi, gt=0.0, le=2 * np.pi, description="the sensor's field of view, centred ahead [rad] (the quality counter's field)")
+        None,
+        ge=0,
+        description="quality counter (Dissanayake et al. 2001): a landmark created from a row without a trusted id is removed when "
+        "its matches minus its misses (sets in which it is predicted in the sensor's field and not matched) fall below "
+        "−miss_limit; None: never; needs sensor_range",
+    )
+    sensor_range: float | None = Field(
+        None,
+        gt=0.0,
+        description="largest range at which the sensor detects a landmark [m] (the quality counter's field)",
+    )
+    sensor_fov: float = Field(
+        2 * np.pi,
+        gt=0.0,
+        le=2 * np.pi,
+        description="the sensor's field of view, centred ahead [rad] (the quality counter's field)",
+    )
     window: int = Field(
-        0, ge=0, description="look-ahead of an ambiguous row without a trusted id [observation sets]: its hypotheses (landmarks, or not in "
-                             "the map) are each run through the next `window` sets and the one that explains them best is applied "
-                             "(association.hypotheses; run() only); 0: every row decided on its own set")
-    window_hypotheses: int = Field(3, ge=1, description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)")
-    jacobians: Linearisation = Field(Linearisation.STANDARD, description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
-                                                                         "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)")
+        0,
+        ge=0,
+        description="look-ahead of an ambiguous row without a trusted id [observation sets]: its hypotheses (landmarks, or not in "
+        "the map) are each run through the next `window` sets and the one that explains them best is applied "
+        "(association.hypotheses; run() only); 0: every row decided on its own set",
+    )
+    window_hypotheses: int = Field(
+        3,
+        ge=1,
+        description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)",
+    )
+    jacobians: Linearisation = Field(
+        Linearisation.STANDARD,
+        description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
+        "'oc' observability-constrained (closest to the current estimates), 'ideal' the truth (diagnostic)",
+    )
     initial_pose: tuple[FiniteFloat, FiniteFloat, FiniteFloat] | None = Field(
-        None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin")
-    initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame")
-    on_indefinite: OnIndefinite = Field(OnIndefinite.RAISE, description="on a loss of positive definiteness: 'raise' CovarianceError (the state unchanged) "
-                                                                        "or 'record' (count it; skip the observation, apply the prediction)")
-    capacity: int = Field(64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full")
-    step_clock: StepClock = Field("wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]")
+        None, description="start pose (x [m], y [m], θ [rad]); None: the sequence's start pose, else the origin"
+    )
+    initial_cov: Covariance3 = Field(
+        0.0, description="covariance of the start pose (x, y, θ) [m², m², rad²]; 0: the start defines the frame"
+    )
+    on_indefinite: OnIndefinite = Field(
+        OnIndefinite.RAISE,
+        description="on a loss of positive definiteness: 'raise' CovarianceError (the state unchanged) "
+        "or 'record' (count it; skip the observation, apply the prediction)",
+    )
+    capacity: int = Field(
+        64, ge=3, description="initial capacity of the state buffers [state entries]; doubled when full"
+    )
+    step_clock: StepClock = Field(
+        "wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]"
+    )
 
     @model_validator(mode="after")
     def _rules(self) -> EKFSLAMParams:
         if self.motion_noise == MotionNoise.ADDITIVE and self.Cx is None:
             raise ValueError("motion_noise='additive' needs Cx (3×3 covariance per second)")
         if self.new_confidence < self.match_confidence:
-            raise ValueError("new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)")
+            raise ValueError(
+                "new_confidence must be >= match_confidence (the new-landmark gate lies beyond the match gate)"
+            )
         if self.miss_limit is not None and self.sensor_range is None:
             raise ValueError("miss_limit needs sensor_range (the field in which a landmark is predicted visible)")
         if self.jacobians == Linearisation.IDEAL and not self.use_ids:
-            raise ValueError("jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)")
+            raise ValueError(
+                "jacobians='ideal' needs use_ids=True (the true landmarks are looked up by the data's ids)"
+            )
         return self
 
 
 #: absurd inputs overflow to inf/NaN inside a step; the step checks its result before the state changes
 _OVERFLOW_IS_CHECKED = np.errstate(over="ignore", invalid="ignore")
 _NEW, _MATCHED, _REJECTED = int(Decision.NEW), int(Decision.MATCHED), int(Decision.REJECTED)
-_NONE, _NONE_3, _NONE_33 = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3))   # an argument of a compiled call not given
+_NONE, _NONE_3, _NONE_33 = (
+    np.zeros(0),
+    np.zeros((0, 3)),
+    np.zeros((0, 3, 3)),
+)  # an argument of a compiled call not given
 
 
 def _valid_rows(z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -321,29 +430,43 @@ class EKFSLAM:
         noise = getattr(sequence, "noise", None)
         self.M = self._twist_cov if self._twist_cov is not None else getattr(noise, "twist_cov", None)
         self.M = DEFAULT_TWIST_COV if self.M is None else np.asarray(self.M, dtype=float)
-        self.R = self._range_bearing_cov if self._range_bearing_cov is not None else getattr(noise, "range_bearing_cov", None)
+        self.R = (
+            self._range_bearing_cov
+            if self._range_bearing_cov is not None
+            else getattr(noise, "range_bearing_cov", None)
+        )
         self.R = DEFAULT_RANGE_BEARING_COV if self.R is None else np.asarray(self.R, dtype=float)
-        self.increment_cov = self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
-        pose = self._initial_pose if self._initial_pose is not None else (sequence.start_pose if sequence is not None else np.zeros(3))
+        self.increment_cov = (
+            self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
+        )
+        pose = (
+            self._initial_pose
+            if self._initial_pose is not None
+            else (sequence.start_pose if sequence is not None else np.zeros(3))
+        )
         self._s = GrowingState(3, self.params.capacity)
         self._s.x[:] = pose
         self._s.x[2] = wrap_angle(pose[2])
         self._s.P[:] = self._initial_cov
         self._ids: list[int] = []
         self._slot: dict[int, int] = {}
-        self._first = np.zeros((8, 2))                # landmark linearisation points: first estimates (FEJ), anchors (OC)
-        self._robot_prior = self._s.x[:3].copy()      # the robot's: the propagated estimate (FEJ), its anchor (OC)
-        self._carry: np.ndarray | None = None         # OC: the robot anchor's offset from the estimate after the last update set
+        self._first = np.zeros((8, 2))  # landmark linearisation points: first estimates (FEJ), anchors (OC)
+        self._robot_prior = self._s.x[:3].copy()  # the robot's: the propagated estimate (FEJ), its anchor (OC)
+        self._carry: np.ndarray | None = (
+            None  # OC: the robot anchor's offset from the estimate after the last update set
+        )
         self._truth_pose: np.ndarray | None = None
         self._truth_landmarks: dict[int, np.ndarray] = {}
         self._next_id = NEW_ID_BASE if self.params.use_ids else 0
         p = self.params
-        self.book = assoc.LandmarkBook(p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov)
+        self.book = assoc.LandmarkBook(
+            p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov
+        )
         self._sets, self._t = 0, 0.0
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
-        self.log_likelihood = 0.0   # Σ log λ of the rows associated without an id (association.hypotheses)
+        self.log_likelihood = 0.0  # Σ log λ of the rows associated without an id (association.hypotheses)
 
     @property
     def x(self) -> np.ndarray:
@@ -381,7 +504,9 @@ class EKFSLAM:
     def set_truth(self, pose=None, landmarks=None) -> None:
         """True robot pose (3,) and/or true landmarks ({id: (x, y)} or a LandmarkMap) for jacobians="ideal"."""
         if pose is not None:
-            self._truth_pose = np.array(pose, dtype=float).reshape(3)  # a copy: a view of x would move with the estimate
+            self._truth_pose = np.array(pose, dtype=float).reshape(
+                3
+            )  # a copy: a view of x would move with the estimate
         if landmarks is not None:
             if hasattr(landmarks, "ids"):
                 landmarks = dict(zip(landmarks.ids.tolist(), landmarks.xy))
@@ -404,14 +529,17 @@ class EKFSLAM:
             raise ValueError(f"dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}")
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
             raise ValueError("controls must be finite")
-        delta, Q_body = twist_motion(v, omega, dt, self.model is ARC, self.M)     # δ (K, 3), V M Vᵀ (K, 3, 3)
+        delta, Q_body = twist_motion(v, omega, dt, self.model is ARC, self.M)  # δ (K, 3), V M Vᵀ (K, 3, 3)
         if self.params.motion_noise == MotionNoise.ADDITIVE:
             return self._chain(delta, None, self._Cx[None] * dt[:, None, None], true_poses)
         return self._chain(delta, Q_body, None, true_poses)
 
     def predict_increment(self, delta, cov=None) -> None:
         """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""
-        self.predict_increments(np.asarray(delta, dtype=float).reshape(1, 3), None if cov is None else np.asarray(cov, dtype=float).reshape(1, 3, 3))
+        self.predict_increments(
+            np.asarray(delta, dtype=float).reshape(1, 3),
+            None if cov is None else np.asarray(cov, dtype=float).reshape(1, 3, 3),
+        )
 
     @_OVERFLOW_IS_CHECKED
     def predict_increments(self, delta, cov=None, true_poses=None) -> tuple[np.ndarray, np.ndarray]:
@@ -421,7 +549,9 @@ class EKFSLAM:
             raise ValueError("odometry increments must be finite")
         if cov is None:
             if self.increment_cov is None:
-                raise ValueError("an odometry increment needs a covariance (Increments.cov, Noise.increment_cov or increment_cov=)")
+                raise ValueError(
+                    "an odometry increment needs a covariance (Increments.cov, Noise.increment_cov or increment_cov=)"
+                )
             cov = np.broadcast_to(self.increment_cov, (len(delta), 3, 3))
         return self._chain(delta, np.asarray(cov, dtype=float).reshape(-1, 3, 3), None, true_poses)
 
@@ -445,21 +575,36 @@ class EKFSLAM:
         if len(delta) == 0:
             return np.zeros((0, 3)), np.zeros((0, 3, 3))
         if self.params.jacobians == Linearisation.IDEAL:
-            lin = np.broadcast_to(self._linearisation_pose(), (len(delta), 3)) if true_poses is None else np.asarray(true_poses, dtype=float).reshape(-1, 3)
+            lin = (
+                np.broadcast_to(self._linearisation_pose(), (len(delta), 3))
+                if true_poses is None
+                else np.asarray(true_poses, dtype=float).reshape(-1, 3)
+            )
         else:
-            lin = _NONE_3                                                # the chain's own poses
+            lin = _NONE_3  # the chain's own poses
         anchored = self.params.jacobians in (Linearisation.FEJ, Linearisation.OC)
-        if anchored and anchor_shift is None and self._carry is None:   # OC: the anchor's offset after the last update set
+        if (
+            anchored and anchor_shift is None and self._carry is None
+        ):  # OC: the anchor's offset after the last update set
             self._carry = self._robot_prior[:2] - self._s.x[:2]
         record = self.params.on_indefinite == OnIndefinite.RECORD
-        poses, covs, _, outcome, k = self._s.predict_chain(        # the robot rows and columns, all it reads and writes, are current
-            np.ascontiguousarray(delta, dtype=float), np.ascontiguousarray(lin, dtype=float),
-            np.array(Q_body, dtype=float) if Q_world is None else _NONE_33, _NONE_33 if Q_world is None else np.ascontiguousarray(Q_world, dtype=float),
-            self._robot_prior[:2].copy() if anchored else _NONE, _NONE if anchor_shift is None else np.asarray(anchor_shift, dtype=float), record)
+        poses, covs, _, outcome, k = (
+            self._s.predict_chain(  # the robot rows and columns, all it reads and writes, are current
+                np.ascontiguousarray(delta, dtype=float),
+                np.ascontiguousarray(lin, dtype=float),
+                np.array(Q_body, dtype=float) if Q_world is None else _NONE_33,
+                _NONE_33 if Q_world is None else np.ascontiguousarray(Q_world, dtype=float),
+                self._robot_prior[:2].copy() if anchored else _NONE,
+                _NONE if anchor_shift is None else np.asarray(anchor_shift, dtype=float),
+                record,
+            )
+        )
         if outcome == NOT_FINITE:
-            raise ValueError(f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
-                             "is beyond what the model can represent); the state is unchanged")
-        if outcome == ROBOT_INDEFINITE:   # "raise": nothing was committed; "record": committed, and counted here
+            raise ValueError(
+                f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
+                "is beyond what the model can represent); the state is unchanged"
+            )
+        if outcome == ROBOT_INDEFINITE:  # "raise": nothing was committed; "record": committed, and counted here
             self._indefinite(CovarianceError("robot covariance lost positive semi-definiteness during prediction"))
         self._robot_prior = poses[-1].copy()
         if anchor_shift is not None:
@@ -509,8 +654,8 @@ class EKFSLAM:
         self._t = t = float(self._sets if t is None else t)
         if not len(z):
             return
-        counting = self.book.miss_limit is not None                                    # the quality counter is on
-        predicted = observe(self._s.x[:3], self._landmarks()) if counting else None    # (n, 2), for the quality counter
+        counting = self.book.miss_limit is not None  # the quality counter is on
+        predicted = observe(self._s.x[:3], self._landmarks()) if counting else None  # (n, 2), for the quality counter
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
@@ -543,11 +688,11 @@ class EKFSLAM:
             pending = np.flatnonzero(decision == _NEW)
         else:
             pending = np.flatnonzero(decision != _REJECTED)
-        dec, slots, labels, order = decision.tolist(), slot.tolist(), ids.tolist(), pending.tolist()   # Python scalars
+        dec, slots, labels, order = decision.tolist(), slot.tolist(), ids.tolist(), pending.tolist()  # Python scalars
         i = 0
         while i < len(order):
             j = order[i]
-            if dec[j] == _NEW and labels[j] >= 0 and labels[j] in self._slot:   # id first seen earlier in this set
+            if dec[j] == _NEW and labels[j] >= 0 and labels[j] in self._slot:  # id first seen earlier in this set
                 dec[j], slots[j] = _MATCHED, self._slot[labels[j]]
             if dec[j] != _MATCHED:
                 slots[j] = self._add_landmark(z[j, :2], labels[j] if labels[j] >= 0 else None, Rz[j])
@@ -555,7 +700,7 @@ class EKFSLAM:
                     dec[j] = _REJECTED
                 i += 1
                 continue
-            run = [j]   # the consecutive matched rows, one compiled call (one row when each update is flushed at once)
+            run = [j]  # the consecutive matched rows, one compiled call (one row when each update is flushed at once)
             while self.params.defer_covariance and i + len(run) < len(order) and dec[order[i + len(run)]] == _MATCHED:
                 run.append(order[i + len(run)])
             applied = self._update_run(np.array([slots[k] for k in run]), z[run, :2], Rz[run])
@@ -589,11 +734,18 @@ class EKFSLAM:
             return None
         Rz = self.observation_cov(z[unknown])
         _, S, d2 = assoc.compatibility(self._s.x, self._s.view, Rz, z[unknown, :2])
-        found = assoc.hypotheses(*assoc.log_densities(S, d2, Rz, self.gate_new), d2, self.gate_match, self.params.match_confidence,
-                                 self.params.window_hypotheses)
+        found = assoc.hypotheses(
+            *assoc.log_densities(S, d2, Rz, self.gate_new),
+            d2,
+            self.gate_match,
+            self.params.match_confidence,
+            self.params.window_hypotheses,
+        )
         return None if found is None else (int(unknown[found[0]]), found[1])
 
-    def _associate(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decide: dict[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _associate(
+        self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decide: dict[int, int]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         M = len(z)
         decision = np.full(M, _NEW, dtype=np.int8)
         slot = np.full(M, -1)
@@ -607,9 +759,13 @@ class EKFSLAM:
         try:
             d2[labelled] = assoc.pair_d2(self._s.x, self._s.view, Rz[labelled], z[labelled], slot[labelled])
             self.rejected["nonfinite"] += int((~np.isfinite(d2[labelled])).sum())
-        except CovarianceError as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
+        except (
+            CovarianceError
+        ) as exc:  # an S that is not positive definite; "record": the labelled rows of the set are skipped
             self._indefinite(exc, labelled.size)
-        outside = labelled[~(d2[labelled] < self.gate_known)]  # gate_known = ∞ without a gate: only a non-finite d² is outside
+        outside = labelled[
+            ~(d2[labelled] < self.gate_known)
+        ]  # gate_known = ∞ without a gate: only a non-finite d² is outside
         decision[outside], slot[outside] = _REJECTED, -1
         unknown = np.flatnonzero(~known)
         if unknown.size:
@@ -618,10 +774,22 @@ class EKFSLAM:
             x = self._s.x
             nu, S, dist = assoc.compatibility(x, self._s.view, Rz[unknown], z[unknown])
             if self.params.association == AssociationMethod.JCBB:
-                a = assoc.jcbb(x, self._s.P, Rz[unknown], z[unknown], dist, nu, self.gate_match, self.gate_new, self.params.jcbb_confidence)
+                a = assoc.jcbb(
+                    x,
+                    self._s.P,
+                    Rz[unknown],
+                    z[unknown],
+                    dist,
+                    nu,
+                    self.gate_match,
+                    self.gate_new,
+                    self.params.jcbb_confidence,
+                )
             else:
                 a = assoc.nearest_neighbour(dist, self.gate_match, self.gate_new)
-            for k in np.flatnonzero(np.isin(unknown, list(decide))).tolist():   # decided elsewhere (the look-ahead); one row a landmark
+            for k in np.flatnonzero(
+                np.isin(unknown, list(decide))
+            ).tolist():  # decided elsewhere (the look-ahead); one row a landmark
                 s = decide[int(unknown[k])]
                 a.decision[(a.slot == s) & (s >= 0)], a.slot[(a.slot == s) & (s >= 0)] = Decision.REJECTED, -1
                 a.decision[k], a.slot[k] = (Decision.MATCHED, s) if s >= 0 else (Decision.NEW, -1)
@@ -629,7 +797,9 @@ class EKFSLAM:
             decision[unknown], slot[unknown], d2[unknown] = a.decision, a.slot, a.d2
             log_lam, log_new = assoc.log_densities(S, dist, Rz[unknown], self.gate_new)
             matched = a.slot >= 0
-            self.log_likelihood += float(log_lam[np.flatnonzero(matched), a.slot[matched]].sum() + log_new[~matched].sum())
+            self.log_likelihood += float(
+                log_lam[np.flatnonzero(matched), a.slot[matched]].sum() + log_new[~matched].sum()
+            )
         return decision, slot, d2
 
     def _linearisation_points(self, slots) -> tuple[np.ndarray, np.ndarray]:
@@ -643,7 +813,9 @@ class EKFSLAM:
 
     def _true_landmark(self, landmark_id: int) -> np.ndarray:
         if landmark_id not in self._truth_landmarks:
-            raise ValueError(f"jacobians='ideal' needs the true position of landmark {landmark_id}: call set_truth(landmarks=...)")
+            raise ValueError(
+                f"jacobians='ideal' needs the true position of landmark {landmark_id}: call set_truth(landmarks=...)"
+            )
         return self._truth_landmarks[landmark_id]
 
     def _landmarks(self) -> np.ndarray:
@@ -653,14 +825,25 @@ class EKFSLAM:
         """Sequential updates with observations z (k, 2) (noise R (k, 2, 2)) of landmark slots (k,), each H having the five
         non-zero columns idx, in order, until one is not applied (:meth:`_correct` says what is counted or raised then);
         one compiled call (:meth:`.storage.GrowingState.correct_run`). Returns how many were applied."""
-        if self.params.jacobians == Linearisation.IDEAL:  # a row without its true landmark raises after the rows before it
-            ready = next((k for k, s in enumerate(slots.tolist()) if self._ids[s] not in self._truth_landmarks), slots.size)
+        if (
+            self.params.jacobians == Linearisation.IDEAL
+        ):  # a row without its true landmark raises after the rows before it
+            ready = next(
+                (k for k, s in enumerate(slots.tolist()) if self._ids[s] not in self._truth_landmarks), slots.size
+            )
             if 0 < ready < slots.size:
                 applied = self._update_run(slots[:ready], z[:ready], R[:ready])
                 return applied if applied < ready else ready + self._update_run(slots[ready:], z[ready:], R[ready:])
         current, XL, ML = self._jacobian_points(slots)
         applied, outcome, k, value, nis, _, S = self._s.correct_run(
-            slots.astype(np.int64), XL, ML, current, z, np.ascontiguousarray(R, dtype=float), self.params.covariance_update == CovarianceUpdate.JOSEPH)
+            slots.astype(np.int64),
+            XL,
+            ML,
+            current,
+            z,
+            np.ascontiguousarray(R, dtype=float),
+            self.params.covariance_update == CovarianceUpdate.JOSEPH,
+        )
         self.nis_log.extend((v, 2) for v in nis.tolist())
         if applied < slots.size:
             self._not_applied(outcome, k, value, S, 1)
@@ -680,8 +863,14 @@ class EKFSLAM:
         """One update with m observations of landmark slots (m,): H is 2m × N, five non-zero columns a row pair; HP = H P
         (2m, N), S = H P Hᵀ + blockdiag(R_1 … R_m) and ν in one compiled call (:meth:`.storage.GrowingState.batch_innovation`)."""
         current, XL, ML = self._jacobian_points(slots)
-        HP, S, nu = self._s.batch_innovation(slots.astype(np.int64), XL, ML, current, np.ascontiguousarray(z, dtype=float),
-                                             np.ascontiguousarray(R, dtype=float))
+        HP, S, nu = self._s.batch_innovation(
+            slots.astype(np.int64),
+            XL,
+            ML,
+            current,
+            np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(R, dtype=float),
+        )
         return self._correct(HP, S, nu)
 
     def _correct(self, HP: np.ndarray, S: np.ndarray, nu: np.ndarray) -> bool:
@@ -711,7 +900,9 @@ class EKFSLAM:
         if outcome == NOT_FINITE:
             self.rejected["nonfinite"] += rows
         else:
-            self._indefinite(innovation_cov_error(S) if outcome == S_INDEFINITE else entries_error(outcome, k, value), rows)
+            self._indefinite(
+                innovation_cov_error(S) if outcome == S_INDEFINITE else entries_error(outcome, k, value), rows
+            )
 
     # ------------------------------------------------------------------ new landmarks
     def _add_landmark(self, z: np.ndarray, landmark_id: int | None, R: np.ndarray) -> int:
@@ -725,9 +916,9 @@ class EKFSLAM:
             Gx, Gz = inverse_observation_jacobians(x_true, observe(x_true, m_true))
         else:
             Gx, Gz = inverse_observation_jacobians(xr, z)
-        robot = self._s.rows([0, 1, 2])                                 # the current P[0:3, :] (3, N)
+        robot = self._s.rows([0, 1, 2])  # the current P[0:3, :] (3, N)
         if self.params.init == LandmarkInit.JACOBIAN:
-            cross = Gx @ robot                                          # P_new,: (2, N)
+            cross = Gx @ robot  # P_new,: (2, N)
             Pnn = Gx @ robot[:, :3] @ Gx.T + Gz @ R @ Gz.T
             Pnn = 0.5 * (Pnn + Pnn.T)
         else:

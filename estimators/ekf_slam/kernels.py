@@ -55,6 +55,7 @@ displacements D_k at the linearisation poses and the noise rotated to the world 
 checks them; ``cross_covariances(P, n, ΣD)`` forms ``Φ P_rm`` from the robot rows and ``set_robot_block`` writes the
 robot block, rows and columns; ``predict_chain(…)`` is all of it in one call, checked before it commits.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -65,13 +66,34 @@ from numba.extending import get_cython_function_address
 from ..kernels import range_bearing, wrap
 from .checks import OK, entries_failure, low_rank_entries
 
-__all__ = ["update_lower", "mirror_lower", "add_term_upper", "apply_term", "gather_columns", "gain_terms", "innovation_one", "batch_innovation", "correct", "correct_run", "chain_geometry", "robot_chain", "semidefinite", "cross_covariances", "set_robot_block", "predict_chain",
-           "APPLIED", "S_INDEFINITE", "NOT_FINITE", "ROBOT_INDEFINITE"]
+__all__ = [
+    "update_lower",
+    "mirror_lower",
+    "add_term_upper",
+    "apply_term",
+    "gather_columns",
+    "gain_terms",
+    "innovation_one",
+    "batch_innovation",
+    "correct",
+    "correct_run",
+    "chain_geometry",
+    "robot_chain",
+    "semidefinite",
+    "cross_covariances",
+    "set_robot_block",
+    "predict_chain",
+    "APPLIED",
+    "S_INDEFINITE",
+    "NOT_FINITE",
+    "ROBOT_INDEFINITE",
+]
 
 #: largest d handled by the fused loop (above it BLAS is faster)
 _FUSED_MAX = 4
 #: columns per block of :func:`add_term_upper`'s sums
 _ROW_BLOCK = 512
+
 
 def _blas(name: str, arguments: int) -> types.ExternalFunction:
     """A Fortran BLAS routine of scipy.linalg.cython_blas (every argument a pointer), callable from compiled code: its
@@ -159,19 +181,41 @@ def update_lower(buffer, n, Ct, s):
     # The C-ordered buffer read as a Fortran matrix (leading dimension = its row length) is Pᵀ = P, and
     # Fortran "U" is its C-ordered lower triangle; the C-ordered d × n Cᵀ is the Fortran n × d C
     # (leading dimension = its row stride), so trans="N" forms C Cᵀ.
-    ints = np.array([n, d, buffer.shape[1], Ct.strides[0] // 8, n], dtype=np.int32)      # n, k, ldc, lda, ldb
-    flags = np.array([85, 78], dtype=np.uint8)                                           # uplo "U", trans "N"
-    scalars = np.array([s[0], 1.0])                                                      # α, β
+    ints = np.array([n, d, buffer.shape[1], Ct.strides[0] // 8, n], dtype=np.int32)  # n, k, ldc, lda, ldb
+    flags = np.array([85, 78], dtype=np.uint8)  # uplo "U", trans "N"
+    scalars = np.array([s[0], 1.0])  # α, β
     if np.all(s == s[0]):
-        _dsyrk(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, Ct.ctypes, ints[3:].ctypes,
-               scalars[1:].ctypes, buffer.ctypes, ints[2:].ctypes)
+        _dsyrk(
+            flags.ctypes,
+            flags[1:].ctypes,
+            ints.ctypes,
+            ints[1:].ctypes,
+            scalars.ctypes,
+            Ct.ctypes,
+            ints[3:].ctypes,
+            scalars[1:].ctypes,
+            buffer.ctypes,
+            ints[2:].ctypes,
+        )
     else:  # ½ (C Bᵀ + B Cᵀ) with B = C diag(s)
         B = np.empty((d, n))
         for k in range(d):
             B[k] = Ct[k, :n] * s[k]
         scalars[0] = 0.5
-        _dsyr2k(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, Ct.ctypes, ints[3:].ctypes,
-                B.ctypes, ints[4:].ctypes, scalars[1:].ctypes, buffer.ctypes, ints[2:].ctypes)
+        _dsyr2k(
+            flags.ctypes,
+            flags[1:].ctypes,
+            ints.ctypes,
+            ints[1:].ctypes,
+            scalars.ctypes,
+            Ct.ctypes,
+            ints[3:].ctypes,
+            B.ctypes,
+            ints[4:].ctypes,
+            scalars[1:].ctypes,
+            buffer.ctypes,
+            ints[2:].ctypes,
+        )
 
 
 @njit(cache=True)
@@ -232,15 +276,15 @@ def gain_terms(HP, S, L, nu, joseph, Ct):
     """
     d, N = HP.shape
     Linv = _lower_inverse(L)
-    e = Linv @ nu                                               # L⁻¹ ν: NIS = eᵀe
-    Sinv_nu = Linv.T @ e                                        # S⁻¹ ν
+    e = Linv @ nu  # L⁻¹ ν: NIS = eᵀe
+    Sinv_nu = Linv.T @ e  # S⁻¹ ν
     dx = np.zeros(N)
-    for a in range(d):                                          # K ν = PHᵀ S⁻¹ ν
+    for a in range(d):  # K ν = PHᵀ S⁻¹ ν
         w = Sinv_nu[a]
         h = HP[a]
         for i in range(N):
             dx[i] += h[i] * w
-    for a in range(d):                                          # Wᵀ = L⁻¹ HP (L⁻¹ lower triangular)
+    for a in range(d):  # Wᵀ = L⁻¹ HP (L⁻¹ lower triangular)
         row = Ct[a]
         for i in range(N):
             row[i] = 0.0
@@ -253,14 +297,14 @@ def gain_terms(HP, S, L, nu, joseph, Ct):
     s = np.empty(c)
     s[:d] = -1.0
     if joseph:
-        s[d:2 * d], s[2 * d:] = 0.5, -0.5
+        s[d : 2 * d], s[2 * d :] = 0.5, -0.5
         Kt = np.zeros((d, N))
-        for a in range(d):                                      # Kᵀ = L⁻ᵀ Wᵀ ((L⁻ᵀ)[a, b] = L⁻¹[b, a], zero for b < a)
+        for a in range(d):  # Kᵀ = L⁻ᵀ Wᵀ ((L⁻ᵀ)[a, b] = L⁻¹[b, a], zero for b < a)
             for b in range(a, d):
                 w = Linv[b, a]
                 for i in range(N):
                     Kt[a, i] += w * Ct[b, i]
-        for a in range(d):                                      # Dᵀ = S Kᵀ − HP; rows K + D and K − D
+        for a in range(d):  # Dᵀ = S Kᵀ − HP; rows K + D and K − D
             plus, minus = Ct[d + a], Ct[2 * d + a]
             for i in range(N):
                 acc = -HP[a, i]
@@ -278,17 +322,17 @@ def _hp_one(P, n, Ut, Ust, r, s, H, HP):
     h, hb = HP[0], HP[1]
     a0, a1, a2, a3, a4 = H[0, 0], H[0, 1], H[0, 2], H[0, 3], H[0, 4]
     b0, b1, b2, b3, b4 = H[1, 0], H[1, 1], H[1, 2], H[1, 3], H[1, 4]
-    p0, p1, p2 = P[0], P[1], P[2]                             # the robot rows are current
+    p0, p1, p2 = P[0], P[1], P[2]  # the robot rows are current
     for i in range(n):
         h[i] = a0 * p0[i] + a1 * p1[i] + a2 * p2[i]
         hb[i] = b0 * p0[i] + b1 * p1[i] + b2 * p2[i]
-    q0, q1 = P[s], P[s + 1]                                   # left of the block: rows s, s + 1 of the lower triangle
+    q0, q1 = P[s], P[s + 1]  # left of the block: rows s, s + 1 of the lower triangle
     for i in range(s):
         h[i] += a3 * q0[i] + a4 * q1[i]
         hb[i] += b3 * q0[i] + b4 * q1[i]
     h[s] += a3 * P[s, s] + a4 * P[s + 1, s]
     hb[s] += b3 * P[s, s] + b4 * P[s + 1, s]
-    for i in range(s + 1, n):                                 # at and below row s + 1: columns s, s + 1 of the lower triangle
+    for i in range(s + 1, n):  # at and below row s + 1: columns s, s + 1 of the lower triangle
         c0, c1 = P[i, s], P[i, s + 1]
         h[i] += a3 * c0 + a4 * c1
         hb[i] += b3 * c0 + b4 * c1
@@ -321,7 +365,7 @@ def _jacobian(xl, ml, zhat, Hx, Hm, H):
 @njit(cache=True)
 def _innovation(x, s, z, zhat, Hx, Hm):
     """ν = z − h(x_r, m) (2,) at the current estimate, the bearing wrapped."""
-    range_bearing(x[:3], x[s:s + 2], zhat, Hx, Hm)
+    range_bearing(x[:3], x[s : s + 2], zhat, Hx, Hm)
     return np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
 
 
@@ -330,7 +374,7 @@ def innovation_one(P, n, Ut, Ust, r, s, xl, ml, x, z, R):
     """(HP (2, n) = (PHᵀ)ᵀ, S (2, 2), ν (2,), H (2, 5)) of one range-bearing observation z of the landmark at entries s, s + 1."""
     zhat, Hx, Hm = np.empty(2), np.empty((2, 3)), np.empty((2, 2))
     H = np.empty((2, 5))
-    _jacobian(xl, ml, zhat, Hx, Hm, H)                       # H = [H_x, H_m] at the linearisation point
+    _jacobian(xl, ml, zhat, Hx, Hm, H)  # H = [H_x, H_m] at the linearisation point
     HP = np.empty((2, n))
     _hp_one(P, n, Ut, Ust, r, s, H, HP)
     idx = np.array([0, 1, 2, s, s + 1])
@@ -360,11 +404,11 @@ def batch_innovation(P, n, Ut, Ust, r, entries, XL, ML, current, x, Z, R):
     for j in range(m):
         e = entries[j]
         if current:
-            _jacobian(x[:3].copy(), x[e:e + 2].copy(), zhat, Hx, Hm, Hs[j])
+            _jacobian(x[:3].copy(), x[e : e + 2].copy(), zhat, Hx, Hm, Hs[j])
         else:
             _jacobian(XL[j], ML[j], zhat, Hx, Hm, Hs[j])
-        _hp_one(P, n, Ut, Ust, r, e, Hs[j], HP[2 * j:2 * j + 2])
-        nu[2 * j:2 * j + 2] = _innovation(x, e, Z[j], zhat, Hx, Hm)
+        _hp_one(P, n, Ut, Ust, r, e, Hs[j], HP[2 * j : 2 * j + 2])
+        nu[2 * j : 2 * j + 2] = _innovation(x, e, Z[j], zhat, Hx, Hm)
     S = np.empty((2 * m, 2 * m))
     for k in range(m):
         e = entries[k]
@@ -423,7 +467,7 @@ def correct(HP, S, nu, joseph, x, Ut, Ust, sg, r, pend, stored, n_robot):
         return S_INDEFINITE, np.nan, 0, 0.0
     N = HP.shape[1]
     c = 3 * nu.size if joseph else nu.size
-    Ct = Ut[r:r + c]
+    Ct = Ut[r : r + c]
     nis, dx, s = gain_terms(HP, S, L, nu, joseph, Ct)
     if not (np.isfinite(nis) and np.all(np.isfinite(dx)) and np.all(np.isfinite(Ct[:, :N]))):
         return NOT_FINITE, nis, 0, 0.0
@@ -455,7 +499,7 @@ def _rows_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, 
     for j in range(slots.size):
         e = n_robot + 2 * slots[j]
         if current:
-            xl, ml = x[:3].copy(), x[e:e + 2].copy()
+            xl, ml = x[:3].copy(), x[e : e + 2].copy()
         else:
             xl, ml = XL[j], ML[j]
         HP, S, nu, Hs[j] = innovation_one(P, n, Ut, Ust, r, e, xl, ml, x, Z[j], R[j])
@@ -487,7 +531,7 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
     of Ut, the scratch of the term being formed, and replaced by Uᵀ there.
     """
     k = slots.size
-    B = Ut[r:r + 2 * k]
+    B = Ut[r : r + 2 * k]
     T = np.zeros((2 * k, 2 * k))
     M = np.zeros((2 * k, 2 * k))
     v = np.zeros(2 * k)
@@ -500,7 +544,7 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
         b = 2 * j
         e = n_robot + 2 * slots[j]
         idx[0], idx[1], idx[2], idx[3], idx[4] = 0, 1, 2, e, e + 1
-        for c in range(5):                                      # x_{j−1}[idx]
+        for c in range(5):  # x_{j−1}[idx]
             acc = x[idx[c]]
             for a in range(b):
                 acc += B[a, idx[c]] * v[a]
@@ -510,7 +554,7 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
             _jacobian(xc[:3].copy(), xc[3:].copy(), zhat, Hx, Hm, H)
         else:
             _jacobian(XL[j], ML[j], zhat, Hx, Hm, H)
-        _hp_one(P, n, Ut, Ust, r, e, H, B[b:b + 2])           # B_j = H_j P_0
+        _hp_one(P, n, Ut, Ust, r, e, H, B[b : b + 2])  # B_j = H_j P_0
         G = np.empty((b, 2))
         for a in range(b):
             for c in range(2):
@@ -541,8 +585,8 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
             break
         Linv = _lower_inverse(L)
         nu = _innovation(xc, 3, Z[j], zhat, Hx, Hm)
-        ee = np.array([Linv[0, 0] * nu[0], Linv[1, 0] * nu[0] + Linv[1, 1] * nu[1]])          # L⁻¹ ν
-        t = np.empty((b + 2, 2))                                                                # [−M G; I₂] L⁻ᵀ
+        ee = np.array([Linv[0, 0] * nu[0], Linv[1, 0] * nu[0] + Linv[1, 1] * nu[1]])  # L⁻¹ ν
+        t = np.empty((b + 2, 2))  # [−M G; I₂] L⁻ᵀ
         for a in range(b):
             t[a, 0] = -MG[a, 0] * Linv[0, 0]
             t[a, 1] = -(MG[a, 0] * Linv[1, 0] + MG[a, 1] * Linv[1, 1])
@@ -561,17 +605,41 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
     c = 2 * q
     # dx = Bᵀ v and Ust = −Tᵀ B by BLAS on the C-ordered rows of Ut and Ust read as Fortran N × c matrices (B_F = Bᵀ; the
     # leading dimensions are the row strides): dx = B_F v, Ust_F = −B_F T; then Ut's rows ← Uᵀ = −Ust (replacing B)
-    U, Us, dx = Ut[r:r + c], Ust[r:r + c], np.zeros(n)
+    U, Us, dx = Ut[r : r + c], Ust[r : r + c], np.zeros(n)
     Tc = np.ascontiguousarray(T[:c, :c])
-    ints = np.array([n, c, Ut.strides[0] // 8, Ust.strides[0] // 8, 1], dtype=np.int32)    # m, n = k = ldb, lda, ldc, inc
-    flags = np.array([78, 84], dtype=np.uint8)                                              # "N", "T"
+    ints = np.array([n, c, Ut.strides[0] // 8, Ust.strides[0] // 8, 1], dtype=np.int32)  # m, n = k = ldb, lda, ldc, inc
+    flags = np.array([78, 84], dtype=np.uint8)  # "N", "T"
     scalars = np.array([1.0, 0.0, -1.0])
     vc = v[:c].copy()
-    _dgemv(flags.ctypes, ints.ctypes, ints[1:].ctypes, scalars.ctypes, U.ctypes, ints[2:].ctypes, vc.ctypes, ints[4:].ctypes,
-           scalars[1:].ctypes, dx.ctypes, ints[4:].ctypes)
+    _dgemv(
+        flags.ctypes,
+        ints.ctypes,
+        ints[1:].ctypes,
+        scalars.ctypes,
+        U.ctypes,
+        ints[2:].ctypes,
+        vc.ctypes,
+        ints[4:].ctypes,
+        scalars[1:].ctypes,
+        dx.ctypes,
+        ints[4:].ctypes,
+    )
     # Tc read as Fortran is Tᵀ, so transb "T" makes op = T
-    _dgemm(flags.ctypes, flags[1:].ctypes, ints.ctypes, ints[1:].ctypes, ints[1:].ctypes, scalars[2:].ctypes, U.ctypes,
-           ints[2:].ctypes, Tc.ctypes, ints[1:].ctypes, scalars[1:].ctypes, Us.ctypes, ints[3:].ctypes)
+    _dgemm(
+        flags.ctypes,
+        flags[1:].ctypes,
+        ints.ctypes,
+        ints[1:].ctypes,
+        ints[1:].ctypes,
+        scalars[2:].ctypes,
+        U.ctypes,
+        ints[2:].ctypes,
+        Tc.ctypes,
+        ints[1:].ctypes,
+        scalars[1:].ctypes,
+        Us.ctypes,
+        ints[3:].ctypes,
+    )
     for a in range(c):
         u, us = U[a], Us[a]
         for i in range(n):
@@ -580,7 +648,7 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
         if not np.isfinite(dx[i]):
             return q, r, outcome, 0, 0.0, nis[:q], Hs[:q], S, False
     s = -np.ones(c)
-    td, tr, to = low_rank_entries(U, s, n, n_robot)    # a non-finite U makes the diagonal non-finite: the checks fail
+    td, tr, to = low_rank_entries(U, s, n, n_robot)  # a non-finite U makes the diagonal non-finite: the checks fail
     pd, pr, po = pend
     sd, sr, so = stored
     m = to.size
@@ -588,7 +656,7 @@ def _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current
         return q, r, outcome, 0, 0.0, nis[:q], Hs[:q], S, False
     x += dx
     x[2] = wrap(x[2])
-    sg[r:r + c] = -1.0
+    sg[r : r + c] = -1.0
     pd[:n] += td
     pr += tr
     po[:m] += to
@@ -608,8 +676,9 @@ def correct_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z
     (:func:`correct`'s, its k and value; S its innovation covariance).
     """
     if not joseph:
-        q, r1, outcome, k, value, nis, Hs, S, checked = _projected_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML,
-                                                                       current, Z, R, n_robot)
+        q, r1, outcome, k, value, nis, Hs, S, checked = _projected_run(
+            P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, n_robot
+        )
         if checked:
             return q, r1, outcome, k, value, nis, Hs, S
     return _rows_run(P, n, Ut, Ust, sg, r, pend, stored, x, slots, XL, ML, current, Z, R, joseph, n_robot)

@@ -27,6 +27,7 @@ New landmark (inverse observation model, augmentation written densely)::
     PAug = [[PEst, PEst Gmᵀ], [Gm PEst, Gm PEst Gmᵀ + G_z R G_zᵀ]]       init="jacobian"
     PAug = [[PEst, 0], [0, initP]]                                          init="initP"
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,9 +43,20 @@ __all__ = ["ReferenceEKFSLAM"]
 class ReferenceEKFSLAM:
     """Dense EKF-SLAM; parameters as :class:`EKFSLAM` (matrices given explicitly)."""
 
-    def __init__(self, M, R, *, motion_model: str = "arc", motion_noise: MotionNoise = MotionNoise.CONTROL, Cx=None,
-                 covariance_update: CovarianceUpdate = CovarianceUpdate.STANDARD, init: LandmarkInit = LandmarkInit.JACOBIAN,
-                 init_cov: float = 1.0, update: UpdateForm = UpdateForm.SEQUENTIAL, initial_pose=(0.0, 0.0, 0.0)):
+    def __init__(
+        self,
+        M,
+        R,
+        *,
+        motion_model: str = "arc",
+        motion_noise: MotionNoise = MotionNoise.CONTROL,
+        Cx=None,
+        covariance_update: CovarianceUpdate = CovarianceUpdate.STANDARD,
+        init: LandmarkInit = LandmarkInit.JACOBIAN,
+        init_cov: float = 1.0,
+        update: UpdateForm = UpdateForm.SEQUENTIAL,
+        initial_pose=(0.0, 0.0, 0.0),
+    ):
         self.model = MOTION_MODELS[motion_model]
         self.M, self.R = np.asarray(M, dtype=float), np.asarray(R, dtype=float)
         self.Cx = None if Cx is None else np.asarray(Cx, dtype=float)
@@ -94,10 +106,10 @@ class ReferenceEKFSLAM:
         N = self.xEst.size
         H_rows, zp = [], []
         for i in landmarks:
-            lm = self.xEst[3 + 2 * i: 5 + 2 * i]
+            lm = self.xEst[3 + 2 * i : 5 + 2 * i]
             F1 = np.hstack([np.eye(3), np.zeros((3, N - 3))])
             F2 = np.zeros((2, N))
-            F2[:, 3 + 2 * i: 5 + 2 * i] = np.eye(2)
+            F2[:, 3 + 2 * i : 5 + 2 * i] = np.eye(2)
             F = np.vstack([F1, F2])
             Hx, Hm = observation_jacobians(self.xEst[:3], lm)
             H_rows.append(np.hstack([Hx, Hm]) @ F)

@@ -48,6 +48,7 @@ Diagnostics (arrays):
                                 correcting and drifts), its duration [s] (first to last rejected row) and start; 0, 0, NaN if
                                 none was rejected.
 """
+
 from __future__ import annotations
 
 import copy
@@ -83,7 +84,9 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
     times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
     rejected_motion = 0
-    looked_ahead: list[tuple[float, bool]] = []   # per row decided by the look-ahead: its stamp, whether it was matched (else new)
+    looked_ahead: list[
+        tuple[float, bool]
+    ] = []  # per row decided by the look-ahead: its stamp, whether it was matched (else new)
 
     def predict(filt, chain, t_now: float, t_end: float):
         """Propagate ``filt`` over the motion events ``chain`` from t_now to t_end; (rows used, (poses, covs), where each
@@ -93,16 +96,33 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             ok = np.isfinite(v) & np.isfinite(w)
             v, w, dts, rows = v[ok], w[ok], dts[ok], rows[ok]
             done = filt.predict_twists(v, w, dts, true_poses=truth(np.maximum(motion.t[rows], t_now)))
-            return rows, done, [event.start for event in chain], int((~ok).sum())  # a Twist row moves the robot from its stamp on
+            return (
+                rows,
+                done,
+                [event.start for event in chain],
+                int((~ok).sum()),
+            )  # a Twist row moves the robot from its stamp on
         if isinstance(motion, Increments):
             rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
             ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
             rows = rows[ok]
             cov = None if motion.cov is None or filt.params.increment_cov is not None else motion.cov[rows]
-            starts = np.r_[-np.inf, motion.t][rows]  # an increment starts at the previous stamp, the first at the truth's start
+            starts = np.r_[-np.inf, motion.t][
+                rows
+            ]  # an increment starts at the previous stamp, the first at the truth's start
             done = filt.predict_increments(motion.delta[rows], cov, true_poses=truth(starts))
-            return rows, done, [event.stop for event in chain], int((~ok).sum())   # an increment has moved the robot by its stamp
-        return np.zeros(0, dtype=int), (np.zeros((0, 3)), np.zeros((0, 3, 3))), [], 0  # no motion input: the robot stands still
+            return (
+                rows,
+                done,
+                [event.stop for event in chain],
+                int((~ok).sum()),
+            )  # an increment has moved the robot by its stamp
+        return (
+            np.zeros(0, dtype=int),
+            (np.zeros((0, 3)), np.zeros((0, 3, 3))),
+            [],
+            0,
+        )  # no motion input: the robot stands still
 
     # the table as (motion events, the observation set after them or None, the propagation's end)
     blocks, i, t_now = [], 0, sequence.t0
@@ -120,7 +140,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         (if the filter can carry none of a row's hypotheses through the window, that row and the rest of the set are left to the
         plain association)."""
         decided: dict[int, int] = {}
-        z, t = rb.z[blocks[b][1].start:blocks[b][1].stop], blocks[b][1].t
+        z, t = rb.z[blocks[b][1].start : blocks[b][1].stop], blocks[b][1].t
         while (found := ekf.ambiguity(z, decided)) is not None:
             row, options = found
             score = np.full(len(options), -np.inf)
@@ -129,11 +149,11 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
                 start = trial.log_likelihood
                 try:
                     trial.update(z, t, {**decided, row: option})
-                    for chain, event, t0, t1 in blocks[b + 1:b + 1 + ekf.params.window]:
+                    for chain, event, t0, t1 in blocks[b + 1 : b + 1 + ekf.params.window]:
                         predict(trial, chain, t0, t1)
                         if event is not None:
-                            trial.update(rb.z[event.start:event.stop], event.t)
-                except (CovarianceError, ValueError):   # a hypothesis the filter cannot carry through the window
+                            trial.update(rb.z[event.start : event.stop], event.t)
+                except (CovarianceError, ValueError):  # a hypothesis the filter cannot carry through the window
                     continue
                 score[k] = trial.log_likelihood - start
             if not np.isfinite(score).any():
@@ -161,7 +181,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             if ideal:
                 ekf.set_truth(pose=truth([event.t])[0])
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
-            ekf.update(rb.z[event.start:event.stop], event.t, look_ahead(b) if ekf.params.window else None)
+            ekf.update(rb.z[event.start : event.stop], event.t, look_ahead(b) if ekf.params.window else None)
             nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
             assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
             times.append(event.t)
@@ -170,8 +190,9 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
             now = timer()
             steps.append(now - clock)
             clock = now
-    t, steps, poses, covs = last_per_stamp(np.asarray(times), np.asarray(steps), np.asarray(poses).reshape(-1, 3),
-                                           np.asarray(covs).reshape(-1, 3, 3))
+    t, steps, poses, covs = last_per_stamp(
+        np.asarray(times), np.asarray(steps), np.asarray(poses).reshape(-1, 3), np.asarray(covs).reshape(-1, 3, 3)
+    )
 
     confirmed = np.flatnonzero(ekf.confirmed)  # tentative landmarks (association.LandmarkBook) are not part of the map
     n = confirmed.size
@@ -181,28 +202,48 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     nis = np.array(ekf.nis_log, dtype=float).reshape(-1, 2)
     log = np.array(ekf.assoc_log, dtype=float).reshape(-1, 4)
     diagnostics = {
-        "nis": nis[:, 0], "nis_dof": nis[:, 1].astype(np.int64), "nis_t": np.asarray(nis_t, dtype=float),
-        "assoc_t": np.asarray(assoc_t, dtype=float), "assoc_decision": log[:, 0].astype(np.int8),
-        "assoc_landmark": log[:, 1].astype(np.int64), "assoc_d2": log[:, 2], "assoc_given_id": log[:, 3].astype(np.int64),
-        "rejected_nonfinite": np.array(ekf.rejected["nonfinite"]), "rejected_negative_range": np.array(ekf.rejected["negative_range"]),
-        "rejected_motion": np.array(rejected_motion), "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
+        "nis": nis[:, 0],
+        "nis_dof": nis[:, 1].astype(np.int64),
+        "nis_t": np.asarray(nis_t, dtype=float),
+        "assoc_t": np.asarray(assoc_t, dtype=float),
+        "assoc_decision": log[:, 0].astype(np.int8),
+        "assoc_landmark": log[:, 1].astype(np.int64),
+        "assoc_d2": log[:, 2],
+        "assoc_given_id": log[:, 3].astype(np.int64),
+        "rejected_nonfinite": np.array(ekf.rejected["nonfinite"]),
+        "rejected_negative_range": np.array(ekf.rejected["negative_range"]),
+        "rejected_motion": np.array(rejected_motion),
+        "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
     }
     decisions = log[:, 0]
     diagnostics["looked_ahead_t"] = np.array([t for t, _ in looked_ahead], dtype=float)
     lockout = _longest_lockout(diagnostics["assoc_t"], diagnostics["assoc_decision"])
-    diagnostics.update(lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2]))
+    diagnostics.update(
+        lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2])
+    )
     meta = {
-        "params": ekf.params.canonical(), "sequence": sequence.name, "n_landmarks": n, "tentative": ekf.n_landmarks - n,
-        "looked_ahead": len(looked_ahead), "looked_ahead_matched": sum(m for _, m in looked_ahead),
-        "removed_unconfirmed": ekf.book.removed["unconfirmed"], "removed_quality": ekf.book.removed["quality"],
+        "params": ekf.params.canonical(),
+        "sequence": sequence.name,
+        "n_landmarks": n,
+        "tentative": ekf.n_landmarks - n,
+        "looked_ahead": len(looked_ahead),
+        "looked_ahead_matched": sum(m for _, m in looked_ahead),
+        "removed_unconfirmed": ekf.book.removed["unconfirmed"],
+        "removed_quality": ekf.book.removed["quality"],
         **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
         "noise": {"twist_cov": ekf.M.tolist(), "range_bearing_cov": ekf.R.tolist()},
     }
     return Estimate(
         method="ekf_slam" if ekf.params.jacobians == Linearisation.STANDARD else f"ekf_slam_{ekf.params.jacobians}",
-        t=t, poses=poses, pose_cov=covs,
-        landmark_ids=ekf.landmark_ids[confirmed], landmarks=ekf.x[3:].reshape(-1, 2)[confirmed], landmark_cov=landmark_cov.reshape(-1, 2, 2),
-        step_time=steps, diagnostics=diagnostics, meta=meta,
+        t=t,
+        poses=poses,
+        pose_cov=covs,
+        landmark_ids=ekf.landmark_ids[confirmed],
+        landmarks=ekf.x[3:].reshape(-1, 2)[confirmed],
+        landmark_cov=landmark_cov.reshape(-1, 2, 2),
+        step_time=steps,
+        diagnostics=diagnostics,
+        meta=meta,
     )
 
 
@@ -212,6 +253,6 @@ def _longest_lockout(t: np.ndarray, decision: np.ndarray) -> tuple[int, float, f
     if not rejected.any():
         return 0, 0.0, float("nan")
     edges = np.diff(np.r_[0, rejected.astype(np.int8), 0])
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)   # runs [start, stop)
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # runs [start, stop)
     k = int(np.argmax(stops - starts))
     return int(stops[k] - starts[k]), float(t[stops[k] - 1] - t[starts[k]]), float(t[starts[k]])

@@ -28,12 +28,23 @@ update against them and appends it to the pending term in one compiled call (:fu
 is pending (a new landmark) have zero rows in ``U``: their stored cross-covariances were computed
 from the current P, so the earlier terms are already in them.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 from .checks import Entries, covariance_entries
-from .kernels import APPLIED, ROBOT_INDEFINITE, apply_term, batch_innovation, correct, correct_run, gather_columns, mirror_lower, predict_chain
+from .kernels import (
+    APPLIED,
+    ROBOT_INDEFINITE,
+    apply_term,
+    batch_innovation,
+    correct,
+    correct_run,
+    gather_columns,
+    mirror_lower,
+    predict_chain,
+)
 
 __all__ = ["GrowingState"]
 
@@ -86,12 +97,22 @@ class GrowingState:
         v.flags.writeable = False
         return v
 
-    def predict_chain(self, delta: np.ndarray, lin: np.ndarray, Q_body: np.ndarray, Q_world: np.ndarray, first_from: np.ndarray,
-                      shift: np.ndarray, commit_indefinite: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    def predict_chain(
+        self,
+        delta: np.ndarray,
+        lin: np.ndarray,
+        Q_body: np.ndarray,
+        Q_world: np.ndarray,
+        first_from: np.ndarray,
+        shift: np.ndarray,
+        commit_indefinite: bool,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
         """A prediction chain, checked and committed to the robot entries of x and P in one compiled call
         (:func:`.kernels.predict_chain`, which states the arguments and the outcome), keeping the cached entries current;
         no term may be pending. Returns (poses (K + 1, 3), covs (K, 3, 3), D (K, 2), outcome, k)."""
-        out = predict_chain(self._P, self.n, self._x[:self.n], delta, lin, Q_body, Q_world, first_from, shift, commit_indefinite)
+        out = predict_chain(
+            self._P, self.n, self._x[: self.n], delta, lin, Q_body, Q_world, first_from, shift, commit_indefinite
+        )
         poses, covs, _, outcome, _ = out
         if self._stored_valid and (outcome == APPLIED or (outcome == ROBOT_INDEFINITE and commit_indefinite)):
             sd, sr, _ = self._stored_entries
@@ -102,7 +123,9 @@ class GrowingState:
         """Room for c more rows of the pending term."""
         if self._r + c > self._Ut.shape[0]:
             rows = max(2 * self._Ut.shape[0], self._r + c)
-            self._Ut, self._Ust = (np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust))
+            self._Ut, self._Ust = (
+                np.concatenate([A, np.zeros((rows - A.shape[0], self.capacity))]) for A in (self._Ut, self._Ust)
+            )
             self._sg = np.concatenate([self._sg, np.zeros(rows - self._sg.size)])
 
     def correct(self, HP: np.ndarray, S: np.ndarray, nu: np.ndarray, joseph: bool) -> tuple[int, float, int, float]:
@@ -111,14 +134,34 @@ class GrowingState:
         c = 3 * nu.size if joseph else nu.size
         self._reserve(c)
         self._refresh_stored_entries()
-        out = correct(np.ascontiguousarray(HP), np.ascontiguousarray(S), np.ascontiguousarray(nu, dtype=np.float64), joseph,
-                      self._x[:self.n], self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, 3)
+        out = correct(
+            np.ascontiguousarray(HP),
+            np.ascontiguousarray(S),
+            np.ascontiguousarray(nu, dtype=np.float64),
+            joseph,
+            self._x[: self.n],
+            self._Ut,
+            self._Ust,
+            self._sg,
+            self._r,
+            self._pending,
+            self._stored_entries,
+            3,
+        )
         if out[0] == APPLIED:
             self._r += c
         return out
 
-    def correct_run(self, slots: np.ndarray, XL: np.ndarray, ML: np.ndarray, current: bool, Z: np.ndarray, R: np.ndarray,
-                    joseph: bool) -> tuple[int, int, int, float, np.ndarray, np.ndarray, np.ndarray]:
+    def correct_run(
+        self,
+        slots: np.ndarray,
+        XL: np.ndarray,
+        ML: np.ndarray,
+        current: bool,
+        Z: np.ndarray,
+        R: np.ndarray,
+        joseph: bool,
+    ) -> tuple[int, int, int, float, np.ndarray, np.ndarray, np.ndarray]:
         """Sequential updates with range-bearing observations Z (k, 2) (noise R (k, 2, 2)) of landmark slots (k,), H at
         (XL[j], ML[j]) or at the current estimate, until one is not applied; one compiled call (:func:`.kernels.correct_run`:
         O(N (r + 1)) per row plus O(N k²) for the run in the standard form, O(N (r + j)) for row j row by row). Returns q
@@ -127,15 +170,34 @@ class GrowingState:
         self._reserve((6 if joseph else 2) * slots.size)
         self._refresh_stored_entries()
         q, self._r, outcome, k, value, nis, H, S = correct_run(
-            self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._x[:self.n],
-            slots, XL, ML, current, Z, R, joseph, 3)
+            self._P,
+            self.n,
+            self._Ut,
+            self._Ust,
+            self._sg,
+            self._r,
+            self._pending,
+            self._stored_entries,
+            self._x[: self.n],
+            slots,
+            XL,
+            ML,
+            current,
+            Z,
+            R,
+            joseph,
+            3,
+        )
         return q, outcome, k, value, nis, H, S
 
-    def batch_innovation(self, slots: np.ndarray, XL: np.ndarray, ML: np.ndarray, current: bool, Z: np.ndarray,
-                         R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def batch_innovation(
+        self, slots: np.ndarray, XL: np.ndarray, ML: np.ndarray, current: bool, Z: np.ndarray, R: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """HP (2m, N), S (2m, 2m) and ν (2m,) of m observations Z (m, 2) of landmark slots (m,) taken together, from the
         current P (:func:`.kernels.batch_innovation`), O(N m (r + 1))."""
-        return batch_innovation(self._P, self.n, self._Ut, self._Ust, self._r, 3 + 2 * slots, XL, ML, current, self._x[:self.n], Z, R)
+        return batch_innovation(
+            self._P, self.n, self._Ut, self._Ust, self._r, 3 + 2 * slots, XL, ML, current, self._x[: self.n], Z, R
+        )
 
     def columns(self, idx) -> np.ndarray:
         """The current ``P[:, idx]`` (N × len(idx)) from the stored P and the pending term, O(N (len(idx) + r)).
@@ -147,7 +209,7 @@ class GrowingState:
         cols, where = np.unique(np.asarray(idx, dtype=np.int64), return_inverse=True)
         out = gather_columns(self._P, n, cols)
         if self._r:
-            out += self._Ust[:self._r, :n].T @ self._Ut[:self._r, cols]
+            out += self._Ust[: self._r, :n].T @ self._Ut[: self._r, cols]
         return out[:, where]
 
     def rows(self, idx) -> np.ndarray:
@@ -160,7 +222,7 @@ class GrowingState:
             n = self.n
             d, robot, off = covariance_entries(self._P[:n, :n])
             sd, sr, so = self._stored_entries
-            sd[:n], sr[:], so[:off.size] = d, robot, off
+            sd[:n], sr[:], so[: off.size] = d, robot, off
             self._stored_valid = True
 
     def entries(self) -> Entries:
@@ -175,7 +237,17 @@ class GrowingState:
         and to the cached checked entries, and clear it (one compiled call, :func:`.kernels.apply_term`)."""
         if not self._r:
             return
-        apply_term(self._P, self.n, self._Ut, self._Ust, self._sg, self._r, self._pending, self._stored_entries, self._stored_valid)
+        apply_term(
+            self._P,
+            self.n,
+            self._Ut,
+            self._Ust,
+            self._sg,
+            self._r,
+            self._pending,
+            self._stored_entries,
+            self._stored_valid,
+        )
         self._mirrored = False
         self._r = 0
 
@@ -189,9 +261,14 @@ class GrowingState:
             x[:start] = self._x[:start]
             P[:start, :start] = self._P[:start, :start]
             self._x, self._P = x, P
-            self._Ut, self._Ust = (np.concatenate([A, np.zeros((A.shape[0], capacity - A.shape[1]))], axis=1) for A in (self._Ut, self._Ust))
-            self._pending = tuple(np.concatenate([a, np.zeros(k - a.size)]) if a.ndim == 1 else a
-                                  for a, k in zip(self._pending, (capacity, 0, capacity // 2)))
+            self._Ut, self._Ust = (
+                np.concatenate([A, np.zeros((A.shape[0], capacity - A.shape[1]))], axis=1)
+                for A in (self._Ut, self._Ust)
+            )
+            self._pending = tuple(
+                np.concatenate([a, np.zeros(k - a.size)]) if a.ndim == 1 else a
+                for a, k in zip(self._pending, (capacity, 0, capacity // 2))
+            )
             self._stored_entries = (np.zeros(capacity), np.zeros((3, 3)), np.zeros(capacity // 2))
         self._stored_valid = False
         self._x[start:stop] = 0.0

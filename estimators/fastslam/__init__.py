@@ -1,6 +1,7 @@
 """FastSLAM 1.0 and 2.0: the Rao-Blackwellised particle filter for landmark SLAM (:mod:`.filter`), its
 copy-on-write landmark storage (:mod:`.storage`), the per-particle update (:mod:`.kernels`) and the
 sequence runner (:mod:`.run`)."""
+
 from .filter import FastSLAM, FastSLAMParams
 
 __all__ = ["FastSLAM", "FastSLAMParams"]

@@ -70,6 +70,7 @@ one prior),
 
 Randomness comes from one ``numpy.random.Generator`` seeded by ``seed``; the same seed gives the same run.
 """
+
 from __future__ import annotations
 
 import math
@@ -82,8 +83,15 @@ from scipy.stats import chi2
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
 
-from ..models import (DEFAULT_RANGE_BEARING_COV, DEFAULT_TWIST_COV, MOTION_MODELS, RangeBearingNoise, compose_chain,
-                      compose_jacobians, observation_covariances)
+from ..models import (
+    DEFAULT_RANGE_BEARING_COV,
+    DEFAULT_TWIST_COV,
+    MOTION_MODELS,
+    RangeBearingNoise,
+    compose_chain,
+    compose_jacobians,
+    observation_covariances,
+)
 from ..stepping import StepClock
 from .kernels import predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
@@ -94,41 +102,75 @@ __all__ = ["FastSLAM", "FastSLAMParams"]
 class FastSLAMParams(Params):
     """Parameters of :class:`FastSLAM`."""
 
-    version: Literal[1, 2] = Field(2, description="1: proposal = motion model; 2: proposal conditioned on the observations")
+    version: Literal[1, 2] = Field(
+        2, description="1: proposal = motion model; 2: proposal conditioned on the observations"
+    )
     particles: PositiveInt = Field(100, description="number of particles M")
     motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models)")
-    twist_cov: Covariance2 | None = Field(None, description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default")
-    increment_cov: Covariance3 | None = Field(None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's")
-    range_bearing_cov: Covariance2 | None = Field(None, description="covariance R of a (range, bearing) observation [m², rad²]; None: the sequence's noise, else the EKF-SLAM default")
+    twist_cov: Covariance2 | None = Field(
+        None,
+        description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default",
+    )
+    increment_cov: Covariance3 | None = Field(
+        None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's"
+    )
+    range_bearing_cov: Covariance2 | None = Field(
+        None,
+        description="covariance R of a (range, bearing) observation [m², rad²]; None: the sequence's noise, else the EKF-SLAM default",
+    )
     range_bearing_noise: RangeBearingNoise = Field(
-        RangeBearingNoise.POLAR, description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)")
+        RangeBearingNoise.POLAR,
+        description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)",
+    )
     use_ids: bool = Field(True, description="associate by the ids in the data; False: per-particle maximum likelihood")
     known_confidence: Probability | None = Field(
-        None, description="χ²₂ gate on a labelled row of a mapped landmark: rejected (for every particle) when, for particles of more than "
-                          "half the weight, its d² at the predicted pose is beyond χ²₂(known_confidence) — EKF-SLAM's gate; None: no gate")
+        None,
+        description="χ²₂ gate on a labelled row of a mapped landmark: rejected (for every particle) when, for particles of more than "
+        "half the weight, its d² at the predicted pose is beyond χ²₂(known_confidence) — EKF-SLAM's gate; None: no gate",
+    )
     association_confidence: Probability = Field(
-        0.9999, description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
-                            "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate")
+        0.9999,
+        description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
+        "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate",
+    )
     confirm_sightings: PositiveInt = Field(
-        1, description="unknown association: a landmark a particle starts is tentative (its sightings weigh as new landmarks and do not condition "
-                       "the proposal) until seen this many times (the first included) within confirm_window, and removed if not; 1: confirmed at once")
-    confirm_window: PositiveFloat = Field(math.inf, description="time [s] from its start a tentative landmark has to reach confirm_sightings")
-    max_range: PositiveFloat | None = Field(None, description="perceptual range [m] for the existence counters (unknown association); None: no counters")
-    fov: float | None = Field(None, gt=0.0, le=2 * math.pi, description="full field of view [rad] for the existence counters; None: all round")
+        1,
+        description="unknown association: a landmark a particle starts is tentative (its sightings weigh as new landmarks and do not condition "
+        "the proposal) until seen this many times (the first included) within confirm_window, and removed if not; 1: confirmed at once",
+    )
+    confirm_window: PositiveFloat = Field(
+        math.inf, description="time [s] from its start a tentative landmark has to reach confirm_sightings"
+    )
+    max_range: PositiveFloat | None = Field(
+        None, description="perceptual range [m] for the existence counters (unknown association); None: no counters"
+    )
+    fov: float | None = Field(
+        None, gt=0.0, le=2 * math.pi, description="full field of view [rad] for the existence counters; None: all round"
+    )
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < threshold · M")
-    max_chain: PositiveFloat = Field(1.0, description="sample from the motion model at least this often without observations [s]")
+    max_chain: PositiveFloat = Field(
+        1.0, description="sample from the motion model at least this often without observations [s]"
+    )
     trajectory: Literal["mean", "best"] = Field(
-        "mean", description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), or the ancestral path of the particle of largest final weight")
-    initial_cov: Covariance3 = Field(0.0, description="covariance of the start pose the particles are drawn from [m², m², rad²]")
+        "mean",
+        description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), or the ancestral path of the particle of largest final weight",
+    )
+    initial_cov: Covariance3 = Field(
+        0.0, description="covariance of the start pose the particles are drawn from [m², m², rad²]"
+    )
     seed: NonNegativeInt = Field(0, description="seed of the random generator")
-    step_clock: StepClock = Field("wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]")
+    step_clock: StepClock = Field(
+        "wall", description="clock of run()'s step_time: wall time, or the process's CPU time (all threads) [s]"
+    )
 
     @model_validator(mode="after")
     def _field_of_view_needs_a_range(self):
         if self.fov is not None and self.max_range is None:
             raise ValueError("fov is the perceptual field of the existence counters and needs max_range")
         if self.confirm_sightings > 1 and self.use_ids:
-            raise ValueError("confirm_sightings > 1 decides which landmarks a particle keeps without ids; with use_ids the ids decide")
+            raise ValueError(
+                "confirm_sightings > 1 decides which landmarks a particle keeps without ids; with use_ids the ids decide"
+            )
         return self
 
 
@@ -141,7 +183,9 @@ class FastSLAM:
         self.params = self.Params.of(params, overrides)
         self.model = MOTION_MODELS[self.params.motion_model]
         self.gate = float(chi2.ppf(self.params.association_confidence, 2))
-        self.gate_known = np.inf if self.params.known_confidence is None else float(chi2.ppf(self.params.known_confidence, 2))
+        self.gate_known = (
+            np.inf if self.params.known_confidence is None else float(chi2.ppf(self.params.known_confidence, 2))
+        )
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -149,9 +193,29 @@ class FastSLAM:
         """Start over: every particle at the start pose (of ``sequence``, else the origin), noise resolved."""
         p = self.params
         noise = getattr(sequence, "noise", None)
-        self.M_twist = np.asarray(p.twist_cov) if p.twist_cov is not None else np.asarray(getattr(noise, "twist_cov", None) if getattr(noise, "twist_cov", None) is not None else DEFAULT_TWIST_COV, dtype=float)
-        self.R = np.asarray(p.range_bearing_cov) if p.range_bearing_cov is not None else np.asarray(getattr(noise, "range_bearing_cov", None) if getattr(noise, "range_bearing_cov", None) is not None else DEFAULT_RANGE_BEARING_COV, dtype=float)
-        self.increment_cov = np.asarray(p.increment_cov) if p.increment_cov is not None else getattr(noise, "increment_cov", None)
+        self.M_twist = (
+            np.asarray(p.twist_cov)
+            if p.twist_cov is not None
+            else np.asarray(
+                getattr(noise, "twist_cov", None)
+                if getattr(noise, "twist_cov", None) is not None
+                else DEFAULT_TWIST_COV,
+                dtype=float,
+            )
+        )
+        self.R = (
+            np.asarray(p.range_bearing_cov)
+            if p.range_bearing_cov is not None
+            else np.asarray(
+                getattr(noise, "range_bearing_cov", None)
+                if getattr(noise, "range_bearing_cov", None) is not None
+                else DEFAULT_RANGE_BEARING_COV,
+                dtype=float,
+            )
+        )
+        self.increment_cov = (
+            np.asarray(p.increment_cov) if p.increment_cov is not None else getattr(noise, "increment_cov", None)
+        )
         self.rng = np.random.default_rng(p.seed)
         start = sequence.start_pose if sequence is not None else np.zeros(3)
         M = p.particles
@@ -170,7 +234,9 @@ class FastSLAM:
         self.resamplings = 0
         self._sets = 0
         self._t = float(getattr(sequence, "t0", 0.0))
-        self.split_t = np.full(M - 1, self._t)   # s_m: when the lineages of particles m and m + 1 last met (module docstring)
+        self.split_t = np.full(
+            M - 1, self._t
+        )  # s_m: when the lineages of particles m and m + 1 last met (module docstring)
 
     @property
     def M(self) -> int:
@@ -215,7 +281,9 @@ class FastSLAM:
         """A chain of controls (v_k, ω_k) held for dt_k; returns Δ and Σ_Δ after each piece ((K, 3), (K, 3, 3))."""
         v, omega, dt = (np.asarray(a, dtype=float).reshape(-1) for a in (v, omega, dt))
         if not np.all(np.isfinite(dt) & (dt > 0)):
-            raise ValueError(f"predict: dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}")
+            raise ValueError(
+                f"predict: dt must be finite and > 0, got {dt[~(np.isfinite(dt) & (dt > 0))][:3].tolist()}"
+            )
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
             raise ValueError("predict: controls must be finite")
         delta = self.model.increment(v, omega, dt)
@@ -227,7 +295,9 @@ class FastSLAM:
         delta = np.asarray(delta, dtype=float).reshape(-1, 3)
         C = self.increment_cov if cov is None else cov
         if C is None:
-            raise ValueError("predict_increments: no increment covariance (give cov, increment_cov, or Noise.increment_cov)")
+            raise ValueError(
+                "predict_increments: no increment covariance (give cov, increment_cov, or Noise.increment_cov)"
+            )
         C = np.broadcast_to(np.asarray(C, dtype=float), (len(delta), 3, 3))
         if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C))):
             raise ValueError("predict_increments: increments and covariances must be finite")
@@ -282,12 +352,35 @@ class FastSLAM:
         if len(z):
             top = int(slots.max()) if p.use_ids else int(self.n_slots.max()) + len(z)
             self.store.reserve(top, self.M * (len(z) + (0 if p.use_ids else int(self.n_slots.max()))))
-            log_p0 = -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)   # (k,): each row's own R_j
+            log_p0 = (
+                -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)
+            )  # (k,): each row's own R_j
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
-            update_particles(p.version, p.use_ids, xhat, P, eps, self.log_w, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, self.n_live,
-                             R, self.gate, log_p0, max_range, half_fov, p.confirm_sightings, p.confirm_window, t, self.store.depth,
-                             *self.store.kernel_args(), poses, assoc)
+            update_particles(
+                p.version,
+                p.use_ids,
+                xhat,
+                P,
+                eps,
+                self.log_w,
+                np.ascontiguousarray(z[:, :2]),
+                slots,
+                self.n_slots,
+                self.n_live,
+                R,
+                self.gate,
+                log_p0,
+                max_range,
+                half_fov,
+                p.confirm_sightings,
+                p.confirm_window,
+                t,
+                self.store.depth,
+                *self.store.kernel_args(),
+                poses,
+                assoc,
+            )
         else:
             poses = xhat + np.einsum("mij,mj->mi", _sqrt_batch(P), eps)
             poses[:, 2] = wrap_angle(poses[:, 2])
@@ -308,9 +401,20 @@ class FastSLAM:
         row, before any particle uses it, so that it changes no particle or none (a per-particle gate would reward the
         particles that reject it). A row of a landmark no particle has mapped yet always passes.
         """
-        d2 = predictive_d2(xhat, P, np.ascontiguousarray(z[:, :2]), slots, self.n_slots, R, self.store.depth,
-                           self.store.roots, self.store.inner_child, self.store.leaf_mu, self.store.leaf_S)
-        outlier = self.weights @ (d2 > self.gate_known) > 0.5      # NaN (not mapped) compares False
+        d2 = predictive_d2(
+            xhat,
+            P,
+            np.ascontiguousarray(z[:, :2]),
+            slots,
+            self.n_slots,
+            R,
+            self.store.depth,
+            self.store.roots,
+            self.store.inner_child,
+            self.store.leaf_mu,
+            self.store.leaf_S,
+        )
+        outlier = self.weights @ (d2 > self.gate_known) > 0.5  # NaN (not mapped) compares False
         self.rejected["gate"] += int(outlier.sum())
         keep = ~outlier
         return z[keep], slots[keep], R[keep]
@@ -330,7 +434,7 @@ class FastSLAM:
         """Low-variance (systematic) resampling; returns the ancestors (M,)."""
         cumulative = np.cumsum(self.weights)
         cumulative[-1] = 1.0
-        pointers = (self.rng.uniform(0.0, 1.0 / self.M) + np.arange(self.M) / self.M)
+        pointers = self.rng.uniform(0.0, 1.0 / self.M) + np.arange(self.M) / self.M
         ancestors = np.searchsorted(cumulative, pointers, side="right").astype(np.int64)
         self._trace_ancestry(ancestors)
         self.x0 = self.x0[ancestors]
@@ -345,7 +449,7 @@ class FastSLAM:
     def _trace_ancestry(self, a: np.ndarray) -> None:
         """s ← s' for the non-decreasing ancestors a (M,) of a resampling (module docstring, "Ancestry"): O(M)."""
         split = np.full(a.size - 1, self._t)
-        apart = np.flatnonzero(a[:-1] < a[1:])       # neighbours of different parents: the earliest split between them
+        apart = np.flatnonzero(a[:-1] < a[1:])  # neighbours of different parents: the earliest split between them
         if apart.size:
             split[apart] = np.minimum.reduceat(self.split_t[: a[-1]], a[apart])
         self.split_t = split

@@ -40,6 +40,7 @@ takes the new-landmark likelihood ``log_p0`` — as if it started a landmark —
 at time t with t − t₀ > window is removed. k = 1: every landmark is confirmed when started (the plain
 per-particle maximum likelihood above).
 """
+
 from __future__ import annotations
 
 import math
@@ -181,9 +182,44 @@ def predictive_d2(xhat, P, z, slots, n_slots, R, depth, roots, inner_child, leaf
 
 
 @njit(cache=True)
-def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_live, R, gate, log_p0, max_range, half_fov,
-                     confirm, window, t, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
-                     free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf, poses_out, assoc_out):
+def update_particles(
+    version,
+    known,
+    xhat,
+    P,
+    eps,
+    log_w,
+    z,
+    slots,
+    n_slots,
+    n_live,
+    R,
+    gate,
+    log_p0,
+    max_range,
+    half_fov,
+    confirm,
+    window,
+    t,
+    depth,
+    roots,
+    inner_child,
+    inner_ref,
+    leaf_mu,
+    leaf_S,
+    leaf_state,
+    leaf_seen,
+    leaf_born,
+    leaf_ref,
+    free_inner,
+    top_inner,
+    used_inner,
+    free_leaf,
+    top_leaf,
+    used_leaf,
+    poses_out,
+    assoc_out,
+):
     """One observation set z (k, 2) for every particle (module docstring).
 
     known: slots (k,) are the landmarks' slots (the same in every particle; a slot ≥ n_slots[m] is new).
@@ -297,8 +333,26 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                 state = 2 if max_range > 0.0 and not known else 1
                 seen = 1
                 born = t
-            leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
-                                 free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+            leaf, off = writable(
+                m,
+                s,
+                depth,
+                roots,
+                inner_child,
+                inner_ref,
+                leaf_mu,
+                leaf_S,
+                leaf_state,
+                leaf_seen,
+                leaf_born,
+                leaf_ref,
+                free_inner,
+                top_inner,
+                used_inner,
+                free_leaf,
+                top_leaf,
+                used_leaf,
+            )
             leaf_mu[leaf, off] = new_mu
             leaf_S[leaf, off] = new_S
             leaf_state[leaf, off] = state
@@ -317,8 +371,26 @@ def update_particles(version, known, xhat, P, eps, log_w, z, slots, n_slots, n_l
                     range_bearing(x, mus[s], zhat, Hx, Hm)
                     missed = zhat[0] <= max_range and abs(zhat[1]) <= half_fov
                 if expired or missed:
-                    leaf, off = writable(m, s, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born,
-                                         leaf_ref, free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+                    leaf, off = writable(
+                        m,
+                        s,
+                        depth,
+                        roots,
+                        inner_child,
+                        inner_ref,
+                        leaf_mu,
+                        leaf_S,
+                        leaf_state,
+                        leaf_seen,
+                        leaf_born,
+                        leaf_ref,
+                        free_inner,
+                        top_inner,
+                        used_inner,
+                        free_leaf,
+                        top_leaf,
+                        used_leaf,
+                    )
                     leaf_state[leaf, off] = 0 if expired else leaf_state[leaf, off] - 1
                     if leaf_state[leaf, off] == 0:
                         n_live[m] -= 1

@@ -26,6 +26,7 @@ Diagnostics (arrays):
     rejected_nonfinite, rejected_negative_range, rejected_gate, rejected_motion   counts (rejected_gate: labelled rows
                             beyond the known-landmark gate, ``known_confidence``)
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,7 +41,9 @@ from ..stepping import CLOCKS, last_per_stamp, twist_pieces
 __all__ = ["run_sequence", "mixture_moments"]
 
 
-def mixture_moments(x0: np.ndarray, weights: np.ndarray, deltas: np.ndarray, Sigmas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def mixture_moments(
+    x0: np.ndarray, weights: np.ndarray, deltas: np.ndarray, Sigmas: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Mean (K, 3) and covariance (K, 3, 3) of the particle mixture at K stamps of one chain.
 
     x0 (M, 3) poses at the chain's start, weights (M,) normalised, deltas (K, 3) / Sigmas (K, 3, 3) the
@@ -48,7 +51,9 @@ def mixture_moments(x0: np.ndarray, weights: np.ndarray, deltas: np.ndarray, Sig
     """
     xhat = compose(x0[None, :, :], deltas[:, None, :])  # (K, M, 3)
     mean = np.einsum("m,kmi->ki", weights, xhat)
-    mean[:, 2] = np.arctan2(np.einsum("m,km->k", weights, np.sin(xhat[..., 2])), np.einsum("m,km->k", weights, np.cos(xhat[..., 2])))
+    mean[:, 2] = np.arctan2(
+        np.einsum("m,km->k", weights, np.sin(xhat[..., 2])), np.einsum("m,km->k", weights, np.cos(xhat[..., 2]))
+    )
     d = xhat - mean[:, None, :]
     d[..., 2] = wrap_angle(d[..., 2])
     J = compose_jacobians(x0, np.zeros(3))[1]  # blockdiag(R(θ0_m), 1) (M, 3, 3)
@@ -144,8 +149,16 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
                 e1 += 1
             if e1 > e0:  # the motion events in this part of the chain
                 k = event_piece[e0:e1] - start
-                D = np.where(k[:, None] >= 0, deltas[np.maximum(k, 0)], before[0]) if deltas.size else np.tile(before[0], (e1 - e0, 1))
-                S = np.where(k[:, None, None] >= 0, Sigmas[np.maximum(k, 0)], before[1]) if deltas.size else np.tile(before[1], (e1 - e0, 1, 1))
+                D = (
+                    np.where(k[:, None] >= 0, deltas[np.maximum(k, 0)], before[0])
+                    if deltas.size
+                    else np.tile(before[0], (e1 - e0, 1))
+                )
+                S = (
+                    np.where(k[:, None, None] >= 0, Sigmas[np.maximum(k, 0)], before[1])
+                    if deltas.size
+                    else np.tile(before[1], (e1 - e0, 1, 1))
+                )
                 mean, cov = mixture_moments(slam.x0, slam.weights, D, S)
                 now = timer()
                 for q in range(e1 - e0):
@@ -165,7 +178,7 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
         t_now = t_end
         if j < len(table):
             event = table[j]
-            slam.update(rb.z[event.start:event.stop], event.t)
+            slam.update(rb.z[event.start : event.stop], event.t)
             weights = np.exp(slam.last_log_w - slam.last_log_w.max())
             weights /= weights.sum()
             mean, cov = mixture_moments(slam.last_sampled, weights, np.zeros((1, 3)), np.zeros((1, 3, 3)))
@@ -185,15 +198,25 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
             clock = now
         i = j + 1
 
-    t, steps, mean_poses, covs, best = last_per_stamp(np.asarray(times), np.asarray(steps), np.asarray(means).reshape(-1, 3),
-                                                      np.asarray(covs).reshape(-1, 3, 3), history.best_path(int(np.argmax(slam.log_w))))
+    t, steps, mean_poses, covs, best = last_per_stamp(
+        np.asarray(times),
+        np.asarray(steps),
+        np.asarray(means).reshape(-1, 3),
+        np.asarray(covs).reshape(-1, 3, 3),
+        history.best_path(int(np.argmax(slam.log_w))),
+    )
     ids, xy, lcov = slam.landmarks()
     counts = np.asarray(counts, dtype=float).reshape(-1, 3)
     diagnostics = {
-        "neff": np.asarray(neff), "neff_t": np.asarray(neff_t), "resampled": np.asarray(resampled, dtype=bool),
+        "neff": np.asarray(neff),
+        "neff_t": np.asarray(neff_t),
+        "resampled": np.asarray(resampled, dtype=bool),
         "common_ancestor_t": np.asarray(ancestor_t, dtype=float),
-        "landmarks_min": counts[:, 0], "landmarks_mean": counts[:, 1], "landmarks_max": counts[:, 2],
-        "rejected_nonfinite": np.array(slam.rejected["nonfinite"]), "rejected_negative_range": np.array(slam.rejected["negative_range"]),
+        "landmarks_min": counts[:, 0],
+        "landmarks_mean": counts[:, 1],
+        "landmarks_max": counts[:, 2],
+        "rejected_nonfinite": np.array(slam.rejected["nonfinite"]),
+        "rejected_negative_range": np.array(slam.rejected["negative_range"]),
         "rejected_gate": np.array(slam.rejected["gate"]),
         "rejected_motion": np.array(rejected_motion),
     }
@@ -201,10 +224,23 @@ def run_sequence(slam, sequence: Sequence) -> Estimate:
         poses, diagnostics["best_poses"] = mean_poses, best
     else:
         poses, diagnostics["mean_poses"] = best, mean_poses
-    meta = {"params": p.canonical(), "sequence": sequence.name, "resamplings": slam.resamplings, "n_landmarks": int(len(ids)),
-            "noise": {"twist_cov": slam.M_twist.tolist(), "range_bearing_cov": slam.R.tolist()},
-            "map_bytes": slam.store.nbytes()}
+    meta = {
+        "params": p.canonical(),
+        "sequence": sequence.name,
+        "resamplings": slam.resamplings,
+        "n_landmarks": int(len(ids)),
+        "noise": {"twist_cov": slam.M_twist.tolist(), "range_bearing_cov": slam.R.tolist()},
+        "map_bytes": slam.store.nbytes(),
+    }
     return Estimate(
-        method=f"fastslam{p.version}", t=t, poses=poses, pose_cov=covs,
-        landmark_ids=ids, landmarks=xy, landmark_cov=lcov, step_time=steps, diagnostics=diagnostics, meta=meta,
+        method=f"fastslam{p.version}",
+        t=t,
+        poses=poses,
+        pose_cov=covs,
+        landmark_ids=ids,
+        landmarks=xy,
+        landmark_cov=lcov,
+        step_time=steps,
+        diagnostics=diagnostics,
+        meta=meta,
     )

@@ -25,6 +25,7 @@ Pools (numba kernels below; the class grows them in Python before a kernel could
     leaf_born   (Nl, B)         time the landmark was started [s]
     leaf_ref    (Nl,)   int32
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -49,7 +50,9 @@ def _alloc(free, top, used, cap):
 
 
 @njit(cache=True)
-def _release(node, level, depth, inner_child, inner_ref, leaf_ref, free_inner, top_inner, free_leaf, top_leaf, stack_n, stack_l):
+def _release(
+    node, level, depth, inner_child, inner_ref, leaf_ref, free_inner, top_inner, free_leaf, top_leaf, stack_n, stack_l
+):
     """Drop one reference to ``node`` at ``level`` (level == depth: a leaf); free what reaches zero."""
     sp = 0
     stack_n[0] = node
@@ -92,8 +95,26 @@ def find(root, slot, depth, inner_child):
 
 
 @njit(cache=True)
-def writable(m, slot, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
-             free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf):
+def writable(
+    m,
+    slot,
+    depth,
+    roots,
+    inner_child,
+    inner_ref,
+    leaf_mu,
+    leaf_S,
+    leaf_state,
+    leaf_seen,
+    leaf_born,
+    leaf_ref,
+    free_inner,
+    top_inner,
+    used_inner,
+    free_leaf,
+    top_leaf,
+    used_leaf,
+):
     """(leaf, offset) of ``slot`` in particle m's tree, made private to m: every shared node on the path
     is copied (path copying), missing nodes are created. The caller writes the slot in place."""
     cap_inner = inner_child.shape[0]
@@ -158,17 +179,45 @@ def writable(m, slot, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, lea
 
 
 @njit(cache=True)
-def _resample(roots, ancestors, depth, inner_child, inner_ref, leaf_ref, free_inner, top_inner, free_leaf, top_leaf, stack_n, stack_l):
+def _resample(
+    roots,
+    ancestors,
+    depth,
+    inner_child,
+    inner_ref,
+    leaf_ref,
+    free_inner,
+    top_inner,
+    free_leaf,
+    top_leaf,
+    stack_n,
+    stack_l,
+):
     old = roots.copy()
     for m in range(roots.shape[0]):
         roots[m] = old[ancestors[m]]
         inner_ref[roots[m]] += 1
     for m in range(old.shape[0]):
-        _release(old[m], 0, depth, inner_child, inner_ref, leaf_ref, free_inner, top_inner, free_leaf, top_leaf, stack_n, stack_l)
+        _release(
+            old[m],
+            0,
+            depth,
+            inner_child,
+            inner_ref,
+            leaf_ref,
+            free_inner,
+            top_inner,
+            free_leaf,
+            top_leaf,
+            stack_n,
+            stack_l,
+        )
 
 
 @njit(cache=True)
-def _gather(roots, n_slots, depth, inner_child, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, mu, S, state, seen, born):
+def _gather(
+    roots, n_slots, depth, inner_child, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, mu, S, state, seen, born
+):
     for m in range(roots.shape[0]):
         for s in range(n_slots):
             leaf, off = find(roots[m], s, depth, inner_child)
@@ -278,26 +327,68 @@ class LandmarkStore:
     def resample(self, ancestors: np.ndarray) -> None:
         """Particle m takes the map of particle ``ancestors[m]`` (O(M): roots only)."""
         self.reserve(0, 0)
-        _resample(self.roots, np.ascontiguousarray(ancestors, dtype=np.int64), self.depth, self.inner_child, self.inner_ref,
-                  self.leaf_ref, self.free_inner, self.top_inner, self.free_leaf, self.top_leaf, *self._stack)
+        _resample(
+            self.roots,
+            np.ascontiguousarray(ancestors, dtype=np.int64),
+            self.depth,
+            self.inner_child,
+            self.inner_ref,
+            self.leaf_ref,
+            self.free_inner,
+            self.top_inner,
+            self.free_leaf,
+            self.top_leaf,
+            *self._stack,
+        )
 
     def gather(self, n_slots: int, particles=None) -> tuple[np.ndarray, ...]:
         """Slots 0…n−1 of the given particles (default all, P of them): μ (P, n, 2), Σ as (σxx, σxy, σyy)
         (P, n, 3), state (P, n), sightings (P, n), birth time (P, n)."""
-        roots = self.roots if particles is None else np.ascontiguousarray(self.roots[np.asarray(particles, dtype=np.int64)])
+        roots = (
+            self.roots if particles is None else np.ascontiguousarray(self.roots[np.asarray(particles, dtype=np.int64)])
+        )
         mu = np.zeros((roots.size, n_slots, 2))
         S = np.zeros((roots.size, n_slots, 3))
         state = np.zeros((roots.size, n_slots), dtype=np.int32)
         seen = np.zeros((roots.size, n_slots), dtype=np.int32)
         born = np.zeros((roots.size, n_slots))
-        _gather(roots, n_slots, self.depth, self.inner_child, self.leaf_mu, self.leaf_S, self.leaf_state, self.leaf_seen, self.leaf_born,
-                mu, S, state, seen, born)
+        _gather(
+            roots,
+            n_slots,
+            self.depth,
+            self.inner_child,
+            self.leaf_mu,
+            self.leaf_S,
+            self.leaf_state,
+            self.leaf_seen,
+            self.leaf_born,
+            mu,
+            S,
+            state,
+            seen,
+            born,
+        )
         return mu, S, state, seen, born
 
     def kernel_args(self) -> tuple:
         """The pools in the order the update kernels take them."""
-        return (self.roots, self.inner_child, self.inner_ref, self.leaf_mu, self.leaf_S, self.leaf_state, self.leaf_seen, self.leaf_born, self.leaf_ref,
-                self.free_inner, self.top_inner, self.used_inner, self.free_leaf, self.top_leaf, self.used_leaf)
+        return (
+            self.roots,
+            self.inner_child,
+            self.inner_ref,
+            self.leaf_mu,
+            self.leaf_S,
+            self.leaf_state,
+            self.leaf_seen,
+            self.leaf_born,
+            self.leaf_ref,
+            self.free_inner,
+            self.top_inner,
+            self.used_inner,
+            self.free_leaf,
+            self.top_leaf,
+            self.used_leaf,
+        )
 
 
 def _grown(a: np.ndarray, size: int, fill) -> np.ndarray:

@@ -21,11 +21,21 @@ that reaches no optimum raises :class:`OptimizationError` (:mod:`.graph`), never
 The model, the noise mapping from the filters and the frame conventions are in the module
 docstrings of :mod:`.landmark`, :mod:`.noise` and in ``research/graph_slam.md``.
 """
+
 from .batch import BatchSmoother, BatchSmootherParams
 from .fixed_lag import FixedLagLocalizer, FixedLagLocalizerParams
 from .graph import OptimizationError
 from .isam2 import ISAM2Smoother, ISAM2SmootherParams
 from .pose_graph import PoseGraphOptimizer, PoseGraphOptimizerParams
 
-__all__ = ["BatchSmoother", "BatchSmootherParams", "ISAM2Smoother", "ISAM2SmootherParams", "FixedLagLocalizer",
-           "FixedLagLocalizerParams", "PoseGraphOptimizer", "PoseGraphOptimizerParams", "OptimizationError"]
+__all__ = [
+    "BatchSmoother",
+    "BatchSmootherParams",
+    "ISAM2Smoother",
+    "ISAM2SmootherParams",
+    "FixedLagLocalizer",
+    "FixedLagLocalizerParams",
+    "PoseGraphOptimizer",
+    "PoseGraphOptimizerParams",
+    "OptimizationError",
+]

@@ -28,6 +28,7 @@ values), ``final_error`` (at the optimum), ``iterations`` and the rejected-input
 canonical parameters. An optimisation that does not converge, and a failure of GTSAM's marginals, is
 :class:`~.graph.OptimizationError` (:func:`~.graph.optimize`), never a result.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -41,8 +42,21 @@ from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field
 
-from .graph import (L, OptimizationError, OptimizerParams, X, gtsam_errors, landmark_step_factors, observation_noises, optimize,
-                    point_covariances, points_of, poses_of, range_noise, world_pose_covariances)
+from .graph import (
+    L,
+    OptimizationError,
+    OptimizerParams,
+    X,
+    gtsam_errors,
+    landmark_step_factors,
+    observation_noises,
+    optimize,
+    point_covariances,
+    points_of,
+    poses_of,
+    range_noise,
+    world_pose_covariances,
+)
 from .isam2 import ISAM2Smoother
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
 from .problem import LandmarkProblem, valid_covariances
@@ -54,8 +68,10 @@ class BatchSmootherParams(LandmarkSmootherParams, OptimizerParams):
     """Parameters of :class:`BatchSmoother`: the landmark smoothers', the optimiser's and the initial values."""
 
     initial: Literal["isam2", "dead_reckoning"] = Field(
-        "isam2", description="initial values: iSAM2's estimate (no final updates), or dead reckoning with each landmark from its "
-                             "first observation")
+        "isam2",
+        description="initial values: iSAM2's estimate (no final updates), or dead reckoning with each landmark from its "
+        "first observation",
+    )
 
 
 class BatchSmoother(LandmarkSmoother):
@@ -68,7 +84,9 @@ class BatchSmoother(LandmarkSmoother):
         obs_noises = observation_noises(problem, self.params)
         rng_noise = range_noise(problem.R_range, self.params)
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
-            graph.push_back(landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows))
+            graph.push_back(
+                landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows)
+            )
         for j in self.anchored_beacons(problem):
             graph.add(self.beacon_prior(problem, j))
         return graph
@@ -94,13 +112,17 @@ class BatchSmoother(LandmarkSmoother):
     def isam2_start(self, problem: LandmarkProblem) -> Estimate:
         """iSAM2's estimate without final updates and marginals, on the problem without the free beacons' ranges."""
         keep = ~np.isin(problem.rng_id, self.free_beacons(problem))
-        startable = dataclasses.replace(problem, rng_pose=problem.rng_pose[keep], rng_id=problem.rng_id[keep], rng_range=problem.rng_range[keep])
+        startable = dataclasses.replace(
+            problem, rng_pose=problem.rng_pose[keep], rng_id=problem.rng_id[keep], rng_range=problem.rng_range[keep]
+        )
         shared = {name: getattr(self.params, name) for name in LandmarkSmootherParams.model_fields}
         try:
             return ISAM2Smoother(**{**shared, "covariances": False, "final_updates": 0}).solve(startable)
         except OptimizationError as exc:
-            raise OptimizationError(f"the batch smoother's start (initial='isam2'): {exc}; initial='dead_reckoning' starts from dead "
-                                    "reckoning") from exc
+            raise OptimizationError(
+                f"the batch smoother's start (initial='isam2'): {exc}; initial='dead_reckoning' starts from dead "
+                "reckoning"
+            ) from exc
 
     def run(self, sequence: Sequence, between_cov: np.ndarray | None = None) -> Estimate:
         """The optimum of the sequence's graph; ``between_cov`` (K − 1, 3, 3) replaces the between factors' covariances
@@ -134,16 +156,29 @@ class BatchSmoother(LandmarkSmoother):
             **problem.counts,
         }
         return Estimate(
-            method="gtsam_batch", t=problem.t, poses=poses, pose_cov=pose_cov, landmark_ids=ids, landmarks=landmarks,
-            landmark_cov=landmark_cov, diagnostics=diagnostics,
-            meta={"params": self.params.canonical(), "factors": int(graph.size()), "poses": problem.n_poses, "landmarks": int(ids.size)},
+            method="gtsam_batch",
+            t=problem.t,
+            poses=poses,
+            pose_cov=pose_cov,
+            landmark_ids=ids,
+            landmarks=landmarks,
+            landmark_cov=landmark_cov,
+            diagnostics=diagnostics,
+            meta={
+                "params": self.params.canonical(),
+                "factors": int(graph.size()),
+                "poses": problem.n_poses,
+                "landmarks": int(ids.size),
+            },
         )
 
 
 def _checked_between(between_cov, problem: LandmarkProblem) -> np.ndarray:
     C = np.asarray(between_cov, dtype=float)
     if C.shape != problem.cov.shape:
-        raise ValueError(f"between_cov must have shape {problem.cov.shape} (one 3×3 covariance per step of the problem), got {C.shape}")
+        raise ValueError(
+            f"between_cov must have shape {problem.cov.shape} (one 3×3 covariance per step of the problem), got {C.shape}"
+        )
     positive = valid_covariances(C)
     positive[positive] = np.linalg.eigvalsh(C[positive])[:, 0] > 0
     bad = np.flatnonzero(~positive)

@@ -33,6 +33,7 @@ trajectory (without covariances) as ``online_poses`` / ``smoothed_poses``, and t
 rejected-input counts; ``meta["params"]`` the canonical parameters. ``step_time[k]`` =
 wall time of update k.
 """
+
 from __future__ import annotations
 
 import time
@@ -47,7 +48,16 @@ from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Covariance2, Field
 
-from .graph import OptimizationError, RelinearizationParams, RelinearizeSkip, RobustKernelParams, X, gtsam_errors, isam2_params, noise_model
+from .graph import (
+    OptimizationError,
+    RelinearizationParams,
+    RelinearizeSkip,
+    RobustKernelParams,
+    X,
+    gtsam_errors,
+    isam2_params,
+    noise_model,
+)
 from .noise import body_to_world
 from .problem import MotionModelName, PoseChainParams, check_covariance, motion_chain, summable
 
@@ -60,11 +70,19 @@ class FixedLagLocalizerParams(PoseChainParams, RobustKernelParams, Relinearizati
 
     motion_model: MotionModelName = "euler"
     relinearize_skip: RelinearizeSkip = 1
-    lag: PositiveFloat = Field(2.0, description="poses older than this behind the newest are marginalised out of the window [s]")
+    lag: PositiveFloat = Field(
+        2.0, description="poses older than this behind the newest are marginalised out of the window [s]"
+    )
     output: Literal["smoothed", "online"] = Field(
-        "smoothed", description="each pose as it leaves the window (seen lag seconds of later data) or right after its own update")
-    gps_cov: Covariance2 | None = Field(None, description="covariance of one GPS fix (x, y) [m²]; None: the sequence's Noise.gps_cov")
-    yaw_var: NonNegativeFloat | None = Field(None, description="variance of one IMU yaw [rad²]; None: the sequence's Noise.yaw_var")
+        "smoothed",
+        description="each pose as it leaves the window (seen lag seconds of later data) or right after its own update",
+    )
+    gps_cov: Covariance2 | None = Field(
+        None, description="covariance of one GPS fix (x, y) [m²]; None: the sequence's Noise.gps_cov"
+    )
+    yaw_var: NonNegativeFloat | None = Field(
+        None, description="variance of one IMU yaw [rad²]; None: the sequence's Noise.yaw_var"
+    )
 
 
 class FixedLagLocalizer:
@@ -89,7 +107,9 @@ class FixedLagLocalizer:
         else:
             gps = None
         if heading is not None and len(heading):
-            R_imu = check_covariance("yaw_var", np.atleast_2d(float(_noise(self.params.yaw_var, sequence.noise.yaw_var, "yaw_var"))), (1, 1))
+            R_imu = check_covariance(
+                "yaw_var", np.atleast_2d(float(_noise(self.params.yaw_var, sequence.noise.yaw_var, "yaw_var"))), (1, 1)
+            )
             ok = summable(heading.yaw)
             counts["rejected_nonfinite_heading"] = int((~ok).sum())
             heading = heading.select(ok)
@@ -125,7 +145,11 @@ class FixedLagLocalizer:
                 factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(self.prior_cov)))
                 x = chain.start
             else:
-                factors.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])))
+                factors.add(
+                    gtsam.BetweenFactorPose2(
+                        X(k - 1), X(k), gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])
+                    )
+                )
                 x = compose(online[k - 1], chain.delta[k - 1])
             for r in gps_rows[k]:
                 factors.add(gtsam.PoseTranslationPrior2D(X(k), gps.xy[r], gps_noise))
@@ -145,8 +169,13 @@ class FixedLagLocalizer:
         else:
             poses, cov, other = online, online_cov, {"smoothed_poses": smoothed}
         return Estimate(
-            method="gtsam_fixed_lag", t=chain.t, poses=poses, pose_cov=cov, step_time=step_time,
-            diagnostics={**other, **counts}, meta={"params": self.params.canonical(), "poses": K},
+            method="gtsam_fixed_lag",
+            t=chain.t,
+            poses=poses,
+            pose_cov=cov,
+            step_time=step_time,
+            diagnostics={**other, **counts},
+            meta={"params": self.params.canonical(), "poses": K},
         )
 
 

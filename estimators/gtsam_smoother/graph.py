@@ -27,6 +27,7 @@ the tolerances ask for more than round-off allows). Inside :func:`gtsam_errors`,
 ``RuntimeError`` (an indeterminate linear system, …) becomes an :class:`OptimizationError` that says
 where it happened and which variable GTSAM names.
 """
+
 from __future__ import annotations
 
 import re
@@ -46,26 +47,57 @@ from .noise import body_to_world
 from .problem import LandmarkProblem
 
 __all__ = [
-    "X", "L", "RobustKernelParams", "OptimizerParams", "RelinearizationParams", "RelativeErrorTol", "AbsoluteErrorTol",
-    "RelinearizeSkip", "ComputeCovariances", "noise_model", "information_model", "robustify", "observation_noise",
-    "range_noise", "observation_noises", "landmark_step_factors", "isam2_params", "optimize", "OptimizeResult", "OptimizationError", "gtsam_errors", "finite_error",
-    "remaining_decrease", "NEGLIGIBLE_DECREASE",
-    "poses_of", "points_of",
+    "X",
+    "L",
+    "RobustKernelParams",
+    "OptimizerParams",
+    "RelinearizationParams",
+    "RelativeErrorTol",
+    "AbsoluteErrorTol",
+    "RelinearizeSkip",
+    "ComputeCovariances",
+    "noise_model",
+    "information_model",
+    "robustify",
+    "observation_noise",
+    "range_noise",
+    "observation_noises",
+    "landmark_step_factors",
+    "isam2_params",
+    "optimize",
+    "OptimizeResult",
+    "OptimizationError",
+    "gtsam_errors",
+    "finite_error",
+    "remaining_decrease",
+    "NEGLIGIBLE_DECREASE",
+    "poses_of",
+    "points_of",
 ]
 
 _SWAP = np.array([[0.0, 1.0], [1.0, 0.0]])
 
 #: field types whose default differs between the models that share them (one description, one rule each)
-RelativeErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the error's relative decrease in one iteration is below this [1]")]
-AbsoluteErrorTol = Annotated[NonNegativeFloat, Field(description="stop when the error's decrease in one iteration is below this [½ χ²]")]
-RelinearizeSkip = Annotated[PositiveInt, Field(description="iSAM2 checks which variables to relinearise every this many updates")]
-ComputeCovariances = Annotated[bool, Field(description="compute the marginal covariances: world-frame pose_cov and landmark_cov")]
+RelativeErrorTol = Annotated[
+    NonNegativeFloat, Field(description="stop when the error's relative decrease in one iteration is below this [1]")
+]
+AbsoluteErrorTol = Annotated[
+    NonNegativeFloat, Field(description="stop when the error's decrease in one iteration is below this [½ χ²]")
+]
+RelinearizeSkip = Annotated[
+    PositiveInt, Field(description="iSAM2 checks which variables to relinearise every this many updates")
+]
+ComputeCovariances = Annotated[
+    bool, Field(description="compute the marginal covariances: world-frame pose_cov and landmark_cov")
+]
 
 
 class OptimizerParams(Params):
     """Batch nonlinear least squares (:func:`optimize`)."""
 
-    optimizer: Literal["lm", "gauss_newton", "dogleg"] = Field("lm", description="Levenberg-Marquardt, Gauss-Newton or Powell's Dogleg")
+    optimizer: Literal["lm", "gauss_newton", "dogleg"] = Field(
+        "lm", description="Levenberg-Marquardt, Gauss-Newton or Powell's Dogleg"
+    )
     max_iterations: PositiveInt = Field(100, description="most iterations of the optimiser")
     relative_error_tol: RelativeErrorTol = 1e-10
     absolute_error_tol: AbsoluteErrorTol = 1e-10
@@ -75,7 +107,9 @@ class RelinearizationParams(Params):
     """iSAM2's relinearisation (:func:`isam2_params`)."""
 
     relinearize_threshold: NonNegativeFloat = Field(
-        0.1, description="iSAM2 relinearises a variable whose linear update exceeds this in any tangent coordinate [m, rad]")
+        0.1,
+        description="iSAM2 relinearises a variable whose linear update exceeds this in any tangent coordinate [m, rad]",
+    )
     relinearize_skip: RelinearizeSkip = 10
 
 
@@ -125,8 +159,16 @@ def range_noise(variance: float, kernel: RobustKernelParams | None = None):
     return robustify(gtsam.noiseModel.Isotropic.Variance(1, float(variance)), kernel)
 
 
-def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarray, between_cov: np.ndarray, obs_noises: list, rows: slice,
-                          rng_noise=None, range_rows: slice = slice(0, 0)) -> gtsam.NonlinearFactorGraph:
+def landmark_step_factors(
+    problem: LandmarkProblem,
+    k: int,
+    prior_cov: np.ndarray,
+    between_cov: np.ndarray,
+    obs_noises: list,
+    rows: slice,
+    rng_noise=None,
+    range_rows: slice = slice(0, 0),
+) -> gtsam.NonlinearFactorGraph:
     """Factors added with pose k: the prior (k = 0) or the between factor k−1 → k with covariance
     ``between_cov[k − 1]`` (``between_cov`` (K − 1, 3, 3): ``problem.cov``, or what the smoother made of it),
     pose k's observations (the rows of the observation arrays, each with its noise of ``obs_noises``,
@@ -135,8 +177,14 @@ def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarra
     if k == 0:
         graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*problem.start), noise_model(prior_cov)))
     else:
-        graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(between_cov[k - 1])))
-    for j, r, b, noise in zip(problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows], obs_noises[rows]):
+        graph.add(
+            gtsam.BetweenFactorPose2(
+                X(k - 1), X(k), gtsam.Pose2(*problem.delta[k - 1]), noise_model(between_cov[k - 1])
+            )
+        )
+    for j, r, b, noise in zip(
+        problem.obs_id[rows], problem.obs_range[rows], problem.obs_bearing[rows], obs_noises[rows]
+    ):
         graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2(float(b)), float(r), noise))
     for j, r in zip(problem.rng_id[range_rows], problem.rng_range[range_rows]):
         graph.add(gtsam.RangeFactor2D(X(k), L(j), float(r), rng_noise))
@@ -147,7 +195,7 @@ def landmark_step_factors(problem: LandmarkProblem, k: int, prior_cov: np.ndarra
 class OptimizeResult:
     """A converged optimum: its values, the error ½ Σ ‖e‖² at the initial values and at the optimum, the iterations."""
 
-    values: "gtsam.Values"
+    values: gtsam.Values
     initial_error: float
     final_error: float
     iterations: int
@@ -189,15 +237,19 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
     final_error = finite_error(graph, values, f"{name}: after {n} iterations")
     ran = f"{name}, {n} iterations, error {initial_error:.6g} → {final_error:.6g}"
     before, after = steps[-1] if steps else (initial_error, final_error)
-    tol = max(float(params.absolute_error_tol), float(params.relative_error_tol) * before)  # GTSAM's "no change" (checkConvergence)
+    tol = max(
+        float(params.absolute_error_tol), float(params.relative_error_tol) * before
+    )  # GTSAM's "no change" (checkConvergence)
     outlier = "a gross outlier or a wrong noise model? see the robust kernel"
     if params.optimizer == "lm" and opt.lambda_() >= settings.getlambdaUpperBound():
         stop = f"gave up, no damping up to λ = {settings.getlambdaUpperBound():g} lowers the error ({outlier})"
     elif after - before > tol:
         stop = f"diverging, the last iteration raised the error by {after - before:.3g} (Levenberg-Marquardt damps the steps; {outlier})"
     elif n >= params.max_iterations and before - after > tol:
-        stop = (f"not converged within max_iterations = {params.max_iterations}, the last iteration lowered the error by "
-                f"{before - after:.3g} (raise max_iterations)")
+        stop = (
+            f"not converged within max_iterations = {params.max_iterations}, the last iteration lowered the error by "
+            f"{before - after:.3g} (raise max_iterations)"
+        )
     elif final_error > initial_error:
         stop = "the error ended above where it started"
     else:
@@ -205,7 +257,9 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
     # stopped without converging: an error unless the answer is the optimum of its own linearisation all the same
     remaining = remaining_decrease(graph, values, f"{name}: the linearisation at its answer")
     if final_error > initial_error or remaining > max(tol, NEGLIGIBLE_DECREASE):
-        raise OptimizationError(f"{ran}: {stop}; its linearisation at the answer still promises a decrease of {remaining:.3g}")
+        raise OptimizationError(
+            f"{ran}: {stop}; its linearisation at the answer still promises a decrease of {remaining:.3g}"
+        )
     return OptimizeResult(values, initial_error, final_error, n, elapsed)
 
 
@@ -219,7 +273,9 @@ def remaining_decrease(graph, values, where: str) -> float:
     minus its minimum): ½ d² with d the Mahalanobis distance of ``values`` from the optimum of the linearisation."""
     with gtsam_errors(where):
         linear = graph.linearize(values)
-        step = linear.optimize(gtsam.EliminateQR)  # QR: Cholesky's pivot test (2⁻²⁴ of the diagonal) rejects stiff, determined systems
+        step = linear.optimize(
+            gtsam.EliminateQR
+        )  # QR: Cholesky's pivot test (2⁻²⁴ of the diagonal) rejects stiff, determined systems
     return float(linear.error(gtsam.VectorValues.Zero(step)) - linear.error(step))
 
 

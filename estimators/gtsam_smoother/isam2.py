@@ -48,6 +48,7 @@ step k), the landmarks still the final ones; ``step_time[k]`` = wall time
 ``relinearized`` (K,) variables relinearised per step, ``final_updates_used``, ``final_change``,
 ``final_error``, ``lifted_between``, ``between_cov`` (K − 1, 3, 3) and the rejected-input counts; ``meta["params"]`` the canonical parameters.
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -63,30 +64,57 @@ from slamarena.estimators.models import inverse_observe
 from slamarena.estimators.stepping import CLOCKS, StepClock
 from slamarena.params import Field
 
-from .graph import (NEGLIGIBLE_DECREASE, L, OptimizationError, RelinearizationParams, X, finite_error, gtsam_errors, isam2_params,
-                    landmark_step_factors, observation_noises, point_covariances, points_of, poses_of, range_noise, remaining_decrease,
-                    world_pose_covariances)
+from .graph import (
+    NEGLIGIBLE_DECREASE,
+    L,
+    OptimizationError,
+    RelinearizationParams,
+    X,
+    finite_error,
+    gtsam_errors,
+    isam2_params,
+    landmark_step_factors,
+    observation_noises,
+    point_covariances,
+    points_of,
+    poses_of,
+    range_noise,
+    remaining_decrease,
+    world_pose_covariances,
+)
 from .landmark import LandmarkSmoother, LandmarkSmootherParams
-from .problem import LandmarkProblem
 from .noise import floor_to_uncertainty
+from .problem import LandmarkProblem
 
 __all__ = ["ISAM2Smoother", "ISAM2SmootherParams"]
-
 
 
 class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
     """Parameters of :class:`ISAM2Smoother`: the landmark smoothers', iSAM2's relinearisation and the final updates."""
 
-    final_updates: NonNegativeInt = Field(10, description="most empty updates after the last step that relinearise and re-solve everything")
+    final_updates: NonNegativeInt = Field(
+        10, description="most empty updates after the last step that relinearise and re-solve everything"
+    )
     final_tol: PositiveFloat = Field(
-        1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]")
-    factorization: Literal["CHOLESKY", "QR"] = Field("CHOLESKY", description="iSAM2's factorisation of the linearised system")
-    step_clock: StepClock = Field("wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]")
+        1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]"
+    )
+    factorization: Literal["CHOLESKY", "QR"] = Field(
+        "CHOLESKY", description="iSAM2's factorisation of the linearised system"
+    )
+    step_clock: StepClock = Field(
+        "wall", description="clock of step_time: wall time, or the process's CPU time (all threads) [s]"
+    )
     output: Literal["smoothed", "online"] = Field(
-        "smoothed", description="the Estimate's poses: the final smoothed ones, or each x̂_k right after step k (what a filter has)")
+        "smoothed",
+        description="the Estimate's poses: the final smoothed ones, or each x̂_k right after step k (what a filter has)",
+    )
     uncertainty_floor: float | None = Field(
-        2.0**-22, gt=0.0, lt=1.0, description="ε of the stiffness rule: no between factor stiffer in any direction than ε times the "
-                                              "uncertainty of the poses it joins (noise.floor_to_uncertainty) [1]; None: factors as given")
+        2.0**-22,
+        gt=0.0,
+        lt=1.0,
+        description="ε of the stiffness rule: no between factor stiffer in any direction than ε times the "
+        "uncertainty of the poses it joins (noise.floor_to_uncertainty) [1]; None: factors as given",
+    )
 
 
 class ISAM2Smoother(LandmarkSmoother):
@@ -103,8 +131,10 @@ class ISAM2Smoother(LandmarkSmoother):
         problem = self.problem(sequence)
         free = self.free_beacons(problem)
         if free.size:
-            raise ValueError(f"{sequence.name}: beacons {free.tolist()} have ranges but no surveyed position (or beacon_prior_sigma is None); "
-                             "iSAM2 cannot initialise a beacon from one range — use gtsam_batch for range-only SLAM")
+            raise ValueError(
+                f"{sequence.name}: beacons {free.tolist()} have ranges but no surveyed position (or beacon_prior_sigma is None); "
+                "iSAM2 cannot initialise a beacon from one range — use gtsam_batch for range-only SLAM"
+            )
         return self.solve(problem)
 
     def solve(self, problem: LandmarkProblem) -> Estimate:
@@ -128,12 +158,16 @@ class ISAM2Smoother(LandmarkSmoother):
                 with gtsam_errors(where):
                     previous = isam.marginalCovariance(X(k - 1))
                 if not (np.isfinite(previous).all() and np.linalg.eigvalsh(previous)[0] > 0):
-                    raise OptimizationError(f"{where}: the marginal covariance of x{k - 1} is not positive definite (the estimate is diverging)")
+                    raise OptimizationError(
+                        f"{where}: the marginal covariance of x{k - 1} is not positive definite (the estimate is diverging)"
+                    )
                 given = problem.cov[k - 1]
                 C = floor_to_uncertainty(given, previous, problem.delta[k - 1], eps)
                 lifted += C is not given
                 between_cov[k - 1] = C
-            factors = landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows)
+            factors = landmark_step_factors(
+                problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows
+            )
             values = gtsam.Values()
             x = problem.start if k == 0 else compose(online[k - 1], problem.delta[k - 1])
             values.insert(X(k), gtsam.Pose2(*x))
@@ -174,11 +208,15 @@ class ISAM2Smoother(LandmarkSmoother):
             estimate = refined
         if self.params.final_updates and change > self.params.final_tol:
             # ran out: still the optimum if it is the optimum of its own linearisation (the rule of graph.optimize)
-            remaining = remaining_decrease(isam.getFactorsUnsafe(), estimate, f"iSAM2 after {used} final updates: the linearisation")
+            remaining = remaining_decrease(
+                isam.getFactorsUnsafe(), estimate, f"iSAM2 after {used} final updates: the linearisation"
+            )
             if remaining > NEGLIGIBLE_DECREASE:
-                raise OptimizationError(f"iSAM2: the final updates did not converge, after {used} a variable still moved by {change:.3g} "
-                                        f"> final_tol = {self.params.final_tol:g} and the linearisation at the answer still promises a "
-                                        f"decrease of {remaining:.3g}; raise final_updates")
+                raise OptimizationError(
+                    f"iSAM2: the final updates did not converge, after {used} a variable still moved by {change:.3g} "
+                    f"> final_tol = {self.params.final_tol:g} and the linearisation at the answer still promises a "
+                    f"decrease of {remaining:.3g}; raise final_updates"
+                )
         final_error = finite_error(isam.getFactorsUnsafe(), estimate, f"iSAM2 after {used} final updates")
         poses = poses_of(estimate, pose_keys)
         landmarks = points_of(estimate, landmark_keys)
@@ -200,8 +238,15 @@ class ISAM2Smoother(LandmarkSmoother):
         if self.params.output == "online":
             poses, pose_cov = online, None
         return Estimate(
-            method="gtsam_isam2", t=problem.t, poses=poses, pose_cov=pose_cov, landmark_ids=ids, landmarks=landmarks,
-            landmark_cov=landmark_cov, step_time=step_time, diagnostics=diagnostics,
+            method="gtsam_isam2",
+            t=problem.t,
+            poses=poses,
+            pose_cov=pose_cov,
+            landmark_ids=ids,
+            landmarks=landmarks,
+            landmark_cov=landmark_cov,
+            step_time=step_time,
+            diagnostics=diagnostics,
             meta={"params": self.params.canonical(), "poses": K, "landmarks": int(ids.size)},
         )
 

@@ -22,14 +22,14 @@ or ``None``: leave the beacons free (range-only SLAM; batch only, beacons initia
 from the batch smoother's initial poses, :meth:`LandmarkProblem.trilaterate`). :class:`LandmarkSmoother` is the
 behaviour both smoothers share.
 """
+
 from __future__ import annotations
 
+import gtsam
 import numpy as np
 
 from slamarena.datasets.sequence import Sequence
 from slamarena.params import Field
-
-import gtsam
 
 from .graph import ComputeCovariances, L, RobustKernelParams
 from .problem import LandmarkProblem, LandmarkProblemParams, PositiveFinite, build_problem
@@ -42,8 +42,10 @@ class LandmarkSmootherParams(LandmarkProblemParams, RobustKernelParams):
 
     covariances: ComputeCovariances = True
     beacon_prior_sigma: PositiveFinite | None = Field(
-        1e-3, description="σ of the prior that holds each ranged beacon at its surveyed position (sequence.landmarks) [m]; "
-                          "None: beacons free (range-only SLAM, batch only)")
+        1e-3,
+        description="σ of the prior that holds each ranged beacon at its surveyed position (sequence.landmarks) [m]; "
+        "None: beacons free (range-only SLAM, batch only)",
+    )
 
 
 class LandmarkSmoother:

@@ -38,6 +38,7 @@ factor's covariance so that, at each end, in coordinates scaled by that pose's c
 deviations D = diag(σ(x|y,θ), σ(y|θ), σ(θ)), every eigenvalue of D⁻¹ C D⁻¹ is ≥ ε (iSAM2's default
 2⁻²²: no direction more than 2¹¹ times tighter than the pose's uncertainty, a margin of 4 on the test).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,10 +46,19 @@ import numpy as np
 from slamarena.datasets.geometry import compose, rotation
 from slamarena.estimators.models import MotionModel, compose_jacobians
 
-__all__ = ["twist_relative", "increments_relative", "body_to_world", "world_to_body", "regularise", "floor_to_uncertainty"]
+__all__ = [
+    "twist_relative",
+    "increments_relative",
+    "body_to_world",
+    "world_to_body",
+    "regularise",
+    "floor_to_uncertainty",
+]
 
 
-def twist_relative(model: MotionModel, v: np.ndarray, omega: np.ndarray, dt: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def twist_relative(
+    model: MotionModel, v: np.ndarray, omega: np.ndarray, dt: np.ndarray, M: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Relative pose δ (3,) over the twist pieces ``(v, ω, dt)`` and its additive covariance P (3, 3)
     in the frame of the first pose: ``P ← G P Gᵀ + V M Vᵀ`` from ``δ = 0, P = 0``."""
     delta = np.zeros(3)
@@ -117,7 +127,9 @@ def _adjoint_of_inverse(delta: np.ndarray) -> np.ndarray:
 def _conditional_sigmas(S: np.ndarray) -> np.ndarray:
     """σ(x | y, θ), σ(y | θ), σ(θ) of a pose covariance S (3, 3) in GTSAM's (x, y, θ) order: Cholesky's pivots in that
     order are at least their inverses (R_ii² ≥ 1 / σ_i², whatever else the clique conditions on)."""
-    return np.array([1.0 / np.sqrt(np.linalg.inv(S)[0, 0]), 1.0 / np.sqrt(np.linalg.inv(S[1:, 1:])[0, 0]), np.sqrt(S[2, 2])])
+    return np.array(
+        [1.0 / np.sqrt(np.linalg.inv(S)[0, 0]), 1.0 / np.sqrt(np.linalg.inv(S[1:, 1:])[0, 0]), np.sqrt(S[2, 2])]
+    )
 
 
 def _lift(C: np.ndarray, d: np.ndarray, eps: float) -> np.ndarray:

@@ -28,6 +28,7 @@ converge (including one that runs out of ``max_iterations``) is :class:`~.graph.
 robust-kernel and covariance settings (its motion and observations are a pose graph with landmarks;
 ``meta["params"]`` is then the batch smoother's).
 """
+
 from __future__ import annotations
 
 import time
@@ -45,8 +46,23 @@ from slamarena.estimators.models import inverse_observe
 from slamarena.params import Field
 
 from .batch import BatchSmoother
-from .graph import (AbsoluteErrorTol, ComputeCovariances, L, OptimizerParams, RelativeErrorTol, RobustKernelParams, X, gtsam_errors,
-                    information_model, noise_model, optimize, point_covariances, points_of, poses_of, world_pose_covariances)
+from .graph import (
+    AbsoluteErrorTol,
+    ComputeCovariances,
+    L,
+    OptimizerParams,
+    RelativeErrorTol,
+    RobustKernelParams,
+    X,
+    gtsam_errors,
+    information_model,
+    noise_model,
+    optimize,
+    point_covariances,
+    points_of,
+    poses_of,
+    world_pose_covariances,
+)
 
 __all__ = ["PoseGraphOptimizer", "PoseGraphOptimizerParams", "build_pose_graph"]
 
@@ -58,8 +74,12 @@ class PoseGraphOptimizerParams(OptimizerParams, RobustKernelParams):
     relative_error_tol: RelativeErrorTol = 1e-8
     absolute_error_tol: AbsoluteErrorTol = 1e-8
     initial: Literal["file", "chain"] = Field(
-        "file", description="initial poses: the file's vertices when it has them (else the odometry chain), or always the odometry chain")
-    anchor_sigma: PositiveFloat = Field(1e-6, description="σ of the prior that holds the first node at its initial pose [m, m, rad]")
+        "file",
+        description="initial poses: the file's vertices when it has them (else the odometry chain), or always the odometry chain",
+    )
+    anchor_sigma: PositiveFloat = Field(
+        1e-6, description="σ of the prior that holds the first node at its initial pose [m, m, rad]"
+    )
     covariances: ComputeCovariances = False
 
 
@@ -80,17 +100,24 @@ def _point_in_frame_factor(pose_key: int, point_key: int, z: np.ndarray, model) 
     return gtsam.CustomFactor(model, [pose_key, point_key], error)
 
 
-def build_pose_graph(graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGraphOptimizerParams()
-                     ) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
+def build_pose_graph(
+    graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGraphOptimizerParams()
+) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
     """The GTSAM factor graph and initial values of a 2D :class:`PoseGraph`."""
     if graph.dim != 2:
         raise NotImplementedError(f"{graph.name}: only 2D pose graphs are optimised (got dim={graph.dim})")
     poses = graph.initial_poses() if params.initial == "file" else graph.chain_initialisation()
     factors = gtsam.NonlinearFactorGraph()
-    factors.add(gtsam.PriorFactorPose2(X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)))
+    factors.add(
+        gtsam.PriorFactorPose2(
+            X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)
+        )
+    )
     odometry = graph.odometry_mask()
     for i, j, z, info, odo in zip(graph.edge_i, graph.edge_j, graph.edge_z, graph.edge_information, odometry):
-        factors.add(gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, None if odo else params)))
+        factors.add(
+            gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, None if odo else params))
+        )
     values = gtsam.Values()
     for node, p in zip(graph.node_ids, poses):
         values.insert(X(node), gtsam.Pose2(*p))
@@ -98,12 +125,20 @@ def build_pose_graph(graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGr
         rows = graph.index_of(graph.landmark_pose)
         ids, first = np.unique(graph.landmark_id, return_index=True)
         if graph.landmark_kind == "xy":
-            for i, j, z, info in zip(graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information):
+            for i, j, z, info in zip(
+                graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information
+            ):
                 factors.add(_point_in_frame_factor(X(i), L(j), z, information_model(info)))
             seen = transform_points(poses[rows[first]], graph.landmark_z[first])
         else:
-            for i, j, z, info in zip(graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information):
-                factors.add(gtsam.BearingRangeFactor2D(X(i), L(j), gtsam.Rot2(float(z[0])), float(z[1]), information_model(info)))
+            for i, j, z, info in zip(
+                graph.landmark_pose, graph.landmark_id, graph.landmark_z, graph.landmark_information
+            ):
+                factors.add(
+                    gtsam.BearingRangeFactor2D(
+                        X(i), L(j), gtsam.Rot2(float(z[0])), float(z[1]), information_model(info)
+                    )
+                )
             seen = inverse_observe(poses[rows[first]], graph.landmark_z[first][:, ::-1])
         for j, m in zip(ids, seen):
             values.insert(L(j), gtsam.Point2(*m))
@@ -153,8 +188,19 @@ class PoseGraphOptimizer:
             "time_build": time_build,
         }
         return Estimate(
-            method="gtsam_pose_graph", t=data.node_ids.astype(float), poses=poses, pose_cov=pose_cov, landmark_ids=ids,
-            landmarks=landmarks, landmark_cov=landmark_cov, diagnostics=diagnostics,
-            meta={"params": self.params.canonical(), "graph": data.name, "nodes": data.n_nodes, "edges": data.n_edges,
-                  "initial": "file" if (self.params.initial == "file" and data.poses is not None) else "chain"},
+            method="gtsam_pose_graph",
+            t=data.node_ids.astype(float),
+            poses=poses,
+            pose_cov=pose_cov,
+            landmark_ids=ids,
+            landmarks=landmarks,
+            landmark_cov=landmark_cov,
+            diagnostics=diagnostics,
+            meta={
+                "params": self.params.canonical(),
+                "graph": data.name,
+                "nodes": data.n_nodes,
+                "edges": data.n_edges,
+                "initial": "file" if (self.params.initial == "file" and data.poses is not None) else "chain",
+            },
         )

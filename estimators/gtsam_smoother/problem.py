@@ -31,6 +31,7 @@ covariance is not finite, symmetric and positive semidefinite (:func:`valid_cova
 this smoother uses known association only). A stated noise (a parameter or ``Sequence.noise``) that is
 not a covariance is a ``ValueError`` (:func:`check_covariance`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -46,15 +47,29 @@ from slamarena.params import Covariance2, Covariance3, Field, Params
 
 from .noise import increments_relative, regularise, twist_relative, world_to_body
 
-__all__ = ["PoseChainParams", "LandmarkProblemParams", "MotionModelName", "LandmarkProblem", "MotionChain", "motion_chain",
-           "build_problem", "check_covariance", "valid_covariances", "summable"]
+__all__ = [
+    "PoseChainParams",
+    "LandmarkProblemParams",
+    "MotionModelName",
+    "LandmarkProblem",
+    "MotionChain",
+    "motion_chain",
+    "build_problem",
+    "check_covariance",
+    "valid_covariances",
+    "summable",
+]
 
 #: relative tolerance within which an observation stamp equals the end of the motion
 _STAMP_TOL = 1e-9
 
 #: the motion model's name; a field type because the smoothers share it with different defaults
-MotionModelName = Annotated[Literal["arc", "euler"], Field(
-    description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step")]
+MotionModelName = Annotated[
+    Literal["arc", "euler"],
+    Field(
+        description="motion model of Twist input (estimators.models): exact constant-twist arc or the notes' Euler step"
+    ),
+]
 PositiveFinite = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
 
@@ -64,11 +79,19 @@ class PoseChainParams(Params):
 
     motion_model: MotionModelName = "arc"
     regularisation: float = Field(
-        1e-4, ge=0.0, lt=1.0, description="floor of a between factor's covariance eigenvalues relative to its largest (noise.regularise) [1]")
+        1e-4,
+        ge=0.0,
+        lt=1.0,
+        description="floor of a between factor's covariance eigenvalues relative to its largest (noise.regularise) [1]",
+    )
     prior_sigma: tuple[PositiveFinite, PositiveFinite, PositiveFinite] = Field(
-        (1e-3, 1e-3, 1e-3), description="standard deviations (σx [m], σy [m], σθ [rad]) of the prior that holds the first pose at the start pose")
+        (1e-3, 1e-3, 1e-3),
+        description="standard deviations (σx [m], σy [m], σθ [rad]) of the prior that holds the first pose at the start pose",
+    )
     twist_cov: Covariance2 | None = Field(
-        None, description="covariance of one Twist row's (v, ω) error [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov")
+        None,
+        description="covariance of one Twist row's (v, ω) error [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov",
+    )
 
 
 class LandmarkProblemParams(PoseChainParams):
@@ -76,18 +99,30 @@ class LandmarkProblemParams(PoseChainParams):
     increments' noise, the observation noise and the beacon ranges'."""
 
     max_interval: PositiveFinite | None = Field(
-        None, description="a pose key at least every this many seconds besides the measurement stamps [s]; None: keys at the stamps only")
+        None,
+        description="a pose key at least every this many seconds besides the measurement stamps [s]; None: keys at the stamps only",
+    )
     increment_cov: Covariance3 | None = Field(
-        None, description="covariance of one odometry increment (dx, dy, dθ) [m², m², rad²], for every row; "
-                          "None: the stream's Increments.cov, else the sequence's Noise.increment_cov")
+        None,
+        description="covariance of one odometry increment (dx, dy, dθ) [m², m², rad²], for every row; "
+        "None: the stream's Increments.cov, else the sequence's Noise.increment_cov",
+    )
 
     range_bearing_cov: Covariance2 | None = Field(
-        None, description="covariance of one observation in (range, bearing) order [m², rad²]; None: the sequence's Noise.range_bearing_cov")
+        None,
+        description="covariance of one observation in (range, bearing) order [m², rad²]; None: the sequence's Noise.range_bearing_cov",
+    )
     range_bearing_noise: RangeBearingNoise = Field(
-        RangeBearingNoise.POLAR, description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in the plane, "
-                                             "R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m] (as the filters' option)")
-    beacon_range_var: PositiveFinite = Field(1.0, description="variance σ_r² of one beacon range [m²] (no dataset states it)")
-    beacon_bias: float = Field(0.0, allow_inf_nan=False, description="offset β of every beacon range, subtracted from it [m]")
+        RangeBearingNoise.POLAR,
+        description="'polar': R for every observation; 'cartesian': the sensor noise is isotropic σ² I in the plane, "
+        "R_j = diag(σ², σ²/r_j²) with σ² = R[0, 0] [m²] and r_j the range [m] (as the filters' option)",
+    )
+    beacon_range_var: PositiveFinite = Field(
+        1.0, description="variance σ_r² of one beacon range [m²] (no dataset states it)"
+    )
+    beacon_bias: float = Field(
+        0.0, allow_inf_nan=False, description="offset β of every beacon range, subtracted from it [m]"
+    )
 
 
 @dataclass(frozen=True)
@@ -233,8 +268,14 @@ class MotionChain:
         return snapped, (snapped >= self.stamps[0]) & (snapped <= t_end)
 
 
-def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams, *, max_interval: float | None = None,
-                 increment_cov=None) -> MotionChain:
+def motion_chain(
+    sequence: Sequence,
+    stamps: np.ndarray,
+    params: PoseChainParams,
+    *,
+    max_interval: float | None = None,
+    increment_cov=None,
+) -> MotionChain:
     """Pose keys at the start and end of the motion, at ``stamps`` inside it and every ``max_interval`` [s]
     (None: no extra keys); the relative motion between consecutive keys and its covariance (the filters'
     propagation).
@@ -273,7 +314,10 @@ def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams
 
     t_start, t_end = _motion_span(motion)
     stamps = np.asarray(stamps, dtype=float)
-    parts = [np.array([t_start, t_end]), np.where(np.abs(stamps - t_end) <= _STAMP_TOL * max(1.0, abs(t_end)), t_end, stamps)]
+    parts = [
+        np.array([t_start, t_end]),
+        np.where(np.abs(stamps - t_end) <= _STAMP_TOL * max(1.0, abs(t_end)), t_end, stamps),
+    ]
     if max_interval is not None:
         parts.append(np.arange(t_start, t_end, max_interval))
     key_t = np.unique(np.concatenate(parts))
@@ -305,8 +349,10 @@ def motion_chain(sequence: Sequence, stamps: np.ndarray, params: PoseChainParams
     singular = np.flatnonzero(np.linalg.eigvalsh(cov)[:, 0] <= 0)
     if singular.size:  # a Gaussian factor needs a positive-definite covariance (GTSAM's error would be NaN)
         k = int(singular[0])
-        raise ValueError(f"{sequence.name}: the motion from {times[k]:.6g} s to {times[k + 1]:.6g} s (and {singular.size - 1} more) has a "
-                         f"singular covariance; regularisation = {params.regularisation:g} does not lift it, a value > 0 does")
+        raise ValueError(
+            f"{sequence.name}: the motion from {times[k]:.6g} s to {times[k + 1]:.6g} s (and {singular.size - 1} more) has a "
+            f"singular covariance; regularisation = {params.regularisation:g} does not lift it, a value > 0 does"
+        )
     return MotionChain(
         t=np.asarray(times, dtype=float),
         start=np.asarray(sequence.start_pose, dtype=float),
@@ -368,8 +414,12 @@ def build_problem(sequence: Sequence, params: LandmarkProblemParams = LandmarkPr
         counts["skipped_ranges_outside_motion"] = int((~inside).sum())
         rng_pose = chain.index(br_t[inside])
         order = np.argsort(rng_pose, kind="stable")
-        ranges = dict(rng_pose=rng_pose[order], rng_id=br.beacon_id[inside][order],
-                      rng_range=br.range[inside][order] - params.beacon_bias, R_range=params.beacon_range_var)
+        ranges = dict(
+            rng_pose=rng_pose[order],
+            rng_id=br.beacon_id[inside][order],
+            rng_range=br.range[inside][order] - params.beacon_bias,
+            R_range=params.beacon_range_var,
+        )
     lm = sequence.landmarks
     if lm is not None:
         ranges.update(map_ids=lm.ids, map_xy=lm.xy)

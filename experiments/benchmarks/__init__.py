@@ -5,6 +5,7 @@ with a fitted log-log exponent), because absolute times on shared machines are n
 ``BENCHMARKS`` maps a name to ``"module:function"``; the function takes ``out`` (a
 directory or ``None``) and ``quick`` (bool) and returns a process exit code.
 """
+
 from __future__ import annotations
 
 import csv
@@ -48,7 +49,12 @@ def loglog_slope(rows: list[dict], key: str, lo: float, hi: float, size: str = "
 
 
 #: environment of a process whose BLAS, OpenMP and numba use one thread
-SINGLE_THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
+SINGLE_THREAD_ENV = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "NUMBA_NUM_THREADS": "1",
+}
 
 
 def measure_single_threaded(module: str, **kwargs) -> dict:
@@ -58,7 +64,9 @@ def measure_single_threaded(module: str, **kwargs) -> dict:
     with ``python -m``; one thread keeps per-step CPU times comparable on a shared machine.
     """
     env = {**os.environ, **SINGLE_THREAD_ENV}
-    done = subprocess.run([sys.executable, "-m", module, json.dumps(kwargs)], env=env, capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [sys.executable, "-m", module, json.dumps(kwargs)], env=env, capture_output=True, text=True, check=True
+    )
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 

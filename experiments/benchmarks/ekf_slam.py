@@ -27,6 +27,7 @@ Everything is timed single-threaded (the measurement runs in a child process sta
 ``OPENBLAS_NUM_THREADS=1`` etc.), so the ratios compare algorithms, not thread counts, and
 idle BLAS threads spinning on a busy machine do not pollute the CPU times.
 """
+
 from __future__ import annotations
 
 import json
@@ -46,8 +47,11 @@ OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
 M = np.diag([0.1**2, 0.05**2])
 #: filter variants timed: column name → EKFSLAM parameters
-VARIANTS = {"sequential": dict(update="sequential"), "batch": dict(update="batch"),
-            "per_observation": dict(update="sequential", defer_covariance=False)}
+VARIANTS = {
+    "sequential": dict(update="sequential"),
+    "batch": dict(update="batch"),
+    "per_observation": dict(update="sequential", defer_covariance=False),
+}
 
 
 def _mapped_filter(n: int, rng: np.random.Generator, **params) -> tuple[EKFSLAM, np.ndarray]:
@@ -58,7 +62,7 @@ def _mapped_filter(n: int, rng: np.random.Generator, **params) -> tuple[EKFSLAM,
     ekf = EKFSLAM(twist_cov=M, range_bearing_cov=R, initial_cov=[0.01, 0.01, 0.001], capacity=3 + 2 * n, **params)
     z = observe(np.zeros(3), L) + rng.normal(size=(n, 2)) * np.sqrt(np.diag(R))
     for k in range(0, n, 50):
-        ekf.update(np.column_stack([z[k:k + 50], np.arange(k, min(k + 50, n))]))
+        ekf.update(np.column_stack([z[k : k + 50], np.arange(k, min(k + 50, n))]))
     return ekf, L
 
 
@@ -110,7 +114,9 @@ def measure(n: int, repeats: int, with_reference: bool, seed: int = 0) -> dict:
                     ref.predict((0.5, 0.05), 0.1)
                     ref.update(z)
 
-                row["reference"] = _time_steps(ref_step, max(2, repeats // 10), lambda: _observations(rng, L, ref.xEst[:3]))
+                row["reference"] = _time_steps(
+                    ref_step, max(2, repeats // 10), lambda: _observations(rng, L, ref.xEst[:3])
+                )
         del ekf
     return row
 
@@ -125,41 +131,77 @@ def main(out: Path | None = None, quick: bool = False, trials: int | None = None
     trials = trials or (1 if quick else 3)
     fit_lo, fit_hi = (100, 400) if quick else (800, 3200)
     console = Console()
-    runs = []   # one list of rows per trial; a trial measures every n once, each n in a fresh process
+    runs = []  # one list of rows per trial; a trial measures every n once, each n in a fresh process
     for trial in range(trials):
         runs.append([])
         for n in sizes:
-            runs[-1].append(measure_single_threaded("slamarena.experiments.benchmarks.ekf_slam", n=n, repeats=repeats,
-                                                    with_reference=trial == 0 and n <= ref_max, seed=trial))
-            console.log(f"trial {trial + 1}/{trials}, n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in runs[-1][-1].items()))
-    rows = [{k: min(r[k] for r in same if k in r) for k in same[0]} for same in zip(*runs)]   # least over the trials
+            runs[-1].append(
+                measure_single_threaded(
+                    "slamarena.experiments.benchmarks.ekf_slam",
+                    n=n,
+                    repeats=repeats,
+                    with_reference=trial == 0 and n <= ref_max,
+                    seed=trial,
+                )
+            )
+            console.log(
+                f"trial {trial + 1}/{trials}, n = {n}: " + ", ".join(f"{k} {v:.4g}" for k, v in runs[-1][-1].items())
+            )
+    rows = [{k: min(r[k] for r in same if k in r) for k in same[0]} for same in zip(*runs)]  # least over the trials
     keys = (*VARIANTS, "syrk20")
     exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in keys}
     per_trial = {key: [loglog_slope(run, key, fit_lo, fit_hi) for run in runs] for key in keys}
     ref_exp = loglog_slope(rows, "reference", 100 if quick else 200, ref_max)
 
-    table = Table(title=f"EKF-SLAM CPU time per step (predict + {OBSERVATIONS} observations), least of {repeats} repeats × {trials} "
-                        "trials, single-threaded")
-    for col in ("n", "N", "sequential [ms]", "batch [ms]", "per observation [ms]", "rank-20 syrk [ms]", "one pass [ms]",
-                "sequential / syrk", "reference [ms]", "reference / sequential"):
+    table = Table(
+        title=f"EKF-SLAM CPU time per step (predict + {OBSERVATIONS} observations), least of {repeats} repeats × {trials} "
+        "trials, single-threaded"
+    )
+    for col in (
+        "n",
+        "N",
+        "sequential [ms]",
+        "batch [ms]",
+        "per observation [ms]",
+        "rank-20 syrk [ms]",
+        "one pass [ms]",
+        "sequential / syrk",
+        "reference [ms]",
+        "reference / sequential",
+    ):
         table.add_column(col, justify="right")
     for r in rows:
         ref = r.get("reference")
-        table.add_row(str(r["n"]), str(r["N"]), *(f"{1e3 * r[k]:.2f}" for k in ("sequential", "batch", "per_observation", "syrk20", "one_pass")),
-                      f"{r['sequential'] / r['syrk20']:.2f}×", "—" if ref is None else f"{1e3 * ref:.1f}",
-                      "—" if ref is None else f"{ref / r['sequential']:.0f}×")
+        table.add_row(
+            str(r["n"]),
+            str(r["N"]),
+            *(f"{1e3 * r[k]:.2f}" for k in ("sequential", "batch", "per_observation", "syrk20", "one_pass")),
+            f"{r['sequential'] / r['syrk20']:.2f}×",
+            "—" if ref is None else f"{1e3 * ref:.1f}",
+            "—" if ref is None else f"{ref / r['sequential']:.0f}×",
+        )
     console.print(table)
-    console.print(f"log-log exponent over n ∈ [{fit_lo}, {fit_hi}]: " + ", ".join(f"{k} {v:.2f}" for k, v in exponents.items())
-                  + f" (aim for the filter: 2.0 ± 0.2); reference {ref_exp:.2f} over n ≤ {ref_max}")
+    console.print(
+        f"log-log exponent over n ∈ [{fit_lo}, {fit_hi}]: "
+        + ", ".join(f"{k} {v:.2f}" for k, v in exponents.items())
+        + f" (aim for the filter: 2.0 ± 0.2); reference {ref_exp:.2f} over n ≤ {ref_max}"
+    )
     if trials > 1:
-        console.print("the same exponents trial by trial: " + "; ".join(f"{k} " + ", ".join(f"{v:.2f}" for v in vs) for k, vs in per_trial.items()))
+        console.print(
+            "the same exponents trial by trial: "
+            + "; ".join(f"{k} " + ", ".join(f"{v:.2f}" for v in vs) for k, vs in per_trial.items())
+        )
     for r in rows:
         if r["n"] >= (400 if quick else 1600):
-            console.print(f"n = {r['n']}: sequential / rank-20 syrk = {r['sequential'] / r['syrk20']:.2f}× (aim ≤ 2×), "
-                          f"batch / syrk = {r['batch'] / r['syrk20']:.2f}×, per observation / sequential = {r['per_observation'] / r['sequential']:.2f}×")
+            console.print(
+                f"n = {r['n']}: sequential / rank-20 syrk = {r['sequential'] / r['syrk20']:.2f}× (aim ≤ 2×), "
+                f"batch / syrk = {r['batch'] / r['syrk20']:.2f}×, per observation / sequential = {r['per_observation'] / r['sequential']:.2f}×"
+            )
     at = next((r for r in rows if r["n"] == ref_max), None)
     if at is not None:
-        console.print(f"speed-up over the literal reference at n = {ref_max}: {at['reference'] / at['sequential']:.0f}×")
+        console.print(
+            f"speed-up over the literal reference at n = {ref_max}: {at['reference'] / at['sequential']:.0f}×"
+        )
     write_rows(rows, out, "ekf_slam_scaling.csv")
     return 0
 

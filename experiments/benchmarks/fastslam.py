@@ -19,6 +19,7 @@ Three series, all measured in one run, each in a child process with one BLAS thr
 * the live map bytes per particle (``LandmarkStore.nbytes() / M``, the ``map_bytes`` of
   ``Estimate.meta``) at the end of the timed windows, shared and eager, against n.
 """
+
 from __future__ import annotations
 
 import json
@@ -38,15 +39,50 @@ WINDOWS = 3
 
 
 @njit(cache=True)
-def _privatise(n_leaves, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
-               free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf):
+def _privatise(
+    n_leaves,
+    depth,
+    roots,
+    inner_child,
+    inner_ref,
+    leaf_mu,
+    leaf_S,
+    leaf_state,
+    leaf_seen,
+    leaf_born,
+    leaf_ref,
+    free_inner,
+    top_inner,
+    used_inner,
+    free_leaf,
+    top_leaf,
+    used_leaf,
+):
     """Make every particle's tree private: every shared node of every path is copied (path copying on
     one slot per leaf)."""
     for m in range(roots.shape[0]):
         for b in range(n_leaves):
             if find(roots[m], b * LEAF, depth, inner_child)[0] >= 0:
-                writable(m, b * LEAF, depth, roots, inner_child, inner_ref, leaf_mu, leaf_S, leaf_state, leaf_seen, leaf_born, leaf_ref,
-                         free_inner, top_inner, used_inner, free_leaf, top_leaf, used_leaf)
+                writable(
+                    m,
+                    b * LEAF,
+                    depth,
+                    roots,
+                    inner_child,
+                    inner_ref,
+                    leaf_mu,
+                    leaf_S,
+                    leaf_state,
+                    leaf_seen,
+                    leaf_born,
+                    leaf_ref,
+                    free_inner,
+                    top_inner,
+                    used_inner,
+                    free_leaf,
+                    top_leaf,
+                    used_leaf,
+                )
 
 
 class EagerCopyStore(LandmarkStore):
@@ -93,14 +129,16 @@ def measure(n: int, M: int, steps: int, version: int = 2, eager: bool = False, s
         v, w, dts = twist_pieces(seq.motion, t_now, stamps[k])
         if dts.size:
             slam.predict_twists(v, w, dts)
-        slam.update(z[first[k]:end[k]])
+        slam.update(z[first[k] : end[k]])
         t_now = stamps[k]
 
     second = int(np.searchsorted(stamps, lap))
     for k in range(0, second, MAP_STRIDE):  # the first lap maps every landmark
         step(k)
     if second + WINDOWS * steps > stamps.size:
-        raise ValueError(f"n = {n}: {stamps.size - second} observation sets after the first lap, {WINDOWS * steps} needed")
+        raise ValueError(
+            f"n = {n}: {stamps.size - second} observation sets after the first lap, {WINDOWS * steps} needed"
+        )
     windows, resamplings = [], slam.resamplings
     k = second
     for _ in range(WINDOWS):
@@ -110,10 +148,18 @@ def measure(n: int, M: int, steps: int, version: int = 2, eager: bool = False, s
             k += 1
         windows.append((time.process_time() - clock) / steps)
     mapped = int(slam.n_slots.max())
-    return {"n": n, "M": M, "version": version, "eager": eager, "mapped": mapped,
-            "observations_per_step": float((end[second:k] - first[second:k]).mean()),
-            "step": float(min(windows)), "resamplings_per_step": (slam.resamplings - resamplings) / (WINDOWS * steps),
-            "bytes_per_particle": slam.store.nbytes() / M, "dense_bytes_per_particle": mapped * 44.0}
+    return {
+        "n": n,
+        "M": M,
+        "version": version,
+        "eager": eager,
+        "mapped": mapped,
+        "observations_per_step": float((end[second:k] - first[second:k]).mean()),
+        "step": float(min(windows)),
+        "resamplings_per_step": (slam.resamplings - resamplings) / (WINDOWS * steps),
+        "bytes_per_particle": slam.store.nbytes() / M,
+        "dense_bytes_per_particle": mapped * 44.0,
+    }
 
 
 def main(out: Path | None = None, quick: bool = False) -> int:
@@ -136,18 +182,38 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         rows_m.append(measure_single_threaded(module, n=n_fixed, M=M, steps=steps))
         console.log(f"M = {M}: {1e3 * rows_m[-1]['step']:.2f} ms/step")
     lo_n, hi_n = sizes[1], sizes[-1]
-    exp_n = {key: loglog_slope(rows_n, key, lo_n, hi_n) for key in ("step", "eager_step", "bytes_per_particle", "eager_bytes_per_particle")}
+    exp_n = {
+        key: loglog_slope(rows_n, key, lo_n, hi_n)
+        for key in ("step", "eager_step", "bytes_per_particle", "eager_bytes_per_particle")
+    }
     exp_m = loglog_slope(rows_m, "step", 100 if not quick else 30, particles[-1], size="M")
 
-    table = Table(title=f"FastSLAM 2.0, M = {M_fixed}, known association: CPU time per step (≈ {rows_n[0]['observations_per_step']:.0f} "
-                        f"observations), least mean of {WINDOWS} windows of {steps} steps")
-    for col in ("n", "shared [ms]", "eager copy [ms]", "eager / shared", "resamplings / step",
-                "live bytes / particle, shared", "eager", "dense map (44 B/landmark)"):
+    table = Table(
+        title=f"FastSLAM 2.0, M = {M_fixed}, known association: CPU time per step (≈ {rows_n[0]['observations_per_step']:.0f} "
+        f"observations), least mean of {WINDOWS} windows of {steps} steps"
+    )
+    for col in (
+        "n",
+        "shared [ms]",
+        "eager copy [ms]",
+        "eager / shared",
+        "resamplings / step",
+        "live bytes / particle, shared",
+        "eager",
+        "dense map (44 B/landmark)",
+    ):
         table.add_column(col, justify="right")
     for r in rows_n:
-        table.add_row(str(r["n"]), f"{1e3 * r['step']:.2f}", f"{1e3 * r['eager_step']:.2f}", f"{r['eager_step'] / r['step']:.1f}×",
-                      f"{r['resamplings_per_step']:.2f}", f"{r['bytes_per_particle']:.0f}", f"{r['eager_bytes_per_particle']:.0f}",
-                      f"{r['dense_bytes_per_particle']:.0f}")
+        table.add_row(
+            str(r["n"]),
+            f"{1e3 * r['step']:.2f}",
+            f"{1e3 * r['eager_step']:.2f}",
+            f"{r['eager_step'] / r['step']:.1f}×",
+            f"{r['resamplings_per_step']:.2f}",
+            f"{r['bytes_per_particle']:.0f}",
+            f"{r['eager_bytes_per_particle']:.0f}",
+            f"{r['dense_bytes_per_particle']:.0f}",
+        )
     console.print(table)
     table = Table(title=f"FastSLAM 2.0, n = {n_fixed}: CPU time per step against M")
     for col in ("M", "per step [ms]", "per step and particle [µs]"):
@@ -155,9 +221,11 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     for r in rows_m:
         table.add_row(str(r["M"]), f"{1e3 * r['step']:.2f}", f"{1e6 * r['step'] / r['M']:.1f}")
     console.print(table)
-    console.print(f"log-log exponents over n ∈ [{lo_n}, {hi_n}] at M = {M_fixed}: time per step {exp_n['step']:.2f} (claim O(M log n): ≈ 0–0.2), "
-                  f"eager copy {exp_n['eager_step']:.2f}; live bytes per particle {exp_n['bytes_per_particle']:.2f}, "
-                  f"eager {exp_n['eager_bytes_per_particle']:.2f}")
+    console.print(
+        f"log-log exponents over n ∈ [{lo_n}, {hi_n}] at M = {M_fixed}: time per step {exp_n['step']:.2f} (claim O(M log n): ≈ 0–0.2), "
+        f"eager copy {exp_n['eager_step']:.2f}; live bytes per particle {exp_n['bytes_per_particle']:.2f}, "
+        f"eager {exp_n['eager_bytes_per_particle']:.2f}"
+    )
     console.print(f"log-log exponent over M at n = {n_fixed}: {exp_m:.2f} (≈ 1)")
     write_rows(rows_n, out, "fastslam_scaling_n.csv")
     write_rows(rows_m, out, "fastslam_scaling_M.csv")

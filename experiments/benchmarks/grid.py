@@ -12,6 +12,7 @@
 
 Scans: the SLAM-corrected Intel log (known poses) when staged, else ``sim:laser``.
 """
+
 from __future__ import annotations
 
 import time
@@ -20,12 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from slamarena.datasets.geometry import compose, transform_points
+from slamarena.experiments.benchmarks import loglog_slope, write_rows
 from slamarena.mapping.occupancy_grid import OccupancyGrid
 from slamarena.mapping.raytrace import bresenham
-from slamarena.experiments.benchmarks import loglog_slope, write_rows
 
 
-def integrate_literal(grid: OccupancyGrid, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range=np.inf, clear_range=None) -> int:
+def integrate_literal(
+    grid: OccupancyGrid, ranges, angles, pose, mount=(0.0, 0.0, 0.0), max_range=np.inf, clear_range=None
+) -> int:
     """The textbook loop: per beam, per traced cell, with the same model as ``integrate``.
 
     Same semantics (one update per cell per scan, hit wins, no-return clears to
@@ -102,12 +105,19 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         check.integrate(*scans.beams(k), scans.pose[k], scans.mount, scans.max_range, cap)
     same = bool(np.array_equal(check.log_odds, slow.log_odds))
     per_scan_fast, per_scan_slow = t_fast / len(idx), t_slow / len(sub)
-    table = Table(title=f"grid updates on {name} ({len(idx)} scans, {scans.ranges.shape[1]} beams, 0.05 m, no-return cleared to {cap} m)")
+    table = Table(
+        title=f"grid updates on {name} ({len(idx)} scans, {scans.ranges.shape[1]} beams, 0.05 m, no-return cleared to {cap} m)"
+    )
     for col in ("implementation", "ms / scan", "cell updates / s", "ratio"):
         table.add_column(col)
     rate = n_fast / t_fast
     table.add_row("vectorised (numpy)", f"{1e3 * per_scan_fast:.2f}", f"{rate:,.0f}", "1")
-    table.add_row("literal loop", f"{1e3 * per_scan_slow:.2f}", f"{rate * per_scan_fast / per_scan_slow:,.0f}", f"{per_scan_slow / per_scan_fast:.1f}× slower")
+    table.add_row(
+        "literal loop",
+        f"{1e3 * per_scan_slow:.2f}",
+        f"{rate * per_scan_fast / per_scan_slow:,.0f}",
+        f"{per_scan_slow / per_scan_fast:.1f}× slower",
+    )
     console.print(table)
     console.print(f"literal and vectorised grids identical on {len(sub)} scans: {same}")
 
@@ -120,7 +130,14 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         n = 0
         for k in idx:
             r, a = scans.beams(k)
-            n += g.integrate(np.minimum(r, c + 0.5) if c < scans.max_range else r, a, scans.pose[k], scans.mount, min(scans.max_range, c), c)
+            n += g.integrate(
+                np.minimum(r, c + 0.5) if c < scans.max_range else r,
+                a,
+                scans.pose[k],
+                scans.mount,
+                min(scans.max_range, c),
+                c,
+            )
         times.append((time.perf_counter() - t) / len(idx))
         cells.append(n / len(idx))
     slope = loglog_slope([{"cells": c, "time": t} for c, t in zip(cells, times)], "time", 0, np.inf, size="cells")
@@ -130,11 +147,20 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     big = OccupancyGrid(resolution=0.05, width=2000, height=2000, grow=False)
     ros = big.to_ros()
     notes = 2000 * 2000 * (8 + 1)
-    console.print(f"2000 × 2000 grid: log-odds float32 {big.nbytes() / 1e6:.1f} MB + int8 ROS grid {ros.nbytes / 1e6:.1f} MB "
-                  f"= {(big.nbytes() + ros.nbytes) / 1e6:.1f} MB; the notes' ~36 MB = 9 B/cell (float64 log-odds + int8 grid: {notes / 1e6:.0f} MB); "
-                  f"ratio {notes / (big.nbytes() + ros.nbytes):.2f}")
-    summary = {"vectorised_ms_per_scan": 1e3 * per_scan_fast, "literal_ms_per_scan": 1e3 * per_scan_slow, "cell_updates_per_s": rate,
-               "speedup": per_scan_slow / per_scan_fast, "identical": same, "scaling_exponent": slope,
-               "grid_2000_MB": (big.nbytes() + ros.nbytes) / 1e6, "notes_MB": notes / 1e6}
+    console.print(
+        f"2000 × 2000 grid: log-odds float32 {big.nbytes() / 1e6:.1f} MB + int8 ROS grid {ros.nbytes / 1e6:.1f} MB "
+        f"= {(big.nbytes() + ros.nbytes) / 1e6:.1f} MB; the notes' ~36 MB = 9 B/cell (float64 log-odds + int8 grid: {notes / 1e6:.0f} MB); "
+        f"ratio {notes / (big.nbytes() + ros.nbytes):.2f}"
+    )
+    summary = {
+        "vectorised_ms_per_scan": 1e3 * per_scan_fast,
+        "literal_ms_per_scan": 1e3 * per_scan_slow,
+        "cell_updates_per_s": rate,
+        "speedup": per_scan_slow / per_scan_fast,
+        "identical": same,
+        "scaling_exponent": slope,
+        "grid_2000_MB": (big.nbytes() + ros.nbytes) / 1e6,
+        "notes_MB": notes / 1e6,
+    }
     write_rows([{"quantity": k, "value": v} for k, v in summary.items()], out, "grid.csv")
     return 0 if same else 1

@@ -17,6 +17,7 @@ iSAM2 re-eliminates only the cliques touched by a step; the 10 observed landmark
 so a step touches the part of the Bayes tree that joins them to the new pose. The slope says
 how that grows with n (the EKF's per-step cost is O(n²), slope ≈ 2).
 """
+
 from __future__ import annotations
 
 import json
@@ -47,26 +48,41 @@ def scenario(n: int, steps: int, seed: int = 0):
     t = dt * np.arange(steps)
     v, w = np.full(steps, 0.5), np.full(steps, 0.05)
     truth = accumulate(np.zeros(3), EULER.increment(v, w, dt))
-    sets = [(0.0, np.arange(n), truth[0])] + [(dt * (k + 1), rng.choice(n, OBSERVATIONS, replace=False), truth[k + 1]) for k in range(steps)]
+    sets = [(0.0, np.arange(n), truth[0])] + [
+        (dt * (k + 1), rng.choice(n, OBSERVATIONS, replace=False), truth[k + 1]) for k in range(steps)
+    ]
     stamps = np.concatenate([np.full(ids.size, s) for s, ids, _ in sets])
     ids = np.concatenate([ids for _, ids, _ in sets])
-    z = np.concatenate([observe(pose, L[i]) for _, i, pose in sets]) + rng.normal(size=(ids.size, 2)) * np.sqrt(np.diag(R))
+    z = np.concatenate([observe(pose, L[i]) for _, i, pose in sets]) + rng.normal(size=(ids.size, 2)) * np.sqrt(
+        np.diag(R)
+    )
     noisy_v = v + rng.normal(0, np.sqrt(M[0, 0]), steps)
     noisy_w = w + rng.normal(0, np.sqrt(M[1, 1]), steps)
     return Sequence(
-        name=f"isam2-bench(n={n})", motion=Twist(t=t, v=noisy_v, omega=noisy_w, dt=np.full(steps, dt)),
+        name=f"isam2-bench(n={n})",
+        motion=Twist(t=t, v=noisy_v, omega=noisy_w, dt=np.full(steps, dt)),
         range_bearing=RangeBearing(t=stamps, range=z[:, 0], bearing=z[:, 1], landmark_id=ids),
-        landmarks=LandmarkMap(ids=np.arange(n), xy=L), initial_pose=np.zeros(3), noise=Noise(twist_cov=M, range_bearing_cov=R),
+        landmarks=LandmarkMap(ids=np.arange(n), xy=L),
+        initial_pose=np.zeros(3),
+        noise=Noise(twist_cov=M, range_bearing_cov=R),
     )
 
 
 def measure(n: int, steps: int, seed: int = 0) -> dict:
     from slamarena.estimators.gtsam_smoother import ISAM2Smoother
 
-    est = ISAM2Smoother(motion_model="euler", covariances=False, final_updates=0, step_clock="cpu").run(scenario(n, steps, seed))
-    per_step = est.step_time[1 + WARMUP:]
-    return {"n": n, "steps": int(per_step.size), "mean": float(np.mean(per_step)), "median": float(np.median(per_step)),
-            "p90": float(np.percentile(per_step, 90)), "first": float(est.step_time[0])}
+    est = ISAM2Smoother(motion_model="euler", covariances=False, final_updates=0, step_clock="cpu").run(
+        scenario(n, steps, seed)
+    )
+    per_step = est.step_time[1 + WARMUP :]
+    return {
+        "n": n,
+        "steps": int(per_step.size),
+        "mean": float(np.mean(per_step)),
+        "median": float(np.median(per_step)),
+        "p90": float(np.percentile(per_step, 90)),
+        "first": float(est.step_time[0]),
+    }
 
 
 def main(out: Path | None = None, quick: bool = False) -> int:
@@ -83,14 +99,29 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
     exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}
     table = Table(title=f"iSAM2 CPU time per step (1 pose + {OBSERVATIONS} observations) over {rows[0]['steps']} steps")
-    for col in ("n", "mean [ms]", "median [ms]", "p90 [ms]", f"mean vs n = {sizes[0]}", "first update (maps all n) [ms]"):
+    for col in (
+        "n",
+        "mean [ms]",
+        "median [ms]",
+        "p90 [ms]",
+        f"mean vs n = {sizes[0]}",
+        "first update (maps all n) [ms]",
+    ):
         table.add_column(col, justify="right")
     for r in rows:
-        table.add_row(str(r["n"]), f"{1e3 * r['mean']:.2f}", f"{1e3 * r['median']:.2f}", f"{1e3 * r['p90']:.2f}",
-                      f"{r['mean'] / rows[0]['mean']:.1f}×", f"{1e3 * r['first']:.1f}")
+        table.add_row(
+            str(r["n"]),
+            f"{1e3 * r['mean']:.2f}",
+            f"{1e3 * r['median']:.2f}",
+            f"{1e3 * r['p90']:.2f}",
+            f"{r['mean'] / rows[0]['mean']:.1f}×",
+            f"{1e3 * r['first']:.1f}",
+        )
     console.print(table)
-    console.print(f"log-log exponent of the step time over n ∈ [{fit_lo}, {fit_hi}]: mean {exponents['mean']:.2f}, "
-                  f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)")
+    console.print(
+        f"log-log exponent of the step time over n ∈ [{fit_lo}, {fit_hi}]: mean {exponents['mean']:.2f}, "
+        f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)"
+    )
     write_rows(rows, out, "isam2_scaling.csv")
     return 0
 

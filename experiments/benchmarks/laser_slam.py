@@ -9,6 +9,7 @@ laser SLAM's split (CPU time) into front end, pairwise ICP of the local refineme
 optimisation (the node graph's and the refinement's), with the loop candidates tried and
 accepted. The relation error is printed beside each, so a faster setting cannot hide a worse map.
 """
+
 from __future__ import annotations
 
 import json
@@ -36,11 +37,22 @@ def measure(log: str) -> dict:
         est = method.run(seq)
         wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
         scores, _ = relation_error_from_file(est, seq, RelationsParams(match="interpolate"))
-        row.update({f"{name}_wall_s": wall, f"{name}_cpu_s": cpu, f"{name}_realtime": duration / wall, f"{name}_realtime_cpu": duration / cpu,
-                    f"{name}_trans_mean": scores["trans_mean"]})
+        row.update(
+            {
+                f"{name}_wall_s": wall,
+                f"{name}_cpu_s": cpu,
+                f"{name}_realtime": duration / wall,
+                f"{name}_realtime_cpu": duration / cpu,
+                f"{name}_trans_mean": scores["trans_mean"],
+            }
+        )
         if name == "laser_slam":
             row.update({f"laser_slam_{k}_s": v for k, v in est.meta["seconds"].items()})
-            row.update(loop_candidates=est.meta["loop_candidates"], loop_closures=est.meta["loop_closures"], nodes=est.meta["nodes"])
+            row.update(
+                loop_candidates=est.meta["loop_candidates"],
+                loop_closures=est.meta["loop_closures"],
+                nodes=est.meta["nodes"],
+            )
     return row
 
 
@@ -50,20 +62,39 @@ def main(out: Path | None = None, quick: bool = False) -> int:
 
     from slamarena.datasets.registry import resolve
 
-    rows = [measure_single_threaded("slamarena.experiments.benchmarks.laser_slam", log=log)
-            for log in (LOGS[:1] if quick else LOGS) if resolve(f"carmen:{log}").present()]
+    rows = [
+        measure_single_threaded("slamarena.experiments.benchmarks.laser_slam", log=log)
+        for log in (LOGS[:1] if quick else LOGS)
+        if resolve(f"carmen:{log}").present()
+    ]
     if not rows:
         print("no staged CARMEN log with relations (radish_laser_logs): nothing to measure")
         return 0
     table = Table(title="laser SLAM speed, single-threaded: real-time factor = log duration / wall time")
-    for col in ("log", "grid SLAM ×RT wall / CPU", "laser SLAM ×RT wall / CPU", "front end [CPU s]", "pairwise ICP [CPU s]", "loop search [CPU s]", "optimisation [CPU s]",
-                "loops accepted / tried", "rel. error grid / laser [m]"):
+    for col in (
+        "log",
+        "grid SLAM ×RT wall / CPU",
+        "laser SLAM ×RT wall / CPU",
+        "front end [CPU s]",
+        "pairwise ICP [CPU s]",
+        "loop search [CPU s]",
+        "optimisation [CPU s]",
+        "loops accepted / tried",
+        "rel. error grid / laser [m]",
+    ):
         table.add_column(col, justify="right")
     for r in rows:
-        table.add_row(r["log"], f"{r['grid_slam_realtime']:.1f} / {r['grid_slam_realtime_cpu']:.1f}",
-                      f"{r['laser_slam_realtime']:.1f} / {r['laser_slam_realtime_cpu']:.1f}", f"{r['laser_slam_front_end_s']:.1f}", f"{r['laser_slam_pairwise_s']:.1f}",
-                      f"{r['laser_slam_loop_search_s']:.1f}", f"{r['laser_slam_optimisation_s']:.1f}",
-                      f"{r['loop_closures']} / {r['loop_candidates']}", f"{r['grid_slam_trans_mean']:.3f} / {r['laser_slam_trans_mean']:.3f}")
+        table.add_row(
+            r["log"],
+            f"{r['grid_slam_realtime']:.1f} / {r['grid_slam_realtime_cpu']:.1f}",
+            f"{r['laser_slam_realtime']:.1f} / {r['laser_slam_realtime_cpu']:.1f}",
+            f"{r['laser_slam_front_end_s']:.1f}",
+            f"{r['laser_slam_pairwise_s']:.1f}",
+            f"{r['laser_slam_loop_search_s']:.1f}",
+            f"{r['laser_slam_optimisation_s']:.1f}",
+            f"{r['loop_closures']} / {r['loop_candidates']}",
+            f"{r['grid_slam_trans_mean']:.3f} / {r['laser_slam_trans_mean']:.3f}",
+        )
     Console().print(table)
     write_rows(rows, out, "laser_slam.csv")
     return 0

@@ -14,6 +14,7 @@ CPU time is one core's and its peak resident memory is that run's. Printed per l
 Full run: Intel, FR079, MIT-CSAIL and FR-Clinic, whole logs, 30 particles (the issue's speed goal: Intel at
 least real time on one core). ``--quick``: the first 2000 scans of Intel.
 """
+
 from __future__ import annotations
 
 import json
@@ -41,7 +42,9 @@ def measure(log: str, particles: int, scans: int | None = None) -> dict:
     seq = datasets.load(f"carmen:{log}")
     if scans is not None and scans < len(seq.scans):
         ipc = np.asarray(seq.meta["scan_ipc_timestamp"])[:scans]
-        seq = dataclasses.replace(seq, scans=seq.scans.select(slice(0, scans)), meta={**seq.meta, "scan_ipc_timestamp": ipc})
+        seq = dataclasses.replace(
+            seq, scans=seq.scans.select(slice(0, scans)), meta={**seq.meta, "scan_ipc_timestamp": ipc}
+        )
     rbpf = RBPF(particles=particles)
     rbpf.run(dataclasses.replace(seq, scans=seq.scans.select(slice(0, 20))))  # compile the kernels outside the timing
     cpu, wall = time.process_time(), time.perf_counter()
@@ -50,11 +53,22 @@ def measure(log: str, particles: int, scans: int | None = None) -> dict:
     duration = float(seq.scans.t[-1] - seq.scans.t[0])
     m = est.meta
     row = {
-        "log": log, "scans": len(seq.scans), "particles": particles, "duration_s": duration, "cpu_s": cpu, "wall_s": wall,
-        "real_time_factor_cpu": duration / cpu, "real_time_factor_wall": duration / wall, "particle_scans_per_s": particles * len(seq.scans) / cpu,
-        "memory_per_particle_MB": m["memory_per_particle"] / 1e6, "memory_per_particle_peak_MB": m["memory_per_particle_peak"] / 1e6,
-        "unshared_per_particle_MB": m["memory_unshared_per_particle"] / 1e6, "sharing": m["memory_unshared_per_particle"] / m["memory_per_particle"],
-        "peak_rss_MB": peak_rss_mb(), "filter_steps": m["filter_steps"], "resampling_events": m["resampling_events"],
+        "log": log,
+        "scans": len(seq.scans),
+        "particles": particles,
+        "duration_s": duration,
+        "cpu_s": cpu,
+        "wall_s": wall,
+        "real_time_factor_cpu": duration / cpu,
+        "real_time_factor_wall": duration / wall,
+        "particle_scans_per_s": particles * len(seq.scans) / cpu,
+        "memory_per_particle_MB": m["memory_per_particle"] / 1e6,
+        "memory_per_particle_peak_MB": m["memory_per_particle_peak"] / 1e6,
+        "unshared_per_particle_MB": m["memory_unshared_per_particle"] / 1e6,
+        "sharing": m["memory_unshared_per_particle"] / m["memory_per_particle"],
+        "peak_rss_MB": peak_rss_mb(),
+        "filter_steps": m["filter_steps"],
+        "resampling_events": m["resampling_events"],
         "proposal_fallbacks": m["proposal_fallbacks"],
     }
     if seq.meta.get("relations"):  # the log's staged relations, read with it
@@ -71,21 +85,58 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     runs = [("intel", 2000)] if quick else [(log, None) for log in LOGS]
     rows = []
     for log, scans in runs:
-        console.print(f"rbpf on carmen:{log} ({PARTICLES} particles{'' if scans is None else f', first {scans} scans'}) …")
-        rows.append(measure_single_threaded("slamarena.experiments.benchmarks.rbpf", log=log, particles=PARTICLES, scans=scans))
+        console.print(
+            f"rbpf on carmen:{log} ({PARTICLES} particles{'' if scans is None else f', first {scans} scans'}) …"
+        )
+        rows.append(
+            measure_single_threaded("slamarena.experiments.benchmarks.rbpf", log=log, particles=PARTICLES, scans=scans)
+        )
     table = Table(title=f"grid RBPF, {PARTICLES} particles, one core per run")
-    for col in ("log", "scans", "log [s]", "CPU [s]", "× real time (CPU)", "× real time (wall)", "particle-scans / s",
-                "MB / particle", "sharing", "peak RSS [MB]", "resamplings / steps", "relations: trans. [m]", "rot. [rad]"):
+    for col in (
+        "log",
+        "scans",
+        "log [s]",
+        "CPU [s]",
+        "× real time (CPU)",
+        "× real time (wall)",
+        "particle-scans / s",
+        "MB / particle",
+        "sharing",
+        "peak RSS [MB]",
+        "resamplings / steps",
+        "relations: trans. [m]",
+        "rot. [rad]",
+    ):
         table.add_column(col)
     for r in rows:
-        rel = (f"{r['relations_trans_mean']:.3f} ± {r['relations_trans_std']:.3f}", f"{r['relations_rot_mean']:.4f} ± {r['relations_rot_std']:.4f}") if "relations_trans_mean" in r else ("—", "—")
-        table.add_row(r["log"], str(r["scans"]), f"{r['duration_s']:.0f}", f"{r['cpu_s']:.1f}", f"{r['real_time_factor_cpu']:.1f}", f"{r['real_time_factor_wall']:.1f}",
-                      f"{r['particle_scans_per_s']:.0f}", f"{r['memory_per_particle_MB']:.2f}", f"{r['sharing']:.1f}×", f"{r['peak_rss_MB']:.0f}",
-                      f"{r['resampling_events']} / {r['filter_steps']}", *rel)
+        rel = (
+            (
+                f"{r['relations_trans_mean']:.3f} ± {r['relations_trans_std']:.3f}",
+                f"{r['relations_rot_mean']:.4f} ± {r['relations_rot_std']:.4f}",
+            )
+            if "relations_trans_mean" in r
+            else ("—", "—")
+        )
+        table.add_row(
+            r["log"],
+            str(r["scans"]),
+            f"{r['duration_s']:.0f}",
+            f"{r['cpu_s']:.1f}",
+            f"{r['real_time_factor_cpu']:.1f}",
+            f"{r['real_time_factor_wall']:.1f}",
+            f"{r['particle_scans_per_s']:.0f}",
+            f"{r['memory_per_particle_MB']:.2f}",
+            f"{r['sharing']:.1f}×",
+            f"{r['peak_rss_MB']:.0f}",
+            f"{r['resampling_events']} / {r['filter_steps']}",
+            *rel,
+        )
     console.print(table)
     write_rows(rows, out, "rbpf.csv")
     intel = next(r for r in rows if r["log"] == "intel")
-    console.print(f"Intel with {PARTICLES} particles: {intel['real_time_factor_cpu']:.1f}× real time on one core (aim ≥ 1)")
+    console.print(
+        f"Intel with {PARTICLES} particles: {intel['real_time_factor_cpu']:.1f}× real time on one core (aim ≥ 1)"
+    )
     return 0 if intel["real_time_factor_cpu"] >= 1.0 else 1
 
 

@@ -37,6 +37,7 @@ one more row adds that import time (minimum over fresh interpreters that have im
 **Exactness.** Every converted token is also converted by Python's ``float()`` (correctly rounded,
 like ``strtod``), and the table counts the tokens on which each parser's double differs in any bit.
 """
+
 from __future__ import annotations
 
 import io
@@ -51,9 +52,9 @@ from pathlib import Path
 import numpy as np
 
 from slamarena.datasets import load
-from slamarena.datasets.registry import resolve
 from slamarena.datasets.formats import _text
 from slamarena.datasets.formats._text import read_bytes
+from slamarena.datasets.registry import resolve
 from slamarena.experiments.benchmarks import write_rows
 
 
@@ -64,9 +65,16 @@ class Body:
         self.args = (blob, b, starts, ends, run)
         if not run:  # every reader call on the benchmark files is a run; a gathered text would differ in work
             raise ValueError("only runs of numeric text are benchmarked")
-        self.text = blob[starts[0]:ends[-1]] if starts.size else b""
-        newlines = np.flatnonzero(b[starts[0]:ends[-1]] == 10) + starts[0] if starts.size else np.zeros(0, dtype=np.int64)
-        counts = np.diff(np.searchsorted(starts, np.concatenate([[starts[0] if starts.size else 0], newlines + 1, [ends[-1] if starts.size else 0]])))
+        self.text = blob[starts[0] : ends[-1]] if starts.size else b""
+        newlines = (
+            np.flatnonzero(b[starts[0] : ends[-1]] == 10) + starts[0] if starts.size else np.zeros(0, dtype=np.int64)
+        )
+        counts = np.diff(
+            np.searchsorted(
+                starts,
+                np.concatenate([[starts[0] if starts.size else 0], newlines + 1, [ends[-1] if starts.size else 0]]),
+            )
+        )
         self.counts = counts[counts > 0]  # blank lines hold no row (pandas and loadtxt skip them)
         self.size = int(starts.size)
 
@@ -114,9 +122,18 @@ def with_pandas(precision: str):
         width = int(body.counts.max()) if body.counts.size else 0
         try:
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore", DeprecationWarning)  # pandas ≥ 3.1: float_precision deprecated (one converter)
-                table = pd.read_csv(io.BytesIO(body.text), sep=r"\s+", header=None, names=range(width), dtype=np.float64,
-                                    engine="c", **({"float_precision": precision} if precision else {})).to_numpy()
+                warnings.simplefilter(
+                    "ignore", DeprecationWarning
+                )  # pandas ≥ 3.1: float_precision deprecated (one converter)
+                table = pd.read_csv(
+                    io.BytesIO(body.text),
+                    sep=r"\s+",
+                    header=None,
+                    names=range(width),
+                    dtype=np.float64,
+                    engine="c",
+                    **({"float_precision": precision} if precision else {}),
+                ).to_numpy()
         except (ValueError, pd.errors.ParserError):
             return None
         if table.shape[0] != body.counts.size:
@@ -124,6 +141,7 @@ def with_pandas(precision: str):
         if (body.counts == width).all():
             return _text._exactly(table.ravel(), body.size)
         return _text._exactly(table[np.arange(width) < body.counts[:, None]], body.size)
+
     return convert
 
 
@@ -168,8 +186,10 @@ def import_seconds(module: str, repeats: int) -> float:
     """Minimum time to import ``module`` in a fresh interpreter that has already imported numpy."""
     code = f"import time, numpy; t = time.perf_counter(); import {module}; print(time.perf_counter() - t)"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
-    return min(float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout)
-               for _ in range(repeats))
+    return min(
+        float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout)
+        for _ in range(repeats)
+    )
 
 
 def _timed(fn) -> float:
@@ -186,7 +206,10 @@ def measure(names: list[str], paths: list[Path], repeats: int) -> dict:
             load(n)
     expected = [by_float(body) for body in bodies]
     usable, mismatches = {}, {}
-    for key, convert in CONVERTERS.items():  # also the warm-up: imports (pandas) and first calls stay out of the timings
+    for (
+        key,
+        convert,
+    ) in CONVERTERS.items():  # also the warm-up: imports (pandas) and first calls stay out of the timings
         values = [convert(body) for body in bodies]
         usable[key] = all(v is not None for v in values)
         mismatches[key] = sum(bit_mismatches(v, e) for v, e in zip(values, expected))
@@ -212,20 +235,49 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     for label, r in results.items():
         t = r["times"]
         ref = t["reference"]
-        rows.append({"dataset": label, "variant": "decompress + split (reference)", "conversion_s": "", "reader_s": ref,
-                     "ratio": 1.0, "mismatches": "", "numbers": r["numbers"], "load_average": load_avg})
+        rows.append(
+            {
+                "dataset": label,
+                "variant": "decompress + split (reference)",
+                "conversion_s": "",
+                "reader_s": ref,
+                "ratio": 1.0,
+                "mismatches": "",
+                "numbers": r["numbers"],
+                "load_average": load_avg,
+            }
+        )
         for key in CONVERTERS:
             reader = t["full"] - t["own"] + t[key]
-            rows.append({"dataset": label, "variant": "full reader (own parser)" if key == "own" else f"reader with {key}",
-                         "conversion_s": t[key], "reader_s": reader if r["usable"][key] else "",
-                         "ratio": reader / ref if r["usable"][key] else "", "mismatches": r["mismatches"][key],
-                         "numbers": r["numbers"], "load_average": load_avg})
+            rows.append(
+                {
+                    "dataset": label,
+                    "variant": "full reader (own parser)" if key == "own" else f"reader with {key}",
+                    "conversion_s": t[key],
+                    "reader_s": reader if r["usable"][key] else "",
+                    "ratio": reader / ref if r["usable"][key] else "",
+                    "mismatches": r["mismatches"][key],
+                    "numbers": r["numbers"],
+                    "load_average": load_avg,
+                }
+            )
         reader = t["full"] - t["own"] + t["pandas high"] + pandas_import
-        rows.append({"dataset": label, "variant": "reader with pandas high, + import pandas (first load in a process)",
-                     "conversion_s": t["pandas high"] + pandas_import, "reader_s": reader, "ratio": reader / ref,
-                     "mismatches": "", "numbers": r["numbers"], "load_average": load_avg})
-    table = Table(title=f"readers vs decompress + line split (same run, min of {repeats}; load average {load_avg:.1f}); "
-                        "reader with X = full - own conversion + X")
+        rows.append(
+            {
+                "dataset": label,
+                "variant": "reader with pandas high, + import pandas (first load in a process)",
+                "conversion_s": t["pandas high"] + pandas_import,
+                "reader_s": reader,
+                "ratio": reader / ref,
+                "mismatches": "",
+                "numbers": r["numbers"],
+                "load_average": load_avg,
+            }
+        )
+    table = Table(
+        title=f"readers vs decompress + line split (same run, min of {repeats}; load average {load_avg:.1f}); "
+        "reader with X = full - own conversion + X"
+    )
     for col in ("dataset", "variant", "conversion [s]", "reader [s]", "ratio (aim <= 3)", "bits != float()"):
         table.add_column(col)
 
@@ -234,8 +286,14 @@ def main(out: Path | None = None, quick: bool = False) -> int:
 
     for row in rows:
         mism = "-" if row["mismatches"] == "" else f"{row['mismatches']} / {row['numbers']}"
-        table.add_row(row["dataset"], row["variant"], fmt(row["conversion_s"], ".3f"), fmt(row["reader_s"], ".3f"),
-                      fmt(row["ratio"], ".2f"), mism)
+        table.add_row(
+            row["dataset"],
+            row["variant"],
+            fmt(row["conversion_s"], ".3f"),
+            fmt(row["reader_s"], ".3f"),
+            fmt(row["ratio"], ".2f"),
+            mism,
+        )
     Console(width=160).print(table)
     write_rows(rows, out, "readers.csv")
     return 0

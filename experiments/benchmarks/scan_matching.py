@@ -15,6 +15,7 @@ log mapped by the Gauss-Newton pipeline as a real-time factor.
    2,691 s): wall time of the scan loop and the real-time factor = log duration / wall time
    (aim ≥ 20 on one core). ``--quick``: the first 2,000 scans.
 """
+
 from __future__ import annotations
 
 import time
@@ -23,14 +24,18 @@ from pathlib import Path
 import numpy as np
 
 from slamarena.datasets.geometry import between, transform_points
+from slamarena.experiments.benchmarks import write_rows
 from slamarena.mapping.map_pyramid import MapPyramid
 from slamarena.mapping.scan_matching import make_matcher
-from slamarena.experiments.benchmarks import write_rows
 
 MATCHERS = [  # (label, registry name, parameters)
     ("gauss_newton", "gauss_newton", {}),
     ("gauss_newton hector_gradient_bug", "gauss_newton", {"hector_gradient_bug": True}),
-    ("gauss_newton without prior (pure Hector)", "gauss_newton", {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0}),
+    (
+        "gauss_newton without prior (pure Hector)",
+        "gauss_newton",
+        {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0},
+    ),
     ("correlative (exhaustive)", "correlative", {}),
     ("branch_and_bound", "branch_and_bound", {}),
     ("kiss_icp", "kiss_icp", {}),
@@ -73,9 +78,17 @@ def matcher_table(sc, ks, seed: int = 0) -> list[dict]:
             e = between(sc.pose[k], res.pose)
             errs.append([np.hypot(e[0], e[1]), abs(e[2])])
         errs = np.array(errs)
-        rows.append({"matcher": label, "scans_per_s": len(ks) / spent, "scans_per_s_same_map": len(ks) / again, "trans_median": float(np.median(errs[:, 0])),
-                     "trans_p90": float(np.percentile(errs[:, 0], 90)), "rot_median": float(np.median(errs[:, 1])),
-                     "rot_p90": float(np.percentile(errs[:, 1], 90))})
+        rows.append(
+            {
+                "matcher": label,
+                "scans_per_s": len(ks) / spent,
+                "scans_per_s_same_map": len(ks) / again,
+                "trans_median": float(np.median(errs[:, 0])),
+                "trans_p90": float(np.percentile(errs[:, 0], 90)),
+                "rot_median": float(np.median(errs[:, 1])),
+                "rot_p90": float(np.percentile(errs[:, 1], 90)),
+            }
+        )
     return rows
 
 
@@ -91,35 +104,67 @@ def pipeline(seq, limit: int | None):
     est = slam.run(seq)
     wall = time.perf_counter() - t
     duration = float(seq.scans.t[-1] - seq.scans.t[0])
-    return {"scans": len(seq.scans), "duration_s": duration, "wall_s": wall, "real_time_factor": duration / wall,
-            "ms_per_scan_median": 1e3 * float(np.median(est.step_time)), "ms_per_scan_p99": 1e3 * float(np.percentile(est.step_time, 99)),
+    return (
+        {
+            "scans": len(seq.scans),
+            "duration_s": duration,
+            "wall_s": wall,
+            "real_time_factor": duration / wall,
+            "ms_per_scan_median": 1e3 * float(np.median(est.step_time)),
+            "ms_per_scan_p99": 1e3 * float(np.percentile(est.step_time, 99)),
             "map_update_share": float(est.step_time[est.diagnostics["map_updated"]].sum() / est.step_time.sum()),
-            "map_updates": est.meta["map_updates"]}, slam, est
+            "map_updates": est.meta["map_updates"],
+        },
+        slam,
+        est,
+    )
 
 
 def main(out: Path | None = None, quick: bool = False) -> int:
-    from slamarena import datasets
     from rich.console import Console
     from rich.table import Table
+
+    from slamarena import datasets
 
     console = Console(width=150)
     corrected = datasets.load("carmen-corrected:intel").scans
     ks = np.arange(50, len(corrected.t), 40 if quick else 8)
     rows = matcher_table(corrected, ks)
     gn = rows[0]["scans_per_s_same_map"]
-    table = Table(title=f"scan matchers on carmen-corrected:intel ({len(ks)} scans vs the 4 before, offset σ 5 cm / 2°)")
-    for col in ("matcher", "scans / s (new map)", "scans / s (same map)", "vs gauss_newton", "trans. median [m]", "trans. p90 [m]", "rot. median [°]", "rot. p90 [°]"):
+    table = Table(
+        title=f"scan matchers on carmen-corrected:intel ({len(ks)} scans vs the 4 before, offset σ 5 cm / 2°)"
+    )
+    for col in (
+        "matcher",
+        "scans / s (new map)",
+        "scans / s (same map)",
+        "vs gauss_newton",
+        "trans. median [m]",
+        "trans. p90 [m]",
+        "rot. median [°]",
+        "rot. p90 [°]",
+    ):
         table.add_column(col)
     for r in rows:
-        table.add_row(r["matcher"], f"{r['scans_per_s']:.0f}", f"{r['scans_per_s_same_map']:.0f}", f"{r['scans_per_s_same_map'] / gn:.3f}", f"{r['trans_median']:.3f}",
-                      f"{r['trans_p90']:.3f}", f"{np.degrees(r['rot_median']):.2f}", f"{np.degrees(r['rot_p90']):.2f}")
+        table.add_row(
+            r["matcher"],
+            f"{r['scans_per_s']:.0f}",
+            f"{r['scans_per_s_same_map']:.0f}",
+            f"{r['scans_per_s_same_map'] / gn:.3f}",
+            f"{r['trans_median']:.3f}",
+            f"{r['trans_p90']:.3f}",
+            f"{np.degrees(r['rot_median']):.2f}",
+            f"{np.degrees(r['rot_p90']):.2f}",
+        )
     console.print(table)
 
     intel = datasets.load("carmen:intel")
     p, slam, est = pipeline(intel, 2000 if quick else None)
-    console.print(f"GridSLAM (gauss_newton) on carmen:intel: {p['scans']} scans, {p['duration_s']:.0f} s of log in {p['wall_s']:.1f} s → "
-                  f"{p['real_time_factor']:.1f}× faster than real time (aim ≥ 20); {p['ms_per_scan_median']:.2f} ms/scan median, "
-                  f"{p['ms_per_scan_p99']:.1f} ms p99; {p['map_updates']} map updates take {100 * p['map_update_share']:.0f} % of the time")
+    console.print(
+        f"GridSLAM (gauss_newton) on carmen:intel: {p['scans']} scans, {p['duration_s']:.0f} s of log in {p['wall_s']:.1f} s → "
+        f"{p['real_time_factor']:.1f}× faster than real time (aim ≥ 20); {p['ms_per_scan_median']:.2f} ms/scan median, "
+        f"{p['ms_per_scan_p99']:.1f} ms p99; {p['map_updates']} map updates take {100 * p['map_update_share']:.0f} % of the time"
+    )
     if write_rows(rows, out, "scan_matching.csv") is not None:
         import json
 

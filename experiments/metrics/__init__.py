@@ -14,10 +14,12 @@ times), :mod:`.trajectory` (ATE, RPE), :mod:`.consistency` (NEES, NIS, χ² band
 revisits, a measure of loop closure), :mod:`.cost`, :mod:`.estimate` (what the
 estimate reports of itself: landmark count, rejected rows, an optimiser's final error).
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from pydantic import BaseModel
 
@@ -28,7 +30,14 @@ from .cost import COST_OUTPUTS, CostParams, cost
 from .estimate import ESTIMATE_OUTPUTS, EstimateParams, estimate_counts
 from .landmarks import MAP_OUTPUTS, MapParams, landmark_error
 from .reference import MetricUnavailable, Reference, reference_of
-from .relations import LOOP_OUTPUTS, RELATION_OUTPUTS, LoopParams, RelationsParams, loop_relation_error, relation_error_from_file
+from .relations import (
+    LOOP_OUTPUTS,
+    RELATION_OUTPUTS,
+    LoopParams,
+    RelationsParams,
+    loop_relation_error,
+    relation_error_from_file,
+)
 from .trajectory import ATE_OUTPUTS, RPE_OUTPUTS, ATEParams, RPEParams, ate, rpe
 
 __all__ = ["METRICS", "Metric", "CellData", "MetricUnavailable", "evaluate", "output_columns", "reference_of"]
@@ -58,9 +67,13 @@ METRICS: dict[str, Metric] = {
     "nees": Metric(NEESParams, NEES_OUTPUTS, lambda c, p: nees(c.estimate, c.reference, p)),
     "nis": Metric(NISParams, NIS_OUTPUTS, lambda c, p: nis(c.estimate, p)),
     "map": Metric(MapParams, MAP_OUTPUTS, lambda c, p: landmark_error(c.estimate, c.reference, p)),
-    "relations": Metric(RelationsParams, RELATION_OUTPUTS, lambda c, p: relation_error_from_file(c.estimate, c.data, p)),
+    "relations": Metric(
+        RelationsParams, RELATION_OUTPUTS, lambda c, p: relation_error_from_file(c.estimate, c.data, p)
+    ),
     "loop": Metric(LoopParams, LOOP_OUTPUTS, lambda c, p: loop_relation_error(c.estimate, c.reference, p)),
-    "cost": Metric(CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p, duration=_duration(c.data))),
+    "cost": Metric(
+        CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p, duration=_duration(c.data))
+    ),
     "estimate": Metric(EstimateParams, ESTIMATE_OUTPUTS, lambda c, p: estimate_counts(c.estimate, p)),
 }
 

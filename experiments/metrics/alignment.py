@@ -9,6 +9,7 @@ Given matched positions ``p_i`` (estimate) and ``q_i`` (reference), Umeyama's cl
 
 A pose ``(x, y, θ)`` maps to ``(s R [x, y] + t, θ + angle(R))``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -25,6 +25,7 @@ Carlo runs the average ``ε̄_k = (1/N) Σ_i ε_k^i`` has ``N ε̄_k ~ χ²(N d)
 whose (average) value lies inside; a consistent filter has ≈ 0.95 (one run) and most steps
 inside (averaged).
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -37,14 +38,26 @@ from slamarena.datasets.geometry import between, se2_log, wrap_angle
 
 from .reference import MetricUnavailable, Reference, associate
 
-__all__ = ["NEESParams", "NISParams", "chi2_band", "nees", "nis", "nis_per_stamp", "monte_carlo", "NEES_OUTPUTS", "NIS_OUTPUTS"]
+__all__ = [
+    "NEESParams",
+    "NISParams",
+    "chi2_band",
+    "nees",
+    "nis",
+    "nis_per_stamp",
+    "monte_carlo",
+    "NEES_OUTPUTS",
+    "NIS_OUTPUTS",
+]
 
 
 class NEESParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     frame: Literal["world", "body"] = "world"
     max_gap: float = Field(0.1, ge=0)
-    max_condition: float = Field(1e9, gt=1, description="steps whose covariance has a larger condition number are skipped")
+    max_condition: float = Field(
+        1e9, gt=1, description="steps whose covariance has a larger condition number are skipped"
+    )
     probability: float = Field(0.95, gt=0, lt=1)
 
 
@@ -98,7 +111,12 @@ def nees(estimate: Estimate, ref: Reference, params: NEESParams = NEESParams()) 
     e = pose_error(estimate.poses[assoc.index][usable], assoc.gt[usable], params.frame)
     eps = np.einsum("ki,ki->k", e, np.linalg.solve(P[usable], e[..., None])[..., 0])
     lo, hi = chi2_band(3, 1, params.probability)
-    out = {"mean": float(eps.mean()), "mean_over_dof": float(eps.mean() / 3), "in_band": float(np.mean((eps >= lo) & (eps <= hi))), "steps": int(eps.size)}
+    out = {
+        "mean": float(eps.mean()),
+        "mean_over_dof": float(eps.mean() / 3),
+        "in_band": float(np.mean((eps >= lo) & (eps <= hi))),
+        "steps": int(eps.size),
+    }
     return out, {"t": estimate.t[assoc.index][usable], "nees": eps}
 
 
@@ -115,7 +133,11 @@ def nis(estimate: Estimate, params: NISParams = NISParams()) -> tuple[dict, dict
     lo, hi = chi2_band(dof[ok], 1, params.probability)
     v = value[ok]
     t = np.asarray(d["nis_t"], dtype=float).reshape(-1)[ok] if "nis_t" in d else np.flatnonzero(ok).astype(float)
-    out = {"mean_over_dof": float(np.mean(v / dof[ok])), "in_band": float(np.mean((v >= lo) & (v <= hi))), "count": int(v.size)}
+    out = {
+        "mean_over_dof": float(np.mean(v / dof[ok])),
+        "in_band": float(np.mean((v >= lo) & (v <= hi))),
+        "count": int(v.size),
+    }
     return out, {"t": t, "nis": v, "dof": dof[ok]}
 
 
@@ -146,7 +168,9 @@ def monte_carlo(runs: list[tuple], dof=3, probability: float = 0.95, tol: float 
         tables.append(dict(zip(np.round(t / tol).tolist(), zip(value.tolist(), d.tolist()))))
     t0 = np.asarray(runs[0][0], dtype=float)
     keys = np.round(t0 / tol).tolist()
-    shared = np.array([all(k in table and table[k][1] == tables[0][k][1] for table in tables) for k in keys], dtype=bool)
+    shared = np.array(
+        [all(k in table and table[k][1] == tables[0][k][1] for table in tables) for k in keys], dtype=bool
+    )
     if not shared.any():
         raise MetricUnavailable("the runs share no time stamp (with equal dimension)")
     kept = [k for k, s in zip(keys, shared) if s]
@@ -154,4 +178,12 @@ def monte_carlo(runs: list[tuple], dof=3, probability: float = 0.95, tol: float 
     dims = np.array([tables[0][k][1] for k in kept])
     lo, hi = chi2_band(dims, len(runs), probability)
     inside = (mean >= lo) & (mean <= hi)
-    return {"t": t0[shared], "mean": mean, "lo": lo, "hi": hi, "dof": dims, "in_band": float(np.mean(inside)), "runs": len(runs)}
+    return {
+        "t": t0[shared],
+        "mean": mean,
+        "lo": lo,
+        "hi": hi,
+        "dof": dims,
+        "in_band": float(np.mean(inside)),
+        "runs": len(runs),
+    }

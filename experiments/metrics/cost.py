@@ -11,6 +11,7 @@
   interpreter, imported libraries, the dataset and the estimator (native allocations of
   GTSAM/Open3D included, which tracemalloc would miss).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -59,8 +60,13 @@ def peak_rss_mb() -> float:
     return rss / 2**20 if sys.platform == "darwin" else rss / 2**10
 
 
-def cost(estimate: Estimate, wall: float | None = None, peak_rss: float | None = None, params: CostParams = CostParams(),
-         duration: float | None = None) -> tuple[dict, dict]:
+def cost(
+    estimate: Estimate,
+    wall: float | None = None,
+    peak_rss: float | None = None,
+    params: CostParams = CostParams(),
+    duration: float | None = None,
+) -> tuple[dict, dict]:
     """The cost outputs; ``duration`` is the recording's span [s] (``None``: no ``realtime``)."""
     out: dict = {"steps": int(len(estimate.t))}
     if estimate.step_time is not None and len(estimate.step_time):
@@ -72,5 +78,9 @@ def cost(estimate: Estimate, wall: float | None = None, peak_rss: float | None =
             out["realtime"] = float(duration) / float(wall)
     if peak_rss is not None:
         out["peak_rss_mb"] = float(peak_rss)
-    series = {} if estimate.step_time is None else {"t": estimate.t, "step_time": np.asarray(estimate.step_time, dtype=float)}
+    series = (
+        {}
+        if estimate.step_time is None
+        else {"t": estimate.t, "step_time": np.asarray(estimate.step_time, dtype=float)}
+    )
     return out, series

@@ -13,6 +13,7 @@ None of them is marked best in a table: fewer rejections or a lower ½χ² of an
 An output the estimate does not carry is left out of the row (the table shows –); the metric is unavailable only when
 the estimate carries none of them.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -15,6 +15,7 @@ Matching:
 were observed (ids seen in the range-bearing stream, else all) but not matched;
 ``spurious`` = estimated landmarks without a match.
 """
+
 from __future__ import annotations
 
 from typing import Literal

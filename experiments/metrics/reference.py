@@ -9,6 +9,7 @@ gap of the ground truth) are excluded and counted (``unmatched``).
 Pose graphs carry ground truth per node (``PoseGraph.true_poses``); their estimates are
 indexed by node id in ``Estimate.t``, so node ids act as times (``max_gap`` 0: exact match).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

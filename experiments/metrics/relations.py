@@ -18,6 +18,7 @@ Sequence's scan times through ``meta["scan_ipc_timestamp"]`` where present), are
 relations of a loop's overlap, which are zero-error only for an estimate whose map is consistent where the path
 meets itself — a measure of loop closure that a globally small but unclosed drift does not pass.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -31,8 +32,16 @@ from slamarena.datasets.geometry import between, interpolate_poses
 
 from .reference import MetricUnavailable, Reference, associate
 
-__all__ = ["RelationsParams", "relation_error", "relation_error_from_file", "revisit_relations", "LoopParams", "loop_relation_error",
-           "RELATION_OUTPUTS", "LOOP_OUTPUTS"]
+__all__ = [
+    "RelationsParams",
+    "relation_error",
+    "relation_error_from_file",
+    "revisit_relations",
+    "LoopParams",
+    "loop_relation_error",
+    "RELATION_OUTPUTS",
+    "LOOP_OUTPUTS",
+]
 
 
 class RelationsParams(BaseModel):
@@ -40,7 +49,11 @@ class RelationsParams(BaseModel):
     file: Path | None = Field(None, description="relations file (Kümmerle et al. format); default: the dataset's")
     match: Literal["nearest", "interpolate"] = "nearest"
     tolerance: float = Field(0.05, ge=0, description="seconds, for match: nearest")
-    local_span: float = Field(600.0, gt=0, description="a relation is local when its two stamps are less than this apart [s] (the local_* outputs)")
+    local_span: float = Field(
+        600.0,
+        gt=0,
+        description="a relation is local when its two stamps are less than this apart [s] (the local_* outputs)",
+    )
 
     @field_validator("file")
     @classmethod
@@ -79,7 +92,13 @@ def _poses_at(estimate: Estimate, t: np.ndarray, match: str, tolerance: float) -
     return estimate.poses[nearest], np.abs(et[nearest] - t) <= tolerance
 
 
-def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_ref: np.ndarray, params: RelationsParams = RelationsParams()) -> tuple[dict, dict]:
+def relation_error(
+    estimate: Estimate,
+    t_i: np.ndarray,
+    t_j: np.ndarray,
+    delta_ref: np.ndarray,
+    params: RelationsParams = RelationsParams(),
+) -> tuple[dict, dict]:
     t_i, t_j = np.asarray(t_i, dtype=float), np.asarray(t_j, dtype=float)
     delta_ref = np.asarray(delta_ref, dtype=float).reshape(-1, 3)
     p_i, ok_i = _poses_at(estimate, t_i, params.match, params.tolerance)
@@ -92,17 +111,25 @@ def relation_error(estimate: Estimate, t_i: np.ndarray, t_j: np.ndarray, delta_r
     local = np.abs(t_j[ok] - t_i[ok]) < params.local_span
     nan = float("nan")
     out = {
-        "trans_mean": float(trans.mean()), "trans_std": float(trans.std()),
-        "rot_mean": float(rot.mean()), "rot_std": float(rot.std()),
-        "trans_sq_mean": float(np.mean(trans**2)), "rot_sq_mean": float(np.mean(rot**2)),
-        "local_trans_mean": float(trans[local].mean()) if local.any() else nan, "local_trans_std": float(trans[local].std()) if local.any() else nan,
-        "global_trans_mean": float(trans[~local].mean()) if (~local).any() else nan, "local": int(local.sum()),
-        "used": int(ok.sum()), "dropped": int((~ok).sum()),
+        "trans_mean": float(trans.mean()),
+        "trans_std": float(trans.std()),
+        "rot_mean": float(rot.mean()),
+        "rot_std": float(rot.std()),
+        "trans_sq_mean": float(np.mean(trans**2)),
+        "rot_sq_mean": float(np.mean(rot**2)),
+        "local_trans_mean": float(trans[local].mean()) if local.any() else nan,
+        "local_trans_std": float(trans[local].std()) if local.any() else nan,
+        "global_trans_mean": float(trans[~local].mean()) if (~local).any() else nan,
+        "local": int(local.sum()),
+        "used": int(ok.sum()),
+        "dropped": int((~ok).sum()),
     }
     return out, {"t": t_i[ok], "trans_error": trans, "rot_error": rot}
 
 
-def revisit_relations(t: np.ndarray, poses: np.ndarray, radius: float = 0.25, min_travel: float = 20.0, stride: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def revisit_relations(
+    t: np.ndarray, poses: np.ndarray, radius: float = 0.25, min_travel: float = 20.0, stride: int = 5
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Relations ``(t_i, t_j, δ*_ij)`` between the places a reference trajectory ``poses`` (N, 3) at ``t`` (N,) revisits.
 
     For every ``stride``-th pose i, j is the later pose nearest to it in position among those at least ``min_travel``
@@ -130,7 +157,9 @@ class LoopParams(BaseModel):
     radius: float = Field(0.25, gt=0, description="a revisit pairs two poses at most this far apart [m]")
     min_travel: float = Field(20.0, gt=0, description="…and at least this much path apart [m]")
     stride: int = Field(5, ge=1, description="every stride-th estimate pose starts a pair")
-    max_gap: float = Field(0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it")
+    max_gap: float = Field(
+        0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it"
+    )
 
 
 LOOP_OUTPUTS = {
@@ -148,8 +177,12 @@ def loop_relation_error(estimate: Estimate, ref: Reference, params: LoopParams =
     t = estimate.t[assoc.index]
     t_i, t_j, delta = revisit_relations(t, assoc.gt, params.radius, params.min_travel, params.stride)
     if t_i.size == 0:
-        raise MetricUnavailable(f"the ground truth revisits no place (within {params.radius} m after {params.min_travel} m of path)")
-    scores, series = relation_error(Estimate(estimate.method, t, estimate.poses[assoc.index]), t_i, t_j, delta, RelationsParams(tolerance=0.0))
+        raise MetricUnavailable(
+            f"the ground truth revisits no place (within {params.radius} m after {params.min_travel} m of path)"
+        )
+    scores, series = relation_error(
+        Estimate(estimate.method, t, estimate.poses[assoc.index]), t_i, t_j, delta, RelationsParams(tolerance=0.0)
+    )
     return {k: scores[k] for k in LOOP_OUTPUTS}, series
 
 

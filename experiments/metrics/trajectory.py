@@ -19,6 +19,7 @@ i starts a pair, otherwise pairs are consecutive (evo's convention: for metres a
 when the path since the last one reaches Δ). Pairs farther than ``rel_tol · Δ`` from Δ are
 dropped (seconds and metres). RPE needs no alignment (it is invariant to a rigid one).
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -38,7 +39,9 @@ __all__ = ["ATEParams", "RPEParams", "ate", "rpe", "rpe_pairs", "ATE_OUTPUTS", "
 class ATEParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     align: Literal["none", "se2", "sim2"] = "se2"
-    max_gap: float = Field(0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it")
+    max_gap: float = Field(
+        0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it"
+    )
 
 
 class RPEParams(BaseModel):
@@ -75,7 +78,12 @@ RPE_OUTPUTS = {
 
 
 def _stats(e: np.ndarray) -> dict:
-    return {"rmse": float(np.sqrt(np.mean(e**2))), "mean": float(np.mean(e)), "median": float(np.median(e)), "max": float(np.max(e))}
+    return {
+        "rmse": float(np.sqrt(np.mean(e**2))),
+        "mean": float(np.mean(e)),
+        "median": float(np.median(e)),
+        "max": float(np.max(e)),
+    }
 
 
 def ate(estimate: Estimate, ref: Reference, params: ATEParams = ATEParams()) -> tuple[dict, dict]:
@@ -89,12 +97,26 @@ def ate(estimate: Estimate, ref: Reference, params: ATEParams = ATEParams()) -> 
     e = np.linalg.norm(aligned[:, :2] - assoc.gt[:, :2], axis=1)
     eta = np.abs(between(assoc.gt, aligned)[:, 2])
     out = _stats(e)
-    out.update(heading_rmse=float(np.sqrt(np.mean(eta**2))), heading_max=float(eta.max()), matched=int(assoc.index.size), unmatched=assoc.unmatched, scale=A.scale)
-    series = {"t": estimate.t[assoc.index], "position_error": e, "heading_error": eta, "aligned_poses": aligned, "gt_poses": assoc.gt}
+    out.update(
+        heading_rmse=float(np.sqrt(np.mean(eta**2))),
+        heading_max=float(eta.max()),
+        matched=int(assoc.index.size),
+        unmatched=assoc.unmatched,
+        scale=A.scale,
+    )
+    series = {
+        "t": estimate.t[assoc.index],
+        "position_error": e,
+        "heading_error": eta,
+        "aligned_poses": aligned,
+        "gt_poses": assoc.gt,
+    }
     return out, {**series, "alignment": A}
 
 
-def rpe_pairs(t: np.ndarray, xy: np.ndarray, delta: float, unit: str, all_pairs: bool = True, rel_tol: float = 0.1) -> np.ndarray:
+def rpe_pairs(
+    t: np.ndarray, xy: np.ndarray, delta: float, unit: str, all_pairs: bool = True, rel_tol: float = 0.1
+) -> np.ndarray:
     """Index pairs (P, 2) at a separation ``delta`` in ``unit`` (see the module docstring)."""
     n = len(t)
     if unit == "frames":

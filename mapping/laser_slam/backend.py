@@ -12,6 +12,7 @@ closure is applied at once (with ``extra_updates`` more iSAM2 iterations to reli
 all global estimates read back. :meth:`Backend.finish` runs one batch Levenberg-Marquardt over the whole
 graph from iSAM2's estimate; a non-finite or increasing error is an :class:`OptimizationError`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +28,7 @@ class OptimizationError(UserError, RuntimeError):
     """The back end's optimisation failed (non-finite or increasing error); its result is not used."""
 
 
-def batch_optimise(graph, initial, max_iterations: int, what: str) -> "tuple[object, dict]":
+def batch_optimise(graph, initial, max_iterations: int, what: str) -> tuple[object, dict]:
     """Levenberg-Marquardt on a GTSAM ``graph`` from ``initial``: the result (Values) and a report; a non-finite or
     increasing error is an :class:`OptimizationError` naming ``what``."""
     import gtsam
@@ -40,7 +41,11 @@ def batch_optimise(graph, initial, max_iterations: int, what: str) -> "tuple[obj
     after = graph.error(result)
     if not (np.isfinite(before) and np.isfinite(after)) or after > before * (1 + 1e-9) + 1e-9:
         raise OptimizationError(f"{what} did not converge: error {before:.6g} → {after:.6g}")
-    return result, {"initial_error": float(before), "final_error": float(after), "iterations": int(optimizer.iterations())}
+    return result, {
+        "initial_error": float(before),
+        "final_error": float(after),
+        "iterations": int(optimizer.iterations()),
+    }
 
 
 class Backend:
@@ -105,7 +110,7 @@ class Backend:
         self.flush()
         return self._g.utilities.extractPose2(self.isam.calculateEstimate())
 
-    def graph(self) -> "tuple[object, object]":
+    def graph(self) -> tuple[object, object]:
         """The whole factor graph and iSAM2's estimate."""
         self.flush()
         return self.isam.getFactorsUnsafe(), self.isam.calculateEstimate()
@@ -125,6 +130,13 @@ class Backend:
         """The graph as the data model's :class:`PoseGraph` (for the g2o writer), with ``poses`` as its vertices."""
         i, j, z, cov, loop = zip(*self.edges) if self.edges else ((), (), (), (), ())
         info = np.linalg.inv(np.asarray(cov).reshape(-1, 3, 3)) if self.edges else np.zeros((0, 3, 3))
-        return PoseGraph(name=name, node_ids=np.arange(self.n), edge_i=np.asarray(i, dtype=np.int64), edge_j=np.asarray(j, dtype=np.int64),
-                         edge_z=np.asarray(z).reshape(-1, 3), edge_information=info, poses=poses,
-                         meta={"loop_edges": int(np.sum(loop)), "robust_kernel": self.kernel.robust})
+        return PoseGraph(
+            name=name,
+            node_ids=np.arange(self.n),
+            edge_i=np.asarray(i, dtype=np.int64),
+            edge_j=np.asarray(j, dtype=np.int64),
+            edge_z=np.asarray(z).reshape(-1, 3),
+            edge_information=info,
+            poses=poses,
+            meta={"loop_edges": int(np.sum(loop)), "robust_kernel": self.kernel.robust},
+        )

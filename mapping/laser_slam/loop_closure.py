@@ -30,6 +30,7 @@ of the found pose — wide enough that a corridor, where a scan fits anywhere al
 axis the graph then hardly trusts — rotated into the frame of the matched pose M (z's end, where GTSAM's
 BetweenFactorPose2 measures its error), plus the floors ``loop_sigma_*``² on its diagonal.
 """
+
 from __future__ import annotations
 
 import time
@@ -62,16 +63,24 @@ class LoopRecord:
     z: list = field(default_factory=list)
 
     def add(self, node, submap, anchor, search_score, search_nodes, score, accepted, seconds, z) -> None:
-        for name, value in zip(("node", "submap", "anchor", "search_score", "search_nodes", "score", "accepted", "seconds", "z"),
-                               (node, submap, anchor, search_score, search_nodes, score, accepted, seconds, z)):
+        for name, value in zip(
+            ("node", "submap", "anchor", "search_score", "search_nodes", "score", "accepted", "seconds", "z"),
+            (node, submap, anchor, search_score, search_nodes, score, accepted, seconds, z),
+        ):
             getattr(self, name).append(value)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        return {"loop_node": np.asarray(self.node, dtype=np.int64), "loop_submap": np.asarray(self.submap, dtype=np.int64),
-                "loop_anchor": np.asarray(self.anchor, dtype=np.int64), "loop_search_score": np.asarray(self.search_score, dtype=float),
-                "loop_search_nodes": np.asarray(self.search_nodes, dtype=np.int64), "loop_score": np.asarray(self.score, dtype=float),
-                "loop_accepted": np.asarray(self.accepted, dtype=bool), "loop_seconds": np.asarray(self.seconds, dtype=float),
-                "loop_z": np.asarray(self.z, dtype=float).reshape(-1, 3)}
+        return {
+            "loop_node": np.asarray(self.node, dtype=np.int64),
+            "loop_submap": np.asarray(self.submap, dtype=np.int64),
+            "loop_anchor": np.asarray(self.anchor, dtype=np.int64),
+            "loop_search_score": np.asarray(self.search_score, dtype=float),
+            "loop_search_nodes": np.asarray(self.search_nodes, dtype=np.int64),
+            "loop_score": np.asarray(self.score, dtype=float),
+            "loop_accepted": np.asarray(self.accepted, dtype=bool),
+            "loop_seconds": np.asarray(self.seconds, dtype=float),
+            "loop_z": np.asarray(self.z, dtype=float).reshape(-1, 3),
+        }
 
 
 def voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
@@ -105,9 +114,18 @@ class LoopCloser:
 
     def __init__(self, params):
         self.p = params
-        self.bnb = _SubmapBranchAndBound(linear_window=params.loop_linear_window, angular_window=params.loop_angular_window,
-                                         level=params.loop_level, refine=False, min_score=params.loop_min_search_score)
-        self.response = _SubmapResponse(linear_window=params.loop_covariance_window, angular_window=params.loop_covariance_angle, level=params.loop_level)
+        self.bnb = _SubmapBranchAndBound(
+            linear_window=params.loop_linear_window,
+            angular_window=params.loop_angular_window,
+            level=params.loop_level,
+            refine=False,
+            min_score=params.loop_min_search_score,
+        )
+        self.response = _SubmapResponse(
+            linear_window=params.loop_covariance_window,
+            angular_window=params.loop_covariance_angle,
+            level=params.loop_level,
+        )
         self.gn = GaussNewtonMatcher()
         self._cache: OrderedDict[int, dict] = OrderedDict()
         self.record = LoopRecord()
@@ -137,28 +155,58 @@ class LoopCloser:
             self._cache.popitem(last=False)
         return cache
 
-    def try_close(self, submap, n: int, points: np.ndarray, L: np.ndarray, G: np.ndarray, own_score: float) -> tuple[int, np.ndarray, np.ndarray] | None:
+    def try_close(
+        self, submap, n: int, points: np.ndarray, L: np.ndarray, G: np.ndarray, own_score: float
+    ) -> tuple[int, np.ndarray, np.ndarray] | None:
         """Match node n's scan end points (robot frame) against ``submap``; (node c, z, Σ) of an accepted loop, else None.
 
         ``own_score``: the score of node n's scan against the submap the front end matched it to."""
         tic = time.process_time()
         nodes = np.asarray(submap.nodes)
-        c = nodes[np.argmin(np.hypot(*(G[nodes, :2] - G[n, :2]).T))]  # the submap's node nearest to node n, as estimated
+        c = nodes[
+            np.argmin(np.hypot(*(G[nodes, :2] - G[n, :2]).T))
+        ]  # the submap's node nearest to node n, as estimated
         guess = compose(L[c], between(G[c], G[n]))
         self.bnb.active = self.response.active = self._precomputed(submap)
         near = voxel_filter(points[np.hypot(points[:, 0], points[:, 1]) <= self.p.loop_max_range], self.p.loop_voxel)
         coarse = self.bnb.match(submap.maps, near, guess)
         if not np.isfinite(coarse.score):  # nothing in the window is worth refining
-            self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float("nan"), False, time.process_time() - tic, np.full(3, np.nan))
+            self.record.add(
+                n,
+                submap.index,
+                c,
+                float(coarse.score),
+                int(coarse.iterations),
+                float("nan"),
+                False,
+                time.process_time() - tic,
+                np.full(3, np.nan),
+            )
             return None
         fine = self.gn.match(submap.maps, points, coarse.pose)
-        accepted = bool(fine.score >= max(self.p.min_score, self.p.loop_score_ratio * own_score) and np.all(np.isfinite(fine.pose)))
-        c = nodes[np.argmin(np.hypot(*(L[nodes, :2] - fine.pose[:2]).T))]  # the node whose part of the submap the scan matched
+        accepted = bool(
+            fine.score >= max(self.p.min_score, self.p.loop_score_ratio * own_score) and np.all(np.isfinite(fine.pose))
+        )
+        c = nodes[
+            np.argmin(np.hypot(*(L[nodes, :2] - fine.pose[:2]).T))
+        ]  # the node whose part of the submap the scan matched
         z = between(L[c], fine.pose)
         spread = self.response.match(submap.maps, near, coarse.pose).cov if accepted else np.full((3, 3), np.nan)
         cos, sin = np.cos(fine.pose[2]), np.sin(fine.pose[2])
         # world-aligned (the submap's frame) → node n's frame, z's end, where GTSAM's BetweenFactorPose2 measures its error
         R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])
-        cov = R @ spread @ R.T + np.diag(np.square([self.p.loop_sigma_translation, self.p.loop_sigma_translation, self.p.loop_sigma_rotation]))
-        self.record.add(n, submap.index, c, float(coarse.score), int(coarse.iterations), float(fine.score), accepted, time.process_time() - tic, z)
+        cov = R @ spread @ R.T + np.diag(
+            np.square([self.p.loop_sigma_translation, self.p.loop_sigma_translation, self.p.loop_sigma_rotation])
+        )
+        self.record.add(
+            n,
+            submap.index,
+            c,
+            float(coarse.score),
+            int(coarse.iterations),
+            float(fine.score),
+            accepted,
+            time.process_time() - tic,
+            z,
+        )
         return (int(c), z, cov) if accepted else None

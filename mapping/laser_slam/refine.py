@@ -24,6 +24,7 @@ factors is stiffer than its true error, and the robust loop factors yield to it 
 Without pairwise factors the hanging factors have zero residual at G_k, which is then the optimum. A non-finite
 or increasing error is an :class:`~.backend.OptimizationError`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -36,8 +37,15 @@ from .backend import batch_optimise
 __all__ = ["refine_scans"]
 
 
-def refine_scans(initial: np.ndarray, node_scan: np.ndarray, hanging: list, pairs: list, kernel: RobustKernelParams,
-                 prior_sigma: float = 1e-6, max_iterations: int = 100) -> tuple[np.ndarray, dict]:
+def refine_scans(
+    initial: np.ndarray,
+    node_scan: np.ndarray,
+    hanging: list,
+    pairs: list,
+    kernel: RobustKernelParams,
+    prior_sigma: float = 1e-6,
+    max_iterations: int = 100,
+) -> tuple[np.ndarray, dict]:
     """Refined world poses (K, 3) of every scan from ``initial`` (K, 3; the nodes' scans ``node_scan`` keep their
     poses, scans before ``node_scan[0]`` follow the first node rigidly) and a report.
 
@@ -52,7 +60,9 @@ def refine_scans(initial: np.ndarray, node_scan: np.ndarray, hanging: list, pair
     for k in range(k0, K):
         values.insert(k, gtsam.Pose2(*initial[k]))
     for k in node_scan:
-        graph.add(gtsam.PriorFactorPose2(int(k), gtsam.Pose2(*initial[k]), gtsam.noiseModel.Isotropic.Sigma(3, prior_sigma)))
+        graph.add(
+            gtsam.PriorFactorPose2(int(k), gtsam.Pose2(*initial[k]), gtsam.noiseModel.Isotropic.Sigma(3, prior_sigma))
+        )
     for a, k, z, cov in hanging:
         graph.add(gtsam.BetweenFactorPose2(a, k, gtsam.Pose2(*z), noise_model(cov)))
     for a, k, z, cov in pairs:

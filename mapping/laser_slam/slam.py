@@ -37,6 +37,7 @@ trajectory before loop closure); the map re-rendered from the nodes' optimised p
 their scores (``diagnostics["loop_*"]``) and the CPU time spent in the front end, the pairwise ICP, the loop search
 and the optimisation (``meta["seconds"]``; CPU and not wall time, so that a loaded machine does not inflate it).
 """
+
 from __future__ import annotations
 
 import time
@@ -67,39 +68,85 @@ class LaserSLAMParams(GridSLAMParams):
     """Parameters of :class:`LaserSLAM`: the front end's (:class:`~slamarena.mapping.grid_slam.GridSLAMParams`), the
     submaps, the graph's noise, and the loop-closure search (:mod:`.loop_closure`)."""
 
-    submap_scans: PositiveInt = Field(45, description="insertions after which the next submap starts (a submap holds 2 · submap_scans)")
+    submap_scans: PositiveInt = Field(
+        45, description="insertions after which the next submap starts (a submap holds 2 · submap_scans)"
+    )
     tracking: Literal["submap", "global"] = Field(
-        "global", description="what the front end matches each scan against: one map of every node (Hector), or the older active submap (Cartographer)")
+        "global",
+        description="what the front end matches each scan against: one map of every node (Hector), or the older active submap (Cartographer)",
+    )
     sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")
     search_every: PositiveInt = Field(3, description="search for loop closures at every this-many-th node")
     search_radius: NonNegativeFloat = Field(5.0, description="candidate submaps within this distance of the node [m] …")
-    search_growth: NonNegativeFloat = Field(0.05, description="… plus this fraction of the distance travelled since the submap [1]")
+    search_growth: NonNegativeFloat = Field(
+        0.05, description="… plus this fraction of the distance travelled since the submap [1]"
+    )
     max_candidates: PositiveInt = Field(3, description="most submaps tried per search (the nearest)")
-    exclude_recent: NonNegativeInt = Field(1, description="latest finished submaps not searched (the front end still overlaps them)")
+    exclude_recent: NonNegativeInt = Field(
+        1, description="latest finished submaps not searched (the front end still overlaps them)"
+    )
     loop_linear_window: PositiveFloat = Field(5.0, description="half-width of the loop search in translation [m]")
     loop_angular_window: PositiveFloat = Field(0.5, description="half-width of the loop search in rotation [rad]")
     loop_level: NonNegativeInt = Field(1, description="pyramid level of the branch-and-bound loop search")
-    loop_voxel: NonNegativeFloat = Field(0.1, description="the loop search's end points thinned to one per cell of this side [m] (0: all)")
+    loop_voxel: NonNegativeFloat = Field(
+        0.1, description="the loop search's end points thinned to one per cell of this side [m] (0: all)"
+    )
     loop_max_range: PositiveFloat = Field(15.0, description="the loop search uses the end points within this range [m]")
-    loop_min_search_score: float = Field(-2.5, le=0.0, description="branch-and-bound floor: mean log-likelihood per point below which a candidate is rejected unrefined")
-    min_score: float = Field(0.3, gt=0.0, lt=1.0, description="accept a loop only when the refined match's mean occupancy probability is at least this …")
-    loop_score_ratio: float = Field(0.9, gt=0.0, le=1.5, description="… and at least this times the node's own front-end match score")
-    loop_covariance_window: PositiveFloat = Field(1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]")
+    loop_min_search_score: float = Field(
+        -2.5,
+        le=0.0,
+        description="branch-and-bound floor: mean log-likelihood per point below which a candidate is rejected unrefined",
+    )
+    min_score: float = Field(
+        0.3,
+        gt=0.0,
+        lt=1.0,
+        description="accept a loop only when the refined match's mean occupancy probability is at least this …",
+    )
+    loop_score_ratio: float = Field(
+        0.9, gt=0.0, le=1.5, description="… and at least this times the node's own front-end match score"
+    )
+    loop_covariance_window: PositiveFloat = Field(
+        1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]"
+    )
     loop_covariance_angle: PositiveFloat = Field(0.05, description="… and rotation [rad]")
     loop_sigma_translation: PositiveFloat = Field(0.05, description="added to a loop factor's translation σ [m]")
     loop_sigma_rotation: PositiveFloat = Field(0.01, description="added to a loop factor's rotation σ [rad]")
-    loop_cache_submaps: PositiveInt = Field(8, description="submaps whose likelihood pyramids are kept for the loop search")
-    robust_kernel: RobustKernelParams = Field(RobustKernelParams(robust="cauchy", robust_k=1.0), description="m-estimator of the loop factors")
-    loop_closure: bool = Field(True, description="search for loop closures (False: the graph holds the front end's chain only)")
-    false_loops: NonNegativeInt = Field(0, description="robustness study only: add this many deliberately false loop closures, spread evenly over the log")
-    false_loop_distance: PositiveFloat = Field(5.0, description="a false loop claims its node sits at the node about this far away [m]")
-    refine_neighbours: NonNegativeInt = Field(2, description="local refinement (:mod:`.refine`): register each scan onto this many preceding scans (0: no refinement)")
-    refine_max_range: PositiveFloat = Field(20.0, description="the refinement's ICP uses the end points within this range [m]")
-    refine_min_paired: float = Field(0.5, gt=0.0, le=1.0, description="a pairwise registration is used when at least this fraction of the scan's points is paired")
+    loop_cache_submaps: PositiveInt = Field(
+        8, description="submaps whose likelihood pyramids are kept for the loop search"
+    )
+    robust_kernel: RobustKernelParams = Field(
+        RobustKernelParams(robust="cauchy", robust_k=1.0), description="m-estimator of the loop factors"
+    )
+    loop_closure: bool = Field(
+        True, description="search for loop closures (False: the graph holds the front end's chain only)"
+    )
+    false_loops: NonNegativeInt = Field(
+        0,
+        description="robustness study only: add this many deliberately false loop closures, spread evenly over the log",
+    )
+    false_loop_distance: PositiveFloat = Field(
+        5.0, description="a false loop claims its node sits at the node about this far away [m]"
+    )
+    refine_neighbours: NonNegativeInt = Field(
+        2,
+        description="local refinement (:mod:`.refine`): register each scan onto this many preceding scans (0: no refinement)",
+    )
+    refine_max_range: PositiveFloat = Field(
+        20.0, description="the refinement's ICP uses the end points within this range [m]"
+    )
+    refine_min_paired: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="a pairwise registration is used when at least this fraction of the scan's points is paired",
+    )
     refine_sigma_translation: PositiveFloat = Field(0.005, description="added to a pairwise factor's translation σ [m]")
     refine_sigma_rotation: PositiveFloat = Field(0.002, description="added to a pairwise factor's rotation σ [rad]")
-    refine_matcher: PointToLineICPMatcherParams = Field(PointToLineICPMatcherParams(), description="the refinement's point-to-line ICP")
+    refine_matcher: PointToLineICPMatcherParams = Field(
+        PointToLineICPMatcherParams(), description="the refinement's point-to-line ICP"
+    )
 
 
 class Submap:
@@ -125,7 +172,11 @@ class LaserSLAM:
 
     def _new_submap(self, centre, scans) -> Submap:
         p = self.params
-        maps = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(centre[:2]))
+        maps = MapPyramid(
+            p.model_dump(include=set(PyramidParams.model_fields)),
+            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
+            centre=tuple(centre[:2]),
+        )
         submap = Submap(len(self.submaps), maps)
         self.submaps.append(submap)
         return submap
@@ -148,20 +199,33 @@ class LaserSLAM:
         node_scan: list[int] = []
         node_points: list[np.ndarray] = []
         travelled = [0.0]
-        false_at = [K * j // (p.false_loops + 1) for j in range(1, p.false_loops + 1)]  # scans after which a false loop is due
+        false_at = [
+            K * j // (p.false_loops + 1) for j in range(1, p.false_loops + 1)
+        ]  # scans after which a false loop is due
         false_loops: list[tuple[int, int]] = []
         icp = PointToLineICPMatcher(p.refine_matcher)
         recent: list[tuple[int, object]] = []  # the last refine_neighbours scans with their prepared ICP references
         pairs: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # pairwise registrations (a, k, z, Σ)
-        pair_floor = np.diag(np.square([p.refine_sigma_translation, p.refine_sigma_translation, p.refine_sigma_rotation]))
+        pair_floor = np.diag(
+            np.square([p.refine_sigma_translation, p.refine_sigma_translation, p.refine_sigma_rotation])
+        )
         match_cov = np.zeros((K, 3, 3))  # C_k, zero where scan k was not matched
-        diag = {"matched": np.zeros(K, bool), "score": np.full(K, np.nan), "usable_beams": np.zeros(K, np.int64), "bad_beams": np.zeros(K, np.int64)}
+        diag = {
+            "matched": np.zeros(K, bool),
+            "score": np.full(K, np.nan),
+            "usable_beams": np.zeros(K, np.int64),
+            "bad_beams": np.zeros(K, np.int64),
+        }
         seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
         active: list[Submap] = []
         pose = front.start_pose(sequence.start_pose)
         tracking = None
         if p.tracking == "global":
-            tracking = MapPyramid(p.model_dump(include=set(PyramidParams.model_fields)), size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(pose[:2]))
+            tracking = MapPyramid(
+                p.model_dump(include=set(PyramidParams.model_fields)),
+                size=2.0 * min(scans.max_range, p.clear_range, 50.0),
+                centre=tuple(pose[:2]),
+            )
         for k in range(K):
             tic = time.process_time()
             beams = front.beams(k)
@@ -183,7 +247,7 @@ class LaserSLAM:
                         r = icp.match(reference, pts, between(local[a], pose))
                         if r.score >= p.refine_min_paired and np.all(np.isfinite(r.cov)):
                             pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + pair_floor))
-                    recent = recent[-(p.refine_neighbours - 1):] if p.refine_neighbours > 1 else []
+                    recent = recent[-(p.refine_neighbours - 1) :] if p.refine_neighbours > 1 else []
                     recent.append((k, icp.prepare(pts)))
                 seconds["pairwise"] += time.process_time() - tic
                 tic = time.process_time()
@@ -193,13 +257,23 @@ class LaserSLAM:
                 if not active or len(active[-1].nodes) >= p.submap_scans:
                     active.append(self._new_submap(pose, scans))
                 first, *rest = [s.maps for s in active] + ([tracking] if tracking is not None else [])
-                first.integrate(beams.r[beams.mapped], beams.a[beams.mapped], pose, scans.mount, max_range=front.limit, clear_range=p.clear_range, also=rest)
+                first.integrate(
+                    beams.r[beams.mapped],
+                    beams.a[beams.mapped],
+                    pose,
+                    scans.mount,
+                    max_range=front.limit,
+                    clear_range=p.clear_range,
+                    also=rest,
+                )
                 for submap in active:
                     submap.nodes.append(i)
                 if len(active[0].nodes) >= 2 * p.submap_scans:
                     finished = active.pop(0)
                     finished.finished = True
-                    for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
+                    for (
+                        grid
+                    ) in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
                         grid.release_scratch()
                 front.inserted(pose)
                 L.append(pose.copy())
@@ -222,7 +296,9 @@ class LaserSLAM:
                     found = []
                     Ln = np.asarray(L)
                     for s in loops.candidates(self.submaps, i, G, np.asarray(travelled)):
-                        constraint = loops.try_close(self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0)
+                        constraint = loops.try_close(
+                            self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0
+                        )
                         if constraint is not None:
                             found.append(constraint)
                     seconds["loop_search"] += time.process_time() - tic
@@ -251,8 +327,11 @@ class LaserSLAM:
         if p.refine_neighbours and L:
             tic = time.process_time()
             nodes = np.asarray(node_scan)
-            hanging = [(int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(local[k], match_cov[k]))
-                       for k in range(nodes[0] + 1, K) if nodes[i_k[k]] != k]
+            hanging = [
+                (int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(local[k], match_cov[k]))
+                for k in range(nodes[0] + 1, K)
+                if nodes[i_k[k]] != k
+            ]
             poses, refinement = refine_scans(poses, nodes, hanging, pairs, p.robust_kernel)
             seconds["optimisation"] += time.process_time() - tic
         self.pose_graph = backend.pose_graph(sequence.name, G)
@@ -260,15 +339,34 @@ class LaserSLAM:
         diag.update(loops.record.arrays())
         diag["node_scan"] = np.asarray(node_scan, dtype=np.int64)
         diag["front_end_poses"] = local  # the poses before loop closure, one per scan
-        diag["false_loop_node"], diag["false_loop_anchor"] = (np.asarray(v, dtype=np.int64).reshape(-1) for v in (zip(*false_loops) if false_loops else ([], [])))
+        diag["false_loop_node"], diag["false_loop_anchor"] = (
+            np.asarray(v, dtype=np.int64).reshape(-1) for v in (zip(*false_loops) if false_loops else ([], []))
+        )
         accepted = diag["loop_accepted"]
         meta = {
-            "params": p.canonical(), "scans": int(K), "nodes": len(L), "submaps": len(self.submaps),
-            "loop_candidates": int(accepted.size), "loop_closures": int(accepted.sum()), "loop_rejected": int((~accepted).sum()), "false_loops": len(false_loops),
-            "seconds": seconds, "optimisation": report, "refinement": refinement, "odometry_stalled_scans": int(front.stalled.sum()),
-            "map_shape": list(self.map.shape), "map_origin": self.map.origin.tolist(),
+            "params": p.canonical(),
+            "scans": int(K),
+            "nodes": len(L),
+            "submaps": len(self.submaps),
+            "loop_candidates": int(accepted.size),
+            "loop_closures": int(accepted.sum()),
+            "loop_rejected": int((~accepted).sum()),
+            "false_loops": len(false_loops),
+            "seconds": seconds,
+            "optimisation": report,
+            "refinement": refinement,
+            "odometry_stalled_scans": int(front.stalled.sum()),
+            "map_shape": list(self.map.shape),
+            "map_origin": self.map.origin.tolist(),
         }
-        return Estimate(method="laser_slam", t=scans.t.copy(), poses=poses, step_time=_spread(seconds, K), diagnostics=diag, meta=meta)
+        return Estimate(
+            method="laser_slam",
+            t=scans.t.copy(),
+            poses=poses,
+            step_time=_spread(seconds, K),
+            diagnostics=diag,
+            meta=meta,
+        )
 
     def _front_end_cov(self, matched: np.ndarray, C: np.ndarray) -> np.ndarray:
         """Covariance of a front-end relative pose ending at the scan ``matched`` (its front-end pose), matched with
@@ -293,11 +391,23 @@ class LaserSLAM:
     def _render(self, G, node_scan, scans, limit) -> OccupancyGrid:
         """The finest grid re-rendered from every node's scan at its optimised pose."""
         p = self.params
-        grid = OccupancyGrid(p.model_dump(include=set(PyramidParams.model_fields) - {"levels"}), width=1, height=1, origin=tuple(G[0, :2]))
+        grid = OccupancyGrid(
+            p.model_dump(include=set(PyramidParams.model_fields) - {"levels"}),
+            width=1,
+            height=1,
+            origin=tuple(G[0, :2]),
+        )
         front = FrontEnd(p, scans)
         for i, k in enumerate(node_scan):
             beams = front.beams(k)
-            grid.integrate(beams.r[beams.mapped], beams.a[beams.mapped], G[i], scans.mount, max_range=limit, clear_range=p.clear_range)
+            grid.integrate(
+                beams.r[beams.mapped],
+                beams.a[beams.mapped],
+                G[i],
+                scans.mount,
+                max_range=limit,
+                clear_range=p.clear_range,
+            )
         return grid
 
 

@@ -11,6 +11,7 @@ exactly given the poses). Modules:
 
 research/mapping.md §6 has the derivation, the sharing design and the results.
 """
+
 from __future__ import annotations
 
 from .filter import RBPF, RBPFParams

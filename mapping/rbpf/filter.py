@@ -32,6 +32,7 @@ GridSLAM's, ``particles``, ``filter_steps``, ``resampling_events``, ``memory_per
 ``memory_unshared_per_particle`` (what unshared maps of the same tiles would take). After ``run``
 ``self.map`` is the best particle's finest grid (an :class:`~slamarena.mapping.occupancy_grid.OccupancyGrid`).
 """
+
 from __future__ import annotations
 
 import time
@@ -66,32 +67,61 @@ class RBPFParams(PyramidParams):
     """
 
     particles: PositiveInt = Field(30, description="number of particles P")
-    proposal: Literal["gaussian", "mode"] = Field("mode", description="gaussian: draw from the Gaussian fitted to the target "
-                                                  "(Grisetti 2007); mode: draw from the motion model and keep the scan-matched optimum "
-                                                  "of that draw (GMapping's code; module docstring of .proposal)")
+    proposal: Literal["gaussian", "mode"] = Field(
+        "mode",
+        description="gaussian: draw from the Gaussian fitted to the target "
+        "(Grisetti 2007); mode: draw from the motion model and keep the scan-matched optimum "
+        "of that draw (GMapping's code; module docstring of .proposal)",
+    )
     seed: NonNegativeInt = Field(0, description="seed of the draws and of resampling (numpy.random.default_rng)")
     resample_threshold: float = Field(0.5, gt=0.0, le=1.0, description="resample when N_eff < resample_threshold · P")
-    sigma_likelihood: PositiveFloat = Field(1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)")
-    weight_tempering: float = Field(1.0, gt=0.0, le=1.0, description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)")
+    sigma_likelihood: PositiveFloat = Field(
+        1.0, description="σ_z of the residuals 1 − M of the scan likelihood (larger: flatter weights)"
+    )
+    weight_tempering: float = Field(
+        1.0,
+        gt=0.0,
+        le=1.0,
+        description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)",
+    )
     sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
     sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
     sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
     sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
     sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
     sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
-    update_distance: NonNegativeFloat = Field(0.5, description="a filter step after the odometry moved this far since the last one [m]")
-    update_angle: NonNegativeFloat = Field(0.25, description="a filter step after the odometry turned this much since the last one [rad]")
-    initial_updates: NonNegativeInt = Field(10, description="every usable scan is a filter step until the maps hold this many scans")
+    update_distance: NonNegativeFloat = Field(
+        0.5, description="a filter step after the odometry moved this far since the last one [m]"
+    )
+    update_angle: NonNegativeFloat = Field(
+        0.25, description="a filter step after the odometry turned this much since the last one [rad]"
+    )
+    initial_updates: NonNegativeInt = Field(
+        10, description="every usable scan is a filter step until the maps hold this many scans"
+    )
     iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
-    tol_translation: NonNegativeFloat = Field(5e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)")
-    tol_rotation: NonNegativeFloat = Field(5e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
-    max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
+    tol_translation: NonNegativeFloat = Field(
+        5e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)"
+    )
+    tol_rotation: NonNegativeFloat = Field(
+        5e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)"
+    )
+    max_step_translation: PositiveFloat = Field(
+        0.1, description="step clamp on the finest level [m], scaled with each level's resolution"
+    )
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
-    step_halvings: NonNegativeInt = Field(4, description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does (a descent: research/mapping.md §6, rounds 4–6); 0: every step is taken")
+    step_halvings: NonNegativeInt = Field(
+        4,
+        description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does (a descent: research/mapping.md §6, rounds 4–6); 0: every step is taken",
+    )
     tile: PositiveInt = Field(64, description="side of the copy-on-write map tiles [cells]")
     clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
-    max_usable_range: PositiveFloat | None = Field(15.0, description="longer returns are neither matched nor mapped [m]; None: all returns")
-    hit_guard: NonNegativeInt = Field(1, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off")
+    max_usable_range: PositiveFloat | None = Field(
+        15.0, description="longer returns are neither matched nor mapped [m]; None: all returns"
+    )
+    hit_guard: NonNegativeInt = Field(
+        1, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off"
+    )
     min_beams: int = Field(10, ge=3, description="fewest usable beams (and end points on observed cells) for a match")
 
 
@@ -149,7 +179,9 @@ class RBPF:
         if scans is None or len(scans) == 0:
             raise ValueError(f"RBPF needs a sequence with laser scans; {sequence.name!r} has none")
         if scans.pose is None:
-            raise ValueError(f"RBPF needs the odometry poses attached to the scans (Scans.pose); {sequence.name!r} has none")
+            raise ValueError(
+                f"RBPF needs the odometry poses attached to the scans (Scans.pose); {sequence.name!r} has none"
+            )
         p = self.params
         K, B = scans.ranges.shape
         P = p.particles
@@ -158,10 +190,24 @@ class RBPF:
         fresh = fresh_readings(odom)
         limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
         start = odom[0] if fresh[0] else np.asarray(sequence.start_pose, dtype=float)
-        self.maps = TiledPyramid(P, p.model_dump(include=set(CellModelParams.model_fields)), p.resolution, p.levels, p.tile,
-                                 size=2.0 * min(scans.max_range, p.clear_range, 50.0), centre=tuple(start[:2]))
-        gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
-                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=p.step_halvings)
+        self.maps = TiledPyramid(
+            P,
+            p.model_dump(include=set(CellModelParams.model_fields)),
+            p.resolution,
+            p.levels,
+            p.tile,
+            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
+            centre=tuple(start[:2]),
+        )
+        gn = dict(
+            sigma=p.sigma_likelihood,
+            iterations=p.iterations,
+            tol_t=p.tol_translation,
+            tol_r=p.tol_rotation,
+            max_step_t=p.max_step_translation,
+            max_step_r=p.max_step_rotation,
+            halvings=p.step_halvings,
+        )
 
         poses = np.tile(np.asarray(start, dtype=float), (P, 1))
         anchor, odom_anchor = poses.copy(), (odom[0] if fresh[0] else None)
@@ -172,9 +218,14 @@ class RBPF:
         hist_parent = np.zeros((K, P), np.int64)
         step_time = np.zeros(K)
         diag = {
-            "bad_beams": np.zeros(K, np.int64), "no_return_beams": np.zeros(K, np.int64), "usable_beams": np.zeros(K, np.int64),
-            "matched": np.zeros(K, bool), "iterations": np.zeros(K, np.int64), "filter_step": np.zeros(K, bool),
-            "proposal_fallbacks": np.zeros(K, np.int64), "memory_per_particle": np.full(K, np.nan),
+            "bad_beams": np.zeros(K, np.int64),
+            "no_return_beams": np.zeros(K, np.int64),
+            "usable_beams": np.zeros(K, np.int64),
+            "matched": np.zeros(K, bool),
+            "iterations": np.zeros(K, np.int64),
+            "filter_step": np.zeros(K, bool),
+            "proposal_fallbacks": np.zeros(K, np.int64),
+            "memory_per_particle": np.full(K, np.nan),
         }
         neff, neff_t, resampled = [], [], []
         n_beams = np.zeros(K, np.int64)
@@ -185,22 +236,36 @@ class RBPF:
             r, a = scans.beams(k)
             n_beams[k] = r.size
             bad, no_return, usable = classify(r, scans.max_range, limit)
-            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = bad.sum(), no_return.sum(), usable.sum()
+            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = (
+                bad.sum(),
+                no_return.sum(),
+                usable.sum(),
+            )
 
             motion = np.zeros(3)
             if fresh[k] and odom_anchor is not None:
                 motion = between(odom_anchor, odom[k])
                 poses = compose(anchor, motion)
             if usable.sum() >= p.min_beams:
-                pts = transform_points(scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])]))
+                pts = transform_points(
+                    scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])])
+                )
                 since = between(odom_filter, odom[k]) if (fresh[k] and odom_filter is not None) else np.zeros(3)
-                step = updates < max(p.initial_updates, 1) or np.hypot(since[0], since[1]) >= p.update_distance or abs(wrap_angle(since[2])) >= p.update_angle
+                step = (
+                    updates < max(p.initial_updates, 1)
+                    or np.hypot(since[0], since[1]) >= p.update_distance
+                    or abs(wrap_angle(since[2])) >= p.update_angle
+                )
                 if updates > 0 and not step:
-                    poses, diag["iterations"][k] = gauss_newton(self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn)
+                    poses, diag["iterations"][k] = gauss_newton(
+                        self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn
+                    )
                     diag["matched"][k] = True
                 elif step:
                     if updates > 0:
-                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(pts, poses, self.motion_cov(since), rng)
+                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(
+                            pts, poses, self.motion_cov(since), rng
+                        )
                         logw += p.weight_tempering * log_eta
                         evidence += log_eta
                         logw -= logw.max()
@@ -236,7 +301,11 @@ class RBPF:
             if progress is not None:
                 progress(k + 1, K)
 
-        diag.update(neff=np.asarray(neff, dtype=float), neff_t=np.asarray(neff_t, dtype=float), resampled=np.asarray(resampled, dtype=bool))
+        diag.update(
+            neff=np.asarray(neff, dtype=float),
+            neff_t=np.asarray(neff_t, dtype=float),
+            resampled=np.asarray(resampled, dtype=bool),
+        )
         self.best, self._map = int(np.argmax(evidence)), None
         self._history = (hist_pose, hist_parent)
         trajectory = self.trajectory(self.best)
@@ -254,12 +323,16 @@ class RBPF:
             "proposal_fallbacks": int(diag["proposal_fallbacks"].sum()),
             "best_particle": self.best,
             "memory_per_particle": float(memory["per_particle"]),
-            "memory_per_particle_peak": float(np.nanmax(diag["memory_per_particle"])) if diag["filter_step"].any() else 0.0,
+            "memory_per_particle_peak": float(np.nanmax(diag["memory_per_particle"]))
+            if diag["filter_step"].any()
+            else 0.0,
             "memory_unshared_per_particle": float(memory["unshared"] / P),
             "map_shape": list(finest.shape),
             "map_origin": finest.origin.tolist(),
         }
-        return Estimate(method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta)
+        return Estimate(
+            method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta
+        )
 
     def _propose(self, pts, guesses, motion_cov, rng):
         """New poses (P, 3), the number drawn from the motion model, log η (P,) (:mod:`.proposal`) and the matcher's
@@ -269,18 +342,29 @@ class RBPF:
         p = self.params
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
-        gn = dict(sigma=p.sigma_likelihood, iterations=p.iterations, tol_t=p.tol_translation, tol_r=p.tol_rotation,
-                  max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=p.step_halvings)
+        gn = dict(
+            sigma=p.sigma_likelihood,
+            iterations=p.iterations,
+            tol_t=p.tol_translation,
+            tol_r=p.tol_rotation,
+            max_step_t=p.max_step_translation,
+            max_step_r=p.max_step_rotation,
+            halvings=p.step_halvings,
+        )
         eps = rng.standard_normal((P, 3))
         from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
-        modes, iterations = gauss_newton(self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn)
+        modes, iterations = gauss_newton(
+            self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn
+        )
         mu, cov, log_eta, known = quadrature(self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood)
         ok = (known >= p.min_beams) & np.isfinite(log_eta) & np.all(np.isfinite(mu), axis=1)
         poses = from_motion.copy()
         if p.proposal == "gaussian":
             poses[ok] = mu[ok] + np.einsum("pij,pj->pi", np.linalg.cholesky(cov[ok] + 1e-12 * np.eye(3)), eps[ok])
         elif ok.any():
-            poses[ok], climbed = gauss_newton(self.maps, pts, from_motion[ok], info, start=modes[ok], finest_only=True, **gn)
+            poses[ok], climbed = gauss_newton(
+                self.maps, pts, from_motion[ok], info, start=modes[ok], finest_only=True, **gn
+            )
             iterations += climbed
         bad = ~ok
         if bad.any():

@@ -55,6 +55,7 @@ research/mapping.md §6 "The mode proposal" has the derivation and what it costs
 
 The per-particle loops over end points are numba kernels over all particles at once.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -144,7 +145,26 @@ def _objective(H, g, ssr, info, inv_var, guess, x, y, th):
 
 
 @njit(cache=True)
-def _gauss_newton_level(pool, tables, shift, l0, ox, oy, res, pts, poses, guesses, info, inv_var, iterations, tol_t, tol_r, max_t, max_r, halvings):
+def _gauss_newton_level(
+    pool,
+    tables,
+    shift,
+    l0,
+    ox,
+    oy,
+    res,
+    pts,
+    poses,
+    guesses,
+    info,
+    inv_var,
+    iterations,
+    tol_t,
+    tol_r,
+    max_t,
+    max_r,
+    halvings,
+):
     """Gauss-Newton on −log τ (module docstring) for every particle from ``poses`` (P, 3), in place; returns
     the iterations taken (summed over the particles). ``halvings`` > 0: a step that does not lower −log τ is
     halved up to that many times, and the level stops where none does (0: every step is taken)."""
@@ -195,7 +215,9 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
     known = np.empty(P, np.int64)
     for p in range(P):
         for k in range(K):
-            H, g, s, n = _normal_equations(pool, tables[p], shift, l0, ox, oy, res, pts, X[p, k, 0], X[p, k, 1], X[p, k, 2])
+            H, g, s, n = _normal_equations(
+                pool, tables[p], shift, l0, ox, oy, res, pts, X[p, k, 0], X[p, k, 1], X[p, k, 2]
+            )
             ssr[p, k] = s
             if k == 0:
                 Hs[p] = H
@@ -203,8 +225,21 @@ def _at(pool, tables, shift, l0, ox, oy, res, pts, X):
     return ssr, Hs, known
 
 
-def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iterations: int, tol_t: float, tol_r: float,
-                 max_step_t: float, max_step_r: float, start=None, finest_only: bool = False, halvings: int = 0) -> tuple[np.ndarray, int]:
+def gauss_newton(
+    maps: TiledPyramid,
+    pts,
+    guesses,
+    info,
+    sigma: float,
+    iterations: int,
+    tol_t: float,
+    tol_r: float,
+    max_step_t: float,
+    max_step_r: float,
+    start=None,
+    finest_only: bool = False,
+    halvings: int = 0,
+) -> tuple[np.ndarray, int]:
     """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
     (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
     iterations taken (summed over levels and particles); ``halvings`` as ``RBPFParams.step_halvings``."""
@@ -212,10 +247,27 @@ def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iteration
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     fine = maps.finest.resolution
     iterations_taken = 0
-    for grid in (maps.levels[:1] if finest_only else reversed(maps.levels)):
-        iterations_taken += _gauss_newton_level(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution, pts,
-                            poses, np.ascontiguousarray(guesses, dtype=np.float64), np.ascontiguousarray(info, dtype=np.float64),
-                            1.0 / sigma**2, iterations, tol_t, tol_r, max_step_t * grid.resolution / fine, max_step_r, halvings)
+    for grid in maps.levels[:1] if finest_only else reversed(maps.levels):
+        iterations_taken += _gauss_newton_level(
+            grid.pool,
+            grid.table,
+            grid.shift,
+            np.float32(grid.l0),
+            grid.origin[0],
+            grid.origin[1],
+            grid.resolution,
+            pts,
+            poses,
+            np.ascontiguousarray(guesses, dtype=np.float64),
+            np.ascontiguousarray(info, dtype=np.float64),
+            1.0 / sigma**2,
+            iterations,
+            tol_t,
+            tol_r,
+            max_step_t * grid.resolution / fine,
+            max_step_r,
+            halvings,
+        )
     poses[:, 2] = wrap_angle(poses[:, 2])
     return poses, iterations_taken
 
@@ -223,8 +275,17 @@ def gauss_newton(maps: TiledPyramid, pts, guesses, info, sigma: float, iteration
 def residuals(maps: TiledPyramid, pts, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """On the finest level: Σ r² (P, K) at poses X (P, K, 3); H (P, 3, 3) and observed end points (P,) at X[:, 0]."""
     grid = maps.finest
-    return _at(grid.pool, grid.table, grid.shift, np.float32(grid.l0), grid.origin[0], grid.origin[1], grid.resolution,
-               np.ascontiguousarray(pts, dtype=np.float64), np.ascontiguousarray(X, dtype=np.float64))
+    return _at(
+        grid.pool,
+        grid.table,
+        grid.shift,
+        np.float32(grid.l0),
+        grid.origin[0],
+        grid.origin[1],
+        grid.resolution,
+        np.ascontiguousarray(pts, dtype=np.float64),
+        np.ascontiguousarray(X, dtype=np.float64),
+    )
 
 
 def log_gaussian(d, cov) -> np.ndarray:

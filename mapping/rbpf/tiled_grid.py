@@ -34,6 +34,7 @@ with that particle.
 Memory: ``memory()`` reports the bytes in use (tiles referenced + tables), that divided by P, and what P
 unshared grids of the same tiles would take.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -51,8 +52,32 @@ def _cell(w, origin, res):
 
 
 @njit(cache=True)
-def _integrate(pool, refs, free, n_free, table, mark, tile_mark, stamp, T, ox, oy, res,
-               sensors, reach, angles, hit, guard, which, start, l0, d_miss, d_hit, l_min, l_max):
+def _integrate(
+    pool,
+    refs,
+    free,
+    n_free,
+    table,
+    mark,
+    tile_mark,
+    stamp,
+    T,
+    ox,
+    oy,
+    res,
+    sensors,
+    reach,
+    angles,
+    hit,
+    guard,
+    which,
+    start,
+    l0,
+    d_miss,
+    d_hit,
+    l_min,
+    l_max,
+):
     """Integrate one scan into the grids of particles ``which[start:]``; returns the index into ``which``
     where it stopped for want of free tiles (``len(which)`` when done) and the tiles that particle needs.
 
@@ -175,7 +200,9 @@ class TiledGrid:
     multiples of the resolution (as :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and grows in whole tiles.
     """
 
-    def __init__(self, particles: int, cell_model: dict, resolution: float, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)):
+    def __init__(
+        self, particles: int, cell_model: dict, resolution: float, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)
+    ):
         self.model = CellModelParams.of(cell_model)
         m = self.model
         self.resolution = float(resolution)
@@ -190,7 +217,9 @@ class TiledGrid:
         lo, hi = (float(logit(m.clamp[0])), float(logit(m.clamp[1]))) if m.clamp is not None else (-np.inf, np.inf)
         self.l_min, self.l_max = np.float32(lo), np.float32(hi)
         n = max(int(np.ceil(size / (self.resolution * self.tile))), 1)
-        self.origin = (np.round(np.asarray(centre, float) / self.resolution) - (n * self.tile) // 2 - 0.5) * self.resolution
+        self.origin = (
+            np.round(np.asarray(centre, float) / self.resolution) - (n * self.tile) // 2 - 0.5
+        ) * self.resolution
         self.table = np.full((particles, n, n), -1, np.int32)
         self.pool = np.empty((0, self.tile, self.tile), np.float32)
         self.refs = np.zeros(0, np.int32)
@@ -256,7 +285,11 @@ class TiledGrid:
         each beam traces [m], ``angles`` (n,) its angle in the sensor frame, ``hit`` (n,) whether it ends in a
         hit (else it only clears). Grows the tables to hold every traced cell."""
         sensors = np.ascontiguousarray(sensors, dtype=np.float64).reshape(-1, 3)
-        which = np.arange(self.particles, dtype=np.int64) if which is None else np.asarray(which, dtype=np.int64).reshape(-1)
+        which = (
+            np.arange(self.particles, dtype=np.int64)
+            if which is None
+            else np.asarray(which, dtype=np.int64).reshape(-1)
+        )
         reach = np.ascontiguousarray(reach, dtype=np.float64)
         angles = np.ascontiguousarray(angles, dtype=np.float64)
         hit = np.ascontiguousarray(hit, dtype=np.bool_)
@@ -267,14 +300,38 @@ class TiledGrid:
         lx, ly = reach * np.cos(angles), reach * np.sin(angles)
         ex, ey = s[:, :1] + c * lx - si * ly, s[:, 1:2] + si * lx + c * ly
         margin = (self.model.hit_guard + 1) * self.resolution
-        self.ensure_contains(np.array([min(ex.min(), s[:, 0].min()), min(ey.min(), s[:, 1].min())]) - margin,
-                             np.array([max(ex.max(), s[:, 0].max()), max(ey.max(), s[:, 1].max())]) + margin)
+        self.ensure_contains(
+            np.array([min(ex.min(), s[:, 0].min()), min(ey.min(), s[:, 1].min())]) - margin,
+            np.array([max(ex.max(), s[:, 0].max()), max(ey.max(), s[:, 1].max())]) + margin,
+        )
         start = 0
         while start < which.size:
-            start, need = _integrate(self.pool, self.refs, self.free, self.n_free, self.table, self.mark, self.tile_mark, self.stamp,
-                                     self.tile, self.origin[0], self.origin[1], self.resolution, sensors, reach, angles, hit,
-                                     self.model.hit_guard if guard is None else guard, which, start, np.float32(self.l0), self.d_miss, self.d_hit,
-                                     self.l_min, self.l_max)
+            start, need = _integrate(
+                self.pool,
+                self.refs,
+                self.free,
+                self.n_free,
+                self.table,
+                self.mark,
+                self.tile_mark,
+                self.stamp,
+                self.tile,
+                self.origin[0],
+                self.origin[1],
+                self.resolution,
+                sensors,
+                reach,
+                angles,
+                hit,
+                self.model.hit_guard if guard is None else guard,
+                which,
+                start,
+                np.float32(self.l0),
+                self.d_miss,
+                self.d_hit,
+                self.l_min,
+                self.l_max,
+            )
             if start < which.size:
                 self._grow_pool(need)
 
@@ -282,7 +339,14 @@ class TiledGrid:
     def dense(self, particle: int) -> OccupancyGrid:
         """Particle ``particle``'s map as an :class:`OccupancyGrid` (a copy; same lattice and cell model)."""
         h, w = self.shape
-        grid = OccupancyGrid(self.model.model_dump(), resolution=self.resolution, width=w, height=h, origin=tuple(self.origin), grow=False)
+        grid = OccupancyGrid(
+            self.model.model_dump(),
+            resolution=self.resolution,
+            width=w,
+            height=h,
+            origin=tuple(self.origin),
+            grow=False,
+        )
         T = self.tile
         tiles = self.table[particle]
         L = grid.log_odds.reshape(tiles.shape[0], T, tiles.shape[1], T)
@@ -297,14 +361,28 @@ class TiledGrid:
         referenced = int(np.count_nonzero(self.refs))
         used = referenced * tile_bytes + self.table.nbytes
         unshared = int(np.count_nonzero(self.table >= 0)) * tile_bytes + self.table.nbytes
-        return {"used": used, "per_particle": used / self.particles, "unshared": unshared, "pool": int(self.pool.nbytes)}
+        return {
+            "used": used,
+            "per_particle": used / self.particles,
+            "unshared": unshared,
+            "pool": int(self.pool.nbytes),
+        }
 
 
 class TiledPyramid:
     """The levels ``k = 0 … levels − 1`` (resolution ``resolution · 2^k``) of every particle's map, each a
     :class:`TiledGrid` updated from the same scans (as :class:`~slamarena.mapping.map_pyramid.MapPyramid`)."""
 
-    def __init__(self, particles: int, cell_model: dict, resolution: float, levels: int, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)):
+    def __init__(
+        self,
+        particles: int,
+        cell_model: dict,
+        resolution: float,
+        levels: int,
+        tile: int = 64,
+        size: float = 20.0,
+        centre=(0.0, 0.0),
+    ):
         self.levels = [TiledGrid(particles, cell_model, resolution * 2**k, tile, size, centre) for k in range(levels)]
 
     @property

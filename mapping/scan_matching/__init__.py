@@ -10,6 +10,7 @@ model or keywords) with ``kind`` telling what it matches against and a ``match``
 poses in the map (world) frame. Heavy libraries (numba, scipy, open3d, kiss_icp) are
 imported inside the matcher modules only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

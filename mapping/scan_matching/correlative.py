@@ -36,6 +36,7 @@ Both return a lattice pose (whole cells, whole angle steps). ``refine=True`` pol
 the Gauss-Newton matcher on the map pyramid, as Cartographer follows its branch and bound with
 its Ceres matcher: the wide, global search picks the basin, Gauss-Newton the sub-cell optimum.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -47,7 +48,13 @@ from slamarena.params import Field, Params
 from ..occupancy_grid import probability as _probability
 from . import MatchResult
 
-__all__ = ["CorrelativeMatcher", "CorrelativeMatcherParams", "BranchAndBoundMatcher", "BranchAndBoundMatcherParams", "likelihood_grid"]
+__all__ = [
+    "CorrelativeMatcher",
+    "CorrelativeMatcherParams",
+    "BranchAndBoundMatcher",
+    "BranchAndBoundMatcherParams",
+    "likelihood_grid",
+]
 
 _BLOCK = 64
 
@@ -163,7 +170,9 @@ def _branch_and_bound(pyramid, ix, iy, w, depth, floor):
         for _ in range(n):
             worst = 0
             for c in range(1, n):
-                if cs[c] < cs[worst] or (cs[c] == cs[worst] and (ca[c] < ca[worst] or (ca[c] == ca[worst] and cb[c] < cb[worst]))):
+                if cs[c] < cs[worst] or (
+                    cs[c] == cs[worst] and (ca[c] < ca[worst] or (ca[c] == ca[worst] and cb[c] < cb[worst]))
+                ):
                     worst = c
             st_h[sp], st_k[sp], st_a[sp], st_b[sp], st_s[sp] = h - 1, k, ca[worst], cb[worst], cs[worst]
             sp += 1
@@ -196,7 +205,9 @@ class _Correlative:
             floor = np.log(self.params.p_floor)
             pad = 1  # a ring of floor cells: a lookup outside the array is clamped to its edge (exact for P_0, an upper bound for P_h)
             G = likelihood_grid(grid, self.params.sigma, self.params.p_floor, (lo[0], lo[1], hi[0], hi[1]))
-            pyramid = np.empty((depth + 1,) + tuple(np.add(G.shape, 2 * pad)), dtype=np.float32)  # P_0 … P_depth, one array
+            pyramid = np.empty(
+                (depth + 1,) + tuple(np.add(G.shape, 2 * pad)), dtype=np.float32
+            )  # P_0 … P_depth, one array
             pyramid[0] = np.pad(G, pad, constant_values=floor)
             for h in range(1, depth + 1):
                 s = 2 ** (h - 1)
@@ -236,7 +247,13 @@ class _Correlative:
         """Exhaustive scores S[k, b, a] over angle indices ks and offsets centre ± (w_a, w_b)."""
         a = np.arange(centre[0] - w_a, centre[0] + w_a + 1)
         b = np.arange(centre[1] - w_b, centre[1] + w_b + 1)
-        return _response(P, np.ascontiguousarray(ix), np.ascontiguousarray(iy), np.asarray(list(ks), dtype=np.int64), a, b), a, b
+        return (
+            _response(
+                P, np.ascontiguousarray(ix), np.ascontiguousarray(iy), np.asarray(list(ks), dtype=np.int64), a, b
+            ),
+            a,
+            b,
+        )
 
     @staticmethod
     def _moments(S, a, b, th, res, dth, guess):
@@ -264,12 +281,22 @@ class _Correlative:
 class CorrelativeMatcherParams(Params):
     """Parameters of :class:`CorrelativeMatcher` (and of :class:`BranchAndBoundMatcher`, which adds one)."""
 
-    linear_window: NonNegativeFloat = Field(0.3, description="half-width of the translation search around the guess [m] (w = ⌈linear_window / res⌉ cells)")
-    angular_window: NonNegativeFloat = Field(0.3, description="half-width of the rotation search around the guess [rad]")
-    angular_step: PositiveFloat | None = Field(None, description="rotation step δθ [rad]; None: arccos(1 − res² / 2 r_max²), the farthest point moves one cell")
-    sigma: PositiveFloat = Field(0.05, description="σ of the Gaussian smoothing of the obstacles in the likelihood grid [m]")
+    linear_window: NonNegativeFloat = Field(
+        0.3, description="half-width of the translation search around the guess [m] (w = ⌈linear_window / res⌉ cells)"
+    )
+    angular_window: NonNegativeFloat = Field(
+        0.3, description="half-width of the rotation search around the guess [rad]"
+    )
+    angular_step: PositiveFloat | None = Field(
+        None, description="rotation step δθ [rad]; None: arccos(1 − res² / 2 r_max²), the farthest point moves one cell"
+    )
+    sigma: PositiveFloat = Field(
+        0.05, description="σ of the Gaussian smoothing of the obstacles in the likelihood grid [m]"
+    )
     p_floor: float = Field(0.01, gt=0.0, lt=1.0, description="likelihood floor of a point that hits nothing mapped")
-    level: NonNegativeInt = Field(0, description="pyramid level searched (0: finest; beyond the coarsest: the coarsest)")
+    level: NonNegativeInt = Field(
+        0, description="pyramid level searched (0: finest; beyond the coarsest: the coarsest)"
+    )
     refine: bool = Field(False, description="polish the lattice pose with the Gauss-Newton matcher on the pyramid")
 
 
@@ -297,10 +324,16 @@ class CorrelativeMatcher(_Correlative):
 class BranchAndBoundMatcherParams(CorrelativeMatcherParams):
     """Parameters of :class:`BranchAndBoundMatcher`: the correlative search's, the covariance window and the score floor."""
 
-    covariance_cells: PositiveInt = Field(2, description="half-width of the exhaustive response around the optimum that gives the covariance [cells and angle steps]")
+    covariance_cells: PositiveInt = Field(
+        2,
+        description="half-width of the exhaustive response around the optimum that gives the covariance [cells and angle steps]",
+    )
     min_score: float | None = Field(
-        None, le=0.0, description="mean log-likelihood per point below which a pose is not worth finding: the search prunes below it and "
-                                  "reports no match (score −inf) when nothing beats it; None: the best pose, however poor")
+        None,
+        le=0.0,
+        description="mean log-likelihood per point below which a pose is not worth finding: the search prunes below it and "
+        "reports no match (score −inf) when nothing beats it; None: the best pose, however poor",
+    )
 
 
 class BranchAndBoundMatcher(_Correlative):
@@ -322,9 +355,17 @@ class BranchAndBoundMatcher(_Correlative):
         ix, iy = self._cells(grid, pad, pts, guess, guess[2] + offsets)
 
         floor = -np.inf if self.params.min_score is None else self.params.min_score * len(pts)
-        S_best, k, a, b, evaluated = _branch_and_bound(pyramid, np.ascontiguousarray(ix), np.ascontiguousarray(iy), w, depth, floor)
+        S_best, k, a, b, evaluated = _branch_and_bound(
+            pyramid, np.ascontiguousarray(ix), np.ascontiguousarray(iy), w, depth, floor
+        )
         if not np.isfinite(S_best):
-            return MatchResult(pose=guess.copy(), cov=np.full((3, 3), np.inf), score=-np.inf, iterations=int(evaluated), info={"candidates_scored": int(evaluated), "below_min_score": True})
+            return MatchResult(
+                pose=guess.copy(),
+                cov=np.full((3, 3), np.inf),
+                score=-np.inf,
+                iterations=int(evaluated),
+                info={"candidates_scored": int(evaluated), "below_min_score": True},
+            )
         c = self.params.covariance_cells
         ks = range(max(k - c, 0), min(k + c, offsets.size - 1) + 1)
         S, ga, gb = self._response(pyramid[0], ix, iy, ks, c, c, centre=(a, b))

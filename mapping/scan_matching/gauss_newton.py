@@ -40,6 +40,7 @@ scan points on the finest level (0 … 1).
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -222,13 +223,25 @@ class GaussNewtonMatcherParams(Params):
     """
 
     iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
-    tol_translation: NonNegativeFloat = Field(1e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)")
-    tol_rotation: NonNegativeFloat = Field(1e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)")
-    max_step_translation: PositiveFloat = Field(0.1, description="step clamp on the finest level [m], scaled with each level's resolution")
+    tol_translation: NonNegativeFloat = Field(
+        1e-4, description="a level stops when a step moves less than this [m] (and turns less than tol_rotation)"
+    )
+    tol_rotation: NonNegativeFloat = Field(
+        1e-4, description="a level stops when a step turns less than this [rad] (and moves less than tol_translation)"
+    )
+    max_step_translation: PositiveFloat = Field(
+        0.1, description="step clamp on the finest level [m], scaled with each level's resolution"
+    )
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
-    hector_gradient_bug: bool = Field(False, description="reproduce the gradient weights of Hector's published code (module docstring)")
-    prior_translation_weight: NonNegativeFloat = Field(100.0, description="w_t of the prior towards the guess [1/m²]; 0: Hector's objective")
-    prior_rotation_weight: NonNegativeFloat = Field(100.0, description="w_r of the prior towards the guess [1/rad²]; 0: Hector's objective")
+    hector_gradient_bug: bool = Field(
+        False, description="reproduce the gradient weights of Hector's published code (module docstring)"
+    )
+    prior_translation_weight: NonNegativeFloat = Field(
+        100.0, description="w_t of the prior towards the guess [1/m²]; 0: Hector's objective"
+    )
+    prior_rotation_weight: NonNegativeFloat = Field(
+        100.0, description="w_r of the prior towards the guess [1/rad²]; 0: Hector's objective"
+    )
 
 
 class GaussNewtonMatcher:
@@ -250,18 +263,34 @@ class GaussNewtonMatcher:
         for grid in reversed(maps.levels):
             res = grid.params.resolution
             pose, H, ssr, msum, n, it = solve_level(
-                grid.log_odds, grid.origin[0], grid.origin[1], res, pts, pose, p.iterations,
-                p.tol_translation, p.tol_rotation, p.max_step_translation * res / fine,
-                p.max_step_rotation, p.hector_gradient_bug, guess, p.prior_translation_weight, p.prior_rotation_weight,
+                grid.log_odds,
+                grid.origin[0],
+                grid.origin[1],
+                res,
+                pts,
+                pose,
+                p.iterations,
+                p.tol_translation,
+                p.tol_rotation,
+                p.max_step_translation * res / fine,
+                p.max_step_rotation,
+                p.hector_gradient_bug,
+                guess,
+                p.prior_translation_weight,
+                p.prior_rotation_weight,
             )
             total += it
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         cov = _laplace_covariance(H, ssr, n)
-        return MatchResult(pose=pose, cov=cov, score=msum / n if n else 0.0, iterations=total, info={"points_on_map": n})
+        return MatchResult(
+            pose=pose, cov=cov, score=msum / n if n else 0.0, iterations=total, info={"points_on_map": n}
+        )
 
 
 def _laplace_covariance(H: np.ndarray, ssr: float, n: int) -> np.ndarray:
-    eig = np.linalg.eigvalsh(H) if n > 3 else np.zeros(3)  # ascending; H is symmetric: its condition number is eig[-1] / eig[0]
+    eig = (
+        np.linalg.eigvalsh(H) if n > 3 else np.zeros(3)
+    )  # ascending; H is symmetric: its condition number is eig[-1] / eig[0]
     if not eig[0] * 1e12 >= eig[-1] > 0:
         return np.diag([np.inf, np.inf, np.inf])
     return ssr / (n - 3) * np.linalg.inv(H)

@@ -22,6 +22,7 @@ Covariance (both): the Gauss-Newton approximation of 2D point-to-point ICP at th
 ``σ̂² (Σ J_iᵀ J_i)⁻¹`` with ``J_i = [I₂, R'(θ) s_i]`` over inlier nearest neighbours and
 ``σ̂²`` their mean squared residual. Score: the inlier fraction.
 """
+
 from __future__ import annotations
 
 from typing import Literal
@@ -89,11 +90,17 @@ def _laplace_and_score(reference, points, pose, gate) -> tuple[np.ndarray, float
 class KissICPMatcherParams(Params):
     """Parameters of :class:`KissICPMatcher`."""
 
-    voxel_size: PositiveFloat = Field(0.1, description="voxel side of kiss-icp's VoxelHashMap holding the reference [m]")
+    voxel_size: PositiveFloat = Field(
+        0.1, description="voxel side of kiss-icp's VoxelHashMap holding the reference [m]"
+    )
     max_points_per_voxel: PositiveInt = Field(20, description="most reference points kept per voxel")
-    max_correspondence: PositiveFloat = Field(0.5, description="correspondence gate [m]; the Geman-McClure kernel is a third of it")
+    max_correspondence: PositiveFloat = Field(
+        0.5, description="correspondence gate [m]; the Geman-McClure kernel is a third of it"
+    )
     max_iterations: PositiveInt = Field(500, description="most ICP iterations")
-    convergence: NonNegativeFloat = Field(1e-4, description="ICP stops when the norm of an update (se(3) twist [m, rad]) is below this")
+    convergence: NonNegativeFloat = Field(
+        1e-4, description="ICP stops when the norm of an update (se(3) twist [m, rad]) is below this"
+    )
 
 
 class KissICPMatcher:
@@ -112,14 +119,19 @@ class KissICPMatcher:
 
         p = self.params
         if self._registration is None:
-            self._registration = Registration(max_num_iterations=p.max_iterations, convergence_criterion=p.convergence, max_num_threads=1)
+            self._registration = Registration(
+                max_num_iterations=p.max_iterations, convergence_criterion=p.convergence, max_num_threads=1
+            )
         reference = np.asarray(reference, dtype=float).reshape(-1, 2)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         voxel_map = VoxelHashMap(voxel_size=p.voxel_size, max_distance=1e6, max_points_per_voxel=p.max_points_per_voxel)
         voxel_map.add_points(_lift(reference))
         T = self._registration.align_points_to_map(
-            points=_lift(points), voxel_map=voxel_map, initial_guess=_se2_to_matrix(np.asarray(guess, dtype=float)),
-            max_correspondance_distance=p.max_correspondence, kernel=p.max_correspondence / 3.0,
+            points=_lift(points),
+            voxel_map=voxel_map,
+            initial_guess=_se2_to_matrix(np.asarray(guess, dtype=float)),
+            max_correspondance_distance=p.max_correspondence,
+            kernel=p.max_correspondence / 3.0,
         )
         pose = _matrix_to_se2(np.asarray(T))
         cov, score = _laplace_and_score(reference, points, pose, p.max_correspondence)
@@ -130,11 +142,14 @@ class Open3DICPMatcherParams(Params):
     """Parameters of :class:`Open3DICPMatcher`."""
 
     method: Literal["point_to_point", "point_to_plane", "generalized"] = Field(
-        "point_to_plane", description="Open3D registration: point-to-point or point-to-plane ICP, or generalized ICP")
+        "point_to_plane", description="Open3D registration: point-to-point or point-to-plane ICP, or generalized ICP"
+    )
     max_correspondence: PositiveFloat = Field(0.5, description="correspondence gate [m]")
     max_iterations: PositiveInt = Field(50, description="most ICP iterations")
     neighbours: int = Field(8, ge=3, description="k nearest neighbours of the 2D normals and covariances")
-    epsilon: PositiveFloat = Field(1e-3, description="GICP's variance along the normal relative to the tangent's, ε of R diag(ε, 1) Rᵀ")
+    epsilon: PositiveFloat = Field(
+        1e-3, description="GICP's variance along the normal relative to the tangent's, ε of R diag(ε, 1) Rᵀ"
+    )
 
 
 class Open3DICPMatcher:
@@ -176,10 +191,23 @@ class Open3DICPMatcher:
         criteria = reg.ICPConvergenceCriteria(max_iteration=p.max_iterations)
         init = _se2_to_matrix(np.asarray(guess, dtype=float))
         if gicp:
-            out = reg.registration_generalized_icp(source, target, p.max_correspondence, init, reg.TransformationEstimationForGeneralizedICP(p.epsilon), criteria)
+            out = reg.registration_generalized_icp(
+                source,
+                target,
+                p.max_correspondence,
+                init,
+                reg.TransformationEstimationForGeneralizedICP(p.epsilon),
+                criteria,
+            )
         else:
-            estimation = reg.TransformationEstimationPointToPlane() if p.method == "point_to_plane" else reg.TransformationEstimationPointToPoint()
+            estimation = (
+                reg.TransformationEstimationPointToPlane()
+                if p.method == "point_to_plane"
+                else reg.TransformationEstimationPointToPoint()
+            )
             out = reg.registration_icp(source, target, p.max_correspondence, init, estimation, criteria)
         pose = _matrix_to_se2(np.asarray(out.transformation))
         cov, score = _laplace_and_score(reference, points, pose, p.max_correspondence)
-        return MatchResult(pose=pose, cov=cov, score=score, info={"fitness": float(out.fitness), "inlier_rmse": float(out.inlier_rmse)})
+        return MatchResult(
+            pose=pose, cov=cov, score=score, info={"fitness": float(out.fitness), "inlier_rmse": float(out.inlier_rmse)}
+        )

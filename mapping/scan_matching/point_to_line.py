@@ -25,6 +25,7 @@ Nearest neighbours: the reference points are binned into square cells of side ma
 reference (:meth:`PointToLineICPMatcher.prepare`, once per scan when a scan is matched against several) and the
 iterations are numba kernels (the loops over points are inherent).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -44,11 +45,19 @@ __all__ = ["PointToLineICPMatcher", "PointToLineICPMatcherParams", "PreparedRefe
 class PointToLineICPMatcherParams(Params):
     """Parameters of :class:`PointToLineICPMatcher`."""
 
-    max_correspondence: PositiveFloat = Field(0.15, description="a scan point is paired with its nearest reference point only within this distance [m]")
-    normal_radius: PositiveFloat = Field(0.25, description="a reference point's line is fitted to the reference points within this distance [m]")
+    max_correspondence: PositiveFloat = Field(
+        0.15, description="a scan point is paired with its nearest reference point only within this distance [m]"
+    )
+    normal_radius: PositiveFloat = Field(
+        0.25, description="a reference point's line is fitted to the reference points within this distance [m]"
+    )
     max_iterations: PositiveInt = Field(30, description="most ICP iterations (each: new pairs, one Gauss-Newton step)")
-    tol_translation: NonNegativeFloat = Field(1e-5, description="ICP stops when a step moves less than this [m] (and turns less than tol_rotation)")
-    tol_rotation: NonNegativeFloat = Field(1e-5, description="ICP stops when a step turns less than this [rad] (and moves less than tol_translation)")
+    tol_translation: NonNegativeFloat = Field(
+        1e-5, description="ICP stops when a step moves less than this [m] (and turns less than tol_rotation)"
+    )
+    tol_rotation: NonNegativeFloat = Field(
+        1e-5, description="ICP stops when a step turns less than this [rad] (and moves less than tol_translation)"
+    )
 
 
 @dataclass
@@ -64,7 +73,9 @@ class PreparedReference:
     shape: tuple[int, int]
 
 
-def residuals_and_jacobian(pose: np.ndarray, points: np.ndarray, q: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def residuals_and_jacobian(
+    pose: np.ndarray, points: np.ndarray, q: np.ndarray, n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """r_i = n_iᵀ(R(ψ) s_i + t − q_i) (N,) and its Jacobian J (N, 3) with respect to ξ = (t_x, t_y, ψ) (module
     docstring; the literal form of what the numba kernel accumulates)."""
     c, s = np.cos(pose[2]), np.sin(pose[2])
@@ -215,7 +226,9 @@ class PointToLineICPMatcher:
         nx, ny = (int(v) + 1 for v in np.ceil((hi - lo) / cell))
         order, start = _bin(reference, lo, cell, nx, ny)
         points = np.ascontiguousarray(reference[order])
-        return PreparedReference(points, _normals(points, start, lo, cell, nx, ny, p.normal_radius), start, lo, cell, (ny, nx))
+        return PreparedReference(
+            points, _normals(points, start, lo, cell, nx, ny, p.normal_radius), start, lo, cell, (ny, nx)
+        )
 
     def match(self, reference, points, guess) -> MatchResult:
         """Scan ``points`` (N, 2, robot frame) onto ``reference`` (world points (M, 2) or a :class:`PreparedReference`) from ``guess``."""
@@ -223,8 +236,21 @@ class PointToLineICPMatcher:
         ref = reference if isinstance(reference, PreparedReference) else self.prepare(reference)
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         ny, nx = ref.shape
-        pose, H, ssr, n, it = _icp(ref.points, ref.normals, ref.start, ref.origin, ref.cell, nx, ny, pts, np.asarray(guess, dtype=np.float64),
-                                   p.max_correspondence, p.max_iterations, p.tol_translation, p.tol_rotation)
+        pose, H, ssr, n, it = _icp(
+            ref.points,
+            ref.normals,
+            ref.start,
+            ref.origin,
+            ref.cell,
+            nx,
+            ny,
+            pts,
+            np.asarray(guess, dtype=np.float64),
+            p.max_correspondence,
+            p.max_iterations,
+            p.tol_translation,
+            p.tol_rotation,
+        )
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         eig = np.linalg.eigvalsh(H) if n > 3 else np.zeros(3)
         cov = ssr / (n - 3) * np.linalg.inv(H) if eig[0] * 1e12 >= eig[-1] > 0 else np.diag([np.inf] * 3)

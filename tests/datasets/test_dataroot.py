@@ -1,4 +1,5 @@
 """Data roots: the search order, the GTSAM wheel's example data as the last root, and a fresh clone's test run."""
+
 from __future__ import annotations
 
 import os
@@ -72,11 +73,26 @@ def test_a_fresh_clone_skips_what_is_not_staged_and_runs_the_wheels_data(tmp_pat
     download cache), on a few tests standing for the three ways a test reads real data: nothing fails, what is not
     staged skips naming the file, the wheel's data runs. (The whole suite this way: README, "Run the tests".)"""
     pytest.importorskip("gtsam")
-    env = {**os.environ, "SLAMARENA_SEARCH_SHARED": "0", "SLAMARENA_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
+    env = {
+        **os.environ,
+        "SLAMARENA_SEARCH_SHARED": "0",
+        "SLAMARENA_CACHE": str(tmp_path / "cache"),
+        "PYTHONPATH": str(ROOT),
+    }
     env.pop("SLAMARENA_DATA", None)
-    run = subprocess.run([sys.executable, "-m", "pytest", "-v", "-rs", "-p", "no:cacheprovider", *FRESH_CLONE],
-                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    run = subprocess.run(
+        [sys.executable, "-m", "pytest", "-v", "-rs", "-p", "no:cacheprovider", *FRESH_CLONE],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode == 0, run.stdout[-3000:]
-    outcome = {line.split()[0]: line.split()[1] for line in run.stdout.splitlines() if line.startswith("tests/") and "::" in line}
+    outcome = {
+        line.split()[0]: line.split()[1]
+        for line in run.stdout.splitlines()
+        if line.startswith("tests/") and "::" in line
+    }
     assert outcome == FRESH_CLONE, run.stdout[-3000:]
     assert "dataset file sesync_g2o/intel.g2o of g2o:intel is not under any data root" in " ".join(run.stdout.split())

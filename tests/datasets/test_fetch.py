@@ -1,4 +1,5 @@
 """`slamarena data fetch`: pinned URLs and sha256, tested offline with pooch's downloader replaced."""
+
 from __future__ import annotations
 
 import gzip
@@ -8,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from checks import staged
 
 from slamarena.datasets import catalogue, dataroot, fetch, load
 from slamarena.datasets.formats import isam
 from slamarena.datasets.formats._text import read_bytes
-from checks import staged
 
 
 def _upstream(rel: str) -> bytes:
@@ -47,7 +48,8 @@ def test_every_catalogue_file_is_pinned_to_a_commit():
             assert re.fullmatch(r"[0-9a-f]{64}", sha)
             assert re.match(r"https://raw\.githubusercontent\.com/[^/]+/[^/]+/[0-9a-f]{40}/", fetch.url_of(pinned[0]))
     assert "/curow/multi-robot-localization/adf9111354153f5bf3fc55ecc0c348c222241f37/MRCLAM/" in fetch.url_of(
-        "utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz")
+        "utias_mrclam/MRCLAM_Dataset6/Robot1_Odometry.dat.gz"
+    )
 
 
 @pytest.mark.realdata
@@ -93,15 +95,31 @@ def test_fetch_skips_files_already_under_a_data_root(offline, monkeypatch):
 @pytest.mark.realdata
 def test_fetch_puts_every_file_in_the_cache_when_no_root_holds_them_all(offline, monkeypatch, tmp_path):
     """A data root with one of Dataset 1's files: all four of robot 1 go to the cache (one root), which then reads them."""
-    upstream = {up: _upstream(rel) for rel, (up, _, _) in fetch.FILES.items() if rel.startswith("utias_mrclam/MRCLAM_Dataset1/")}
-    monkeypatch.setattr(fetch, "_downloader", lambda: lambda url, output_file, pooch_obj=None: Path(output_file).write_bytes(
-        next(content for up, content in upstream.items() if url.endswith(up))))
+    upstream = {
+        up: _upstream(rel) for rel, (up, _, _) in fetch.FILES.items() if rel.startswith("utias_mrclam/MRCLAM_Dataset1/")
+    }
+    monkeypatch.setattr(
+        fetch,
+        "_downloader",
+        lambda: (
+            lambda url, output_file, pooch_obj=None: Path(output_file).write_bytes(
+                next(content for up, content in upstream.items() if url.endswith(up))
+            )
+        ),
+    )
     partial = tmp_path / "partial"
     (partial / "utias_mrclam/MRCLAM_Dataset1").mkdir(parents=True)
-    (partial / "utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").write_bytes(staged("utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").read_bytes())
+    (partial / "utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").write_bytes(
+        staged("utias_mrclam/MRCLAM_Dataset1/Barcodes.dat").read_bytes()
+    )
     monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [partial, offline])
     paths = fetch.fetch("utias:1/robot1")
-    assert sorted(p.name for p in paths) == ["Barcodes.dat", "Landmark_Groundtruth.dat", "Robot1_Measurement.dat.gz", "Robot1_Odometry.dat.gz"]
+    assert sorted(p.name for p in paths) == [
+        "Barcodes.dat",
+        "Landmark_Groundtruth.dat",
+        "Robot1_Measurement.dat.gz",
+        "Robot1_Odometry.dat.gz",
+    ]
     assert all(p.is_relative_to(offline) for p in paths)
     assert all(f.startswith(str(offline)) for f in load("utias:1/robot1").meta["files"])
 

@@ -1,4 +1,5 @@
 """CARMEN reader on the staged raw and corrected logs (values checked by hand with awk) and bad input."""
+
 from __future__ import annotations
 
 import bz2
@@ -8,13 +9,13 @@ import re
 
 import numpy as np
 import pytest
+from checks import assert_rejected_naming, load_staged, staged
 
 from slamarena.datasets import DataFormatError, DataWarning, Increments
+from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.formats import carmen
 from slamarena.datasets.formats._text import read_bytes
-from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import accumulate
-from checks import assert_rejected_naming, load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -47,7 +48,9 @@ def test_intel_time_jitter_is_clamped_and_original_stamps_kept(intel):
     # the Intel log's ipc stamps step back by up to 0.9 s (631 scans): file order is the true order
     raw = intel.meta["scan_ipc_timestamp"]
     assert (np.diff(raw) < 0).sum() == 631
-    assert np.all(np.diff(intel.scans.t) > 0) and intel.meta["time_adjusted_messages"] > 0  # strictly: one pose per stamp
+    assert (
+        np.all(np.diff(intel.scans.t) > 0) and intel.meta["time_adjusted_messages"] > 0
+    )  # strictly: one pose per stamp
     period = np.median(np.diff(raw)[np.diff(raw) > 0])
     assert np.all(intel.scans.t >= raw) and np.max(intel.scans.t - raw) < carmen.JITTER_S + period
 
@@ -79,7 +82,9 @@ def test_mit_csail_without_odom_uses_scan_odometry():
 def test_beam_layout_selection(tmp_path):
     text = GOOD + "FLASER 3 1 2 3 2 0 0 2 0 0 1.4 host 0\n"
     s = carmen.read(_log(tmp_path, text))
-    assert len(s.scans) == 2 and s.meta["dropped_scans_other_layout"] == 1  # 3 beams at 90°: another step, not interlaced
+    assert (
+        len(s.scans) == 2 and s.meta["dropped_scans_other_layout"] == 1
+    )  # 3 beams at 90°: another step, not interlaced
     assert not s.meta["interlaced"] and s.scans.angle_offset is None and s.scans.beam_count is None
     s3 = carmen.read(_log(tmp_path, text), beams=3)
     assert len(s3.scans) == 1 and np.allclose(s3.scans.angles, [-np.pi / 2, 0, np.pi / 2])
@@ -95,10 +100,15 @@ def test_corrected_intel():
     assert np.isclose(s.scans.ranges[-1, 0], 1.01) and len(s.motion) == 909
 
 
-@pytest.mark.parametrize("name, scans, beams, time_source", [
-    ("freiburg-campus", 2008, 360, "scan index"), ("orebro", 237, 181, "scan index"),
-    ("acapulco", 861, 181, "ipc"), ("seattle", 241, 361, "ipc"),
-])
+@pytest.mark.parametrize(
+    "name, scans, beams, time_source",
+    [
+        ("freiburg-campus", 2008, 360, "scan index"),
+        ("orebro", 237, 181, "scan index"),
+        ("acapulco", 861, 181, "ipc"),
+        ("seattle", 241, 361, "ipc"),
+    ],
+)
 def test_corrected_logs_with_bad_stamps(name, scans, beams, time_source):
     s = load_staged(f"carmen-corrected:{name}")
     assert s.scans.ranges.shape == (scans, beams) and s.meta["time_source"].startswith(time_source)
@@ -164,7 +174,10 @@ def test_a_params_model_and_keywords_read_alike(tmp_path):
     given = carmen.read(path, params=carmen.CarmenParams(max_range=2.5, strict_time=True))
     keywords = carmen.read(path, max_range=2.5, strict_time=True)
     assert carmen.read.Params is carmen.CarmenParams and issubclass(carmen.load.Params, carmen.CarmenParams)
-    assert given.scans.max_range == keywords.scans.max_range == 2.5 and given.meta["no_return_readings"] == keywords.meta["no_return_readings"] == 4
+    assert (
+        given.scans.max_range == keywords.scans.max_range == 2.5
+        and given.meta["no_return_readings"] == keywords.meta["no_return_readings"] == 4
+    )
     np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)
     assert carmen.load({"log": path}, "small", path=str(path), max_range=2.5).meta["no_return_readings"] == 4
 
@@ -180,7 +193,10 @@ def _steady_log(n: int = 20) -> list[str]:
     lines = ["# a steady 5 Hz log"]
     for k in range(n):
         t, x = 100 + 0.2 * k, 0.1 * k
-        lines += [f"ODOM {x:.1f} 0 0 0 0 0 {t:.1f} host 0", f"FLASER 4 1 2 3 4 {x:.1f} 0 0 {x:.1f} 0 0 {t + 0.1:.1f} host 0"]
+        lines += [
+            f"ODOM {x:.1f} 0 0 0 0 0 {t:.1f} host 0",
+            f"FLASER 4 1 2 3 4 {x:.1f} 0 0 {x:.1f} 0 0 {t + 0.1:.1f} host 0",
+        ]
     return lines
 
 
@@ -190,7 +206,9 @@ def _shift_stamp(line: str, seconds: float) -> str:
     return " ".join([tag, *fields])
 
 
-@pytest.mark.parametrize("line, shift", [(6, 50.0), (6, -50.0), (7, 50.0), (7, -50.0), (2, 50.0), (41, -50.0), (8, -100.5)])
+@pytest.mark.parametrize(
+    "line, shift", [(6, 50.0), (6, -50.0), (7, 50.0), (7, -50.0), (2, 50.0), (41, -50.0), (8, -100.5)]
+)
 def test_one_stamp_out_of_order_drops_its_message_not_the_time_base(tmp_path, line, shift):
     lines = _steady_log()
     lines[line - 1] = _shift_stamp(lines[line - 1], shift)
@@ -203,11 +221,21 @@ def test_one_stamp_out_of_order_drops_its_message_not_the_time_base(tmp_path, li
     scan_lines = 2 * np.arange(20) + 3
     assert len(s.scans) == 20 - (line in scan_lines) and np.all(np.diff(s.scans.t) > 0.15)
     assert len(s.motion) == 19 - (line not in scan_lines)
-    np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], [1.9, 0, 0], atol=1e-12)  # the neighbours carry the motion
+    np.testing.assert_allclose(
+        accumulate(s.initial_pose, s.motion.delta)[-1], [1.9, 0, 0], atol=1e-12
+    )  # the neighbours carry the motion
 
 
-@pytest.mark.parametrize("garbage", [b"#\xd61$\xd4V\xe1\x99\x9f\xd81\xc3", b"E\t\x06E\x89\x9c\xa7\x99\xe5", b"\x00" * 60, b"\x85\xa0\x1c\x1d",
-                                     b"FLASER 4 1 2 3 4 0.2 0 0 0.2 0 0 \x00\x00\x00\x00 host 0"])
+@pytest.mark.parametrize(
+    "garbage",
+    [
+        b"#\xd61$\xd4V\xe1\x99\x9f\xd81\xc3",
+        b"E\t\x06E\x89\x9c\xa7\x99\xe5",
+        b"\x00" * 60,
+        b"\x85\xa0\x1c\x1d",
+        b"FLASER 4 1 2 3 4 0.2 0 0 0.2 0 0 \x00\x00\x00\x00 host 0",
+    ],
+)
 def test_a_line_of_binary_garbage_is_dropped_counted_and_warned(tmp_path, garbage):
     lines = [line.encode() for line in _steady_log()]
     lines[6] = garbage  # line 7, the FLASER of step 2
@@ -228,9 +256,16 @@ def test_only_a_log_whose_stamps_mostly_carry_no_time_goes_by_the_scan_index(tmp
         s = carmen.read(_log(tmp_path, "\n".join(lines) + "\n"))
     assert s.meta["time_source"].startswith(time_source)
     if zeros < 10:
-        assert s.meta["dropped_lines"]["bad_timestamp"] == [2 * k + 2 for k in range(zeros)] and len(s.motion) == 20 - zeros - 1
+        assert (
+            s.meta["dropped_lines"]["bad_timestamp"] == [2 * k + 2 for k in range(zeros)]
+            and len(s.motion) == 20 - zeros - 1
+        )
     else:
-        assert "carry no time" in str(caught[0].message) and len(s.motion) == 19 and s.meta["dropped_lines"]["bad_timestamp"] == []
+        assert (
+            "carry no time" in str(caught[0].message)
+            and len(s.motion) == 19
+            and s.meta["dropped_lines"]["bad_timestamp"] == []
+        )
 
 
 def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel, tmp_path):
@@ -248,7 +283,11 @@ def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel,
     assert s.meta["time_source"] == intel.meta["time_source"]
     np.testing.assert_array_equal(s.meta["scan_ipc_timestamp"], np.delete(intel.meta["scan_ipc_timestamp"], lost))
     assert len(s.motion) == len(intel.motion) - 1
-    np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], accumulate(intel.initial_pose, intel.motion.delta)[-1], atol=1e-9)
+    np.testing.assert_allclose(
+        accumulate(s.initial_pose, s.motion.delta)[-1],
+        accumulate(intel.initial_pose, intel.motion.delta)[-1],
+        atol=1e-9,
+    )
     assert s.summary()["scans"]["rate_hz"] == pytest.approx(intel.summary()["scans"]["rate_hz"], rel=1e-3)
 
 
@@ -269,6 +308,8 @@ def test_a_staged_relations_file_comes_with_its_log_and_the_metric_uses_it(tmp_p
 
 def test_clamped_stamps_are_spread_to_increase_strictly():
     t = carmen.strictly_increasing([0.0, 1.0, 1.0, 1.0, 2.0, 1.5, 3.0, 3.0, 9.0])
-    np.testing.assert_allclose(t, [0.0, 1.0, 4 / 3, 5 / 3, 2.0, 2.5, 3.0, 3.5, 9.0])  # at most one median step (1 s) per run
+    np.testing.assert_allclose(
+        t, [0.0, 1.0, 4 / 3, 5 / 3, 2.0, 2.5, 3.0, 3.5, 9.0]
+    )  # at most one median step (1 s) per run
     assert np.all(np.diff(t) > 0)
     np.testing.assert_array_equal(carmen.strictly_increasing([0.0, 0.2, 0.4]), [0.0, 0.2, 0.4])  # nothing to do

@@ -1,21 +1,28 @@
 """Interlaced laser scans: the Scans representation (per-scan ``angle_offset`` and ``beam_count``)
 and the CARMEN reader keeping every beam layout of fr-clinic in one stream (values checked by hand
 with ``bzcat … | awk``)."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from checks import load_staged, staged
 
 from slamarena.datasets.formats import carmen
 from slamarena.datasets.sequence import Scans, Sequence
-from checks import load_staged, staged
 
 CLINIC = "radish_laser_logs/fr-clinic_robotlaser.clf.bz2"
 
 
 def _interlaced() -> Scans:
-    return Scans(t=[0.0, 1.0, 2.0], ranges=[[1.0, 2.0, 3.0], [4.0, 5.0, 99.0], [6.0, 7.0, 8.0]], angles=[-0.1, 0.0, 0.1],
-                 pose=np.arange(9.0).reshape(3, 3), angle_offset=[0.0, 0.02, 0.05], beam_count=[3, 2, 3])
+    return Scans(
+        t=[0.0, 1.0, 2.0],
+        ranges=[[1.0, 2.0, 3.0], [4.0, 5.0, 99.0], [6.0, 7.0, 8.0]],
+        angles=[-0.1, 0.0, 0.1],
+        pose=np.arange(9.0).reshape(3, 3),
+        angle_offset=[0.0, 0.02, 0.05],
+        beam_count=[3, 2, 3],
+    )
 
 
 # --------------------------------------------------------------------------- the representation
@@ -38,7 +45,12 @@ def test_padding_is_not_a_bad_reading_but_a_real_nan_is():
     ranges = s.ranges.copy()
     ranges[2, 1] = np.inf
     ranges[1, 0] = np.nan
-    assert Scans(t=s.t, ranges=ranges, angles=s.angles, angle_offset=s.angle_offset, beam_count=s.beam_count).nonfinite_count() == 2
+    assert (
+        Scans(
+            t=s.t, ranges=ranges, angles=s.angles, angle_offset=s.angle_offset, beam_count=s.beam_count
+        ).nonfinite_count()
+        == 2
+    )
 
 
 @pytest.mark.parametrize("index", [[1, 2], np.array([False, True, True]), slice(1, None)])
@@ -52,15 +64,18 @@ def test_select_keeps_offsets_and_beam_counts_per_row(index):
     assert np.array_equal(part.angles, s.angles) and np.array_equal(part.pose, s.pose[1:])
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"angle_offset": [0.0, 0.1]}, r"angle_offset must be \(3,\)"),
-    ({"angle_offset": [0.0, np.nan, 0.0]}, "angle_offset has non-finite"),
-    ({"angle_offset": [0.0, np.inf, 0.0]}, "angle_offset has non-finite"),
-    ({"beam_count": [3, 3]}, r"beam_count must be \(3,\)"),
-    ({"beam_count": [3, 4, 3]}, r"integers in \[0, 3\]"),
-    ({"beam_count": [3, -1, 3]}, r"integers in \[0, 3\]"),
-    ({"beam_count": [3, 2.5, 3]}, r"integers in \[0, 3\]"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"angle_offset": [0.0, 0.1]}, r"angle_offset must be \(3,\)"),
+        ({"angle_offset": [0.0, np.nan, 0.0]}, "angle_offset has non-finite"),
+        ({"angle_offset": [0.0, np.inf, 0.0]}, "angle_offset has non-finite"),
+        ({"beam_count": [3, 3]}, r"beam_count must be \(3,\)"),
+        ({"beam_count": [3, 4, 3]}, r"integers in \[0, 3\]"),
+        ({"beam_count": [3, -1, 3]}, r"integers in \[0, 3\]"),
+        ({"beam_count": [3, 2.5, 3]}, r"integers in \[0, 3\]"),
+    ],
+)
 def test_invalid_offsets_and_counts_are_rejected(kwargs, message):
     with pytest.raises(ValueError, match=message):
         Scans(t=[0.0, 1.0, 2.0], ranges=np.ones((3, 3)), angles=[0.0, 0.1, 0.2], **kwargs)
@@ -75,7 +90,12 @@ def clinic():
 @pytest.mark.realdata
 def test_fr_clinic_keeps_all_four_layouts_in_one_stream(clinic):
     sc, meta = clinic.scans, clinic.meta
-    assert len(sc) == 6917 and sc.ranges.shape == (6917, 181) and meta["dropped_scans_other_layout"] == 0 and meta["interlaced"]
+    assert (
+        len(sc) == 6917
+        and sc.ranges.shape == (6917, 181)
+        and meta["dropped_scans_other_layout"] == 0
+        and meta["interlaced"]
+    )
     layouts = {(l["beams"], round(l["start"], 6)): l["scans"] for l in meta["beam_layouts"]}
     assert layouts == {(181, -1.570796): 1748, (180, -1.566433): 1709, (180, -1.56207): 1725, (180, -1.557706): 1735}
     assert all(l["chosen"] and l["step"] == 0.017453 for l in meta["beam_layouts"])
@@ -101,7 +121,10 @@ def test_fr_clinic_first_and_last_scans(clinic):
     r, a = sc.beams(6916)  # last line: -1.566433 … 180 8.450 9.390 81.910 … 8.540, robot 2.074723 -10.915255 0.207979
     assert r.size == 180 and np.allclose(r[:3], [8.45, 9.39, 81.91]) and np.isclose(r[-1], 8.54)
     assert np.isclose(a[0], -1.566433) and np.isclose(a[-1], -1.566433 + 179 * 0.017453)
-    assert np.allclose(sc.pose[-1], [2.074723, -10.915255, 0.207979]) and clinic.meta["scan_ipc_timestamp"][-1] == 1232663298.321285
+    assert (
+        np.allclose(sc.pose[-1], [2.074723, -10.915255, 0.207979])
+        and clinic.meta["scan_ipc_timestamp"][-1] == 1232663298.321285
+    )
     assert np.allclose(sc.mount, [0.22, 0, 0], atol=1e-6) and sc.max_range == 80.0
 
 
@@ -112,7 +135,9 @@ def test_fr_clinic_single_layout_on_request(clinic):
     assert len(one.scans) == 1748 and one.meta["dropped_scans_other_layout"] == 5169 and not one.meta["interlaced"]
     assert one.scans.angle_offset is None and one.scans.beam_count is None
     full = clinic.scans.beam_count == 181
-    assert np.array_equal(one.scans.ranges, clinic.scans.ranges[full]) and np.array_equal(one.scans.t, clinic.scans.t[full])
+    assert np.array_equal(one.scans.ranges, clinic.scans.ranges[full]) and np.array_equal(
+        one.scans.t, clinic.scans.t[full]
+    )
     assert np.array_equal(one.scans.angles, clinic.scans.angles)
     b180 = carmen.read(path, max_range=80.0, beams=180)  # the most common 180-beam layout: from −89.25°
     assert len(b180.scans) == 1735 and np.isclose(b180.scans.angles[0], -1.557706) and b180.scans.ranges.shape[1] == 180
@@ -123,8 +148,10 @@ def test_fr_clinic_single_layout_on_request(clinic):
 def _robotlaser(start, res, ranges, t, x=0.0):
     n = len(ranges)
     body = " ".join(f"{r:.3f}" for r in ranges)
-    return (f"ROBOTLASER1 0 {start:.6f} 3.141593 {res:.6f} 10.0 0.01 0 {n} {body} 0 "
-            f"{x + 0.2:.6f} 0 0 {x:.6f} 0 0 0 0 0 0 0 {t:.6f} host {t:.6f}\n")
+    return (
+        f"ROBOTLASER1 0 {start:.6f} 3.141593 {res:.6f} 10.0 0.01 0 {n} {body} 0 "
+        f"{x + 0.2:.6f} 0 0 {x:.6f} 0 0 0 0 0 0 0 {t:.6f} host {t:.6f}\n"
+    )
 
 
 def test_interlaced_layouts_merge_and_incompatible_ones_are_dropped(tmp_path):
@@ -148,8 +175,14 @@ def test_interlaced_layouts_merge_and_incompatible_ones_are_dropped(tmp_path):
     assert np.allclose(r, [9, 9.5, 9.9]) and np.allclose(a, [-0.4, 0.0, 0.4])
     assert sc.max_range == 10.0 and s.meta["no_return_readings"] == 0
     kept = {(l["beams"], round(l["start"], 3), round(l["step"], 3)): l["chosen"] for l in s.meta["beam_layouts"]}
-    assert kept == {(4, -0.6, 0.4): True, (4, -0.5, 0.4): True, (3, -0.4, 0.4): True, (4, -0.6, 0.3): False,
-                    (6, -0.6, 0.4): False, (4, -0.2, 0.4): False}
+    assert kept == {
+        (4, -0.6, 0.4): True,
+        (4, -0.5, 0.4): True,
+        (3, -0.4, 0.4): True,
+        (4, -0.6, 0.3): False,
+        (6, -0.6, 0.4): False,
+        (4, -0.2, 0.4): False,
+    }
     single = carmen.read(path, interlaced=False)
     assert len(single.scans) == 2 and single.scans.angle_offset is None and np.allclose(single.scans.t, [1, 3])
 
@@ -172,8 +205,13 @@ def test_fr_clinic_offsets_are_the_ones_the_scans_show(clinic):
         (ra, aa), (rb, ab) = sc.beams(k), sc.beams(k + 1)
         a_ok, b_ok = ra < 15, rb < 15
         rel = between(compose(sc.pose[k], sc.mount), compose(sc.pose[k + 1], sc.mount))
-        for label, shift_a, shift_b in (("honoured", 0.0, 0.0), ("ignored", sc.angle_offset[k], sc.angle_offset[k + 1])):
-            tree = cKDTree(np.column_stack([ra[a_ok] * np.cos(aa[a_ok] - shift_a), ra[a_ok] * np.sin(aa[a_ok] - shift_a)]))
+        for label, shift_a, shift_b in (
+            ("honoured", 0.0, 0.0),
+            ("ignored", sc.angle_offset[k], sc.angle_offset[k + 1]),
+        ):
+            tree = cKDTree(
+                np.column_stack([ra[a_ok] * np.cos(aa[a_ok] - shift_a), ra[a_ok] * np.sin(aa[a_ok] - shift_a)])
+            )
             cost = []
             for c in candidates:
                 a = ab[b_ok] - shift_b + c

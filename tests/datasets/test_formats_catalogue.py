@@ -1,5 +1,6 @@
 """The catalogue of real datasets and the format families: names, files (all from one root), readers, recordings at a
 path, the not-found message, and the data CLI."""
+
 from __future__ import annotations
 
 import functools
@@ -7,6 +8,7 @@ import json
 
 import numpy as np
 import pytest
+from checks import assert_rejected_naming, load_staged
 from pydantic import ValidationError
 
 from slamarena import datasets
@@ -15,16 +17,48 @@ from slamarena.datasets.registry import SIMULATORS, resolve
 from slamarena.datasets.source import SourceParams
 from slamarena.params import params_model
 from slamarena.targets import import_target
-from checks import assert_rejected_naming, load_staged
 
 EXPECTED = (
-    [f"utias:{d}/robot{k}" for d in (1, 6) for k in range(1, 6)] + ["victoria_park", "victoria_park:isam"]
-    + [f"g2o:{n}" for n in ("intel", "MIT", "CSAIL", "ais2klinik", "manhattan", "city10000", "parking-garage",
-                            "sphere2500", "smallGrid3D", "tinyGrid3D", "noisyToyGraph", "pose2example", "w100")]
+    [f"utias:{d}/robot{k}" for d in (1, 6) for k in range(1, 6)]
+    + ["victoria_park", "victoria_park:isam"]
+    + [
+        f"g2o:{n}"
+        for n in (
+            "intel",
+            "MIT",
+            "CSAIL",
+            "ais2klinik",
+            "manhattan",
+            "city10000",
+            "parking-garage",
+            "sphere2500",
+            "smallGrid3D",
+            "tinyGrid3D",
+            "noisyToyGraph",
+            "pose2example",
+            "w100",
+        )
+    ]
     + [f"isam:{n}" for n in ("manhattanOlson3500", "city10000", "cityTrees10000", "w20000")]
     + [f"carmen:{n}" for n in ("intel", "fr079", "aces", "mit-csail", "fr-clinic")]
-    + [f"carmen-corrected:{n}" for n in ("acapulco", "aces", "belgioioso", "csail", "edmonton", "fhw", "freiburg-079",
-                                         "freiburg-101", "freiburg-campus", "infinite-corridor", "intel", "orebro", "seattle")]
+    + [
+        f"carmen-corrected:{n}"
+        for n in (
+            "acapulco",
+            "aces",
+            "belgioioso",
+            "csail",
+            "edmonton",
+            "fhw",
+            "freiburg-079",
+            "freiburg-101",
+            "freiburg-campus",
+            "infinite-corridor",
+            "intel",
+            "orebro",
+            "seattle",
+        )
+    ]
 )
 
 
@@ -40,7 +74,11 @@ def test_every_registry_name_is_catalogued_with_a_resolvable_reader():
 #: reader → a catalogued dataset it reads, the same family at a path, and for a reader with options a bad value (field, value)
 READERS = {
     "slamarena.datasets.formats.mrclam:read": ("utias:1/robot1", "utias:/nowhere/robot1", None),
-    "slamarena.datasets.formats.victoria_park:load": ("victoria_park", "victoria_park:/nowhere.txt", ("variant", "isma")),
+    "slamarena.datasets.formats.victoria_park:load": (
+        "victoria_park",
+        "victoria_park:/nowhere.txt",
+        ("variant", "isma"),
+    ),
     "slamarena.datasets.formats.plaza:read": ("plaza:Plaza1", "plaza:/nowhere/Plaza3", ("strict_time", "sometimes")),
     "slamarena.datasets.formats.g2o:load": ("g2o:intel", "g2o:/nowhere.g2o", None),
     "slamarena.datasets.formats.toro:load": ("g2o:w100", "toro:/nowhere.graph", None),
@@ -50,10 +88,18 @@ READERS = {
 
 
 def test_every_family_reader_declares_its_location_and_options_as_one_model():
-    assert {f.reader for f in catalogue.FORMATS.values()} == {e.reader for e in catalogue.CATALOGUE.values()} == set(READERS)
+    assert (
+        {f.reader for f in catalogue.FORMATS.values()}
+        == {e.reader for e in catalogue.CATALOGUE.values()}
+        == set(READERS)
+    )
     for target in READERS:
         model = params_model(import_target(target))
-        assert issubclass(model, SourceParams) and "path" in model.location and set(model.location) <= set(model.model_fields)
+        assert (
+            issubclass(model, SourceParams)
+            and "path" in model.location
+            and set(model.location) <= set(model.model_fields)
+        )
         assert not {"files", "name"} & set(model.model_fields)  # the registry supplies them
     for target in SIMULATORS.values():
         model = params_model(import_target(target))
@@ -70,29 +116,52 @@ def test_catalogue_presets_validate_through_the_readers_models():
 
 @pytest.mark.parametrize("reader", sorted(READERS))
 def test_unknown_and_bad_reader_options_are_rejected_naming_the_field(reader, monkeypatch, tmp_path):
-    monkeypatch.setattr(dataroot, "data_roots", lambda existing_only=True: [tmp_path])  # checked before any file is looked for
+    monkeypatch.setattr(
+        dataroot, "data_roots", lambda existing_only=True: [tmp_path]
+    )  # checked before any file is looked for
     name, at_path, bad = READERS[reader]
     assert_rejected_naming(functools.partial(datasets.load, name), bogus_option=1)
     for field, value in [("bogus_option", 1)] + ([bad] if bad else []):
         assert_rejected_naming(functools.partial(datasets.load, at_path), **{field: value})
 
 
-@pytest.mark.parametrize("name,typo", [("victoria_park", {"varient": "isam"}), ("utias:6/robot1", {"directory": "/data"}),
-                                       ("utias", {"path": "/data/MRCLAM_Dataset7", "robot": 1, "robt": 1})])
+@pytest.mark.parametrize(
+    "name,typo",
+    [
+        ("victoria_park", {"varient": "isam"}),
+        ("utias:6/robot1", {"directory": "/data"}),
+        ("utias", {"path": "/data/MRCLAM_Dataset7", "robot": 1, "robt": 1}),
+    ],
+)
 def test_misspelt_reader_keywords_are_errors_not_ignored(name, typo):
     with pytest.raises(ValidationError, match=list(typo)[-1]):
         datasets.load(name, **typo)
 
 
-@pytest.mark.parametrize("name,params,fragments", [
-    ("utias:6/robot1", {"path": "/data/MRCLAM_Dataset7"}, ["catalogued", "path cannot be given", "utias:<path>/robot<k>",
-                                                           "{name: utias, params: {path: …, robot: …}}"]),
-    ("victoria_park", {"variant": "isam"}, ["variant cannot be given", "Catalogued: victoria_park, victoria_park:isam"]),
-    ("carmen-corrected:aces", {"corrected": False}, ["corrected cannot be given"]),
-    ("utias:/data/MRCLAM_Dataset7/robot1", {"robot": 2}, ["already sets robot"]),
-    ("carmen-corrected:/data/x.log", {"corrected": False}, ["already sets corrected"]),
-    ("utias:/data/MRCLAM_Dataset7", {}, ["expected utias:<path>/robot<k>"]),
-])
+@pytest.mark.parametrize(
+    "name,params,fragments",
+    [
+        (
+            "utias:6/robot1",
+            {"path": "/data/MRCLAM_Dataset7"},
+            [
+                "catalogued",
+                "path cannot be given",
+                "utias:<path>/robot<k>",
+                "{name: utias, params: {path: …, robot: …}}",
+            ],
+        ),
+        (
+            "victoria_park",
+            {"variant": "isam"},
+            ["variant cannot be given", "Catalogued: victoria_park, victoria_park:isam"],
+        ),
+        ("carmen-corrected:aces", {"corrected": False}, ["corrected cannot be given"]),
+        ("utias:/data/MRCLAM_Dataset7/robot1", {"robot": 2}, ["already sets robot"]),
+        ("carmen-corrected:/data/x.log", {"corrected": False}, ["already sets corrected"]),
+        ("utias:/data/MRCLAM_Dataset7", {}, ["expected utias:<path>/robot<k>"]),
+    ],
+)
 def test_a_name_and_params_that_disagree_about_the_files_are_an_error(name, params, fragments):
     with pytest.raises(DatasetNameError) as err:
         datasets.load(name, **params)
@@ -113,6 +182,7 @@ def test_an_unknown_recording_says_what_is_missing_and_how_to_name_one(tmp_path,
 
 def _same(a, b) -> None:
     """Two loads of one recording hold the same data (their names and file paths aside)."""
+
     def content(x):
         summary = x.summary()
         summary.pop("name")
@@ -125,14 +195,25 @@ def _same(a, b) -> None:
 
 def _relative(dataset, files: dict) -> dict:
     """Role → the dataset's candidate path that each found file is (the wheel's copies: the first candidate)."""
-    return {role: next((c for c in dataset.layout.files[role] if str(path).endswith(c)), dataset.layout.files[role][0])
-            for role, path in files.items()}
+    return {
+        role: next((c for c in dataset.layout.files[role] if str(path).endswith(c)), dataset.layout.files[role][0])
+        for role, path in files.items()
+    }
 
 
-@pytest.mark.parametrize("entry,family", [("utias:6/robot4", "utias"), ("victoria_park:isam", "victoria_park"),
-                                          ("plaza:Plaza2", "plaza"), ("g2o:manhattan", "g2o"), ("g2o:w100", "toro"),
-                                          ("isam:manhattanOlson3500", "isam"), ("carmen:aces", "carmen"),
-                                          ("carmen-corrected:orebro", "carmen-corrected")])
+@pytest.mark.parametrize(
+    "entry,family",
+    [
+        ("utias:6/robot4", "utias"),
+        ("victoria_park:isam", "victoria_park"),
+        ("plaza:Plaza2", "plaza"),
+        ("g2o:manhattan", "g2o"),
+        ("g2o:w100", "toro"),
+        ("isam:manhattanOlson3500", "isam"),
+        ("carmen:aces", "carmen"),
+        ("carmen-corrected:orebro", "carmen-corrected"),
+    ],
+)
 def test_every_family_reads_a_recording_at_a_path_as_its_catalogued_copy(entry, family, tmp_path):
     """The catalogued files linked under another directory and named ``<family>:<path>`` (the other parameters as
     params) read as the catalogued dataset."""
@@ -143,9 +224,15 @@ def test_every_family_reads_a_recording_at_a_path_as_its_catalogued_copy(entry, 
         pytest.skip(f"{missing.relative} of {entry} is not staged")
     _link(files, tmp_path, _relative(dataset, files), files)
     p = dataset.params
-    moved = p.model_copy(update={k: str(tmp_path / getattr(p, k)) for k in ("path", "ground_truth") if getattr(p, k, None)})
+    moved = p.model_copy(
+        update={k: str(tmp_path / getattr(p, k)) for k in ("path", "ground_truth") if getattr(p, k, None)}
+    )
     spelled = moved.spelled()
-    params = {k: v for k, v in moved.model_dump().items() if k not in {*p.shorthand(spelled), *catalogue.FORMATS[family].fixed}}
+    params = {
+        k: v
+        for k, v in moved.model_dump().items()
+        if k not in {*p.shorthand(spelled), *catalogue.FORMATS[family].fixed}
+    }
     at_path = datasets.load(f"{family}:{spelled}", **params)
     assert at_path.name == f"{family}:{spelled}"
     _same(at_path, load_staged(entry))
@@ -204,7 +291,9 @@ def test_optional_files_come_only_with_the_required_ones(tmp_path, monkeypatch):
 
 @pytest.mark.realdata
 def test_staged_datasets_are_present():
-    if not any((root / rel).exists() for root in dataroot.data_roots() for e in catalogue.CATALOGUE.values() for rel in e.files):
+    if not any(
+        (root / rel).exists() for root in dataroot.data_roots() for e in catalogue.CATALOGUE.values() for rel in e.files
+    ):
         pytest.skip("no staged dataset file under any data root (a fresh clone: only the GTSAM wheel's data is here)")
     missing = [n for n in catalogue.CATALOGUE if not resolve(n).present()]
     assert not missing

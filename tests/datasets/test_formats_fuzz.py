@@ -1,4 +1,5 @@
 """Property tests: random text fed to every line-based reader raises nothing but DataFormatError."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,8 +16,27 @@ NUMBERS = st.one_of(
     st.sampled_from(["0", "1", "1e3", "-0.5", "nan", "inf", "1-2", "0x10", "1.2.3", "", "e5", "+", ".", "--1"]),
 )
 GARBAGE = st.text(alphabet=st.characters(codec="latin-1", exclude_characters="\r\n"), max_size=8)
-TAGS = ["ODOM", "FLASER", "ROBOTLASER1", "PARAM", "NEFF", "VERTEX_SE2", "EDGE_SE2", "VERTEX_XY", "EDGE_SE2_XY",
-        "VERTEX_SE3:QUAT", "EDGE_SE3:QUAT", "FIX", "VERTEX2", "EDGE2", "EQUIV", "BR", "ODOMETRY", "LANDMARK", "#"]
+TAGS = [
+    "ODOM",
+    "FLASER",
+    "ROBOTLASER1",
+    "PARAM",
+    "NEFF",
+    "VERTEX_SE2",
+    "EDGE_SE2",
+    "VERTEX_XY",
+    "EDGE_SE2_XY",
+    "VERTEX_SE3:QUAT",
+    "EDGE_SE3:QUAT",
+    "FIX",
+    "VERTEX2",
+    "EDGE2",
+    "EQUIV",
+    "BR",
+    "ODOMETRY",
+    "LANDMARK",
+    "#",
+]
 
 
 @st.composite
@@ -31,16 +51,31 @@ def record_line(draw):
 
 
 #: field counts of well-formed records (ids first), so that the fuzzer also reaches the semantic checks
-FIELDS = {"VERTEX_SE2": (1, 3), "EDGE_SE2": (2, 9), "VERTEX_XY": (1, 2), "EDGE_SE2_XY": (2, 5), "VERTEX2": (1, 3),
-          "EDGE2": (2, 9), "EQUIV": (2, 0), "BR": (2, 4), "ODOMETRY": (2, 9), "LANDMARK": (2, 5),
-          "VERTEX_SE3:QUAT": (1, 7), "EDGE_SE3:QUAT": (2, 28), "ODOM": (0, 9), "FIX": (1, 0)}
+FIELDS = {
+    "VERTEX_SE2": (1, 3),
+    "EDGE_SE2": (2, 9),
+    "VERTEX_XY": (1, 2),
+    "EDGE_SE2_XY": (2, 5),
+    "VERTEX2": (1, 3),
+    "EDGE2": (2, 9),
+    "EQUIV": (2, 0),
+    "BR": (2, 4),
+    "ODOMETRY": (2, 9),
+    "LANDMARK": (2, 5),
+    "VERTEX_SE3:QUAT": (1, 7),
+    "EDGE_SE3:QUAT": (2, 28),
+    "ODOM": (0, 9),
+    "FIX": (1, 0),
+}
 
 
 @st.composite
 def well_formed_line(draw):
     tag = draw(st.sampled_from(sorted(FIELDS)))
     ids, rest = FIELDS[tag]
-    fields = [str(draw(st.integers(0, 3))) for _ in range(ids)] + draw(st.lists(NUMBERS.filter(bool), min_size=rest, max_size=rest))
+    fields = [str(draw(st.integers(0, 3))) for _ in range(ids)] + draw(
+        st.lists(NUMBERS.filter(bool), min_size=rest, max_size=rest)
+    )
     return " ".join([tag, *fields])
 
 
@@ -83,7 +118,9 @@ def test_readers_raise_only_data_format_errors(tmp_path, reader, text):
 @FUZZ
 @given(text=FILES)
 def test_ply_header_fuzz(tmp_path, text):
-    path = _write(tmp_path, "fuzz.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n" + text)
+    path = _write(
+        tmp_path, "fuzz.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n" + text
+    )
     try:
         cloud = ply.read(path)
     except DataFormatError as err:
@@ -97,8 +134,10 @@ ASCII_GARBAGE = st.text(alphabet="abcdefxyzEINAF0123456789.+-,;:/ \t", max_size=
 
 
 @settings(max_examples=100, deadline=None)
-@given(rows=st.lists(st.lists(st.one_of(NUMBERS, ASCII_GARBAGE), min_size=0, max_size=5), min_size=1, max_size=8),
-       ncols=st.integers(1, 5))
+@given(
+    rows=st.lists(st.lists(st.one_of(NUMBERS, ASCII_GARBAGE), min_size=0, max_size=5), min_size=1, max_size=8),
+    ncols=st.integers(1, 5),
+)
 def test_fixed_parser_agrees_with_python_float(rows, ncols):
     """The bulk parser accepts exactly the rows Python's float() accepts with the right field count."""
     bodies = [" ".join(r) for r in rows]

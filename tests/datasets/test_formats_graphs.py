@@ -1,13 +1,14 @@
 """g2o, TORO and iSAM graph readers on the staged files; g2o write round trip; malformed files."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from checks import load_staged, staged
 
 from slamarena.datasets import DataFormatError, load
 from slamarena.datasets.formats import g2o, isam, toro
 from slamarena.datasets.geometry import compose
-from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -25,8 +26,13 @@ def test_noisy_toy_graph_contents():
 
 @pytest.mark.parametrize(
     "name, nodes, edges, odometry, has_vertices",
-    [("intel", 1728, 2512, 1727, True), ("MIT", 808, 827, 807, True), ("CSAIL", 1045, 1172, 1044, False),
-     ("manhattan", 3500, 5453, 3499, False), ("city10000", 10000, 20687, 9999, True)],
+    [
+        ("intel", 1728, 2512, 1727, True),
+        ("MIT", 808, 827, 807, True),
+        ("CSAIL", 1045, 1172, 1044, False),
+        ("manhattan", 3500, 5453, 3499, False),
+        ("city10000", 10000, 20687, 9999, True),
+    ],
 )
 def test_sesync_2d_counts(name, nodes, edges, odometry, has_vertices):
     g = load_staged(f"g2o:{name}")

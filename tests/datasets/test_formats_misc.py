@@ -1,19 +1,22 @@
 """Relations, TUM, KITTI .bin and PLY: staged files, round trips, malformed input."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from checks import staged
 
 from slamarena.datasets import DataFormatError
 from slamarena.datasets.formats import kitti, ply, relations, tum
-from checks import staged
 
 
 def test_relations_round_trip_and_tagged_lines(tmp_path, rng):
     rel = relations.Relations(t1=rng.uniform(0, 1e9, 20), t2=rng.uniform(0, 1e9, 20), motion=rng.normal(size=(20, 6)))
     relations.write(tmp_path / "r.relations", rel)
     back = relations.read(tmp_path / "r.relations")
-    assert np.array_equal(back.t1, rel.t1) and np.array_equal(back.t2, rel.t2) and np.array_equal(back.motion, rel.motion)
+    assert (
+        np.array_equal(back.t1, rel.t1) and np.array_equal(back.t2, rel.t2) and np.array_equal(back.motion, rel.motion)
+    )
     assert np.array_equal(back.se2, rel.motion[:, [0, 1, 5]])
     (tmp_path / "tagged").write_text("FLASER 1.5 2.5 0.1 0 0 0 0 0.2\nFLASER 2.5 3.5 0.1 0 0 0 0 0.3\n")
     tagged = relations.read(tmp_path / "tagged")
@@ -79,8 +82,12 @@ def test_ply_staged_pair():
 
 @pytest.mark.parametrize("binary", [True, False])
 def test_ply_round_trip(tmp_path, rng, binary):
-    props = {"x": rng.normal(size=30).astype(np.float32), "y": rng.normal(size=30).astype(np.float32),
-             "z": rng.normal(size=30).astype(np.float32), "ring": rng.integers(0, 64, 30).astype(np.uint8)}
+    props = {
+        "x": rng.normal(size=30).astype(np.float32),
+        "y": rng.normal(size=30).astype(np.float32),
+        "z": rng.normal(size=30).astype(np.float32),
+        "ring": rng.integers(0, 64, 30).astype(np.uint8),
+    }
     ply.write(tmp_path / "a.ply", props, binary=binary)
     back = ply.read(tmp_path / "a.ply")
     for k, v in props.items():
@@ -88,13 +95,17 @@ def test_ply_round_trip(tmp_path, rng, binary):
 
 
 def test_ply_malformed(tmp_path):
-    (tmp_path / "a.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3\n")
+    (tmp_path / "a.ply").write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3\n"
+    )
     with pytest.raises(DataFormatError) as err:
         ply.read(tmp_path / "a.ply")
     assert err.value.line == 8
     (tmp_path / "b.ply").write_bytes(b"ply\nformat binary_big_endian 1.0\nelement vertex 2\nend_header\n")
     with pytest.raises(DataFormatError, match="binary_little_endian"):
         ply.read(tmp_path / "b.ply")
-    (tmp_path / "c.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nend_header\n\0\0\0\0")
+    (tmp_path / "c.ply").write_bytes(
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nend_header\n\0\0\0\0"
+    )
     with pytest.raises(DataFormatError, match="2 vertices"):
         ply.read(tmp_path / "c.ply")

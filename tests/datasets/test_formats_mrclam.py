@@ -1,13 +1,14 @@
 """UTIAS MRCLAM reader on the staged Datasets 1 and 6 (values checked by hand against the files)."""
+
 from __future__ import annotations
 
 import gzip
 
 import numpy as np
 import pytest
+from checks import load_staged
 
 from slamarena.datasets import DataFormatError, load
-from checks import load_staged
 
 pytestmark = pytest.mark.realdata
 
@@ -56,7 +57,11 @@ def test_dataset1_has_no_robot_ground_truth_and_counts_drops():
     s = load_staged("utias:1/robot3")
     assert s.ground_truth is None and s.initial_pose is None
     assert s.meta["measurement_rows"] == 8742
-    assert (s.meta["landmark_observations"], s.meta["dropped_robot_observations"], s.meta["dropped_misread_barcodes"]) == (6771, 1969, 2)
+    assert (
+        s.meta["landmark_observations"],
+        s.meta["dropped_robot_observations"],
+        s.meta["dropped_misread_barcodes"],
+    ) == (6771, 1969, 2)
     # Dataset 1 maps barcodes differently from Dataset 6 (6 -> 72 there)
     assert len(s.landmarks) == 15
 
@@ -117,10 +122,10 @@ def test_a_directory_without_a_file_the_format_needs_names_it(tmp_path):
 @pytest.mark.parametrize(
     "rows, line, fragment",
     [
-        (["1.0 0.1 0.0", "2.0 0.1"], 6, "3 numeric fields"),          # truncated line
-        (["1.0 0.1 0.0", "2.0 abc 0.0"], 6, "numeric"),              # non-numeric field
-        (["1.0 0.1 0.0", "2.0 0.1 0.0 7"], 6, "3 numeric fields"),    # extra field
-        (["2.0 0.1 0.0", "1.0 0.1 0.0"], 6, "non-decreasing time"),   # time going back
+        (["1.0 0.1 0.0", "2.0 0.1"], 6, "3 numeric fields"),  # truncated line
+        (["1.0 0.1 0.0", "2.0 abc 0.0"], 6, "numeric"),  # non-numeric field
+        (["1.0 0.1 0.0", "2.0 0.1 0.0 7"], 6, "3 numeric fields"),  # extra field
+        (["2.0 0.1 0.0", "1.0 0.1 0.0"], 6, "non-decreasing time"),  # time going back
     ],
 )
 def test_malformed_odometry_names_file_and_line(tmp_path, rows, line, fragment):

@@ -1,15 +1,16 @@
 """CMU Plaza reader on the staged runs (values checked by hand against the text files and SOURCE.md)."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from checks import load_staged, staged
 from pydantic import ValidationError
 
 from slamarena.datasets import DataFormatError, load
 from slamarena.datasets.formats import plaza
 from slamarena.datasets.formats.plaza import read_mat
 from slamarena.datasets.geometry import compose, interpolate_poses, wrap_angle
-from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
@@ -126,7 +127,11 @@ def test_malformed_files_name_file_and_line(tmp_path):
     with pytest.raises(DataFormatError, match=r"Plaza2_TD.txt:7: expected a non-negative integer beacon id"):
         plaza.read_run(dr, bad)
     without_truth = plaza.read_run(dr, src)
-    assert without_truth.ground_truth is None and without_truth.landmarks is None and len(without_truth.beacon_ranges) == 1816
+    assert (
+        without_truth.ground_truth is None
+        and without_truth.landmarks is None
+        and len(without_truth.beacon_ranges) == 1816
+    )
 
 
 def test_a_params_model_and_keywords_read_alike():

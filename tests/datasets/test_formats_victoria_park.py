@@ -1,19 +1,22 @@
 """Victoria Park reader: both variants, Sequence and PoseGraph views, the GTSAM wheel's copy."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from checks import load_staged, staged
 
 from slamarena.datasets import DataFormatError, Increments, load
 from slamarena.datasets.formats import victoria_park as vp
-from checks import load_staged, staged
 
 pytestmark = pytest.mark.realdata
 
 
 @pytest.fixture(scope="module", params=["isam", "gtsam"])
 def variant_and_sequence(request):
-    name = {"isam": "victoria_park/victoriaPark_isam.txt", "gtsam": "victoria_park/victoria_park_gtsam.txt"}[request.param]
+    name = {"isam": "victoria_park/victoriaPark_isam.txt", "gtsam": "victoria_park/victoria_park_gtsam.txt"}[
+        request.param
+    ]
     return request.param, vp.read(staged(name), request.param)
 
 
@@ -27,7 +30,9 @@ def test_counts_first_records_and_time_is_pose_index(variant_and_sequence):
     # first LANDMARK 4 5 11.5387 -3.2007: pose id 4 is the 5th pose (index 4)
     rb = s.range_bearing
     assert rb.t[0] == 4.0 and rb.landmark_id[0] == 5
-    assert np.isclose(rb.range[0], np.hypot(11.5387, -3.2007)) and np.isclose(rb.bearing[0], np.arctan2(-3.2007, 11.5387))
+    assert np.isclose(rb.range[0], np.hypot(11.5387, -3.2007)) and np.isclose(
+        rb.bearing[0], np.arctan2(-3.2007, 11.5387)
+    )
     assert 4.5 < rb.range.min() and rb.range.max() < 21.0  # SOURCE.md: 4.6-20.7 m
     assert "no timestamps" in s.meta["time"]
 
@@ -100,8 +105,10 @@ def test_broken_odometry_chain_is_reported(tmp_path):
     assert err.value.line == 3 and "previous pose 1" in str(err.value)
 
 
-@pytest.mark.parametrize("variant, noise, fragment", [("isam", "1 0 0", "positive-definite landmark"),
-                                                      ("gtsam", "0.4 1 0.4", "positive-definite landmark")])
+@pytest.mark.parametrize(
+    "variant, noise, fragment",
+    [("isam", "1 0 0", "positive-definite landmark"), ("gtsam", "0.4 1 0.4", "positive-definite landmark")],
+)
 def test_singular_noise_is_reported(tmp_path, variant, noise, fragment):
     f = tmp_path / "vp.txt"
     f.write_text(f"ODOMETRY 0 1 1 0 0 1 0 0 1 0 1\nLANDMARK 1 2 3 4 {noise}\n")

@@ -1,4 +1,5 @@
 """slamarena.datasets.geometry — SE(2) group laws and conventions, as hypothesis property tests."""
+
 from __future__ import annotations
 
 import math

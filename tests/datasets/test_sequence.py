@@ -1,4 +1,5 @@
 """slamarena.datasets.sequence — validation on construction, the time-ordered merge, summary, Twist.from_stamps."""
+
 from __future__ import annotations
 
 import math
@@ -78,7 +79,9 @@ def test_measurements_may_be_nonfinite_and_are_counted():
 def test_trajectory_wraps_headings_and_select_keeps_per_scan_fields():
     tr = Trajectory(t=[0.0], poses=[[0.0, 0.0, 3 * math.pi]])
     assert tr.poses[0, 2] == pytest.approx(math.pi)
-    scans = Scans(t=[0.0, 1.0, 2.0], ranges=np.ones((3, 3)), angles=[0.0, 0.1, 0.2], pose=np.zeros((3, 3)), max_range=5.0)
+    scans = Scans(
+        t=[0.0, 1.0, 2.0], ranges=np.ones((3, 3)), angles=[0.0, 0.1, 0.2], pose=np.zeros((3, 3)), max_range=5.0
+    )
     part = scans.select(slice(1, 3))
     assert part.ranges.shape == (2, 3) and part.pose.shape == (2, 3) and part.angles.shape == (3,)
     assert part.max_range == 5.0
@@ -90,7 +93,9 @@ def seq():
     return Sequence(
         "toy",
         motion=twist(t=(0.0, 0.1, 0.2)),
-        range_bearing=RangeBearing(t=[0.1, 0.1, 0.1, 0.2, 0.25], range=[1, 2, 3, 4, 5], bearing=[0] * 5, landmark_id=[0, 1, -1, 2, 0]),
+        range_bearing=RangeBearing(
+            t=[0.1, 0.1, 0.1, 0.2, 0.25], range=[1, 2, 3, 4, 5], bearing=[0] * 5, landmark_id=[0, 1, -1, 2, 0]
+        ),
         beacon_ranges=BeaconRanges(t=[0.1, 0.2, 0.2], range=[3.0, 4.0, np.nan], beacon_id=[5, 5, 6]),
         gps=Gps(t=[0.0, 0.2], xy=np.zeros((2, 2))),
         heading=Heading(t=[0.1, 0.15], yaw=[0.0, 0.0]),
@@ -136,14 +141,26 @@ def test_summary_contents(seq):
     assert s["motion"] == {"kind": "Twist", "count": 3, "rate_hz": pytest.approx(10.0), "nonfinite_rows": 0}
     rb = s["range_bearing"]
     assert (rb["count"], rb["known_ids"], rb["unknown_id_rows"], rb["observation_sets"]) == (5, 3, 1, 3)
-    assert s["beacon_ranges"] == {"kind": "BeaconRanges", "count": 3, "rate_hz": pytest.approx(20.0), "nonfinite_rows": 1, "beacons": 2}
+    assert s["beacon_ranges"] == {
+        "kind": "BeaconRanges",
+        "count": 3,
+        "rate_hz": pytest.approx(20.0),
+        "nonfinite_rows": 1,
+        "beacons": 2,
+    }
     assert s["scans"]["beams"] == 4 and s["scans"]["max_range"] == 30.0 and "rate_hz" not in s["scans"]
     assert "interlaced_offsets" not in s["scans"]
-    interlaced = Scans(t=[0.0, 1.0, 2.0], ranges=np.ones((3, 4)), angles=np.linspace(-1, 1, 4), angle_offset=[0.0, 0.1, 0.0])
+    interlaced = Scans(
+        t=[0.0, 1.0, 2.0], ranges=np.ones((3, 4)), angles=np.linspace(-1, 1, 4), angle_offset=[0.0, 0.1, 0.0]
+    )
     assert Sequence("i", scans=interlaced).summary()["scans"]["interlaced_offsets"] == 2
     assert s["ground_truth"] == {"count": 2, "t0": 0.0, "t1": 0.3}
     assert s["landmarks"] == 3
-    assert s["noise"]["twist_cov"] == [[1.0, 0.0], [0.0, 1.0]] and s["noise"]["yaw_var"] == 0.5 and s["noise"]["gps_cov"] is None
+    assert (
+        s["noise"]["twist_cov"] == [[1.0, 0.0], [0.0, 1.0]]
+        and s["noise"]["yaw_var"] == 0.5
+        and s["noise"]["gps_cov"] is None
+    )
     assert s["meta"] == {"source": "unit test", "count": 3}  # arrays are left out
 
 

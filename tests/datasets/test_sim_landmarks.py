@@ -1,16 +1,17 @@
 """sim:landmarks — determinism, noise statistics, sensor limits, truth vs controls, closure, scaling."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
+from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 
 from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.datasets.sim.landmarks import LAYOUTS, LandmarkWorldParams, route_distance, simulate
 from slamarena.estimators.models import MOTION_MODELS, observe
-from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 
 
 def true_controls(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -29,7 +30,11 @@ def seq():
 
 def test_determinism_per_seed():
     a, b, c = simulate(seed=3), simulate(seed=3), simulate(seed=4)
-    for x, y in ((a.motion.v, b.motion.v), (a.range_bearing.range, b.range_bearing.range), (a.landmarks.xy, b.landmarks.xy)):
+    for x, y in (
+        (a.motion.v, b.motion.v),
+        (a.range_bearing.range, b.range_bearing.range),
+        (a.landmarks.xy, b.landmarks.xy),
+    ):
         np.testing.assert_array_equal(x, y)
     assert not np.array_equal(a.landmarks.xy, c.landmarks.xy)
     assert not np.array_equal(a.motion.v, c.motion.v)
@@ -133,16 +138,16 @@ def test_random_choice_observes_every_landmark_the_nearest_hide():
     nearest, chosen = simulate(**kw), simulate(**kw, observation_choice="random")
     assert np.unique(nearest.range_bearing.landmark_id).size < 0.6 * 400
     assert np.unique(chosen.range_bearing.landmark_id).size == 400
-    np.testing.assert_array_equal(nearest.range_bearing.t, chosen.range_bearing.t)   # ten rows at every step either way
+    np.testing.assert_array_equal(nearest.range_bearing.t, chosen.range_bearing.t)  # ten rows at every step either way
     # a chosen row is a visible landmark, observed where it is, nearest first within a set
     truth = chosen.ground_truth.poses[np.searchsorted(chosen.ground_truth.t, chosen.range_bearing.t)]
-    xy = chosen.landmarks.xy[chosen.range_bearing.landmark_id]                 # ids are 0 … n − 1
+    xy = chosen.landmarks.xy[chosen.range_bearing.landmark_id]  # ids are 0 … n − 1
     true_range = np.hypot(*(xy - truth[:, :2]).T)
     assert true_range.max() <= 10.0
     np.testing.assert_allclose(chosen.range_bearing.range, true_range, atol=6 * 0.1)
     same_t = chosen.range_bearing.t[1:] == chosen.range_bearing.t[:-1]
     assert np.all(np.diff(true_range)[same_t] >= 0)
-    np.testing.assert_array_equal(nearest.motion.v, chosen.motion.v)          # the other streams are unchanged
+    np.testing.assert_array_equal(nearest.motion.v, chosen.motion.v)  # the other streams are unchanged
     np.testing.assert_array_equal(nearest.landmarks.xy, chosen.landmarks.xy)
     again = simulate(**kw, observation_choice="random")
     np.testing.assert_array_equal(again.range_bearing.landmark_id, chosen.range_bearing.landmark_id)
@@ -176,10 +181,25 @@ def test_events_predict_then_update(seq):
     assert ev[1].t == ev[2].t == seq.ground_truth.t[1]
 
 
-@pytest.mark.parametrize("bad", [
-    dict(layout="spiral"), dict(motion_model="rk4"), dict(dt=0.0), dict(n_landmarks=0), dict(n_landmarks=-5), dict(clearance=9.0),
-    dict(clearance=8.0), dict(sigma_v=-1.0), dict(max_observations=0), dict(density=float("nan")), dict(density=float("inf")),
-    dict(fov=7.0), dict(seed=-1), dict(n_landmark=5)])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(layout="spiral"),
+        dict(motion_model="rk4"),
+        dict(dt=0.0),
+        dict(n_landmarks=0),
+        dict(n_landmarks=-5),
+        dict(clearance=9.0),
+        dict(clearance=8.0),
+        dict(sigma_v=-1.0),
+        dict(max_observations=0),
+        dict(density=float("nan")),
+        dict(density=float("inf")),
+        dict(fov=7.0),
+        dict(seed=-1),
+        dict(n_landmark=5),
+    ],
+)
 def test_bad_config_is_rejected_naming_the_field(bad):
     assert_rejected_naming(simulate, **bad)
 

@@ -1,16 +1,27 @@
 """sim:laser — analytic scans of a known world, max-range and dropout, odometry noise, closure, occupancy."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
+from checks import assert_gaussian, assert_rejected_naming
 from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import accumulate, between, compose, transform_points
-from slamarena.datasets.sim.laser import WORLDS, LaserWorldParams, World, corridor_loop, raycast, route_controls, segments, simulate, true_occupancy
-from checks import assert_gaussian, assert_rejected_naming
+from slamarena.datasets.sim.laser import (
+    WORLDS,
+    LaserWorldParams,
+    World,
+    corridor_loop,
+    raycast,
+    route_controls,
+    segments,
+    simulate,
+    true_occupancy,
+)
 
 BOX = World(
     name="box",
@@ -112,15 +123,25 @@ def test_long_loop_walls_are_where_the_docstring_says():
     assert s.meta["route_length"] == pytest.approx(2 * (52 + 32) - 4 * (2 - math.pi / 2) * 1.5)
     u = np.arange(5.1, 51.0, 0.5)  # off every feature edge (whole, quarter and three-quarter metres)
     v = u[u < 31.0]
-    straight = np.vstack([np.column_stack([u, np.full_like(u, 2.0), np.zeros_like(u)]), np.column_stack([np.full_like(v, 54.0), v, np.full_like(v, np.pi / 2)]),
-                          np.column_stack([u, np.full_like(u, 34.0), np.full_like(u, np.pi)]), np.column_stack([np.full_like(v, 2.0), v, np.full_like(v, -np.pi / 2)])])
+    straight = np.vstack(
+        [
+            np.column_stack([u, np.full_like(u, 2.0), np.zeros_like(u)]),
+            np.column_stack([np.full_like(v, 54.0), v, np.full_like(v, np.pi / 2)]),
+            np.column_stack([u, np.full_like(u, 34.0), np.full_like(u, np.pi)]),
+            np.column_stack([np.full_like(v, 2.0), v, np.full_like(v, -np.pi / 2)]),
+        ]
+    )
     on_route = np.abs(gt[:, None, :2] - straight[None, :, :2]).sum(axis=2).min(axis=0)
     assert on_route.max() < 0.02  # the route runs along these lines (poses every 2.5 cm)
-    left, right = raycast(straight[:, :2], straight[:, 2:3] + np.array([[np.pi / 2, -np.pi / 2]]), segments("long_loop")).T
+    left, right = raycast(
+        straight[:, :2], straight[:, 2:3] + np.array([[np.pi / 2, -np.pi / 2]]), segments("long_loop")
+    ).T
     assert set(np.round(left, 9)) == {2.0, 2.6} and set(np.round(right, 9)) == {1.1, 2.0, 3.5}
     assert np.mean((np.round(left, 9) == 2.0) & (np.round(right, 9) == 2.0)) > 0.7
     walls = segments("long_loop")
-    assert np.allclose(walls.reshape(-1, 2).min(axis=0), -1.5) and np.allclose(walls.reshape(-1, 2).max(axis=0), [57.5, 37.5])
+    assert np.allclose(walls.reshape(-1, 2).min(axis=0), -1.5) and np.allclose(
+        walls.reshape(-1, 2).max(axis=0), [57.5, 37.5]
+    )
     world = WORLDS["long_loop"]
     alcoves, recesses, pillars = (len(world.walls[0]) - 5) // 4, (len(world.walls[1]) - 5) // 4, len(world.walls) - 2
     assert (alcoves, pillars, recesses) == (7, 7, 6)
@@ -189,9 +210,22 @@ def test_registry_and_determinism():
     assert not np.array_equal(a.motion.delta, simulate(world="rooms", n_beams=31, seed=10).motion.delta)
 
 
-@pytest.mark.parametrize("bad", [
-    dict(world="maze"), dict(fov=7.0), dict(dropout=1.0), dict(scan_rate=3.0), dict(n_beams=0), dict(sigma_range=-0.1), dict(max_range=0.0),
-    dict(max_range=float("nan")), dict(mount=(0.0, 0.0)), dict(seed=-1), dict(nbeams=8)])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(world="maze"),
+        dict(fov=7.0),
+        dict(dropout=1.0),
+        dict(scan_rate=3.0),
+        dict(n_beams=0),
+        dict(sigma_range=-0.1),
+        dict(max_range=0.0),
+        dict(max_range=float("nan")),
+        dict(mount=(0.0, 0.0)),
+        dict(seed=-1),
+        dict(nbeams=8),
+    ],
+)
 def test_bad_config_is_rejected_naming_the_field(bad):
     assert_rejected_naming(simulate, **bad)
 

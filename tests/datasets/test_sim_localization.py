@@ -1,17 +1,18 @@
 """sim:localization — determinism, sensor statistics, outages/outliers, actuator lag, odometry and slip."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
+from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 from scipy import stats
 
 from slamarena import datasets
 from slamarena.datasets.geometry import interpolate_poses, wrap_angle
 from slamarena.datasets.sim.localization import LocalizationWorldParams, first_order_response, simulate
 from slamarena.estimators.models import ARC
-from checks import assert_dead_reckoning_consistent, assert_gaussian, assert_rejected_naming
 
 
 def row_twist(seq) -> tuple[np.ndarray, np.ndarray]:
@@ -66,8 +67,16 @@ def test_gps_and_imu_noise_statistics(seq):
 
 
 def test_heading_is_counter_clockwise_from_east():
-    s = simulate(seed=0, duration=20.0, imu_var=1e-8, v_amplitude=0.0, omega_amplitude=0.0, ramp=0.0, actuator_sigma=0.0,
-                 start=(0.0, 0.0, math.pi / 2))
+    s = simulate(
+        seed=0,
+        duration=20.0,
+        imu_var=1e-8,
+        v_amplitude=0.0,
+        omega_amplitude=0.0,
+        ramp=0.0,
+        actuator_sigma=0.0,
+        start=(0.0, 0.0, math.pi / 2),
+    )
     np.testing.assert_allclose(s.heading.yaw, math.pi / 2, atol=1e-3)  # driving straight north
     assert s.gps.xy[-1, 1] > 19.0 and abs(s.gps.xy[-1, 0]) < 0.1
 
@@ -156,10 +165,26 @@ def test_step_response_of_the_actuator():
     np.testing.assert_allclose(w, 1.0 - np.exp(-np.arange(501) * 0.002 / 0.1), atol=1e-12)
 
 
-@pytest.mark.parametrize("bad", [
-    dict(motion_source="imu"), dict(cmd_rate=0.0), dict(gps_outlier_fraction=1.5), dict(gps_outages=[(5.0, 1.0)]), dict(slip=[(1.0, 2.0)]),
-    dict(slip=[(1.0, 2.0, -0.5)]), dict(imu_var=-1.0), dict(duration=0.5), dict(duration=-30.0), dict(start=(0.0, 0.0)), dict(substeps=0),
-    dict(cmd_rate=0.4, duration=1.0), dict(substeps=1, cmd_rate=0.3, duration=10.0), dict(seed=-1), dict(gps_sigmma=0.1)])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(motion_source="imu"),
+        dict(cmd_rate=0.0),
+        dict(gps_outlier_fraction=1.5),
+        dict(gps_outages=[(5.0, 1.0)]),
+        dict(slip=[(1.0, 2.0)]),
+        dict(slip=[(1.0, 2.0, -0.5)]),
+        dict(imu_var=-1.0),
+        dict(duration=0.5),
+        dict(duration=-30.0),
+        dict(start=(0.0, 0.0)),
+        dict(substeps=0),
+        dict(cmd_rate=0.4, duration=1.0),
+        dict(substeps=1, cmd_rate=0.3, duration=10.0),
+        dict(seed=-1),
+        dict(gps_sigmma=0.1),
+    ],
+)
 def test_bad_config_is_rejected_naming_the_field(bad):
     assert_rejected_naming(simulate, **bad)
 

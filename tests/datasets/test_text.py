@@ -5,6 +5,7 @@ same float64 bits as ``strtod`` for every token it accepts, accept every plain d
 for (so that the staged real files never fall back), and reject everything else, which then goes
 through numpy's parser unchanged.
 """
+
 from __future__ import annotations
 
 import re
@@ -20,7 +21,9 @@ from slamarena.datasets import DataFormatError
 from slamarena.datasets.formats import _text
 
 MRCLAM6 = "utias_mrclam/MRCLAM_Dataset6"
-STAGED = [f"{MRCLAM6}/Robot{k}_{kind}.dat.gz" for k in range(1, 6) for kind in ("Odometry", "Measurement", "Groundtruth")]
+STAGED = [
+    f"{MRCLAM6}/Robot{k}_{kind}.dat.gz" for k in range(1, 6) for kind in ("Odometry", "Measurement", "Groundtruth")
+]
 STAGED += [f"{MRCLAM6}/Barcodes.dat", f"{MRCLAM6}/Landmark_Groundtruth.dat", "radish_laser_logs/intel.clf.bz2"]
 
 #: what the fast path is meant for: sign, ≤ 16 characters of digits with at most one dot not at the end
@@ -54,7 +57,7 @@ def test_staged_files_bit_identical_to_numpy(relpath):
     starts, ends, newlines = _text._scan(b)
     assert np.array_equal(newlines, np.flatnonzero(b == 10))
     tokens = blob.split()
-    assert len(tokens) == starts.size and tokens[-1] == blob[starts[-1]:ends[-1]]
+    assert len(tokens) == starts.size and tokens[-1] == blob[starts[-1] : ends[-1]]
     numeric = np.isin(b[starts], np.frombuffer(b"+-.0123456789", dtype=np.uint8))  # not tags, host names, comments
     starts, ends = starts[numeric], ends[numeric]
     expected = np.fromstring(b" ".join(compress(tokens, numeric.tolist())), sep=" ")
@@ -80,10 +83,37 @@ def test_staged_mrclam_table_equals_numpy_on_data_lines():
 # ----------------------------------------------------------------- generated decimals
 
 DIGITS = st.text(alphabet="0123456789", max_size=22)
-SPECIAL = st.sampled_from(["nan", "-nan", "inf", "-inf", "Infinity", "1e308", "1.7976931348623157e308", "1e-320",
-                           "4.9e-324", "2.2250738585072014e-308", "-0", "-0.0", "+0", ".5", "5.", "-.5", "+.5",
-                           "0.1", "9007199254740993", "9007199254740992", "900719925474099.3", "0000000000000012.5",
-                           "1234567890123456", "0.000000000000001", "999999999999999.9", "1e22", "1e23"])
+SPECIAL = st.sampled_from(
+    [
+        "nan",
+        "-nan",
+        "inf",
+        "-inf",
+        "Infinity",
+        "1e308",
+        "1.7976931348623157e308",
+        "1e-320",
+        "4.9e-324",
+        "2.2250738585072014e-308",
+        "-0",
+        "-0.0",
+        "+0",
+        ".5",
+        "5.",
+        "-.5",
+        "+.5",
+        "0.1",
+        "9007199254740993",
+        "9007199254740992",
+        "900719925474099.3",
+        "0000000000000012.5",
+        "1234567890123456",
+        "0.000000000000001",
+        "999999999999999.9",
+        "1e22",
+        "1e23",
+    ]
+)
 
 
 @st.composite
@@ -104,7 +134,7 @@ TOKENS = st.lists(st.one_of(decimal(), decimal(), SPECIAL), min_size=1, max_size
 @given(tokens=TOKENS, seps=st.lists(st.sampled_from([" ", "\t", " \t ", "  ", "\x0b", "\x0c"]), min_size=1))
 def test_numbers_bit_identical_to_python_float(tokens, seps):
     """numbers() on generated decimals (several per line, several separators) equals float() bit for bit."""
-    bodies = [seps[k % len(seps)].join(tokens[k:k + 3]) for k in range(0, len(tokens), 3)]
+    bodies = [seps[k % len(seps)].join(tokens[k : k + 3]) for k in range(0, len(tokens), 3)]
     values, counts = _text.numbers("mem", bodies, np.arange(1, len(bodies) + 1), "a row")
     assert counts.sum() == len(tokens)
     expected = np.array([float(t) for t in tokens])
@@ -126,7 +156,9 @@ def test_fast_path_accepts_exactly_plain_decimals(tokens):
 
 # bytes chosen to stress the byte tricks: the dot and its xor partner, signs, exponent letters, bytes
 # >= 0x80 (carries), 0x1e ('.' xor '0'), '/' and ':' (next to the digits), NUL
-NEAR = st.binary(min_size=1, max_size=20).map(lambda b: bytes(b"0123456789.+-eE/:\x00\x1e\x80\xae\xfe\xb9"[x % 23] for x in b))
+NEAR = st.binary(min_size=1, max_size=20).map(
+    lambda b: bytes(b"0123456789.+-eE/:\x00\x1e\x80\xae\xfe\xb9"[x % 23] for x in b)
+)
 
 
 @settings(max_examples=400, deadline=None)
@@ -148,8 +180,17 @@ def test_tokens_at_the_very_start_and_short_texts():
     assert values.size == 0 and counts.size == 0
 
 
-@pytest.mark.parametrize("body, token", [("1 2\x013", "2\x013"), ("1 1.5.2 3", "1.5.2"), ("4 0x10", "0x10"),
-                                         ("1 \xb5", "\xb5"), ("- 1", "-"), ("1 .", ".")])
+@pytest.mark.parametrize(
+    "body, token",
+    [
+        ("1 2\x013", "2\x013"),
+        ("1 1.5.2 3", "1.5.2"),
+        ("4 0x10", "0x10"),
+        ("1 \xb5", "\xb5"),
+        ("- 1", "-"),
+        ("1 .", "."),
+    ],
+)
 def test_non_numbers_still_reported_at_their_token(body, token):
     """Control characters are not separators; malformed tokens go to the fallback and fail there."""
     with pytest.raises(DataFormatError) as err:

@@ -1,4 +1,5 @@
 """Dead reckoning: exact on noise-free input, covariance against a Monte Carlo spread."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -7,8 +8,7 @@ import pytest
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Increments, Noise, Sequence, Trajectory, Twist
 from slamarena.estimators.dead_reckoning import DeadReckoning
-from slamarena.estimators.models import propagate_covariance
-from slamarena.estimators.models import ARC, EULER, compose_jacobians
+from slamarena.estimators.models import ARC, EULER, compose_jacobians, propagate_covariance
 
 
 def _controls(K=200, dt=0.1, seed=0):
@@ -140,7 +140,11 @@ def test_increment_covariance_uses_stream_or_stated_noise():
     err[:, 2] = wrap_angle(err[:, 2])
     np.testing.assert_allclose(np.diag(err.T @ err / runs), np.diag(est.pose_cov[-1]), rtol=0.1)
     # a per-row covariance in the stream takes precedence over the stated noise
-    seq2 = Sequence("inc2", motion=Increments(t=np.arange(K, dtype=float), delta=delta, cov=np.broadcast_to(4 * C, (K, 3, 3))), noise=Noise(increment_cov=C))
+    seq2 = Sequence(
+        "inc2",
+        motion=Increments(t=np.arange(K, dtype=float), delta=delta, cov=np.broadcast_to(4 * C, (K, 3, 3))),
+        noise=Noise(increment_cov=C),
+    )
     np.testing.assert_allclose(DeadReckoning().run(seq2).pose_cov[-1], 4 * est.pose_cov[-1], rtol=1e-9)
 
 

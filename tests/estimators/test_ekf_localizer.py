@@ -4,16 +4,27 @@ Hand-built sequences (``_scenario``) give exact control over stamps and noise; t
 consistency test and the claims of the design notes use ``sim:localization``
 (tests/estimators/test_ekf_localizer_sim.py).
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pydantic
 import pytest
+from checks import with_beacon_ranges
 from scipy.stats import chi2
 
 from slamarena.datasets.geometry import wrap_angle
-from slamarena.datasets.sequence import BeaconRanges, Gps, Heading, LandmarkMap, Noise, RangeBearing, Sequence, Trajectory, Twist
-from checks import with_beacon_ranges
+from slamarena.datasets.sequence import (
+    BeaconRanges,
+    Gps,
+    Heading,
+    LandmarkMap,
+    Noise,
+    RangeBearing,
+    Sequence,
+    Trajectory,
+    Twist,
+)
 from slamarena.estimators import create
 from slamarena.estimators.ekf_localizer import EKFLocalizer, compass_to_yaw
 from slamarena.estimators.models import EULER, MOTION_MODELS, observation_jacobians, observe
@@ -22,8 +33,19 @@ CMD_DT = 0.02
 TRUE_NOISE = dict(sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3)
 
 
-def _scenario(seed=0, duration=20.0, gps_every=5, imu_every=2, sigma_v=0.05, sigma_omega=0.02, gps_sigma=0.01, imu_var=1e-3,
-              landmarks=None, rb_every=10, rb_sigma=(0.05, 0.02)) -> Sequence:
+def _scenario(
+    seed=0,
+    duration=20.0,
+    gps_every=5,
+    imu_every=2,
+    sigma_v=0.05,
+    sigma_omega=0.02,
+    gps_sigma=0.01,
+    imu_var=1e-3,
+    landmarks=None,
+    rb_every=10,
+    rb_sigma=(0.05, 0.02),
+) -> Sequence:
     """A 50 Hz cmd_vel run (EULER truth) with GPS every ``gps_every`` and IMU every ``imu_every`` commands.
 
     Each command's (v, ω) error is drawn once and held for its 20 ms (the per-row convention of
@@ -36,7 +58,12 @@ def _scenario(seed=0, duration=20.0, gps_every=5, imu_every=2, sigma_v=0.05, sig
     w = 0.4 * np.sin(0.25 * t + 0.5)
     truth = EULER.integrate(np.array([0.0, 0.0, 0.3]), v, w, CMD_DT)  # (n + 1, 3) at t_k, k = 0..n
     t_truth = np.arange(n + 1) * CMD_DT
-    cmd = Twist(t=t, v=v + sigma_v * rng.standard_normal(n), omega=w + sigma_omega * rng.standard_normal(n), dt=np.full(n, CMD_DT))
+    cmd = Twist(
+        t=t,
+        v=v + sigma_v * rng.standard_normal(n),
+        omega=w + sigma_omega * rng.standard_normal(n),
+        dt=np.full(n, CMD_DT),
+    )
     gi = np.arange(gps_every, n + 1, gps_every)
     gps = Gps(t=t_truth[gi], xy=truth[gi, :2] + gps_sigma * rng.standard_normal((gi.size, 2)))
     hi = np.arange(imu_every, n + 1, imu_every)
@@ -47,14 +74,28 @@ def _scenario(seed=0, duration=20.0, gps_every=5, imu_every=2, sigma_v=0.05, sig
         ri = np.arange(rb_every, n + 1, rb_every)
         z = observe(truth[ri][:, None, :], lm.xy[None, :, :])  # (R, L, 2)
         z = z + np.asarray(rb_sigma) * rng.standard_normal(z.shape)
-        rb = RangeBearing(t=np.repeat(t_truth[ri], len(lm)), range=z[..., 0].ravel(), bearing=wrap_angle(z[..., 1].ravel()),
-                          landmark_id=np.tile(lm.ids, ri.size))
+        rb = RangeBearing(
+            t=np.repeat(t_truth[ri], len(lm)),
+            range=z[..., 0].ravel(),
+            bearing=wrap_angle(z[..., 1].ravel()),
+            landmark_id=np.tile(lm.ids, ri.size),
+        )
         rb_cov = np.diag(np.square(rb_sigma))
     return Sequence(
-        name=f"handbuilt/{seed}", motion=cmd, gps=gps, heading=heading, range_bearing=rb, landmarks=lm,
-        ground_truth=Trajectory(t=t_truth, poses=truth), initial_pose=truth[0],
-        noise=Noise(twist_cov=np.diag([sigma_v**2, sigma_omega**2]), gps_cov=np.eye(2) * gps_sigma**2, yaw_var=imu_var,
-                    range_bearing_cov=rb_cov),
+        name=f"handbuilt/{seed}",
+        motion=cmd,
+        gps=gps,
+        heading=heading,
+        range_bearing=rb,
+        landmarks=lm,
+        ground_truth=Trajectory(t=t_truth, poses=truth),
+        initial_pose=truth[0],
+        noise=Noise(
+            twist_cov=np.diag([sigma_v**2, sigma_omega**2]),
+            gps_cov=np.eye(2) * gps_sigma**2,
+            yaw_var=imu_var,
+            range_bearing_cov=rb_cov,
+        ),
     )
 
 
@@ -81,7 +122,10 @@ def _fd_jacobian(f, x, eps=1e-6):
 
 # ---------------------------------------------------------------- models and filterpy wiring
 @pytest.mark.parametrize("model", ["euler", "arc"])
-@pytest.mark.parametrize("x0, v, omega, dt", [((1.0, -2.0, 0.3), 1.2, 0.4, 0.02), ((0.0, 0.0, 3.1), 0.5, -2.0, 0.37), ((2.0, 1.0, -1.7), 2.0, 0.0, 0.1)])
+@pytest.mark.parametrize(
+    "x0, v, omega, dt",
+    [((1.0, -2.0, 0.3), 1.2, 0.4, 0.02), ((0.0, 0.0, 3.1), 0.5, -2.0, 0.37), ((2.0, 1.0, -1.7), 2.0, 0.0, 0.1)],
+)
 def test_covariance_prediction_uses_the_finite_difference_jacobian(model, x0, v, omega, dt):
     f = EKFLocalizer(motion_model=model, Q=0.0)
     P0 = np.array([[0.3, 0.05, 0.02], [0.05, 0.2, -0.03], [0.02, -0.03, 0.1]])
@@ -131,7 +175,9 @@ def test_gps_and_imu_updates_use_the_notes_H():
     P0 = np.diag([0.04, 0.09, 0.01])
     f.reset((1.0, 2.0, 0.5), P0)
     f.update_gps((1.1, 1.8))
-    np.testing.assert_allclose(f.x[:2], [1.0 + 0.04 / (0.04 + 1e-4) * 0.1, 2.0 - 0.09 / (0.09 + 1e-4) * 0.2], atol=1e-12)
+    np.testing.assert_allclose(
+        f.x[:2], [1.0 + 0.04 / (0.04 + 1e-4) * 0.1, 2.0 - 0.09 / (0.09 + 1e-4) * 0.2], atol=1e-12
+    )
     assert f.x[2] == 0.5
     f.update_imu(0.6)
     np.testing.assert_allclose(f.x[2], 0.5 + 0.01 / (0.01 + 1e-3) * 0.1, atol=1e-12)
@@ -154,8 +200,10 @@ def test_the_gate_compares_the_nis_of_the_prior_with_its_threshold(accept):
     y_lm = z_lm - np.array([np.sqrt(q), np.arctan2(dy, dx) - x0[2]])
     y_lm[1] = wrap_angle(y_lm[1])
     H_lm = np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0.0], [dy / q, -dx / q, -1.0]])
-    for sensor, y, H, R, update in (("gps", y_gps, H_gps, R_gps, lambda f: f.update_gps(z_gps)),
-                                    ("landmark", y_lm, H_lm, R_landmark, lambda f: f.update_landmark(*z_lm, m))):
+    for sensor, y, H, R, update in (
+        ("gps", y_gps, H_gps, R_gps, lambda f: f.update_gps(z_gps)),
+        ("landmark", y_lm, H_lm, R_landmark, lambda f: f.update_landmark(*z_lm, m)),
+    ):
         expected = y @ np.linalg.solve(H @ P0 @ H.T + R, y)
         assert expected > 0.5
         f = EKFLocalizer(R_gps=R_gps, R_landmark=R_landmark, gate_confidence=1.0)
@@ -262,13 +310,28 @@ def test_bad_configuration_is_rejected():
     assert isinstance(create("ekf_localizer"), EKFLocalizer)
 
 
-@pytest.mark.parametrize("field, bad", [
-    ("motion_model", "eular"), ("q_unit", "per_fortnight"), ("heading_convention", "north"),
-    ("Q", [[1, 2, 0], [0, 1, 0], [0, 0, 1]]), ("R_gps", (1e-4, -1.0)), ("R_imu", [1e-3, 1e-3]), ("twist_cov", np.eye(3)),
-    ("initial_cov", np.nan), ("gate_confidence", 0.0), ("gate_confidence", {"lidar": 0.9}), ("gate_confidence", {"gps": 1.5}),
-    ("nominal_dt", 0.0), ("history_length", -1.0), ("max_rejections", -1), ("beacon_bias", np.inf),
-    ("magnetic_declination", np.nan), ("R_gsp", (1e-4, 1e-4)),
-])
+@pytest.mark.parametrize(
+    "field, bad",
+    [
+        ("motion_model", "eular"),
+        ("q_unit", "per_fortnight"),
+        ("heading_convention", "north"),
+        ("Q", [[1, 2, 0], [0, 1, 0], [0, 0, 1]]),
+        ("R_gps", (1e-4, -1.0)),
+        ("R_imu", [1e-3, 1e-3]),
+        ("twist_cov", np.eye(3)),
+        ("initial_cov", np.nan),
+        ("gate_confidence", 0.0),
+        ("gate_confidence", {"lidar": 0.9}),
+        ("gate_confidence", {"gps": 1.5}),
+        ("nominal_dt", 0.0),
+        ("history_length", -1.0),
+        ("max_rejections", -1),
+        ("beacon_bias", np.inf),
+        ("magnetic_declination", np.nan),
+        ("R_gsp", (1e-4, 1e-4)),
+    ],
+)
 def test_a_bad_or_unknown_parameter_is_a_validation_error_naming_it(field, bad):
     with pytest.raises(pydantic.ValidationError) as raised:
         EKFLocalizer(**{field: bad})
@@ -278,8 +341,16 @@ def test_a_bad_or_unknown_parameter_is_a_validation_error_naming_it(field, bad):
 
 
 def test_a_params_model_and_keywords_configure_the_same_filter():
-    kw = dict(motion_model="arc", Q=0.5, q_unit="per_second", twist_cov=(0.01, 0.02), gate_confidence={"gps": 0.99, "imu": 1.0},
-              heading_convention="compass", max_rejections=2, use_sequence_noise=True)
+    kw = dict(
+        motion_model="arc",
+        Q=0.5,
+        q_unit="per_second",
+        twist_cov=(0.01, 0.02),
+        gate_confidence={"gps": 0.99, "imu": 1.0},
+        heading_convention="compass",
+        max_rejections=2,
+        use_sequence_noise=True,
+    )
     a, b = EKFLocalizer(EKFLocalizer.Params(**kw)), EKFLocalizer(**kw)
     assert a.params == b.params and a.params.Q == [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.5]]
     assert EKFLocalizer(a.params, Q=0.25).params == EKFLocalizer(**{**kw, "Q": np.diag([0.25] * 3)}).params
@@ -330,14 +401,23 @@ def test_a_failing_call_leaves_the_filter_as_it_was():
     before = _state(f)
     bad_landmarks = [(4.6, 0.0, 5.0, 0.0), (4.0, 0.1, np.nan, 1.0)]  # the first row alone would apply
     for t in (0.4, 0.1):  # in time order, and delayed (a rewind)
-        for kind, value in (("twist", (1.0, 0.0, -0.02)), ("landmark", bad_landmarks), ("beacon", [(3.0, np.inf, 0.0)]),
-                            ("gps", (1.0, 2.0, 3.0)), ("increment", ((0.1, 0.0), None)), ("lidar", (1.0,))):
+        for kind, value in (
+            ("twist", (1.0, 0.0, -0.02)),
+            ("landmark", bad_landmarks),
+            ("beacon", [(3.0, np.inf, 0.0)]),
+            ("gps", (1.0, 2.0, 3.0)),
+            ("increment", ((0.1, 0.0), None)),
+            ("lidar", (1.0,)),
+        ):
             with pytest.raises(ValueError):
                 f.process(t, kind, value)
             _assert_same_state(_state(f), before)
-    for call in (lambda: f.reset((1.0, 2.0, 0.0), cov=[[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
-                 lambda: f.update_landmark(4.0, 0.1, (np.nan, 0.0)), lambda: f.update_beacon(4.0, (0.0, np.inf)),
-                 lambda: f.predict(1.0, 0.0, 0.0)):
+    for call in (
+        lambda: f.reset((1.0, 2.0, 0.0), cov=[[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        lambda: f.update_landmark(4.0, 0.1, (np.nan, 0.0)),
+        lambda: f.update_beacon(4.0, (0.0, np.inf)),
+        lambda: f.predict(1.0, 0.0, 0.0),
+    ):
         with pytest.raises(ValueError):
             call()
         _assert_same_state(_state(f), before)
@@ -354,10 +434,20 @@ def test_nonfinite_measurements_are_rejected_and_counted():
     rng[4] = np.nan
     v = seq.motion.v.copy()
     v[17] = np.nan
-    bad = Sequence(**{**seq.__dict__, "gps": Gps(t=seq.gps.t, xy=gps_xy), "heading": Heading(t=seq.heading.t, yaw=yaw),
-                      "range_bearing": RangeBearing(t=seq.range_bearing.t, range=rng, bearing=seq.range_bearing.bearing,
-                                                    landmark_id=seq.range_bearing.landmark_id),
-                      "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt)})
+    bad = Sequence(
+        **{
+            **seq.__dict__,
+            "gps": Gps(t=seq.gps.t, xy=gps_xy),
+            "heading": Heading(t=seq.heading.t, yaw=yaw),
+            "range_bearing": RangeBearing(
+                t=seq.range_bearing.t,
+                range=rng,
+                bearing=seq.range_bearing.bearing,
+                landmark_id=seq.range_bearing.landmark_id,
+            ),
+            "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt),
+        }
+    )
     est = _true_noise_filter().run(bad)
     assert np.all(np.isfinite(est.poses)) and np.all(np.isfinite(est.pose_cov))
     assert est.meta["rejected"]["gps"]["nonfinite"] == 3
@@ -376,7 +466,14 @@ def test_unknown_landmark_ids_are_counted():
     rb = seq.range_bearing
     ids = rb.landmark_id.copy()
     ids[::2] = 99
-    est = _true_noise_filter().run(Sequence(**{**seq.__dict__, "range_bearing": RangeBearing(t=rb.t, range=rb.range, bearing=rb.bearing, landmark_id=ids)}))
+    est = _true_noise_filter().run(
+        Sequence(
+            **{
+                **seq.__dict__,
+                "range_bearing": RangeBearing(t=rb.t, range=rb.range, bearing=rb.bearing, landmark_id=ids),
+            }
+        )
+    )
     assert est.meta["rejected"]["landmark"]["unknown_landmark"] == int(np.sum(ids == 99))
 
 
@@ -446,7 +543,9 @@ def test_beacon_update_is_the_ekf_update_with_the_bias_in_h():
 def test_range_only_localization_beats_dead_reckoning_and_is_consistent(bias):
     lms = np.array([[5.0, 5.0], [-3.0, 4.0], [10.0, -2.0], [0.0, 12.0], [15.0, 8.0]])
     sigma = 0.1
-    seq = _with_beacon_ranges(_scenario(seed=5, duration=60.0, sigma_v=0.2, sigma_omega=0.1, landmarks=lms), sigma, bias)
+    seq = _with_beacon_ranges(
+        _scenario(seed=5, duration=60.0, sigma_v=0.2, sigma_omega=0.1, landmarks=lms), sigma, bias
+    )
     est = _true_noise_filter(R_beacon=sigma**2, beacon_bias=bias).run(seq)
     err = np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
     dead = EKFLocalizer(Q=0.0).run(Sequence(**{**seq.__dict__, "beacon_ranges": None}))
@@ -457,7 +556,10 @@ def test_range_only_localization_beats_dead_reckoning_and_is_consistent(bias):
     assert abs(nis.mean() - 1.0) < 0.2
     if bias:  # the same data with the bias left out of the model: visibly worse and inconsistent
         unbiased = _true_noise_filter(R_beacon=sigma**2).run(seq)
-        assert unbiased.diagnostics["nis_beacon"].mean() > 3 or unbiased.meta["rejected"]["beacon"].get("gate", 0) > 0.1 * nis.size
+        assert (
+            unbiased.diagnostics["nis_beacon"].mean() > 3
+            or unbiased.meta["rejected"]["beacon"].get("gate", 0) > 0.1 * nis.size
+        )
 
 
 def test_unknown_beacons_and_nonfinite_ranges_are_counted():
@@ -466,7 +568,9 @@ def test_unknown_beacons_and_nonfinite_ranges_are_counted():
     ids, r = br.beacon_id.copy(), br.range.copy()
     ids[::3] = 99
     r[1] = np.nan
-    est = _true_noise_filter(R_beacon=0.01).run(Sequence(**{**seq.__dict__, "beacon_ranges": BeaconRanges(t=br.t, range=r, beacon_id=ids)}))
+    est = _true_noise_filter(R_beacon=0.01).run(
+        Sequence(**{**seq.__dict__, "beacon_ranges": BeaconRanges(t=br.t, range=r, beacon_id=ids)})
+    )
     assert est.meta["rejected"]["beacon"]["unknown_beacon"] == int(np.sum(ids == 99))
     assert est.meta["rejected"]["beacon"]["nonfinite"] == 1
     assert np.all(np.isfinite(est.poses))
@@ -508,7 +612,9 @@ def test_recovery_after_a_20_s_gps_outage():
 
 # ---------------------------------------------------------------- delayed, out-of-order input
 def _stream(seq: Sequence) -> list[tuple[float, str, object]]:
-    items = [(t, "twist", (v, w, dt)) for t, v, w, dt in zip(seq.motion.t, seq.motion.v, seq.motion.omega, seq.motion.dt)]
+    items = [
+        (t, "twist", (v, w, dt)) for t, v, w, dt in zip(seq.motion.t, seq.motion.v, seq.motion.omega, seq.motion.dt)
+    ]
     items += [(t, "gps", xy) for t, xy in zip(seq.gps.t, seq.gps.xy)]
     items += [(t, "imu", yaw) for t, yaw in zip(seq.heading.t, seq.heading.yaw)]
     return sorted(items, key=lambda item: item[0])
@@ -549,8 +655,12 @@ def test_out_of_order_input_gives_the_in_order_estimate():
         np.testing.assert_array_equal(t, in_order.diagnostics[f"nis_{sensor}_t"])
         alone = ~np.isin(t, shared)
         assert alone.sum() >= 50
-        np.testing.assert_allclose(diagnostics[f"nis_{sensor}"][alone], in_order.diagnostics[f"nis_{sensor}"][alone], rtol=1e-6)
-        np.testing.assert_array_equal(diagnostics[f"nis_{sensor}_accepted"], in_order.diagnostics[f"nis_{sensor}_accepted"])
+        np.testing.assert_allclose(
+            diagnostics[f"nis_{sensor}"][alone], in_order.diagnostics[f"nis_{sensor}"][alone], rtol=1e-6
+        )
+        np.testing.assert_array_equal(
+            diagnostics[f"nis_{sensor}_accepted"], in_order.diagnostics[f"nis_{sensor}_accepted"]
+        )
 
 
 def test_input_older_than_the_history_is_rejected_and_counted():
@@ -575,13 +685,19 @@ def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
     dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
     from checks import load_staged
+
     from slamarena.experiments.metrics.reference import reference_of
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
     seq = load_staged("utias:6/robot1")
     t_end = seq.motion.t[0] + 120.0
-    seq = Sequence(**{**seq.__dict__, "motion": seq.motion.select(seq.motion.t < t_end),
-                      "range_bearing": seq.range_bearing.select(seq.range_bearing.t < t_end)})
+    seq = Sequence(
+        **{
+            **seq.__dict__,
+            "motion": seq.motion.select(seq.motion.t < t_end),
+            "range_bearing": seq.range_bearing.select(seq.range_bearing.t < t_end),
+        }
+    )
     cfg = dict(motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2))
     est = EKFLocalizer(**cfg).run(seq)
     dead = EKFLocalizer(**cfg).run(Sequence(**{**seq.__dict__, "range_bearing": None}))
@@ -600,7 +716,9 @@ def test_gate_lockout_is_detected_and_recovered():
     v = seq.motion.v.copy()
     slipping = (seq.motion.t >= 5.0) & (seq.motion.t < 15.0)
     v[slipping] *= 1.25
-    slipped = Sequence(**{**seq.__dict__, "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt)})
+    slipped = Sequence(
+        **{**seq.__dict__, "motion": Twist(t=seq.motion.t, v=v, omega=seq.motion.omega, dt=seq.motion.dt)}
+    )
     locked = _true_noise_filter(max_rejections=0).run(slipped)
     guarded = _true_noise_filter().run(slipped)
     err = lambda est: np.linalg.norm(est.poses[:, :2] - _truth_at(seq, est.t)[:, :2], axis=1)
@@ -616,6 +734,7 @@ def test_plaza2_range_only_localization_needs_the_range_offset():
     below 1 m once the +2.8 m range offset is modelled; without it the gate refuses many ranges and
     the error is several metres (the numbers of research/ekf_localizer.md, `slamarena run plaza`)."""
     from checks import load_staged
+
     from slamarena.experiments.metrics.reference import reference_of
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
@@ -625,7 +744,10 @@ def test_plaza2_range_only_localization_needs_the_range_offset():
     plain = EKFLocalizer(**cfg).run(seq)
     dead = EKFLocalizer(**cfg).run(Sequence(**{**seq.__dict__, "beacon_ranges": None}))
     ref = reference_of(seq)
-    rmse = {k: ate(e, ref, ATEParams(align="none", max_gap=0.25))[0]["rmse"] for k, e in (("biased", biased), ("plain", plain), ("dead", dead))}
+    rmse = {
+        k: ate(e, ref, ATEParams(align="none", max_gap=0.25))[0]["rmse"]
+        for k, e in (("biased", biased), ("plain", plain), ("dead", dead))
+    }
     assert rmse["biased"] < 1.0 and rmse["plain"] > 3 * rmse["biased"] and rmse["dead"] > 20.0
     assert biased.meta["rejected"]["beacon"].get("gate", 0) == 0 and plain.meta["rejected"]["beacon"]["gate"] > 100
 
@@ -663,6 +785,8 @@ def test_one_pose_per_stamp_the_posterior():
         elif event.stream == "heading":
             f.process(event.t, "imu", seq.heading.yaw[event.start])
         elif event.stream == "motion":
-            f.process(event.t, "twist", (seq.motion.v[event.start], seq.motion.omega[event.start], seq.motion.dt[event.start]))
+            f.process(
+                event.t, "twist", (seq.motion.v[event.start], seq.motion.omega[event.start], seq.motion.dt[event.start])
+            )
     k = np.flatnonzero(est.t == shared)[0]
     np.testing.assert_allclose(est.poses[k], f.x, atol=1e-12)

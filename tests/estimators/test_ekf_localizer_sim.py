@@ -6,6 +6,7 @@ research/ekf_localizer.md), the exact ARC step, the simulator's stated noise
 (``use_sequence_noise``) and no extra Q, and initial estimates drawn from the initial
 covariance they claim.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -76,12 +77,16 @@ def test_sim_gps_outlier_burst_does_not_move_the_estimate():
 
 
 def test_sim_recovery_after_a_20_s_outage():
-    seq = datasets.load("sim:localization", duration=45.0, imu_rate=10.0, motion_source="odometry", gps_outages=[(15.0, 35.0)], seed=4)
+    seq = datasets.load(
+        "sim:localization", duration=45.0, imu_rate=10.0, motion_source="odometry", gps_outages=[(15.0, 35.0)], seed=4
+    )
     est = _consistent_filter().run(seq)
     t = est.t
     pos_sd = np.sqrt(est.pose_cov[:, 0, 0] + est.pose_cov[:, 1, 1])
     truth = reference_of(seq)
-    err = np.linalg.norm(est.poses[:, :2] - np.array([truth.poses[np.searchsorted(truth.t, s - 1e-9)] for s in t])[:, :2], axis=1)
+    err = np.linalg.norm(
+        est.poses[:, :2] - np.array([truth.poses[np.searchsorted(truth.t, s - 1e-9)] for s in t])[:, :2], axis=1
+    )
     before, during_end, after = (t > 10) & (t < 15), (t > 34) & (t < 35), t > 36
     assert pos_sd[during_end].min() > 5 * pos_sd[before].max()  # covariance grows through the outage
     assert err[during_end].max() < 3 * pos_sd[during_end].max()  # ...and covers the drift

@@ -13,6 +13,7 @@ and asserts the direction of the finding, so a change that overturns it fails::
 Accuracy is ATE without alignment (GPS and the surveyed map fix the frame), from
 :mod:`slamarena.experiments.metrics`; NEES is the single-run mean (3 when consistent).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -79,8 +80,18 @@ def test_study_q_unit():
         sd, err = np.mean(cover, axis=0)
         out[name] = (s, sd, err)
         rows.append([name, s["ate"], s["heading"], s["nees"], sd, err])
-    _table("Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
-           ["process noise", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES (3 = consistent)", "σ_xy at outage end [m]", "error at outage end [m]"], rows)
+    _table(
+        "Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
+        [
+            "process noise",
+            "ATE RMSE [m]",
+            "heading RMSE [rad]",
+            "mean NEES (3 = consistent)",
+            "σ_xy at outage end [m]",
+            "error at outage end [m]",
+        ],
+        rows,
+    )
     per_step, per_second, true = out.values()
     # per-step reading: σ of metres for cm errors, a NEES far below the true-noise filter's
     assert per_step[0]["nees"] < 0.5 * true[0]["nees"] and per_step[1] > 50 * per_step[2]
@@ -104,14 +115,21 @@ def test_study_cmd_vel_vs_odometry():
                 for seed in SEEDS:
                     sim = dict(duration=60.0, imu_rate=10.0, slip=slip, gps_outages=outage)
                     seq = datasets.load("sim:localization", motion_source=source, seed=seed, **sim)
-                    noise = dict(twist_cov=_noise_of(source, seed, **sim), R_gps=seq.noise.gps_cov.tolist(), R_imu=seq.noise.yaw_var)
+                    noise = dict(
+                        twist_cov=_noise_of(source, seed, **sim),
+                        R_gps=seq.noise.gps_cov.tolist(),
+                        R_imu=seq.noise.yaw_var,
+                    )
                     est = EKFLocalizer(Q=0.0, **noise).run(seq)
                     scores.append(_score(est, seq))
                 s = _mean(scores)
                 out[(slip_name, gps_name, source)] = s
                 rows.append([slip_name, gps_name, source, s["ate"], s["max"], s["heading"], s["nees"]])
-    _table("cmd_vel vs wheel odometry for prediction (10 seeds, 60 s)",
-           ["slip", "GPS", "prediction from", "ATE RMSE [m]", "max error [m]", "heading RMSE [rad]", "mean NEES"], rows)
+    _table(
+        "cmd_vel vs wheel odometry for prediction (10 seeds, 60 s)",
+        ["slip", "GPS", "prediction from", "ATE RMSE [m]", "max error [m]", "heading RMSE [rad]", "mean NEES"],
+        rows,
+    )
     for gps_name in outages:
         assert out[("none", gps_name, "odometry")]["ate"] < 0.8 * out[("none", gps_name, "cmd_vel")]["ate"]
     assert out[("both wheels 0.8", "GPS lost 15–45 s", "odometry")]["max"] > 1.0  # odometry does not see slip either
@@ -133,7 +151,9 @@ def test_study_consistency_by_source():
             for seed in range(50):
                 seq = datasets.load("sim:localization", duration=10.0, imu_rate=10.0, motion_source=source, seed=seed)
                 rng = np.random.default_rng(10_000 + seed)
-                seq = Sequence(**{**seq.__dict__, "initial_pose": seq.start_pose + np.sqrt(P0) * rng.standard_normal(3)})
+                seq = Sequence(
+                    **{**seq.__dict__, "initial_pose": seq.start_pose + np.sqrt(P0) * rng.standard_normal(3)}
+                )
                 est = EKFLocalizer(motion_model=model, Q=0.0, use_sequence_noise=True, initial_cov=P0.tolist()).run(seq)
                 series = nees(est, reference_of(seq))[1]
                 runs.append((series["t"], series["nees"]))
@@ -141,10 +161,28 @@ def test_study_consistency_by_source():
                     nis[sensor].append(est.diagnostics[f"nis_{sensor}"])
             mc = monte_carlo(runs, 3)
             out[(source, model)] = mc
-            rows.append([source, model, float(mc["in_band"]), float(mc["mean"].mean()),
-                         float(np.concatenate(nis["gps"]).mean()), float(np.concatenate(nis["imu"]).mean())])
-    _table("Monte Carlo consistency by prediction source (50 seeds × 10 s; band χ²(150)/50 = [2.36, 3.72])",
-           ["prediction from", "model", "steps with mean NEES in band", "mean NEES", "mean NIS GPS (2)", "mean NIS IMU (1)"], rows)
+            rows.append(
+                [
+                    source,
+                    model,
+                    float(mc["in_band"]),
+                    float(mc["mean"].mean()),
+                    float(np.concatenate(nis["gps"]).mean()),
+                    float(np.concatenate(nis["imu"]).mean()),
+                ]
+            )
+    _table(
+        "Monte Carlo consistency by prediction source (50 seeds × 10 s; band χ²(150)/50 = [2.36, 3.72])",
+        [
+            "prediction from",
+            "model",
+            "steps with mean NEES in band",
+            "mean NEES",
+            "mean NIS GPS (2)",
+            "mean NIS IMU (1)",
+        ],
+        rows,
+    )
     assert out[("odometry", "arc")]["in_band"] >= 0.9
     assert out[("cmd_vel", "arc")]["in_band"] < out[("odometry", "arc")]["in_band"]
 
@@ -163,7 +201,11 @@ def test_study_imu():
             s = _mean(scores)
             out[(gps_rate, imu)] = s
             rows.append([f"{gps_rate:g} Hz", "yes" if imu else "no", s["ate"], s["heading"], s["nees"]])
-    _table("IMU yaw update (cmd_vel, IMU 50 Hz, 10 seeds, 60 s)", ["GPS rate", "IMU yaw", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES"], rows)
+    _table(
+        "IMU yaw update (cmd_vel, IMU 50 Hz, 10 seeds, 60 s)",
+        ["GPS rate", "IMU yaw", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES"],
+        rows,
+    )
     for gps_rate in (5.0, 1.0):
         assert out[(gps_rate, True)]["heading"] < 0.5 * out[(gps_rate, False)]["heading"]
         assert out[(gps_rate, True)]["ate"] < out[(gps_rate, False)]["ate"]
@@ -184,7 +226,9 @@ def test_study_gps_sweep(tmp_path):
     print(grid)
     assert np.all(np.diff(grid, axis=0) > 0)  # noisier GPS, larger error
     assert np.all(np.diff(grid, axis=1) < 0)  # faster GPS, smaller error
-    assert np.all(grid[1:] < np.array([s for _, s in sigmas])[1:, None])  # with σ ≥ 10 cm the filter beats the raw fixes everywhere
+    assert np.all(
+        grid[1:] < np.array([s for _, s in sigmas])[1:, None]
+    )  # with σ ≥ 10 cm the filter beats the raw fixes everywhere
     assert grid[0, 0] > sigmas[0][1]  # 1 cm fixes at 1 Hz: the drift between fixes dominates
 
 
@@ -205,12 +249,42 @@ def test_study_mrclam():
         nis = est.diagnostics["nis_landmark"][est.diagnostics["nis_landmark_accepted"]]
         out[robot] = (s, d)
         near, far = _error_by_time_since_update(est, seq)
-        rows.append([f"robot{robot}", s["ate"], s["max"], s["heading"], s["nees"], near, far, d["ate"], d["max"], len(seq.range_bearing),
-                     rej.get("gate", 0), est.meta["recoveries"]["landmark"], float(nis.mean() / 2)])
-    _table("MRCLAM Dataset 6: EKF localization vs dead reckoning (ATE vs Vicon, no alignment)",
-           ["robot", "EKF ATE RMSE [m]", "EKF max [m]", "EKF heading RMSE [rad]", "EKF mean NEES", "RMSE ≤ 1 s after a landmark update",
-            "RMSE > 10 s after", "dead-reckoning ATE RMSE [m]", "dead-reckoning max [m]", "landmark rows", "gated out", "recoveries",
-            "mean NIS/2 (accepted)"], rows)
+        rows.append(
+            [
+                f"robot{robot}",
+                s["ate"],
+                s["max"],
+                s["heading"],
+                s["nees"],
+                near,
+                far,
+                d["ate"],
+                d["max"],
+                len(seq.range_bearing),
+                rej.get("gate", 0),
+                est.meta["recoveries"]["landmark"],
+                float(nis.mean() / 2),
+            ]
+        )
+    _table(
+        "MRCLAM Dataset 6: EKF localization vs dead reckoning (ATE vs Vicon, no alignment)",
+        [
+            "robot",
+            "EKF ATE RMSE [m]",
+            "EKF max [m]",
+            "EKF heading RMSE [rad]",
+            "EKF mean NEES",
+            "RMSE ≤ 1 s after a landmark update",
+            "RMSE > 10 s after",
+            "dead-reckoning ATE RMSE [m]",
+            "dead-reckoning max [m]",
+            "landmark rows",
+            "gated out",
+            "recoveries",
+            "mean NIS/2 (accepted)",
+        ],
+        rows,
+    )
     for s, d in out.values():
         assert s["ate"] < 0.5 * d["ate"] and s["ate"] < 0.35
 
@@ -230,4 +304,6 @@ def _error_by_time_since_update(est, seq) -> tuple[float, float]:
 
 
 #: the MRCLAM configuration (research/ekf_localizer.md explains the choice)
-MRCLAM_FILTER = dict(motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999)
+MRCLAM_FILTER = dict(
+    motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999
+)

@@ -1,4 +1,5 @@
 """EKF-SLAM: oracle equivalence, Jacobians, structure of the O(n) / O(n²) steps, accuracy, bad input."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -48,9 +49,18 @@ ORACLE_CASES = [
 @pytest.mark.parametrize("kw", ORACLE_CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()) or "default")
 def test_efficient_filter_matches_literal_dense_reference(sim, kw):
     """Several hundred predict/update steps with known association: x and P agree to 1e-9."""
-    ekf = EKFSLAM(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov,
-                  known_confidence=None, **kw)  # the reference has no gate
-    ref_kw = {k: v for k, v in kw.items() if k in ("motion_model", "motion_noise", "covariance_update", "init", "init_cov", "update")}
+    ekf = EKFSLAM(
+        initial_pose=sim.start_pose,
+        twist_cov=sim.noise.twist_cov,
+        range_bearing_cov=sim.noise.range_bearing_cov,
+        known_confidence=None,
+        **kw,
+    )  # the reference has no gate
+    ref_kw = {
+        k: v
+        for k, v in kw.items()
+        if k in ("motion_model", "motion_noise", "covariance_update", "init", "init_cov", "update")
+    }
     if "Cx" in kw:
         ref_kw["Cx"] = np.diag(kw["Cx"])
     ref = ReferenceEKFSLAM(sim.noise.twist_cov, sim.noise.range_bearing_cov, initial_pose=sim.start_pose, **ref_kw)
@@ -135,10 +145,12 @@ def test_full_state_jacobians_match_finite_differences():
     x = np.r_[1.0, -2.0, 0.7, rng.uniform(-5, 5, 6)]
     u, dt = (1.3, 0.4), 0.2
     for model in MOTION_MODELS.values():
+
         def f(s):
             out = s.copy()
             out[:3] = model.predict(s[:3], u[0], u[1], dt)
             return out
+
         G3, _ = model.jacobians(x[:3], u[0], u[1], dt)
         GN = np.eye(x.size)
         GN[:3, :3] = G3
@@ -237,9 +249,16 @@ def test_run_with_odometry_increments():
     mo = seq.motion
     model = MOTION_MODELS["arc"]
     delta = model.increment(mo.v, mo.omega, mo.dt)
-    cov = np.array([V @ seq.noise.twist_cov @ V.T for V in model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]])
-    inc = Sequence(name="inc", motion=Increments(t=seq.ground_truth.t[1:], delta=delta, cov=cov), range_bearing=seq.range_bearing,
-                   initial_pose=seq.start_pose, noise=seq.noise)
+    cov = np.array(
+        [V @ seq.noise.twist_cov @ V.T for V in model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]]
+    )
+    inc = Sequence(
+        name="inc",
+        motion=Increments(t=seq.ground_truth.t[1:], delta=delta, cov=cov),
+        range_bearing=seq.range_bearing,
+        initial_pose=seq.start_pose,
+        noise=seq.noise,
+    )
     a = EKFSLAM().run(seq)
     b = EKFSLAM().run(inc)
     np.testing.assert_allclose(b.poses[-1], a.poses[-1], atol=1e-9)
@@ -254,18 +273,30 @@ def _gapped(seq: Sequence) -> Sequence:
     mo, rb = seq.motion, seq.range_bearing
     keep = np.arange(len(mo)) % 5 != 2
     sel = np.isin(rb.t, np.unique(rb.t)[::7])
-    return Sequence(name="gapped", motion=Twist(t=mo.t[keep], v=mo.v[keep], omega=mo.omega[keep], dt=mo.dt[keep]),
-                    range_bearing=RangeBearing(rb.t[sel], rb.range[sel], rb.bearing[sel], rb.landmark_id[sel]),
-                    initial_pose=seq.start_pose, noise=seq.noise)
+    return Sequence(
+        name="gapped",
+        motion=Twist(t=mo.t[keep], v=mo.v[keep], omega=mo.omega[keep], dt=mo.dt[keep]),
+        range_bearing=RangeBearing(rb.t[sel], rb.range[sel], rb.bearing[sel], rb.landmark_id[sel]),
+        initial_pose=seq.start_pose,
+        noise=seq.noise,
+    )
 
 
 def _as_increments(seq: Sequence) -> Sequence:
     """The same motion as odometry increments stamped at the end of each Twist row, with their covariance."""
     mo, model = seq.motion, MOTION_MODELS["arc"]
     V = model.jacobians(np.zeros((len(mo), 3)), mo.v, mo.omega, mo.dt)[1]
-    return Sequence(name="increments", motion=Increments(t=mo.t + mo.dt, delta=model.increment(mo.v, mo.omega, mo.dt),
-                                                         cov=V @ seq.noise.twist_cov @ V.transpose(0, 2, 1)),
-                    range_bearing=seq.range_bearing, initial_pose=seq.start_pose, noise=seq.noise)
+    return Sequence(
+        name="increments",
+        motion=Increments(
+            t=mo.t + mo.dt,
+            delta=model.increment(mo.v, mo.omega, mo.dt),
+            cov=V @ seq.noise.twist_cov @ V.transpose(0, 2, 1),
+        ),
+        range_bearing=seq.range_bearing,
+        initial_pose=seq.start_pose,
+        noise=seq.noise,
+    )
 
 
 def _by_hand(ekf: EKFSLAM, seq: Sequence) -> dict:
@@ -280,7 +311,7 @@ def _by_hand(ekf: EKFSLAM, seq: Sequence) -> dict:
         elif e.stream == "motion":
             ekf.predict_increment(seq.motion.delta[e.start], seq.motion.cov[e.start])
         if e.stream == "range_bearing":
-            ekf.update(seq.range_bearing.z[e.start:e.stop])
+            ekf.update(seq.range_bearing.z[e.start : e.stop])
         t_now = e.t
         at[e.t] = ekf.x[:3].copy(), ekf.P[:3, :3].copy()
     return at
@@ -318,11 +349,22 @@ def test_without_observations_the_trajectory_is_dead_reckoning(sim):
 @pytest.mark.parametrize("motion", ["twist", "increments"])
 def test_ideal_jacobians_use_the_true_pose_at_the_start_of_each_piece(sim, motion):
     """Odometry only, the truth = the noise-free odometry path: the ideal EKF linearises where the standard one does."""
-    twist = Sequence(name="odometry", motion=(_gapped(sim) if motion == "twist" else sim).motion, initial_pose=sim.start_pose, noise=sim.noise)
+    twist = Sequence(
+        name="odometry",
+        motion=(_gapped(sim) if motion == "twist" else sim).motion,
+        initial_pose=sim.start_pose,
+        noise=sim.noise,
+    )
     dr = DeadReckoning().run(twist)  # the pose at every row stamp and at the end of the last row
     odometry = twist if motion == "twist" else _as_increments(twist)
-    seq = Sequence(name="truth is odometry", motion=odometry.motion, ground_truth=Trajectory(dr.t, dr.poses), landmarks=sim.landmarks,
-                   initial_pose=sim.start_pose, noise=sim.noise)
+    seq = Sequence(
+        name="truth is odometry",
+        motion=odometry.motion,
+        ground_truth=Trajectory(dr.t, dr.poses),
+        landmarks=sim.landmarks,
+        initial_pose=sim.start_pose,
+        noise=sim.noise,
+    )
     ideal, standard = EKFSLAM(jacobians="ideal").run(seq), EKFSLAM().run(seq)
     np.testing.assert_allclose(ideal.pose_cov, standard.pose_cov, rtol=1e-9, atol=1e-15)
 
@@ -347,12 +389,16 @@ def test_a_failing_prediction_leaves_the_state_as_it_was(jacobians):
     ekf, twin = _mapped(jacobians=jacobians), _mapped(jacobians=jacobians)
     before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids
     cov = 1e-4 * np.eye(3)
-    bad = [lambda: ekf.predict((1e300, 0.0), 0.1),                                  # δ finite, G P Gᵀ overflows
-           lambda: ekf.predict((1.0, 0.0), 1e300),
-           lambda: ekf.predict_twists([1.0, 1e200, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1]),  # the second of three pieces
-           lambda: ekf.predict((np.nan, 0.0), 0.1), lambda: ekf.predict((1.0, 0.0), 0.0),
-           lambda: ekf.predict_increment([1e300, 0.0, 0.0], cov), lambda: ekf.predict_increment([0.1, 0.0, np.inf], cov),
-           lambda: ekf.predict_increments([[0.1, 0.0, 0.0]], [np.diag([1e-4, np.nan, 1e-4])])]
+    bad = [
+        lambda: ekf.predict((1e300, 0.0), 0.1),  # δ finite, G P Gᵀ overflows
+        lambda: ekf.predict((1.0, 0.0), 1e300),
+        lambda: ekf.predict_twists([1.0, 1e200, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1]),  # the second of three pieces
+        lambda: ekf.predict((np.nan, 0.0), 0.1),
+        lambda: ekf.predict((1.0, 0.0), 0.0),
+        lambda: ekf.predict_increment([1e300, 0.0, 0.0], cov),
+        lambda: ekf.predict_increment([0.1, 0.0, np.inf], cov),
+        lambda: ekf.predict_increments([[0.1, 0.0, 0.0]], [np.diag([1e-4, np.nan, 1e-4])]),
+    ]
     for call in bad:
         with pytest.raises(ValueError):
             call()
@@ -398,8 +444,13 @@ def test_labelled_outliers_are_gated_by_default():
     keep = np.arange(r.size) != k
 
     def with_rows(rows, r):
-        return Sequence(name="outlier", motion=seq.motion, range_bearing=RangeBearing(rb.t[rows], r[rows], rb.bearing[rows], rb.landmark_id[rows]),
-                        initial_pose=seq.start_pose, noise=seq.noise)
+        return Sequence(
+            name="outlier",
+            motion=seq.motion,
+            range_bearing=RangeBearing(rb.t[rows], r[rows], rb.bearing[rows], rb.landmark_id[rows]),
+            initial_pose=seq.start_pose,
+            noise=seq.noise,
+        )
 
     est, raw = EKFSLAM().run(with_rows(slice(None), r)), EKFSLAM(known_confidence=None).run(with_rows(slice(None), r))
     without = EKFSLAM().run(with_rows(keep, r))
@@ -427,34 +478,45 @@ def test_bad_motion_and_config_raise():
             ekf.predict((1.0, 0.0), dt)
     with pytest.raises(ValueError):
         ekf.predict((np.nan, 0.0), 0.1)
-    for bad in (dict(jacobians="best"), dict(motion_noise="additive"), dict(twist_cov=[[1, 2], [3, 4]]),
-                dict(match_confidence=1.5), dict(match_confidence=0.99, new_confidence=0.9), dict(init_cov=-1.0)):
+    for bad in (
+        dict(jacobians="best"),
+        dict(motion_noise="additive"),
+        dict(twist_cov=[[1, 2], [3, 4]]),
+        dict(match_confidence=1.5),
+        dict(match_confidence=0.99, new_confidence=0.9),
+        dict(init_cov=-1.0),
+    ):
         with pytest.raises(ValueError):
             EKFSLAM(**bad)
 
 
-
-@pytest.mark.parametrize("bad, field", [
-    (dict(association="nearest"), "association"),
-    (dict(jacobians="best"), "jacobians"),
-    (dict(initial_cov=[0.1, -0.1, 0.0]), "initial_cov"),
-    (dict(initial_pose=[0.0, 1.0]), "initial_pose"),
-    (dict(jcbb_confidence=1.0), "jcbb_confidence"),
-    (dict(capacity=2), "capacity"),
-    (dict(init_cov=float("inf")), "init_cov"),
-    (dict(match_confidance=0.9), "match_confidance"),  # a misspelt parameter is an error, never ignored
-])
+@pytest.mark.parametrize(
+    "bad, field",
+    [
+        (dict(association="nearest"), "association"),
+        (dict(jacobians="best"), "jacobians"),
+        (dict(initial_cov=[0.1, -0.1, 0.0]), "initial_cov"),
+        (dict(initial_pose=[0.0, 1.0]), "initial_pose"),
+        (dict(jcbb_confidence=1.0), "jcbb_confidence"),
+        (dict(capacity=2), "capacity"),
+        (dict(init_cov=float("inf")), "init_cov"),
+        (dict(match_confidance=0.9), "match_confidance"),  # a misspelt parameter is an error, never ignored
+    ],
+)
 def test_a_bad_or_unknown_parameter_names_its_field(bad, field):
     with pytest.raises(ValidationError, match=field) as info:
         EKFSLAM(**bad)
     assert [e["loc"][0] for e in info.value.errors()] == [field]
 
 
-@pytest.mark.parametrize("bad, fields", [
-    (dict(motion_noise="additive"), ("motion_noise", "Cx")),
-    (dict(match_confidence=0.99, new_confidence=0.9), ("new_confidence", "match_confidence")),
-    (dict(jacobians="ideal", use_ids=False), ("jacobians", "use_ids")),
-])
+@pytest.mark.parametrize(
+    "bad, fields",
+    [
+        (dict(motion_noise="additive"), ("motion_noise", "Cx")),
+        (dict(match_confidence=0.99, new_confidence=0.9), ("new_confidence", "match_confidence")),
+        (dict(jacobians="ideal", use_ids=False), ("jacobians", "use_ids")),
+    ],
+)
 def test_rules_joining_parameters_name_both_fields(bad, fields):
     with pytest.raises(ValidationError) as info:
         EKFSLAM(**bad)
@@ -467,19 +529,32 @@ def test_a_params_model_and_keywords_give_the_same_filter(sim):
     a, b = EKFSLAM(EKFSLAM.Params(**kw)), EKFSLAM(**kw)
     assert EKFSLAM.Params is EKFSLAMParams and a.params == b.params
     assert a.params.jacobians is Linearisation.FEJ and a.params.twist_cov == [[0.01, 0.0], [0.0, 0.002]]
-    assert EKFSLAM(EKFSLAM.Params(jacobians="fej"), jacobians="standard").params == EKFSLAM().params  # keywords override
+    assert (
+        EKFSLAM(EKFSLAM.Params(jacobians="fej"), jacobians="standard").params == EKFSLAM().params
+    )  # keywords override
     est = a.run(sim)
     assert est.method == "ekf_slam_fej" and est.meta["params"] == b.params.canonical()
-    assert est.meta["params"]["jacobians"] == "fej" and est.meta["params"]["initial_cov"] == [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]
+    assert est.meta["params"]["jacobians"] == "fej" and est.meta["params"]["initial_cov"] == [
+        [0.01, 0, 0],
+        [0, 0.01, 0],
+        [0, 0, 0.01],
+    ]
     assert EKFSLAM(**est.meta["params"]).params == a.params  # the recorded configuration rebuilds the filter
+
 
 def test_run_counts_nonfinite_rows_of_a_sequence():
     seq = datasets.load("sim:landmarks", n_landmarks=20, seed=5)
     rb = seq.range_bearing
     r = rb.range.copy()
     r[::17] = np.nan
-    bad = Sequence(name="bad", motion=seq.motion, range_bearing=RangeBearing(rb.t, r, rb.bearing, rb.landmark_id),
-                   ground_truth=seq.ground_truth, initial_pose=seq.start_pose, noise=seq.noise)
+    bad = Sequence(
+        name="bad",
+        motion=seq.motion,
+        range_bearing=RangeBearing(rb.t, r, rb.bearing, rb.landmark_id),
+        ground_truth=seq.ground_truth,
+        initial_pose=seq.start_pose,
+        noise=seq.noise,
+    )
     est = EKFSLAM().run(bad)
     assert int(est.diagnostics["rejected_nonfinite"]) == int(np.isnan(r).sum())
     assert np.all(np.isfinite(est.poses)) and np.all(np.isfinite(est.pose_cov))
@@ -519,22 +594,50 @@ def test_the_covariance_checks_find_each_defect_and_sum_their_parts_as_one_array
     """checks.entries_failure against a literal reading of P (its diagonal and the eigenvalues of the robot and landmark
     blocks): each defect is found with its index, a PSD P passes, and a split of the entries into three parts (the stored,
     pending and new term's, as :func:`.kernels.correct` passes them) gives exactly the result of their sum."""
-    from slamarena.estimators.ekf_slam.checks import (LANDMARK_BLOCK, NEGATIVE_DIAGONAL, NONFINITE_DIAGONAL, OK, ROBOT_BLOCK,
-                                                      covariance_entries, entries_failure)
+    from slamarena.estimators.ekf_slam.checks import (
+        LANDMARK_BLOCK,
+        NEGATIVE_DIAGONAL,
+        NONFINITE_DIAGONAL,
+        OK,
+        ROBOT_BLOCK,
+        covariance_entries,
+        entries_failure,
+    )
 
     rng = np.random.default_rng(7)
     A = rng.normal(size=(13, 13))
     good = A @ A.T
     cases = [(good, OK, 0)]
-    P = good.copy(); P[7, 7] = np.nan; cases.append((P, NONFINITE_DIAGONAL, 7))
-    P = good.copy(); P[9, 9] = -1.0; P[4, 4] = -0.5; cases.append((P, NEGATIVE_DIAGONAL, 9))
-    P = good.copy(); P[1, 0] = P[0, 1] = 1.5 * np.sqrt(P[0, 0] * P[1, 1]); cases.append((P, ROBOT_BLOCK, 0))
-    P = good.copy(); P[10, 9] = P[9, 10] = 1.5 * np.sqrt(P[9, 9] * P[10, 10]); cases.append((P, LANDMARK_BLOCK, 3))
+    P = good.copy()
+    P[7, 7] = np.nan
+    cases.append((P, NONFINITE_DIAGONAL, 7))
+    P = good.copy()
+    P[9, 9] = -1.0
+    P[4, 4] = -0.5
+    cases.append((P, NEGATIVE_DIAGONAL, 9))
+    P = good.copy()
+    P[1, 0] = P[0, 1] = 1.5 * np.sqrt(P[0, 0] * P[1, 1])
+    cases.append((P, ROBOT_BLOCK, 0))
+    P = good.copy()
+    P[10, 9] = P[9, 10] = 1.5 * np.sqrt(P[9, 9] * P[10, 10])
+    cases.append((P, LANDMARK_BLOCK, 3))
     for P, code, k in cases:
         d, robot, off = covariance_entries(P)
-        blocks = [P[:3, :3]] + [P[s:s + 2, s:s + 2] for s in range(3, 13, 2)]
-        literal = (NONFINITE_DIAGONAL if not np.isfinite(d).all() else NEGATIVE_DIAGONAL if d.min() < 0
-                   else next((ROBOT_BLOCK if i == 0 else LANDMARK_BLOCK for i, B in enumerate(blocks) if np.linalg.eigvalsh(B)[0] < 0), OK))
+        blocks = [P[:3, :3]] + [P[s : s + 2, s : s + 2] for s in range(3, 13, 2)]
+        literal = (
+            NONFINITE_DIAGONAL
+            if not np.isfinite(d).all()
+            else NEGATIVE_DIAGONAL
+            if d.min() < 0
+            else next(
+                (
+                    ROBOT_BLOCK if i == 0 else LANDMARK_BLOCK
+                    for i, B in enumerate(blocks)
+                    if np.linalg.eigvalsh(B)[0] < 0
+                ),
+                OK,
+            )
+        )
         assert literal == code
         found = entries_failure((d,), (robot,), (off,), 3)
         assert found[:2] == (code, k)
@@ -567,8 +670,12 @@ def test_cartesian_sensor_noise_maps_to_range_dependent_bearing_noise():
 
 
 def test_run_without_motion_input_maps_from_a_standing_robot():
-    seq = Sequence(name="still", range_bearing=RangeBearing(t=[0.0, 1.0, 1.0, 2.0], range=[5.0, 5.1, 3.0, 4.9],
-                                                            bearing=[0.1, 0.1, -1.0, 0.12], landmark_id=[0, 0, 1, 0]))
+    seq = Sequence(
+        name="still",
+        range_bearing=RangeBearing(
+            t=[0.0, 1.0, 1.0, 2.0], range=[5.0, 5.1, 3.0, 4.9], bearing=[0.1, 0.1, -1.0, 0.12], landmark_id=[0, 0, 1, 0]
+        ),
+    )
     est = EKFSLAM().run(seq)
     np.testing.assert_array_equal(est.t, [0.0, 1.0, 2.0])
     np.testing.assert_array_equal(est.landmark_ids, [0, 1])
@@ -584,7 +691,9 @@ def test_step_time_uses_the_named_clock(sim, monkeypatch, method, params):
     monkeypatch.setitem(stepping.CLOCKS, "cpu", lambda: float(next(ticks)))
     est = create(method, **params, step_clock="cpu").run(sim)
     readings = next(ticks)  # the clock was read this many times
-    assert est.step_time.sum() == pytest.approx(readings - 1)  # the records share the time between the first and the last reading
+    assert est.step_time.sum() == pytest.approx(
+        readings - 1
+    )  # the records share the time between the first and the last reading
     wall = create(method, **params).run(sim)
     assert next(ticks) == readings + 1 and wall.step_time.sum() < 60  # the wall clock did not read the counter
 
@@ -594,15 +703,33 @@ def test_a_lockout_is_reported_in_the_diagnostics():
     from slamarena.estimators.ekf_slam.run import _longest_lockout
 
     t = np.arange(10.0)
-    d = np.array([Decision.NEW, Decision.MATCHED, Decision.REJECTED, Decision.NEW, Decision.REJECTED, Decision.REJECTED,
-                  Decision.MATCHED, Decision.REJECTED, Decision.MATCHED, Decision.MATCHED])
+    d = np.array(
+        [
+            Decision.NEW,
+            Decision.MATCHED,
+            Decision.REJECTED,
+            Decision.NEW,
+            Decision.REJECTED,
+            Decision.REJECTED,
+            Decision.MATCHED,
+            Decision.REJECTED,
+            Decision.MATCHED,
+            Decision.MATCHED,
+        ]
+    )
     assert _longest_lockout(t, d) == (3, 3.0, 2.0)  # rows 2, 4, 5 (the new landmark at 3 does not end it)
     rows, seconds, start = _longest_lockout(t, np.full(10, Decision.MATCHED))
     assert (rows, seconds) == (0, 0.0) and np.isnan(start)
     seq = datasets.load("sim:landmarks", n_landmarks=20, seed=1)
-    est = EKFSLAM(known_confidence=1e-9).run(seq)  # a gate no observation passes: locked out from the first re-observation on
+    est = EKFSLAM(known_confidence=1e-9).run(
+        seq
+    )  # a gate no observation passes: locked out from the first re-observation on
     dec = est.diagnostics["assoc_decision"]
-    assert int(est.diagnostics["lockout_rows"]) == int(np.sum(dec == Decision.REJECTED)) == int(np.sum(dec != Decision.NEW))
+    assert (
+        int(est.diagnostics["lockout_rows"])
+        == int(np.sum(dec == Decision.REJECTED))
+        == int(np.sum(dec != Decision.NEW))
+    )
     t_rejected = est.diagnostics["assoc_t"][dec == Decision.REJECTED]
     assert float(est.diagnostics["lockout_s"]) == t_rejected[-1] - t_rejected[0] > 0.5 * (seq.t1 - seq.t0)
     assert float(est.diagnostics["lockout_t0"]) == t_rejected[0]

@@ -1,4 +1,5 @@
 """EKF-SLAM data association: vectorised compatibility, NN on a separated map, JCBB where NN fails."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,15 +21,15 @@ def test_vectorised_compatibility_and_pair_d2_match_dense_per_pair_computation()
     z = np.column_stack([rng.uniform(1, 8, M), rng.uniform(-3, 3, M)])
     R = np.array([np.diag([0.04, 0.003 * (j + 1)]) for j in range(M)])  # per-observation noise
     nu, S, d2 = assoc.compatibility(x, P, R, z)
-    slots = rng.integers(0, n, M)                                    # the compiled per-pair gate agrees with the table
+    slots = rng.integers(0, n, M)  # the compiled per-pair gate agrees with the table
     np.testing.assert_allclose(assoc.pair_d2(x, P, R, z, slots), d2[np.arange(M), slots], rtol=1e-12)
     for i in range(n):
         H = np.zeros((2, x.size))
-        H[:, :3], H[:, 3 + 2 * i: 5 + 2 * i] = observation_jacobians(x[:3], x[3 + 2 * i: 5 + 2 * i])
+        H[:, :3], H[:, 3 + 2 * i : 5 + 2 * i] = observation_jacobians(x[:3], x[3 + 2 * i : 5 + 2 * i])
         for j in range(M):
             S_dense = H @ P @ H.T + R[j]
             np.testing.assert_allclose(S[j, i], S_dense, rtol=1e-12)
-            v = z[j] - observe(x[:3], x[3 + 2 * i: 5 + 2 * i])
+            v = z[j] - observe(x[:3], x[3 + 2 * i : 5 + 2 * i])
             v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
             np.testing.assert_allclose(d2[j, i], v @ np.linalg.solve(S_dense, v), rtol=1e-9)
 
@@ -118,11 +119,12 @@ def test_the_landmark_book_counts_as_its_literal_rules(miss_limit):
         book.seen, book.quality = rng.integers(1, 5, n), rng.integers(-4, 4, n)
         matched = rng.integers(0, n, int(rng.integers(0, 6)))
         predicted = np.column_stack([rng.uniform(0, 30, n), rng.uniform(-np.pi, np.pi, n)])
-        predicted[rng.uniform(size=n) < 0.2] = np.nan                     # created in this set
+        predicted[rng.uniform(size=n) < 0.2] = np.nan  # created in this set
         with np.errstate(invalid="ignore"):
             visible = (predicted[:, 0] < 20.0) & (np.abs(predicted[:, 1]) < 0.5 * np.pi)
-        seen, quality, remove, unconfirmed, lost = _literal_book_counts(book.seen, book.quality, book.managed, book.born, matched,
-                                                                        visible, 21.0, 3, 10.0, miss_limit)
+        seen, quality, remove, unconfirmed, lost = _literal_book_counts(
+            book.seen, book.quality, book.managed, book.born, matched, visible, 21.0, 3, 10.0, miss_limit
+        )
         got = book.observe(21.0, matched, predicted if miss_limit is not None else None)
         np.testing.assert_array_equal(got, remove)
         np.testing.assert_array_equal(book.seen, seen)
@@ -135,8 +137,15 @@ def test_landmark_management_confirms_removes_and_marginalises():
     sensor's field, so only the window can remove it), tree C seen three times and then missed while in view. B is removed
     as unconfirmed once the window has passed, C by the quality counter once it falls below −miss_limit; A is confirmed and
     kept. A removal marginalises: the other entries of x and P are those before it."""
-    ekf = EKFSLAM(use_ids=False, confirm_sightings=3, confirm_window=10.0, miss_limit=2, sensor_range=20.0, sensor_fov=np.pi,
-                  initial_cov=[1e-4, 1e-4, 1e-6])
+    ekf = EKFSLAM(
+        use_ids=False,
+        confirm_sightings=3,
+        confirm_window=10.0,
+        miss_limit=2,
+        sensor_range=20.0,
+        sensor_fov=np.pi,
+        initial_cov=[1e-4, 1e-4, 1e-6],
+    )
     A, B, C = np.array([5.0, 0.0]), 5.0 * np.array([np.cos(2.0), np.sin(2.0)]), np.array([9.0, -4.0])
 
     def rows(*points):
@@ -146,20 +155,20 @@ def test_landmark_management_confirms_removes_and_marginalises():
     assert ekf.n_landmarks == 2 and not ekf.confirmed.any()
     for t in range(1, 11):
         ekf.update(rows(A), t=float(t))
-    assert ekf.n_landmarks == 2 and ekf.confirmed.tolist() == [True, False]          # B's window has not passed (10 − 0 ≯ 10)
+    assert ekf.n_landmarks == 2 and ekf.confirmed.tolist() == [True, False]  # B's window has not passed (10 − 0 ≯ 10)
     ekf.update(rows(A), t=11.0)
     assert ekf.n_landmarks == 1 and ekf.book.removed == {"unconfirmed": 1, "quality": 0}
-    for t in (12.0, 13.0, 14.0):                                                       # C created, seen twice more: confirmed
+    for t in (12.0, 13.0, 14.0):  # C created, seen twice more: confirmed
         ekf.update(rows(A, C), t=t)
     assert ekf.n_landmarks == 2 and ekf.confirmed.all()
-    for t in (15.0, 16.0, 17.0, 18.0):                                                 # C's quality 2 → −2: still kept
+    for t in (15.0, 16.0, 17.0, 18.0):  # C's quality 2 → −2: still kept
         ekf.update(rows(A), t=t)
     assert ekf.n_landmarks == 2
-    ekf.update(rows(A), t=19.0)                                                        # −3 < −2: removed
+    ekf.update(rows(A), t=19.0)  # −3 < −2: removed
     assert ekf.n_landmarks == 1 and ekf.book.removed == {"unconfirmed": 1, "quality": 1}
     assert np.linalg.norm(ekf.x[3:5] - A) < 0.05
 
-    ekf.update(rows(C), t=20.0)                                                        # marginalising a slot directly
+    ekf.update(rows(C), t=20.0)  # marginalising a slot directly
     x, P = ekf.x.copy(), ekf.P.copy()
     ekf._remove_landmarks(np.array([0]))
     keep = [0, 1, 2, 5, 6]
@@ -179,15 +188,21 @@ def _lost_robot_scene() -> datasets.Sequence:
 
     L = np.array([[0.0, 30.0], [4.0, 30.0], [12.0, 30.0]])
     steps = 8
-    x_true = np.r_[0.0, 3.0 + 0.5 * np.arange(steps)]                        # at t = 0, 1, …, steps
-    delta = np.column_stack([np.r_[0.0, np.full(steps - 1, 0.5)], np.zeros(steps), np.zeros(steps)])  # odometry to t = 1 … steps
+    x_true = np.r_[0.0, 3.0 + 0.5 * np.arange(steps)]  # at t = 0, 1, …, steps
+    delta = np.column_stack(
+        [np.r_[0.0, np.full(steps - 1, 0.5)], np.zeros(steps), np.zeros(steps)]
+    )  # odometry to t = 1 … steps
     cov = np.array([np.diag([9.0 if k == 0 else 1e-4, 1e-6, 1e-6]) for k in range(steps)])
     seen = [None] + [1, 2, 2, 1, 2, 2, 1, 2][:steps]
     rows = [(0.0, *observe(np.zeros(3), L[i]), i) for i in range(3)]
     rows += [(float(k), *observe(np.array([x_true[k], 0.0, 0.0]), L[seen[k]]), -1) for k in range(1, steps + 1)]
     t, r, b, ids = (np.array(c) for c in zip(*rows))
-    return Sequence("lost robot", motion=Increments(t=np.arange(1.0, steps + 1), delta=delta, cov=cov),
-                    range_bearing=RangeBearing(t=t, range=r, bearing=b, landmark_id=ids.astype(np.int64)), initial_pose=np.zeros(3))
+    return Sequence(
+        "lost robot",
+        motion=Increments(t=np.arange(1.0, steps + 1), delta=delta, cov=cov),
+        range_bearing=RangeBearing(t=t, range=r, bearing=b, landmark_id=ids.astype(np.int64)),
+        initial_pose=np.zeros(3),
+    )
 
 
 @pytest.mark.parametrize("method", ["nn", "jcbb"])
@@ -198,12 +213,12 @@ def test_the_look_ahead_decides_an_ambiguous_row_by_the_sets_that_follow(method)
     for est in (plain, ahead):
         assert est.diagnostics["assoc_t"][3] == 1.0 and est.diagnostics["assoc_given_id"][3] == -1
     lm, dec = plain.diagnostics["assoc_landmark"], plain.diagnostics["assoc_decision"]
-    assert lm[3] == 0 and dec[3] == Decision.MATCHED                 # one set: B taken for A
-    assert plain.meta["n_landmarks"] == 4 and plain.meta["looked_ahead"] == 0   # and C mapped twice
+    assert lm[3] == 0 and dec[3] == Decision.MATCHED  # one set: B taken for A
+    assert plain.meta["n_landmarks"] == 4 and plain.meta["looked_ahead"] == 0  # and C mapped twice
     assert abs(plain.poses[-1, 0] - (3.0 + 0.5 * 7)) > 2.0
     lm, dec = ahead.diagnostics["assoc_landmark"], ahead.diagnostics["assoc_decision"]
     assert ahead.meta["looked_ahead"] >= 1 and ahead.diagnostics["looked_ahead_t"][0] == 1.0
-    np.testing.assert_array_equal(lm[3:], [1, 2, 2, 1, 2, 2, 1, 2])   # the window: B, then every row its own landmark
+    np.testing.assert_array_equal(lm[3:], [1, 2, 2, 1, 2, 2, 1, 2])  # the window: B, then every row its own landmark
     assert np.all(dec[3:] == Decision.MATCHED) and ahead.meta["n_landmarks"] == 3
     assert abs(ahead.poses[-1, 0] - (3.0 + 0.5 * 7)) < 0.05
 
@@ -219,7 +234,7 @@ def test_an_unambiguous_row_is_not_looked_ahead_and_the_window_changes_nothing_t
 
 def test_hypotheses_are_the_compatible_landmarks_by_posterior_then_not_in_the_map():
     S = np.broadcast_to(np.eye(2), (2, 3, 2, 2))
-    d2 = np.array([[0.2, 1.0, 9.0], [0.1, 60.0, 70.0]])              # row 0: two landmarks inside the match gate
+    d2 = np.array([[0.2, 1.0, 9.0], [0.1, 60.0, 70.0]])  # row 0: two landmarks inside the match gate
     R = np.broadcast_to(0.01 * np.eye(2), (2, 2, 2))
     g_match, g_new = assoc.chi2_gate(0.95, 2), assoc.chi2_gate(0.99999, 2)
     log_lam, log_new = assoc.log_densities(S, d2, R, g_new)
@@ -228,4 +243,6 @@ def test_hypotheses_are_the_compatible_landmarks_by_posterior_then_not_in_the_ma
     row, options = assoc.hypotheses(log_lam, log_new, d2, g_match, 0.95, 3)
     assert row == 0
     np.testing.assert_array_equal(options, [0, 1, -1])
-    assert assoc.hypotheses(log_lam[1:], log_new[1:], d2[1:], g_match, 0.95, 3) is None   # row 1 alone: p(landmark 0) ≈ 1
+    assert (
+        assoc.hypotheses(log_lam[1:], log_new[1:], d2[1:], g_match, 0.95, 3) is None
+    )  # row 1 alone: p(landmark 0) ≈ 1

@@ -7,6 +7,7 @@ rejected rows (outliers, non-finite rows, ambiguous rows) and landmarks created 
 after deferred updates, and the literal dense reference is fed the rows the filter applied, with
 the landmark it chose for each.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,8 +18,17 @@ from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam.association import Decision
 from slamarena.estimators.ekf_slam.checks import LANDMARK_BLOCK, NEGATIVE_DIAGONAL
-from slamarena.estimators.ekf_slam.kernels import (APPLIED, NOT_FINITE, S_INDEFINITE, _projected_run, _rows_run, add_term_upper, correct_run,
-                                                   mirror_lower, update_lower)
+from slamarena.estimators.ekf_slam.kernels import (
+    APPLIED,
+    NOT_FINITE,
+    S_INDEFINITE,
+    _projected_run,
+    _rows_run,
+    add_term_upper,
+    correct_run,
+    mirror_lower,
+    update_lower,
+)
 from slamarena.estimators.ekf_slam.reference import ReferenceEKFSLAM
 from slamarena.estimators.models import observe
 
@@ -60,10 +70,16 @@ CASES = [
 @pytest.mark.parametrize("kw", CASES, ids=lambda kw: ",".join(f"{k}={v}" for k, v in kw.items()))
 def test_deferred_update_equals_per_observation_update_and_reference(sim, kw):
     """300 steps: x and P of the deferred filter within 1e-9 of the per-observation filter and of the literal reference."""
-    common = dict(initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw)
+    common = dict(
+        initial_pose=sim.start_pose, twist_cov=sim.noise.twist_cov, range_bearing_cov=sim.noise.range_bearing_cov, **kw
+    )
     deferred, immediate = EKFSLAM(**common), EKFSLAM(defer_covariance=False, **common)
-    ref = ReferenceEKFSLAM(sim.noise.twist_cov, sim.noise.range_bearing_cov, initial_pose=sim.start_pose,
-                           **{k: v for k, v in kw.items() if k in ("covariance_update", "update")})
+    ref = ReferenceEKFSLAM(
+        sim.noise.twist_cov,
+        sim.noise.range_bearing_cov,
+        initial_pose=sim.start_pose,
+        **{k: v for k, v in kw.items() if k in ("covariance_update", "update")},
+    )
     worst_imm = worst_ref = 0.0
     new_after_update = 0
     for k, (u, dt, z) in enumerate(_sets(sim, 300, np.random.default_rng(1))):
@@ -90,7 +106,11 @@ def test_deferred_update_equals_per_observation_update_and_reference(sim, kw):
             worst_imm = max(worst_imm, np.abs(deferred.P - immediate.P).max())
             worst_ref = max(worst_ref, np.abs(deferred.P - ref.PEst).max())
     decisions = np.array([d for d, *_ in deferred.assoc_log])
-    assert deferred.n_landmarks >= 20 and (decisions == Decision.REJECTED).sum() >= 10 and deferred.rejected["nonfinite"] >= 10
+    assert (
+        deferred.n_landmarks >= 20
+        and (decisions == Decision.REJECTED).sum() >= 10
+        and deferred.rejected["nonfinite"] >= 10
+    )
     assert new_after_update >= 3  # landmarks created in a set after (deferred) updates of the same set
     np.testing.assert_array_equal(deferred.P, deferred.P.T)
     assert worst_imm < 1e-9 and worst_ref < 1e-9, (worst_imm, worst_ref)
@@ -100,9 +120,18 @@ def test_a_failing_row_leaves_the_earlier_rows_of_its_set_applied(sim):
     """A row that raises mid-set (ideal Jacobians without the landmark's truth): the rows before it are in x and P, as without deferral."""
     lm = dict(zip(sim.landmarks.ids.tolist(), sim.landmarks.xy))
     pose = np.asarray(sim.start_pose, dtype=float)
-    filters = [EKFSLAM(jacobians="ideal", defer_covariance=d, initial_pose=pose, initial_cov=[0.01, 0.01, 0.001]) for d in (True, False)]
+    filters = [
+        EKFSLAM(jacobians="ideal", defer_covariance=d, initial_pose=pose, initial_cov=[0.01, 0.01, 0.001])
+        for d in (True, False)
+    ]
     ids = list(lm)[:4]
-    z0 = np.column_stack([[np.hypot(*(lm[i] - pose[:2])) for i in ids], [wrap_angle(np.arctan2(*(lm[i] - pose[:2])[::-1]) - pose[2]) for i in ids], ids])
+    z0 = np.column_stack(
+        [
+            [np.hypot(*(lm[i] - pose[:2])) for i in ids],
+            [wrap_angle(np.arctan2(*(lm[i] - pose[:2])[::-1]) - pose[2]) for i in ids],
+            ids,
+        ]
+    )
     for f in filters:
         f.set_truth(pose=pose, landmarks=lm)
         f.update(z0)
@@ -143,14 +172,36 @@ def _run_inputs(sim, pending, current, seed):
 
 
 def _state(s):
-    return dict(x=s._x.copy(), Ut=s._Ut.copy(), Ust=s._Ust.copy(), sg=s._sg.copy(), pend=tuple(a.copy() for a in s._pending),
-                stored=tuple(a.copy() for a in s._stored_entries))
+    return dict(
+        x=s._x.copy(),
+        Ut=s._Ut.copy(),
+        Ust=s._Ust.copy(),
+        sg=s._sg.copy(),
+        pend=tuple(a.copy() for a in s._pending),
+        stored=tuple(a.copy() for a in s._stored_entries),
+    )
 
 
 def _call(kernel, s, state, slots, inputs, current, *extra):
     XL, ML, Z, R = inputs
-    return kernel(s._P, s.n, state["Ut"], state["Ust"], state["sg"], s._r, state["pend"], state["stored"], state["x"][:s.n], slots,
-                  XL, ML, current, Z, R, *extra)
+    return kernel(
+        s._P,
+        s.n,
+        state["Ut"],
+        state["Ust"],
+        state["sg"],
+        s._r,
+        state["pend"],
+        state["stored"],
+        state["x"][: s.n],
+        slots,
+        XL,
+        ML,
+        current,
+        Z,
+        R,
+        *extra,
+    )
 
 
 @pytest.mark.parametrize("pending", [False, True], ids=["no term pending", "a term pending"])
@@ -163,14 +214,19 @@ def test_the_projected_run_equals_the_row_by_row_run(sim, pending, current):
     a, b = _state(s), _state(s)
     got = _call(_projected_run, s, a, slots, inputs, current, 3)
     want = _call(_rows_run, s, b, slots, inputs, current, False, 3)
-    assert got[-1] and got[0] == want[0] == slots.size and got[1] == want[1] == s._r + 2 * slots.size and got[2] == want[2] == APPLIED
-    np.testing.assert_allclose(got[5], want[5], rtol=1e-9)                   # NIS
-    np.testing.assert_allclose(got[6], want[6], rtol=1e-9, atol=1e-12)       # H
+    assert (
+        got[-1]
+        and got[0] == want[0] == slots.size
+        and got[1] == want[1] == s._r + 2 * slots.size
+        and got[2] == want[2] == APPLIED
+    )
+    np.testing.assert_allclose(got[5], want[5], rtol=1e-9)  # NIS
+    np.testing.assert_allclose(got[6], want[6], rtol=1e-9, atol=1e-12)  # H
     np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-12)
     rows = slice(s._r, want[1])
     scale = np.abs(b["Ut"][rows]).max()
-    np.testing.assert_allclose(a["Ut"][rows, :s.n], b["Ut"][rows, :s.n], rtol=0, atol=1e-9 * scale)
-    np.testing.assert_allclose(a["Ust"][rows, :s.n], b["Ust"][rows, :s.n], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(a["Ut"][rows, : s.n], b["Ut"][rows, : s.n], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(a["Ust"][rows, : s.n], b["Ust"][rows, : s.n], rtol=0, atol=1e-9 * scale)
     np.testing.assert_array_equal(a["sg"][rows], b["sg"][rows])
     for p, q in zip(a["pend"], b["pend"]):
         np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * max(1e-12, np.abs(q).max()))
@@ -182,12 +238,12 @@ def test_a_run_that_fails_a_check_stops_where_the_row_by_row_run_stops(sim, fail
     at the end fails, and the rows are run one by one to find the row), an indefinite S (R of row 4 negative),
     a non-finite observation. correct_run stops where the row-by-row run stops, with the same outcome and state."""
     s, slots, (XL, ML, Z, R) = _run_inputs(sim, True, True, seed=4)
-    if failure == "negative diagonal":   # the cached block of row 4's landmark before the run: P[e, e] between what rows
+    if failure == "negative diagonal":  # the cached block of row 4's landmark before the run: P[e, e] between what rows
         # 0 … 3 and rows 0 … 4 take from it, P[e + 1, e + 1] = 1, P[e + 1, e] = 0
         e = 3 + 2 * slots[4]
         probe = _state(s)
         _call(_rows_run, s, probe, slots, (XL, ML, Z, R), True, False, 3)
-        taken = np.cumsum((probe["Ut"][s._r:s._r + 2 * slots.size, e] ** 2).reshape(-1, 2).sum(axis=1))
+        taken = np.cumsum((probe["Ut"][s._r : s._r + 2 * slots.size, e] ** 2).reshape(-1, 2).sum(axis=1))
         sd, _, so = s._stored_entries
         sd[e], sd[e + 1], so[slots[4]] = -s._pending[0][e] + 0.5 * (taken[3] + taken[4]), 1.0, -s._pending[2][slots[4]]
     elif failure == "indefinite S":
@@ -200,11 +256,15 @@ def test_a_run_that_fails_a_check_stops_where_the_row_by_row_run_stops(sim, fail
     inputs = (XL, ML, Z, R)
     got = _call(correct_run, s, a, slots, inputs, True, False, 3)
     want = _call(_rows_run, s, b, slots, inputs, True, False, 3)
-    code = {"negative diagonal": (NEGATIVE_DIAGONAL, LANDMARK_BLOCK), "indefinite S": (S_INDEFINITE,), "non-finite row": (NOT_FINITE,)}[failure]
+    code = {
+        "negative diagonal": (NEGATIVE_DIAGONAL, LANDMARK_BLOCK),
+        "indefinite S": (S_INDEFINITE,),
+        "non-finite row": (NOT_FINITE,),
+    }[failure]
     assert want[2] in code and got[0] == want[0] and got[1] == want[1] and got[2] == want[2] and got[3] == want[3]
     assert want[0] == 4
     if failure != "negative diagonal":
-        assert _call(_projected_run, s, _state(s), slots, inputs, True, 3)[-1]      # found without the row-by-row pass
+        assert _call(_projected_run, s, _state(s), slots, inputs, True, 3)[-1]  # found without the row-by-row pass
     else:
         assert not _call(_projected_run, s, _state(s), slots, inputs, True, 3)[-1]  # the end's check fails
     np.testing.assert_allclose(got[5], want[5], rtol=1e-9)
@@ -220,24 +280,37 @@ def test_the_term_added_to_the_upper_entries_is_the_literal_one(n, r):
     rng = np.random.default_rng(n + r)
     capacity = n + 9
     P = rng.normal(size=(capacity, capacity))
-    Ut, Ust = rng.normal(size=(r + 2, capacity)), rng.normal(size=(r + 2, capacity))   # rows beyond r are not part of the term
+    Ut, Ust = (
+        rng.normal(size=(r + 2, capacity)),
+        rng.normal(size=(r + 2, capacity)),
+    )  # rows beyond r are not part of the term
     off = rng.normal(size=capacity // 2)
     expected = P.copy()
-    term = Ust[:r, :3].T @ Ut[:r, :n]                        # (3, n)
+    term = Ust[:r, :3].T @ Ut[:r, :n]  # (3, n)
     for a in range(3):
-        expected[a, a + 1:n] += term[a, a + 1:]
+        expected[a, a + 1 : n] += term[a, a + 1 :]
     s = np.arange(3, n - 1, 2)
-    expected[s, s + 1] += off[:s.size]
+    expected[s, s + 1] += off[: s.size]
     add_term_upper(P, n, Ut, Ust, r, off)
     np.testing.assert_allclose(P, expected, rtol=0, atol=1e-12 * max(1.0, np.abs(term).max()))
     changed = np.zeros_like(P, dtype=bool)
     for a in range(3):
-        changed[a, a + 1:n] = True
+        changed[a, a + 1 : n] = True
     changed[s, s + 1] = True
     np.testing.assert_array_equal(P[~changed], expected[~changed])
 
 
-@pytest.mark.parametrize("n, capacity, d, mixed", [(50, 64, 20, False), (61, 64, 12, True), (301, 512, 7, False), (3, 8, 6, True), (40, 48, 2, False), (9, 9, 4, True)])
+@pytest.mark.parametrize(
+    "n, capacity, d, mixed",
+    [
+        (50, 64, 20, False),
+        (61, 64, 12, True),
+        (301, 512, 7, False),
+        (3, 8, 6, True),
+        (40, 48, 2, False),
+        (9, 9, 4, True),
+    ],
+)
 def test_lower_update_in_place_on_the_live_block(n, capacity, d, mixed):
     """The lower triangle of P[:n, :n] += C diag(s) Cᵀ (fused loop or BLAS on the strided live block and factor), then the mirror copy:
     exact to rounding, bitwise symmetric, the rest of the buffer untouched."""
@@ -251,7 +324,7 @@ def test_lower_update_in_place_on_the_live_block(n, capacity, d, mixed):
     before = buffer.copy()
     expected = buffer.copy()
     expected[:n, :n] += (C * s) @ C.T
-    Ct = np.full((d, capacity + 5), np.nan)                 # Cᵀ as the filter passes it: the first n columns of wider rows
+    Ct = np.full((d, capacity + 5), np.nan)  # Cᵀ as the filter passes it: the first n columns of wider rows
     Ct[:, :n] = C.T
     update_lower(buffer, n, Ct[:, :n], s)
     np.testing.assert_array_equal(np.triu(buffer[:n, :n], 1), np.triu(before[:n, :n], 1))  # the upper half untouched
@@ -291,12 +364,12 @@ def test_columns_read_the_current_covariance_with_a_term_pending(sim):
     N = s.n
     rng = np.random.default_rng(2)
     s._reserve(4)
-    s._Ut[:4, :N] = rng.normal(size=(4, N))                      # a pending term Ustᵀ Ut of rank 4
+    s._Ut[:4, :N] = rng.normal(size=(4, N))  # a pending term Ustᵀ Ut of rank 4
     s._Ust[:4, :N] = s._Ut[:4, :N] * np.array([-1.0, 0.5, -0.5, -1.0])[:, None]
     s._r = 4
     idx = [N - 1, 0, 4, 3, 2, 0, 7, 8, N - 2]
     got = s.columns(idx)
     s._r = 0
-    full = s.P.copy()                                             # the stored P, mirrored
+    full = s.P.copy()  # the stored P, mirrored
     expected = full[:, idx] + s._Ust[:4, :N].T @ s._Ut[:4, idx]
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)

@@ -1,5 +1,6 @@
 """Errata of the EKF-SLAM notes (research/ekf_slam.md): each test passes on the corrected form
 used by the code and fails on the form printed in the notes."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,7 +31,7 @@ def test_E1_covariance_propagates_as_G_P_Gt_not_Gt_P_G_nor_F_P_Ft():
     ekf.predict(u, dt)
     assert _rel(ekf.P, mc) < 0.02
     assert _rel(G @ P0 @ G.T, mc) < 0.02
-    assert _rel(G.T @ P0 @ G, mc) > 0.2          # the reference's transposed form
+    assert _rel(G.T @ P0 @ G, mc) > 0.2  # the reference's transposed form
     assert _rel(np.eye(3) @ P0 @ np.eye(3), mc) > 0.2  # F = I: the heading-position coupling lost
 
 

@@ -9,6 +9,7 @@ prediction chain and the measurement Jacobians). Standard Jacobians give a nulls
 only (the spurious heading information); FEJ and OC keep 3, spanned by the directions
 ``N = [[I₂, J p̆_R], [0, 1], [I₂, J p̆_L1], …]`` at their linearisation points.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,12 +33,12 @@ def _observability_matrix(jacobians: str, steps: int = 40, seed: int = 0) -> tup
 
     def recording_chain(*args):
         out = chain(*args)
-        record.append(("Φ", out[2].sum(axis=0)))             # ΣD of the chain: Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]
+        record.append(("Φ", out[2].sum(axis=0)))  # ΣD of the chain: Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]
         return out
 
     def recording_run(slots, *args):
         out = correct_run(slots, *args)
-        applied, H = out[0], out[5]                          # the Jacobians [H_x, H_m] each applied row was linearised with
+        applied, H = out[0], out[5]  # the Jacobians [H_x, H_m] each applied row was linearised with
         record.append(("H", slots[:applied].copy(), H[:, :, :3].copy(), H[:, :, 3:].copy()))
         return out
 
@@ -63,7 +64,7 @@ def _observability_matrix(jacobians: str, steps: int = 40, seed: int = 0) -> tup
             _, slots, Hx, Hm = entry
             for s, hx, hm in zip(slots, Hx, Hm):
                 H = np.zeros((2, n_state))
-                H[:, :3], H[:, 3 + 2 * s: 5 + 2 * s] = hx, hm
+                H[:, :3], H[:, 3 + 2 * s : 5 + 2 * s] = hx, hm
                 rows.append(H @ T)
     return np.vstack(rows), ekf
 
@@ -86,8 +87,8 @@ def test_standard_jacobians_gain_a_spurious_observable_direction_fej_and_oc_keep
         N[:2, :2] = np.eye(2)
         N[2, 2] = 1.0
         for i, m in enumerate(anchors):
-            N[3 + 2 * i: 5 + 2 * i, :2] = np.eye(2)
-            N[3 + 2 * i: 5 + 2 * i, 2] = J @ m
+            N[3 + 2 * i : 5 + 2 * i, :2] = np.eye(2)
+            N[3 + 2 * i : 5 + 2 * i, 2] = J @ m
         # the robot rows of the rotation direction: M's first step is at the robot anchor of that step, found from M itself
         rot = np.linalg.lstsq(M[:, :2], -M[:, 3:] @ N[3:, 2] - M[:, 2], rcond=None)[0]
         N[:2, 2] = rot

@@ -1,4 +1,5 @@
 """FastSLAM 1.0 / 2.0: the storage's sharing, the proposal and weights, association, resampling, determinism."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,7 +25,7 @@ def _write(store: LandmarkStore, m: int, slot: int, value: float) -> None:
     store.leaf_mu[leaf, off] = (value, -value)
     store.leaf_S[leaf, off] = (value, 0.0, value)
     store.leaf_state[leaf, off] = 1
-    store.leaf_seen[leaf, off] = int(abs(value)) % 5 + 1      # the tentative rule's per-slot state, written with the rest
+    store.leaf_seen[leaf, off] = int(abs(value)) % 5 + 1  # the tentative rule's per-slot state, written with the rest
     store.leaf_born[leaf, off] = -value
 
 
@@ -40,7 +41,12 @@ def _read(store: LandmarkStore, n: int) -> np.ndarray:
 # ---------------------------------------------------------------------------- storage
 operations = st.lists(
     st.one_of(
-        st.tuples(st.just("write"), st.integers(0, 5), st.integers(0, 3 * FANOUT * LEAF), st.floats(-1e3, 1e3, allow_nan=False)),
+        st.tuples(
+            st.just("write"),
+            st.integers(0, 5),
+            st.integers(0, 3 * FANOUT * LEAF),
+            st.floats(-1e3, 1e3, allow_nan=False),
+        ),
         st.tuples(st.just("resample"), st.lists(st.integers(0, 5), min_size=6, max_size=6)),
     ),
     max_size=60,
@@ -165,29 +171,31 @@ def test_a_tentative_landmark_is_private_to_its_particle_and_no_evidence_until_c
     tentative landmark counts a sighting, the other starts a landmark, and neither change is seen by the other particle.
     Both rows weigh the new-landmark likelihood (equal weights). After the window, the landmark confirmed by three
     sightings stays; the other particle's, seen once, is removed — in that particle only."""
-    f = FastSLAM(particles=2, use_ids=False, confirm_sightings=3, confirm_window=10.0, seed=0, range_bearing_cov=[0.01, 1e-4])
-    f.update([[5.0, 0.0, -1]], t=0.0)                            # both particles start slot 0
+    f = FastSLAM(
+        particles=2, use_ids=False, confirm_sightings=3, confirm_window=10.0, seed=0, range_bearing_cov=[0.01, 1e-4]
+    )
+    f.update([[5.0, 0.0, -1]], t=0.0)  # both particles start slot 0
     f.log_w = np.array([0.0, -50.0])
-    assert f.resample().tolist() == [0, 0]                       # one map, shared
-    f.x0[1, 1] += 3.0                                            # particle 1 stands 3 m to the side: the row is not slot 0 for it
+    assert f.resample().tolist() == [0, 0]  # one map, shared
+    f.x0[1, 1] += 3.0  # particle 1 stands 3 m to the side: the row is not slot 0 for it
     for t in (1.0, 2.0):
         f.update([[5.0, 0.0, -1]], t=t)
-        np.testing.assert_array_equal(f.log_w, 0.0)              # tentative match and new landmark weigh the same
+        np.testing.assert_array_equal(f.log_w, 0.0)  # tentative match and new landmark weigh the same
     _, _, state, seen, born = f.store.gather(3)
-    np.testing.assert_array_equal(seen[0, :1], [3])              # particle 0: slot 0 seen three times, confirmed
-    np.testing.assert_array_equal(seen[1, :2], [1, 2])           # particle 1: slot 0 seen once; its own slot 1 twice
+    np.testing.assert_array_equal(seen[0, :1], [3])  # particle 0: slot 0 seen three times, confirmed
+    np.testing.assert_array_equal(seen[1, :2], [1, 2])  # particle 1: slot 0 seen once; its own slot 1 twice
     np.testing.assert_array_equal(born[1, :2], [0.0, 1.0])
     assert f.n_slots.tolist() == [1, 2] and list(f.landmarks(0)[0]) == [0] and len(f.landmarks(1)[0]) == 0
-    f.update([[5.0, 1.5, -1]], t=11.5)                           # past the window: elsewhere, a new landmark for both
+    f.update([[5.0, 1.5, -1]], t=11.5)  # past the window: elsewhere, a new landmark for both
     _, _, state, seen, _ = f.store.gather(3)
-    assert state[0, 0] > 0 and state[1, 0] == 0 and state[1, 1] == 0     # particle 1's tentative slots 0 and 1 expired
+    assert state[0, 0] > 0 and state[1, 0] == 0 and state[1, 1] == 0  # particle 1's tentative slots 0 and 1 expired
     np.testing.assert_array_equal(f.landmark_counts(), (state > 0).sum(axis=1))
     assert list(f.landmarks(0)[0]) == [0] and len(f.landmarks(1)[0]) == 0
 
 
 def test_tentative_landmarks_need_unknown_association():
     with pytest.raises(ValidationError, match="confirm_sightings"):
-        FastSLAM(confirm_sightings=3)                            # with the ids, the ids decide which landmarks exist
+        FastSLAM(confirm_sightings=3)  # with the ids, the ids decide which landmarks exist
     assert FastSLAM(use_ids=False, confirm_sightings=3).params.confirm_sightings == 3
 
 
@@ -221,14 +229,14 @@ def test_the_common_ancestor_time_equals_the_walk_back_through_the_ancestry(M):
     rng = np.random.default_rng(M)
     history, seen = [], set()
     for k in range(60):
-        f.update(np.zeros((0, 3)), t=10.0 + k)              # an empty set at time t: the clock of the next resampling
+        f.update(np.zeros((0, 3)), t=10.0 + k)  # an empty set at time t: the clock of the next resampling
         f.log_w = rng.normal(0.0, rng.choice([0.1, 1.0, 5.0]), M)
         a = f.resample()
         assert np.all(np.diff(a) >= 0)
         history.append((10.0 + k, a))
         assert f.common_ancestor_t == _common_ancestor_by_walking_back(history, 0.0), k
         seen.add(f.common_ancestor_t)
-    assert len(seen) > 5                                 # the lineages met many times, at different depths
+    assert len(seen) > 5  # the lineages met many times, at different depths
 
 
 def test_the_run_reports_the_common_ancestor_time(small_world):
@@ -272,21 +280,29 @@ def test_bad_rows_are_rejected_and_counted():
 def test_the_known_landmark_gate_rejects_an_outlier_for_every_particle_and_keeps_true_rows(version):
     """A labelled row 3 m off its landmark (d² ≈ 900 with σ = 0.1 m) is rejected, counted, and changes no particle and no
     weight; without the gate it moves the landmark. True rows pass; a landmark's first row always passes."""
+
     def filter_(gate):
-        f = FastSLAM(version=version, particles=20, seed=1, known_confidence=gate, range_bearing_cov=[0.01, 1e-4], initial_cov=[1e-4, 1e-4, 1e-5])
+        f = FastSLAM(
+            version=version,
+            particles=20,
+            seed=1,
+            known_confidence=gate,
+            range_bearing_cov=[0.01, 1e-4],
+            initial_cov=[1e-4, 1e-4, 1e-5],
+        )
         f.update([[5.0, 0.0, 7], [4.0, 1.0, 8]])
         return f
 
     gated, ungated = filter_(0.999), filter_(None)
     _, before, _ = gated.landmarks()
     log_w = gated.log_w.copy()
-    gated.update([[8.0, 0.0, 7]])                                   # 3 m beyond landmark 7
+    gated.update([[8.0, 0.0, 7]])  # 3 m beyond landmark 7
     assert gated.rejected["gate"] == 1
     np.testing.assert_array_equal(gated.landmarks()[1], before)
     np.testing.assert_array_equal(gated.log_w, log_w - log_w.max())
     ungated.update([[8.0, 0.0, 7]])
     assert np.abs(ungated.landmarks()[1][0] - before[0]).max() > 0.1
-    gated.update([[5.02, 0.001, 7], [3.98, 1.0, 8], [6.0, -1.0, 9]])   # true rows and a new landmark
+    gated.update([[5.02, 0.001, 7], [3.98, 1.0, 8], [6.0, -1.0, 9]])  # true rows and a new landmark
     assert gated.rejected["gate"] == 1 and list(gated.landmarks()[0]) == [7, 8, 9]
 
 
@@ -367,14 +383,14 @@ def test_one_update_matches_a_literal_reference(version):
     rng = np.random.default_rng(7)
     xhat = np.array([1.0, -0.5, 0.3])
     B = rng.normal(size=(3, 3)) * [0.3, 0.3, 0.1]
-    P = B @ B.T + np.diag([1e-3, 1e-3, 1e-4])                                 # a large, full-rank prior: the update matters
+    P = B @ B.T + np.diag([1e-3, 1e-3, 1e-4])  # a large, full-rank prior: the update matters
     R = np.diag([0.1**2, np.radians(2.0) ** 2])
     mus = {0: np.array([4.0, 1.0]), 1: np.array([2.0, 3.5]), 2: np.array([3.0, -2.0]), 3: np.array([-1.0, 2.0])}
     Sigmas = {}
     for s in mus:
         A = rng.normal(size=(2, 2)) * 0.2
         Sigmas[s] = A @ A.T + 0.01 * np.eye(2)
-    slots = np.array([1, 4, 0, 3])                                              # slot 4 is new (≥ n_slots)
+    slots = np.array([1, 4, 0, 3])  # slot 4 is new (≥ n_slots)
     z = np.array([[4.2, 1.1], [3.0, -0.4], [3.1, 0.2], [3.3, 2.0]])
     eps = np.vstack([np.zeros(3), np.eye(3), rng.normal(size=3)])
     M = len(eps)
@@ -390,13 +406,37 @@ def test_one_update_matches_a_literal_reference(version):
     store.reserve(int(slots.max()), M * len(z))
     log_w, n_slots, n_live = np.zeros(M), np.full(M, 4, dtype=np.int64), np.full(M, 4, dtype=np.int64)
     poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
-    update_particles(version, True, np.tile(xhat, (M, 1)), np.tile(P, (M, 1, 1)), eps, log_w, z, slots, n_slots, n_live,
-                     np.tile(R, (len(z), 1, 1)), 0.0, np.zeros(len(z)), 0.0, np.pi, 1, np.inf, 0.0, store.depth, *store.kernel_args(), poses, assoc)
+    update_particles(
+        version,
+        True,
+        np.tile(xhat, (M, 1)),
+        np.tile(P, (M, 1, 1)),
+        eps,
+        log_w,
+        z,
+        slots,
+        n_slots,
+        n_live,
+        np.tile(R, (len(z), 1, 1)),
+        0.0,
+        np.zeros(len(z)),
+        0.0,
+        np.pi,
+        1,
+        np.inf,
+        0.0,
+        store.depth,
+        *store.kernel_args(),
+        poses,
+        assoc,
+    )
 
-    root = poses[1:4] - poses[0]                                                # columns of the kernel's square root
+    root = poses[1:4] - poses[0]  # columns of the kernel's square root
     draws = iter(poses)
     for m in range(M):
-        ref_log_w, xbar, Sx, x, new_mu, new_S = _reference_step(version, xhat, P, mus, Sigmas, z, slots, R, lambda mean, cov: next(draws))
+        ref_log_w, xbar, Sx, x, new_mu, new_S = _reference_step(
+            version, xhat, P, mus, Sigmas, z, slots, R, lambda mean, cov: next(draws)
+        )
         assert log_w[m] == pytest.approx(ref_log_w, abs=1e-9)
         if m == 0:
             np.testing.assert_allclose(poses[0], xbar if version == 2 else xhat, atol=1e-12)
@@ -474,15 +514,31 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
     rng = np.random.default_rng(11)
     R = np.diag([0.1**2, np.radians(2.0) ** 2])
     gate, confirm, window, t = 18.42, 3, 10.0, 20.0
-    log_p0 = -0.5 * gate - 0.5 * np.log(np.linalg.det(R)) - np.log(2 * np.pi) + np.array([0.0, 0.3, -0.2, 0.5])   # per row (k,)
-    mus = [np.array([4.0, 1.0]), np.array([2.0, 3.5]), np.array([3.0, -2.0]), np.array([-1.0, 2.0]), np.array([4.3, 1.4])]
-    seen_born = [(5, 1.0), (1, 12.0), (2, 5.0), (1, 3.0), (2, 15.0)]   # confirmed; tentative; tentative, old; tentative, old; tentative
+    log_p0 = (
+        -0.5 * gate - 0.5 * np.log(np.linalg.det(R)) - np.log(2 * np.pi) + np.array([0.0, 0.3, -0.2, 0.5])
+    )  # per row (k,)
+    mus = [
+        np.array([4.0, 1.0]),
+        np.array([2.0, 3.5]),
+        np.array([3.0, -2.0]),
+        np.array([-1.0, 2.0]),
+        np.array([4.3, 1.4]),
+    ]
+    seen_born = [
+        (5, 1.0),
+        (1, 12.0),
+        (2, 5.0),
+        (1, 3.0),
+        (2, 15.0),
+    ]  # confirmed; tentative; tentative, old; tentative, old; tentative
     book = {}
     for s, mu in enumerate(mus):
         A = rng.normal(size=(2, 2)) * 0.05
         book[s] = (mu, A @ A.T + 0.004 * np.eye(2), *seen_born[s])
     x_true = np.array([1.0, -0.5, 0.3])
-    z = np.array([_h(x_true, mus[0])[0], _h(x_true, mus[1])[0], _h(x_true, mus[2])[0], _h(x_true, np.array([0.0, -3.0]))[0]])
+    z = np.array(
+        [_h(x_true, mus[0])[0], _h(x_true, mus[1])[0], _h(x_true, mus[2])[0], _h(x_true, np.array([0.0, -3.0]))[0]]
+    )
     z += rng.normal(size=z.shape) * [0.05, 0.01]
     offsets = np.array([[0.0, 0.0, 0.0], [0.05, -0.05, 0.01], [0.4, 0.3, 0.0], [-0.1, 0.1, -0.02], [0.0, 0.0, 0.2]])
     M = len(offsets)
@@ -504,13 +560,47 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
     store.reserve(len(book) + len(z), M * (len(z) + len(book)))
     log_w, n_slots, n_live = np.zeros(M), np.full(M, len(book), dtype=np.int64), np.full(M, len(book), dtype=np.int64)
     poses, assoc = np.empty((M, 3)), np.empty((M, len(z)), dtype=np.int64)
-    update_particles(version, False, xhat, P, eps, log_w, z, np.zeros(len(z), dtype=np.int64), n_slots, n_live, np.tile(R, (len(z), 1, 1)),
-                     gate, log_p0, 0.0, np.pi, confirm, window, t, store.depth, *store.kernel_args(), poses, assoc)
+    update_particles(
+        version,
+        False,
+        xhat,
+        P,
+        eps,
+        log_w,
+        z,
+        np.zeros(len(z), dtype=np.int64),
+        n_slots,
+        n_live,
+        np.tile(R, (len(z), 1, 1)),
+        gate,
+        log_p0,
+        0.0,
+        np.pi,
+        confirm,
+        window,
+        t,
+        store.depth,
+        *store.kernel_args(),
+        poses,
+        assoc,
+    )
 
     kinds = set()
     for m in range(M):
-        ref_log_w, x, slots, after = _reference_unknown_step(version, xhat[m], P[m], book, z, R, gate, log_p0, confirm, window, t,
-                                                             lambda mean, cov: mean + sqrt_psd(cov) @ eps[m])
+        ref_log_w, x, slots, after = _reference_unknown_step(
+            version,
+            xhat[m],
+            P[m],
+            book,
+            z,
+            R,
+            gate,
+            log_p0,
+            confirm,
+            window,
+            t,
+            lambda mean, cov: mean + sqrt_psd(cov) @ eps[m],
+        )
         assert log_w[m] == pytest.approx(ref_log_w, abs=1e-9)
         np.testing.assert_allclose(poses[m], x, atol=1e-9)
         assert assoc[m].tolist() == slots
@@ -522,8 +612,8 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
             np.testing.assert_allclose(mu[s], ref_mu, atol=1e-9)
             np.testing.assert_allclose([S[s, 0], S[s, 1], S[s, 1], S[s, 2]], ref_S.ravel(), atol=1e-12)
             assert (seen[s], born[s]) == (ref_seen, ref_born)
-    assert kinds == {"new", "confirmed", "tentative"}                  # every branch is exercised
-    assert len({tuple(a) for a in assoc.tolist()}) > 1                  # and the particles associate differently
+    assert kinds == {"new", "confirmed", "tentative"}  # every branch is exercised
+    assert len({tuple(a) for a in assoc.tolist()}) > 1  # and the particles associate differently
 
 
 def test_a_new_landmark_weighs_the_sensor_density_of_its_own_row():
@@ -531,12 +621,14 @@ def test_a_new_landmark_weighs_the_sensor_density_of_its_own_row():
     −γ/2 − ½ log det R_j − log 2π: with range-dependent (Cartesian) noise two rows of one set at 30 m and 3 m have p₀
     differing by ½ log(det R(3 m) / det R(30 m)). Particle 0 re-observes the far landmark (exactly: ν = 0) and starts
     one for the near row; particle 1, moved away, starts both. Their log-weight difference is log N(0; 0, Q) − log p₀(30 m)."""
-    slam = FastSLAM(version=1, particles=2, use_ids=False, range_bearing_noise="cartesian", range_bearing_cov=np.diag([0.01, 1e-4]))
+    slam = FastSLAM(
+        version=1, particles=2, use_ids=False, range_bearing_noise="cartesian", range_bearing_cov=np.diag([0.01, 1e-4])
+    )
     slam.update(np.array([[30.0, 0.0, -1.0]]))
     slam.x0[1] = [0.0, 5.0, 0.0]
     slam.update(np.array([[30.0, 0.0, -1.0], [3.0, 0.5, -1.0]]))
     sigma2 = 0.01
-    Q = np.diag([sigma2, sigma2 / 30.0**2]) * 2                        # Σ of the landmark (from one sighting) seen again, + R
+    Q = np.diag([sigma2, sigma2 / 30.0**2]) * 2  # Σ of the landmark (from one sighting) seen again, + R
     log_p0_far = -0.5 * slam.gate - 0.5 * np.log(sigma2**2 / 30.0**2) - np.log(2 * np.pi)
     expected = (-0.5 * np.log(np.linalg.det(Q)) - np.log(2 * np.pi)) - log_p0_far
     assert slam.log_w[0] - slam.log_w[1] == pytest.approx(expected, abs=1e-9)

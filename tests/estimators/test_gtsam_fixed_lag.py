@@ -1,4 +1,5 @@
 """Fixed-lag localization smoother on sim:localization: equals the EKF online, better smoothed, robust GPS."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -36,7 +37,9 @@ def online(seq):
 def test_online_output_equals_the_ekf_with_the_same_noise(seq, online):
     """Same inputs, same noise (EKF with the sequence's noise and no extra Q): the smoother's estimate
     right after each update is the filter's, poses and world-frame covariances."""
-    ekf = EKFLocalizer(Q=(0.0, 0.0, 0.0), use_sequence_noise=True, gate_confidence=1.0, initial_cov=(1e-6, 1e-6, 1e-6)).run(seq)
+    ekf = EKFLocalizer(
+        Q=(0.0, 0.0, 0.0), use_sequence_noise=True, gate_confidence=1.0, initial_cov=(1e-6, 1e-6, 1e-6)
+    ).run(seq)
     last = np.r_[ekf.t[1:] != ekf.t[:-1], True]  # the EKF's pose after all events of a stamp
     t, poses, cov = ekf.t[last], ekf.poses[last], ekf.pose_cov[last]
     k = np.searchsorted(t, online.t)
@@ -54,7 +57,9 @@ def test_smoothed_output_beats_online_and_is_consistent(seq, online):
     smoothed = FixedLagLocalizer(lag=1.0).run(seq)
     np.testing.assert_allclose(smoothed.diagnostics["online_poses"], online.poses, atol=1e-9)
     assert _rmse(seq, smoothed.t, smoothed.poses) < 0.8 * _rmse(seq, online.t, online.poses)
-    truth = interpolate_poses(seq.ground_truth.t, seq.ground_truth.poses, np.minimum(smoothed.t, seq.ground_truth.t[-1]))
+    truth = interpolate_poses(
+        seq.ground_truth.t, seq.ground_truth.poses, np.minimum(smoothed.t, seq.ground_truth.t[-1])
+    )
     e = smoothed.poses - truth
     e[:, 2] = wrap_angle(e[:, 2])
     nees = np.einsum("ki,ki->k", e, np.linalg.solve(smoothed.pose_cov, e[..., None])[..., 0])
@@ -84,7 +89,10 @@ def test_nonfinite_and_absurd_gps_and_yaw_are_rejected_and_counted(seq, online):
 def test_an_indeterminate_system_is_an_optimization_error_naming_the_update(seq):
     """GTSAM's raw RuntimeError from the smoother's iSAM2 becomes OptimizationError with the update, its time and the
     variable GTSAM names (a between factor with lateral variance 1e-12 of its largest: the Euler model has no lateral noise)."""
-    with pytest.raises(OptimizationError, match=r"fixed-lag update 1 \(t = 0\.02 s\): GTSAM: Indeterminate linear system .* variable x0"):
+    with pytest.raises(
+        OptimizationError,
+        match=r"fixed-lag update 1 \(t = 0\.02 s\): GTSAM: Indeterminate linear system .* variable x0",
+    ):
         FixedLagLocalizer(regularisation=1e-12).run(seq)
 
 
@@ -107,4 +115,3 @@ def test_parameters_are_one_model():
     # the pose chain's fields are shared with the landmark smoothers; only the motion model's default differs (the EKF localizer's)
     chain = {k: getattr(made.params, k) for k in PoseChainParams.model_fields}
     assert chain == {**dict(PoseChainParams()), "motion_model": "euler"}
-

@@ -1,4 +1,5 @@
 """Noise mapping and frame conventions of the GTSAM smoothers (checked against GTSAM and Monte Carlo)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -6,12 +7,19 @@ import pytest
 
 gtsam = pytest.importorskip("gtsam")
 
+from checks import assert_covariances_close  # noqa: E402
+
 from slamarena.datasets.geometry import compose, wrap_angle  # noqa: E402
 from slamarena.estimators.gtsam_smoother.graph import X, observation_noise, remaining_decrease  # noqa: E402
-from slamarena.estimators.gtsam_smoother.noise import (body_to_world, floor_to_uncertainty, increments_relative, regularise,  # noqa: E402
-                                                      twist_relative, world_to_body)
+from slamarena.estimators.gtsam_smoother.noise import (  # noqa: E402
+    body_to_world,
+    floor_to_uncertainty,
+    increments_relative,
+    regularise,
+    twist_relative,
+    world_to_body,
+)
 from slamarena.estimators.models import ARC, EULER  # noqa: E402
-from checks import assert_covariances_close  # noqa: E402
 
 
 def _pose(p) -> np.ndarray:
@@ -22,7 +30,9 @@ def test_marginal_covariance_is_body_frame_constructed_case():
     """A pose facing +y (θ = π/2) that is uncertain along its own x axis is uncertain along world y."""
     Sigma_body = np.diag([4.0, 0.01, 1e-4])
     graph = gtsam.NonlinearFactorGraph()
-    graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2), gtsam.noiseModel.Gaussian.Covariance(Sigma_body)))
+    graph.add(
+        gtsam.PriorFactorPose2(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2), gtsam.noiseModel.Gaussian.Covariance(Sigma_body))
+    )
     values = gtsam.Values()
     values.insert(X(0), gtsam.Pose2(1.0, 2.0, np.pi / 2))
     marginal = gtsam.Marginals(graph, values).marginalCovariance(X(0))
@@ -110,7 +120,11 @@ def test_each_observation_factor_whitens_with_its_own_covariance(noise):
     R = np.diag([0.04, 0.003])
     problem = build_problem(seq, LandmarkProblemParams(range_bearing_cov=R, range_bearing_noise=noise))
     r = problem.obs_range
-    expected = np.broadcast_to(R, (r.size, 2, 2)) if noise == "polar" else np.stack([np.diag([0.04, 0.04 / ri**2]) for ri in r])
+    expected = (
+        np.broadcast_to(R, (r.size, 2, 2))
+        if noise == "polar"
+        else np.stack([np.diag([0.04, 0.04 / ri**2]) for ri in r])
+    )
     np.testing.assert_allclose(problem.obs_cov, expected, rtol=1e-12)
     rng = np.random.default_rng(0)
     noises = observation_noises(problem)
@@ -123,9 +137,11 @@ def test_each_observation_factor_whitens_with_its_own_covariance(noise):
     marks = {}
     for j in map(int, problem.obs_id[rows]):
         if j not in marks:
-            marks[j] = pose[:2] + rng.uniform(3.0, 20.0) * np.array([np.cos(a := rng.uniform(-np.pi, np.pi)), np.sin(a)])
+            marks[j] = pose[:2] + rng.uniform(3.0, 20.0) * np.array(
+                [np.cos(a := rng.uniform(-np.pi, np.pi)), np.sin(a)]
+            )
             values.insert(L(j), marks[j])
-    errors = [graph.at(i).error(values) for i in range(1, graph.size())]          # factor 0: the between factor
+    errors = [graph.at(i).error(values) for i in range(1, graph.size())]  # factor 0: the between factor
     for e, i in zip(errors, rows):
         h = observe(pose, marks[int(problem.obs_id[i])])
         nu = np.array([problem.obs_range[i] - h[0], wrap_angle(problem.obs_bearing[i] - h[1])])
@@ -186,11 +202,12 @@ def test_the_remaining_decrease_of_a_stiff_determined_system_is_solved_by_qr():
     'indeterminate linear system' on the stiff two-pose graph above (MRCLAM-like 1 ms steps make such graphs), QR solves it:
     the graph fits both factors exactly, so the remaining decrease is the whole error."""
     delta = np.array([0.1, 0.0, 0.005])
-    graph, values = _two_poses(np.diag([0.05**2, 0.5**2, 0.02**2]), delta, regularise(np.diag([1e-4, 0.0, 2.5e-5]), 1e-4), (0.01, 0.02, 0.0))
+    graph, values = _two_poses(
+        np.diag([0.05**2, 0.5**2, 0.02**2]), delta, regularise(np.diag([1e-4, 0.0, 2.5e-5]), 1e-4), (0.01, 0.02, 0.0)
+    )
     with pytest.raises(RuntimeError, match="Indeterminant|Indeterminate"):
         graph.linearize(values).optimize()
     assert remaining_decrease(graph, values, "two poses") == pytest.approx(graph.error(values), rel=1e-6)
-
 
 
 def test_covariances_are_compared_in_their_own_metric():

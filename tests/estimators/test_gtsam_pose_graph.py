@@ -1,4 +1,5 @@
 """Pose-graph optimisation: GTSAM's noisyToyGraph, constructed graphs with a known optimum, landmarks, robustness."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -7,6 +8,8 @@ from pydantic import ValidationError
 
 gtsam = pytest.importorskip("gtsam")
 
+from checks import staged  # noqa: E402
+
 from slamarena.datasets.formats import g2o  # noqa: E402
 from slamarena.datasets.geometry import accumulate, between, compose, inverse, transform_points, wrap_angle  # noqa: E402
 from slamarena.datasets.posegraph import PoseGraph  # noqa: E402
@@ -14,7 +17,6 @@ from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
 from slamarena.estimators.gtsam_smoother import BatchSmoother, PoseGraphOptimizer  # noqa: E402
 from slamarena.estimators.gtsam_smoother.graph import X  # noqa: E402
 from slamarena.estimators.gtsam_smoother.pose_graph import build_pose_graph  # noqa: E402
-from checks import staged  # noqa: E402
 
 
 def _angle_aware_diff(a, b):
@@ -60,7 +62,9 @@ def test_noise_free_graph_with_loop_closures_recovers_truth_from_a_bad_start():
     rng = np.random.default_rng(1)
     start = truth + rng.normal(0, [0.3, 0.3, 0.1], truth.shape)
     start[0] = truth[0]
-    graph = PoseGraph(name="square", node_ids=np.arange(n), edge_i=ei, edge_j=ej, edge_z=z, edge_information=info, poses=start)
+    graph = PoseGraph(
+        name="square", node_ids=np.arange(n), edge_i=ei, edge_j=ej, edge_z=z, edge_information=info, poses=start
+    )
     for optimizer in ("lm", "gauss_newton", "dogleg"):
         est = PoseGraphOptimizer(optimizer=optimizer).run(graph)
         assert np.abs(_angle_aware_diff(est.poses, truth)).max() < 1e-6, optimizer
@@ -79,10 +83,17 @@ def test_xy_landmark_edges_are_points_in_the_robot_frame():
     z = transform_points(inverse(truth[pose]), landmarks[lid])  # each landmark in the frame of its robot pose
     i = np.arange(n - 1)
     graph = PoseGraph(
-        name="landmarks", node_ids=np.arange(n), edge_i=i, edge_j=i + 1, edge_z=between(truth[i], truth[i + 1]),
+        name="landmarks",
+        node_ids=np.arange(n),
+        edge_i=i,
+        edge_j=i + 1,
+        edge_z=between(truth[i], truth[i + 1]),
         edge_information=np.broadcast_to(np.eye(3) * 10.0, (n - 1, 3, 3)),
         poses=truth + np.random.default_rng(2).normal(0, 0.2, truth.shape) * (np.arange(n) > 0)[:, None],
-        landmark_pose=pose, landmark_id=lid + 100, landmark_z=z, landmark_information=np.broadcast_to(np.eye(2) * 50.0, (pose.size, 2, 2)),
+        landmark_pose=pose,
+        landmark_id=lid + 100,
+        landmark_z=z,
+        landmark_information=np.broadcast_to(np.eye(2) * 50.0, (pose.size, 2, 2)),
     )
     est = PoseGraphOptimizer(covariances=True).run(graph)
     np.testing.assert_array_equal(est.landmark_ids, [100, 101, 102])

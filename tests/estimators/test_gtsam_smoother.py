@@ -1,5 +1,6 @@
 """Landmark-SLAM smoothers on sim:landmarks: accuracy vs dead reckoning, Monte Carlo consistency,
 iSAM2 = batch, optimisers, robust kernels, bad input."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -10,6 +11,8 @@ from pydantic import ValidationError
 
 gtsam = pytest.importorskip("gtsam")
 
+from checks import assert_covariances_close  # noqa: E402
+
 from slamarena.datasets.geometry import compose, interpolate_poses, wrap_angle  # noqa: E402
 from slamarena.datasets.sequence import Increments, RangeBearing  # noqa: E402
 from slamarena.datasets.sim.landmarks import simulate  # noqa: E402
@@ -19,7 +22,6 @@ from slamarena.estimators.gtsam_smoother.graph import L, OptimizationError, Opti
 from slamarena.estimators.gtsam_smoother.problem import LandmarkProblemParams, build_problem  # noqa: E402
 from slamarena.estimators.models import ARC  # noqa: E402
 from slamarena.experiments.metrics.consistency import chi2_band, monte_carlo  # noqa: E402
-from checks import assert_covariances_close  # noqa: E402
 
 SIM = dict(n_landmarks=30, laps=1)
 
@@ -115,7 +117,7 @@ def test_isam2_online_output_is_each_pose_right_after_its_update(seq, batch):
     np.testing.assert_array_equal(online.poses, smoothed.diagnostics["online_poses"])
     assert online.pose_cov is None and online.landmark_cov is not None
     np.testing.assert_array_equal(online.landmarks, smoothed.landmarks)
-    assert np.abs(_world_error(online.poses, batch.poses)).max() > 1e-3   # not the smoothed answer
+    assert np.abs(_world_error(online.poses, batch.poses)).max() > 1e-3  # not the smoothed answer
 
 
 def test_isam2_without_final_updates_differs_from_batch(seq, batch):
@@ -148,7 +150,9 @@ def _with_outliers(seq, fraction, rng):
     rb = seq.range_bearing
     bad = rng.random(len(rb)) < fraction
     rng_ = rb.range + np.where(bad, rng.uniform(3.0, 6.0, len(rb)), 0.0)
-    return dataclasses.replace(seq, range_bearing=RangeBearing(t=rb.t, range=rng_, bearing=rb.bearing, landmark_id=rb.landmark_id)), bad
+    return dataclasses.replace(
+        seq, range_bearing=RangeBearing(t=rb.t, range=rng_, bearing=rb.bearing, landmark_id=rb.landmark_id)
+    ), bad
 
 
 @pytest.mark.parametrize("kernel", ["huber", "cauchy"])
@@ -165,7 +169,9 @@ def _with_ranges(seq, rows, values):
     rb = seq.range_bearing
     r = rb.range.copy()
     r[rows] = values
-    return dataclasses.replace(seq, range_bearing=RangeBearing(t=rb.t, range=r, bearing=rb.bearing, landmark_id=rb.landmark_id))
+    return dataclasses.replace(
+        seq, range_bearing=RangeBearing(t=rb.t, range=r, bearing=rb.bearing, landmark_id=rb.landmark_id)
+    )
 
 
 def test_nonfinite_absurd_negative_and_unknown_observations_are_rejected_and_counted(seq, batch):
@@ -179,7 +185,10 @@ def test_nonfinite_absurd_negative_and_unknown_observations_are_rejected_and_cou
     assert est.diagnostics["rejected_nonfinite_observations"] == 3
     assert est.diagnostics["rejected_negative_range_observations"] == 1
     assert est.diagnostics["skipped_unknown_id_observations"] == 3
-    assert np.isfinite(est.diagnostics["final_error"]) and est.diagnostics["final_error"] < est.diagnostics["initial_error"]
+    assert (
+        np.isfinite(est.diagnostics["final_error"])
+        and est.diagnostics["final_error"] < est.diagnostics["initial_error"]
+    )
     assert np.all(np.isfinite(est.poses)) and np.abs(_world_error(est.poses, batch.poses)).max() < 0.05
 
 
@@ -207,7 +216,9 @@ def test_a_singular_motion_covariance_is_rejected_before_the_graph(seq):
         BatchSmoother(regularisation=0.0, motion_model="euler").run(seq)
 
 
-@pytest.mark.parametrize("row,stop,update", [(40, "gave up, no damping", 99), (8, "not converged within max_iterations = 100", 19)])
+@pytest.mark.parametrize(
+    "row,stop,update", [(40, "gave up, no damping", 99), (8, "not converged within max_iterations = 100", 19)]
+)
 def test_a_gross_outlier_without_a_kernel_is_an_error_and_a_huber_kernel_absorbs_it(seq, row, stop, update):
     """One range ×100: finite and positive, so no input check rejects it. Plain least squares (robust='none', the
     default) stopped at ½χ² ≈ 10⁷ and returned that as the result; now, from dead reckoning, Levenberg-Marquardt giving up
@@ -218,7 +229,9 @@ def test_a_gross_outlier_without_a_kernel_is_an_error_and_a_huber_kernel_absorbs
     from_dead_reckoning = dict(covariances=False, initial="dead_reckoning")
     with pytest.raises(OptimizationError, match=f"Levenberg-Marquardt, .*: {stop}.*still promises a decrease of"):
         BatchSmoother(**from_dead_reckoning).run(bad)
-    with pytest.raises(OptimizationError, match=rf"start \(initial='isam2'\): iSAM2 update {update} .*initial='dead_reckoning'"):
+    with pytest.raises(
+        OptimizationError, match=rf"start \(initial='isam2'\): iSAM2 update {update} .*initial='dead_reckoning'"
+    ):
         BatchSmoother(covariances=False).run(bad)
     huber = dict(from_dead_reckoning, robust="huber", robust_k=3.0)
     clean = BatchSmoother(**huber).run(seq)
@@ -229,7 +242,9 @@ def test_a_diverging_isam2_is_an_error_before_the_stiffness_rule_uses_its_margin
     """iSAM2 with QR on a range ×100 at a first sighting diverges (½χ² 10³⁶); the marginal covariance the stiffness rule
     reads is then not positive definite, which made numpy's eigendecomposition fail ('did not converge')."""
     bad = _with_ranges(seq, [8], [100 * seq.range_bearing.range[8]])
-    with pytest.raises(OptimizationError, match=r"iSAM2 update \d+ .*: the marginal covariance of x\d+ is not positive definite"):
+    with pytest.raises(
+        OptimizationError, match=r"iSAM2 update \d+ .*: the marginal covariance of x\d+ is not positive definite"
+    ):
         ISAM2Smoother(factorization="QR", covariances=False).run(bad)
 
 
@@ -237,7 +252,9 @@ def test_a_diverging_optimisation_is_an_error(seq):
     """Gauss-Newton on a stiff graph (regularisation 1e-6, research/graph_slam.md §2) from dead reckoning multiplies the
     error by 50 in its first step and stops there (GTSAM: 'error increased'); that was returned as the result."""
     with pytest.raises(OptimizationError, match="Gauss-Newton, 1 iterations, .*: diverging"):
-        BatchSmoother(optimizer="gauss_newton", regularisation=1e-6, initial="dead_reckoning", covariances=False).run(seq)
+        BatchSmoother(optimizer="gauss_newton", regularisation=1e-6, initial="dead_reckoning", covariances=False).run(
+            seq
+        )
 
 
 def test_a_nonfinite_error_is_an_error_naming_the_factor():
@@ -247,7 +264,9 @@ def test_a_nonfinite_error_is_an_error_naming_the_factor():
     values = gtsam.Values()
     values.insert(X(0), gtsam.Pose2())
     values.insert(L(3), gtsam.Point2(0.0, 0.0))
-    with pytest.raises(OptimizationError, match="at the initial values: the error is inf .*factor 1, PriorFactorPoint2 on l3"):
+    with pytest.raises(
+        OptimizationError, match="at the initial values: the error is inf .*factor 1, PriorFactorPoint2 on l3"
+    ):
         optimize(graph, values, OptimizerParams())
 
 
@@ -256,7 +275,9 @@ def test_isam2_indeterminate_system_is_an_optimization_error_naming_the_update(s
     the variable GTSAM names. Trigger: with the stiffness rule off, a between factor whose lateral variance is 1e-12 of
     its largest (the Euler model has no lateral noise); with the rule (the default) the same graph is solved."""
     stiff = dict(regularisation=1e-12, motion_model="euler", covariances=False)
-    with pytest.raises(OptimizationError, match=r"iSAM2 update 1 \(t = 0\.1 s\): GTSAM: Indeterminate linear system .* variable x1"):
+    with pytest.raises(
+        OptimizationError, match=r"iSAM2 update 1 \(t = 0\.1 s\): GTSAM: Indeterminate linear system .* variable x1"
+    ):
         ISAM2Smoother(uncertainty_floor=None, **stiff).run(seq)
     assert ISAM2Smoother(**stiff).run(seq).diagnostics["lifted_between"] > 0
 
@@ -340,7 +361,8 @@ def test_the_runner_reports_a_failed_optimisation_as_a_failed_cell(tmp_path):
     from slamarena.experiments.runner import run_experiment
 
     path = tmp_path / "exp.yaml"
-    path.write_text(textwrap.dedent("""
+    path.write_text(
+        textwrap.dedent("""
         name: failing
         seeds: 1
         datasets:
@@ -353,26 +375,51 @@ def test_the_runner_reports_a_failed_optimisation_as_a_failed_cell(tmp_path):
             params: {regularisation: 1.0e-12, motion_model: euler, uncertainty_floor: null}
         metrics: [ate]
         figures: []
-    """))
+    """)
+    )
     with open(os.devnull, "w") as quiet:
         assert run_experiment(load_config(path), tmp_path / "out", jobs=1, console=Console(file=quiet)) == 1
     summary = pd.read_csv(tmp_path / "out" / "summary.csv").set_index("estimator")
     assert (summary["status"] == "error").all()
     assert "OptimizationError: Gauss-Newton" in summary.at["gtsam_batch", "error"]
-    assert "OptimizationError: iSAM2 update 1" in summary.at["gtsam_isam2", "error"] and "x1" in summary.at["gtsam_isam2", "error"]
+    assert (
+        "OptimizationError: iSAM2 update 1" in summary.at["gtsam_isam2", "error"]
+        and "x1" in summary.at["gtsam_isam2", "error"]
+    )
 
 
-@pytest.mark.parametrize("params", [dict(robust="tukey"), dict(optimizer="newton"), dict(prior_sigma=[0.1, 0.1]),
-                                    dict(max_interval=-1.0), dict(regularisation=2.0)])
+@pytest.mark.parametrize(
+    "params",
+    [
+        dict(robust="tukey"),
+        dict(optimizer="newton"),
+        dict(prior_sigma=[0.1, 0.1]),
+        dict(max_interval=-1.0),
+        dict(regularisation=2.0),
+    ],
+)
 def test_bad_config_is_rejected_before_work(params):
     with pytest.raises(ValueError, match=next(iter(params))):
         BatchSmoother(**params)
 
 
-@pytest.mark.parametrize("cls,bad,given,cov", [
-    (BatchSmoother, dict(max_iterations=0), dict(optimizer="dogleg", twist_cov=0.01, prior_sigma=[0.1, 0.1, 0.05]), "twist_cov"),
-    (ISAM2Smoother, dict(factorization="LU"), dict(relinearize_skip=1, range_bearing_cov=[0.01, 1e-4], step_clock="cpu"), "range_bearing_cov"),
-])
+@pytest.mark.parametrize(
+    "cls,bad,given,cov",
+    [
+        (
+            BatchSmoother,
+            dict(max_iterations=0),
+            dict(optimizer="dogleg", twist_cov=0.01, prior_sigma=[0.1, 0.1, 0.05]),
+            "twist_cov",
+        ),
+        (
+            ISAM2Smoother,
+            dict(factorization="LU"),
+            dict(relinearize_skip=1, range_bearing_cov=[0.01, 1e-4], step_clock="cpu"),
+            "range_bearing_cov",
+        ),
+    ],
+)
 def test_parameters_are_one_model(cls, bad, given, cov):
     with pytest.raises(ValidationError, match=next(iter(bad))):
         cls(**bad)
@@ -396,7 +443,9 @@ def test_missing_noise_is_a_clear_error(seq):
 
 
 def test_max_interval_adds_pose_keys(seq):
-    coarse = dataclasses.replace(seq, range_bearing=seq.range_bearing.select(np.isin(seq.range_bearing.t, seq.range_bearing.t[::200])))
+    coarse = dataclasses.replace(
+        seq, range_bearing=seq.range_bearing.select(np.isin(seq.range_bearing.t, seq.range_bearing.t[::200]))
+    )
     few = build_problem(coarse)
     many = build_problem(coarse, LandmarkProblemParams(max_interval=1.0))
     assert many.n_poses > few.n_poses + 30

@@ -7,6 +7,7 @@ Run (each writes a Markdown table under ``results/gtsam_studies/`` and prints it
 Metrics come from ``slamarena.experiments.metrics`` (ATE, landmark-map error, NEES bands). The numbers are
 quoted in ``research/graph_slam.md``.
 """
+
 from __future__ import annotations
 
 import time
@@ -68,7 +69,9 @@ def test_pose_graph_study(tmp_path):
 
     rows = pd.read_csv(tmp_path / "summary.csv").set_index("dataset")
     assert (rows["estimate.final_error"] <= rows["estimate.initial_error"]).all()
-    assert (rows["ate.rmse"] < 1.0).all()  # manhattanOlson3500 0.80 m, city10000 0.041 m, cityTrees10000 0.10 m when measured
+    assert (
+        rows["ate.rmse"] < 1.0
+    ).all()  # manhattanOlson3500 0.80 m, city10000 0.041 m, cityTrees10000 0.10 m when measured
 
 
 def _max_difference(a, b) -> tuple[float, float]:
@@ -110,29 +113,88 @@ def test_mrclam_dataset6_study():
         lm_raw = landmark_error(est, ref, MapParams(align="none"))[0]
         lm_aligned = landmark_error(est, ref, MapParams(align="se2"))[0]
         d = est.diagnostics
-        accuracy.append([robot, len(est.t), int(len(seq.range_bearing)), f"{dr:.3f}", f"{raw['rmse']:.3f}", f"{aligned['rmse']:.3f}",
-                         f"{lm_raw['rmse']:.3f}", f"{lm_aligned['rmse']:.3f}", f"{nees(est, ref, NEESParams())[0]['mean']:.1f}",
-                         f"{nees(inc, ref, NEESParams())[0]['mean']:.1f}", f"{d['final_error']:.1f}", d["iterations"], f"{t_batch:.1f}"])
-        agreement.append([robot, inc.diagnostics["lifted_between"], inc.diagnostics["final_updates_used"], f"{inc.diagnostics['final_change']:.1e}",
-                          f"{inc.diagnostics['final_error']:.2f}", f"{same.diagnostics['final_error']:.2f}", _differences(inc, same),
-                          f"{d['final_error']:.2f}", _differences(inc, est), f"{from_dr.diagnostics['final_error']:.1f}",
-                          f"{t_inc:.1f}", f"{1e3 * np.median(inc.step_time):.2f}"])
+        accuracy.append(
+            [
+                robot,
+                len(est.t),
+                int(len(seq.range_bearing)),
+                f"{dr:.3f}",
+                f"{raw['rmse']:.3f}",
+                f"{aligned['rmse']:.3f}",
+                f"{lm_raw['rmse']:.3f}",
+                f"{lm_aligned['rmse']:.3f}",
+                f"{nees(est, ref, NEESParams())[0]['mean']:.1f}",
+                f"{nees(inc, ref, NEESParams())[0]['mean']:.1f}",
+                f"{d['final_error']:.1f}",
+                d["iterations"],
+                f"{t_batch:.1f}",
+            ]
+        )
+        agreement.append(
+            [
+                robot,
+                inc.diagnostics["lifted_between"],
+                inc.diagnostics["final_updates_used"],
+                f"{inc.diagnostics['final_change']:.1e}",
+                f"{inc.diagnostics['final_error']:.2f}",
+                f"{same.diagnostics['final_error']:.2f}",
+                _differences(inc, same),
+                f"{d['final_error']:.2f}",
+                _differences(inc, est),
+                f"{from_dr.diagnostics['final_error']:.1f}",
+                f"{t_inc:.1f}",
+                f"{1e3 * np.median(inc.step_time):.2f}",
+            ]
+        )
         assert raw["rmse"] < dr
-        assert max(_max_difference(inc, same)) < 1e-3 and same.diagnostics["final_error"] == pytest.approx(inc.diagnostics["final_error"], abs=1e-2)
+        assert max(_max_difference(inc, same)) < 1e-3 and same.diagnostics["final_error"] == pytest.approx(
+            inc.diagnostics["final_error"], abs=1e-2
+        )
         assert d["final_error"] <= from_dr.diagnostics["final_error"] + 1e-2
-    _write("mrclam6", ["robot", "poses", "observations", "dead reckoning ATE RMSE [m]", "ATE RMSE [m] (start-anchored)",
-                       "ATE RMSE [m] (SE(2)-aligned)", "landmark RMSE [m] (start-anchored)", "landmark RMSE [m] (trajectory SE(2)-aligned)",
-                       "mean NEES batch (3 if consistent)", "mean NEES iSAM2", "½χ²", "LM iterations", "batch time [s]"], accuracy,
-           "Batch smoother from iSAM2's estimate (the default start), Huber kernel (k = 1.345 σ) on the observations, pose keys at every observation "
-           f"set and every 1 s, noise {noise} (identified against Vicon, experiments/configs/mrclam.yaml); start pose = Vicon at the "
-           "first odometry stamp; landmark error against the surveyed map, as estimated (start-anchored) and after the SE(2) "
-           "alignment that best fits the trajectory to Vicon.")
-    _write("mrclam6_isam2", ["robot", "between factors lifted", "final updates", "final change", "iSAM2 ½χ² (its graph)",
-                             "batch ½χ² on iSAM2's graph", "max |iSAM2 − batch| there", "batch ½χ² (problem's graph)",
-                             "max |iSAM2 − batch| (problem's graph)", "batch from dead reckoning ½χ²", "iSAM2 time [s]", "median step [ms]"],
-           agreement, "Same settings; differences: the largest over pose positions and landmarks [m], over headings [rad]. The batch smoother "
-                      "given iSAM2's between covariances (diagnostics['between_cov']) optimises iSAM2's graph; the problem's graph differs "
-                      "by the stiffness rule's lifts.")
+    _write(
+        "mrclam6",
+        [
+            "robot",
+            "poses",
+            "observations",
+            "dead reckoning ATE RMSE [m]",
+            "ATE RMSE [m] (start-anchored)",
+            "ATE RMSE [m] (SE(2)-aligned)",
+            "landmark RMSE [m] (start-anchored)",
+            "landmark RMSE [m] (trajectory SE(2)-aligned)",
+            "mean NEES batch (3 if consistent)",
+            "mean NEES iSAM2",
+            "½χ²",
+            "LM iterations",
+            "batch time [s]",
+        ],
+        accuracy,
+        "Batch smoother from iSAM2's estimate (the default start), Huber kernel (k = 1.345 σ) on the observations, pose keys at every observation "
+        f"set and every 1 s, noise {noise} (identified against Vicon, experiments/configs/mrclam.yaml); start pose = Vicon at the "
+        "first odometry stamp; landmark error against the surveyed map, as estimated (start-anchored) and after the SE(2) "
+        "alignment that best fits the trajectory to Vicon.",
+    )
+    _write(
+        "mrclam6_isam2",
+        [
+            "robot",
+            "between factors lifted",
+            "final updates",
+            "final change",
+            "iSAM2 ½χ² (its graph)",
+            "batch ½χ² on iSAM2's graph",
+            "max |iSAM2 − batch| there",
+            "batch ½χ² (problem's graph)",
+            "max |iSAM2 − batch| (problem's graph)",
+            "batch from dead reckoning ½χ²",
+            "iSAM2 time [s]",
+            "median step [ms]",
+        ],
+        agreement,
+        "Same settings; differences: the largest over pose positions and landmarks [m], over headings [rad]. The batch smoother "
+        "given iSAM2's between covariances (diagnostics['between_cov']) optimises iSAM2's graph; the problem's graph differs "
+        "by the stiffness rule's lifts.",
+    )
     assert all(float(r[5]) < 0.3 and float(r[7]) < 1.0 for r in accuracy)
 
 
@@ -147,25 +209,57 @@ def test_victoria_park_study():
     with pytest.raises(OptimizationError, match="gave up") as lm:
         BatchSmoother(**common, initial="dead_reckoning").run(seq)
     runs = {}
-    for label, make in [("iSAM2 (+ final updates)", lambda: ISAM2Smoother(covariances=False, max_interval=1.0).run(seq)),
-                        ("batch LM from iSAM2's estimate (default)", lambda: BatchSmoother(**common).run(seq)),
-                        ("batch Dogleg from dead reckoning",
-                         lambda: BatchSmoother(**common, initial="dead_reckoning", optimizer="dogleg").run(seq))]:
+    for label, make in [
+        ("iSAM2 (+ final updates)", lambda: ISAM2Smoother(covariances=False, max_interval=1.0).run(seq)),
+        ("batch LM from iSAM2's estimate (default)", lambda: BatchSmoother(**common).run(seq)),
+        (
+            "batch Dogleg from dead reckoning",
+            lambda: BatchSmoother(**common, initial="dead_reckoning", optimizer="dogleg").run(seq),
+        ),
+    ]:
         tic = time.perf_counter()
         runs[label] = (make(), time.perf_counter() - tic)
     inc = runs["iSAM2 (+ final updates)"][0]
     tic = time.perf_counter()
-    runs["batch LM on iSAM2's graph"] = (BatchSmoother(**common).run(seq, between_cov=inc.diagnostics["between_cov"]), time.perf_counter() - tic)
+    runs["batch LM on iSAM2's graph"] = (
+        BatchSmoother(**common).run(seq, between_cov=inc.diagnostics["between_cov"]),
+        time.perf_counter() - tic,
+    )
     rows = []
     for label, (est, elapsed) in runs.items():
         d = est.diagnostics
-        rows.append([label, len(est.t), len(est.landmarks), f"{d['initial_error']:.4g}" if "initial_error" in d else "—",
-                     f"{d['final_error']:.6g}", d.get("iterations", d.get("final_updates_used")), f"{elapsed:.1f}", _differences(inc, est),
-                     f"{1e3 * est.step_time.mean():.2f} / {1e3 * est.step_time.max():.1f}" if est.step_time is not None else "—"])
+        rows.append(
+            [
+                label,
+                len(est.t),
+                len(est.landmarks),
+                f"{d['initial_error']:.4g}" if "initial_error" in d else "—",
+                f"{d['final_error']:.6g}",
+                d.get("iterations", d.get("final_updates_used")),
+                f"{elapsed:.1f}",
+                _differences(inc, est),
+                f"{1e3 * est.step_time.mean():.2f} / {1e3 * est.step_time.max():.1f}"
+                if est.step_time is not None
+                else "—",
+            ]
+        )
     same, default = runs["batch LM on iSAM2's graph"][0], runs["batch LM from iSAM2's estimate (default)"][0]
     assert max(_max_difference(inc, same)) < 1e-3 and max(_max_difference(inc, default)) < 1e-2
     assert inc.diagnostics["final_error"] < runs["batch Dogleg from dead reckoning"][0].diagnostics["final_error"]
-    _write("victoria_park", ["method", "poses", "landmarks", "initial ½χ²", "final ½χ²", "iterations / final updates", "time [s]",
-                             "max |Δ| to iSAM2", "step time mean / max [ms]"], rows,
-           f"Known association (the file's landmark ids), the file's stated noise; no ground truth. iSAM2 lifted "
-           f"{inc.diagnostics['lifted_between']} between factors. Levenberg-Marquardt from dead reckoning: {lm.value}")
+    _write(
+        "victoria_park",
+        [
+            "method",
+            "poses",
+            "landmarks",
+            "initial ½χ²",
+            "final ½χ²",
+            "iterations / final updates",
+            "time [s]",
+            "max |Δ| to iSAM2",
+            "step time mean / max [ms]",
+        ],
+        rows,
+        f"Known association (the file's landmark ids), the file's stated noise; no ground truth. iSAM2 lifted "
+        f"{inc.diagnostics['lifted_between']} between factors. Levenberg-Marquardt from dead reckoning: {lm.value}",
+    )

@@ -1,6 +1,7 @@
 """The helpers of ``slamarena bench readers`` (the benchmark itself is not part of the test suite):
 the bit-mismatch counter and the alternative conversions, which must return the reader's values in
 the reader's order, or None where the reader would raise."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,7 +20,9 @@ def body_of(text: bytes) -> readers.Body:
 def test_bit_mismatches_counts_every_bit_difference():
     expected = np.array([0.1, -0.0, np.nan, 1.0])
     assert readers.bit_mismatches(expected.copy(), expected) == 0
-    assert readers.bit_mismatches(np.array([0.1, 0.0, np.nan, np.nextafter(1.0, 2.0)]), expected) == 2  # -0 vs 0, one ulp
+    assert (
+        readers.bit_mismatches(np.array([0.1, 0.0, np.nan, np.nextafter(1.0, 2.0)]), expected) == 2
+    )  # -0 vs 0, one ulp
     assert readers.bit_mismatches(None, expected) == 4
     assert readers.bit_mismatches(expected[:3], expected) == 4
 

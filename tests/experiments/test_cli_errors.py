@@ -1,4 +1,5 @@
 """User errors on the command line: one clear message and exit code 2, never a traceback; bugs keep theirs."""
+
 from __future__ import annotations
 
 import subprocess
@@ -46,7 +47,10 @@ def test_jobs_below_one_are_rejected(tmp_path, jobs):
 
 
 def test_a_scheduler_that_is_not_an_address_is_rejected(tmp_path):
-    assert_user_error(_cli("run", _config(tmp_path), "--scheduler", "not-an-address", "--out", tmp_path / "o"), "--scheduler must be a Dask scheduler address")
+    assert_user_error(
+        _cli("run", _config(tmp_path), "--scheduler", "not-an-address", "--out", tmp_path / "o"),
+        "--scheduler must be a Dask scheduler address",
+    )
 
 
 def test_out_under_a_file_is_rejected(tmp_path):
@@ -73,15 +77,23 @@ def test_data_info_on_a_malformed_file_prints_the_file_and_line(tmp_path):
 
 def test_unknown_dataset_name(tmp_path):
     assert_user_error(_cli("data", "info", "mrclam:7/robot1"), "unknown dataset 'mrclam:7/robot1'", "<family>:<path>")
-    assert_user_error(_cli("data", "info", "utias:7/robot1", cwd=tmp_path), "dataset 'utias:7/robot1' not found",
-                      str(tmp_path / "7/Robot1_Odometry.dat"), "utias:<path>/robot<k>")
+    assert_user_error(
+        _cli("data", "info", "utias:7/robot1", cwd=tmp_path),
+        "dataset 'utias:7/robot1' not found",
+        str(tmp_path / "7/Robot1_Odometry.dat"),
+        "utias:<path>/robot<k>",
+    )
 
 
 def test_data_info_reads_a_recording_at_a_path(tmp_path):
     directory = tmp_path / "MRCLAM_Dataset7"
     directory.mkdir()
-    for name, rows in {"Barcodes.dat": "6 63\n", "Landmark_Groundtruth.dat": "6 1 2 0 0\n", "Robot1_Odometry.dat": "1.0 0.1 0\n2.0 0 0\n",
-                       "Robot1_Measurement.dat": "1.5 63 2.0 0.1\n"}.items():
+    for name, rows in {
+        "Barcodes.dat": "6 63\n",
+        "Landmark_Groundtruth.dat": "6 1 2 0 0\n",
+        "Robot1_Odometry.dat": "1.0 0.1 0\n2.0 0 0\n",
+        "Robot1_Measurement.dat": "1.5 63 2.0 0.1\n",
+    }.items():
         (directory / name).write_text("# header\n" + rows)
     result = _cli("data", "info", f"utias:{directory}/robot1")
     assert result.returncode == 0 and '"landmark_observations": 1' in result.stdout, result.stderr[-2000:]
@@ -92,7 +104,9 @@ def test_run_on_a_dataset_whose_files_are_missing(tmp_path):
 
     text = GOOD.replace("sim:landmarks\n    params: {n_landmarks: 8, laps: 1}", "utias:6/robot1")
     env = {**os.environ, "SLAMARENA_SEARCH_SHARED": "0", "SLAMARENA_CACHE": str(tmp_path / "cache")}
-    assert_user_error(_cli("run", _config(tmp_path, text), "--out", tmp_path / "o", env=env), "dataset 'utias:6/robot1' not found")
+    assert_user_error(
+        _cli("run", _config(tmp_path, text), "--out", tmp_path / "o", env=env), "dataset 'utias:6/robot1' not found"
+    )
 
 
 def test_dry_run_prints_the_resolved_parameters(tmp_path):
@@ -104,7 +118,9 @@ def test_dry_run_prints_the_resolved_parameters(tmp_path):
 
 
 def test_console_headers_keep_their_units_and_names_are_not_squeezed(tmp_path):
-    result = _cli("run", _config(tmp_path, GOOD.replace("metrics: [ate]", "metrics: [ate, cost]")), "--out", tmp_path / "o")
+    result = _cli(
+        "run", _config(tmp_path, GOOD.replace("metrics: [ate]", "metrics: [ate, cost]")), "--out", tmp_path / "o"
+    )
     assert result.returncode == 0, result.stderr
     assert "ATE rmse [m]" in result.stderr and "step median [ms]" in result.stderr
     assert "sim_landmarks" in result.stderr and "dead_reckoning" in result.stderr  # not sim_lan… / dead_rec…
@@ -115,8 +131,10 @@ def test_map_takes_the_names_data_info_takes(tmp_path):
     from slamarena.experiments.cli_map import load_log
 
     log = tmp_path / "small.clf"
-    log.write_text("ODOM 0 0 0 0 0 0 1.0 host 0\nFLASER 4 1 2 3 4 0 0 0 0 0 0 1.1 host 0\n"
-                   "ODOM 1 0 0 0 0 0 1.2 host 0\nFLASER 4 1 2 3 4 1 0 0 1 0 0 1.3 host 0\n")
+    log.write_text(
+        "ODOM 0 0 0 0 0 0 1.0 host 0\nFLASER 4 1 2 3 4 0 0 0 0 0 0 1.1 host 0\n"
+        "ODOM 1 0 0 0 0 0 1.2 host 0\nFLASER 4 1 2 3 4 1 0 0 1 0 0 1.3 host 0\n"
+    )
     named, bare = load_log(f"carmen:{log}"), load_log(str(log))
     assert named.name == bare.name == f"carmen:{log}" and len(named.scans) == len(bare.scans) == 2
     with pytest.raises(Exception, match="corrected cannot be given|not found"):

@@ -1,4 +1,5 @@
 """Experiment configs: every mistake rejected before anything runs, with the field path."""
+
 from __future__ import annotations
 
 import textwrap
@@ -44,32 +45,74 @@ def test_good_config_and_derived_values(tmp_path):
     "change,path,message",
     [
         (("name: tiny", "name: tiny\nbogus: 1"), "bogus", "Extra inputs"),
-        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias:6/robot1\n    params: {path: /data/MRCLAM_Dataset7}"), "datasets.0",
-         "path cannot be given"),
-        (("sim:landmarks\n    params: {n_landmarks: 10}", "utias\n    params: {path: /data/MRCLAM_Dataset7, robt: 1}"), "datasets.0",
-         "params.robot: Field required; params.robt: Extra inputs are not permitted"),
-        (("sim:landmarks\n    params: {n_landmarks: 10}", "victoria_park\n    params: {varient: isam}"), "datasets.0",
-         "params.varient: Extra inputs are not permitted"),
-        (("sim:landmarks\n    params: {n_landmarks: 10}", "mrclam:/data/MRCLAM_Dataset7/robot1"), "datasets.0",
-         "unknown dataset 'mrclam:/data/MRCLAM_Dataset7/robot1'"),
+        (
+            (
+                "sim:landmarks\n    params: {n_landmarks: 10}",
+                "utias:6/robot1\n    params: {path: /data/MRCLAM_Dataset7}",
+            ),
+            "datasets.0",
+            "path cannot be given",
+        ),
+        (
+            (
+                "sim:landmarks\n    params: {n_landmarks: 10}",
+                "utias\n    params: {path: /data/MRCLAM_Dataset7, robt: 1}",
+            ),
+            "datasets.0",
+            "params.robot: Field required; params.robt: Extra inputs are not permitted",
+        ),
+        (
+            ("sim:landmarks\n    params: {n_landmarks: 10}", "victoria_park\n    params: {varient: isam}"),
+            "datasets.0",
+            "params.varient: Extra inputs are not permitted",
+        ),
+        (
+            ("sim:landmarks\n    params: {n_landmarks: 10}", "mrclam:/data/MRCLAM_Dataset7/robot1"),
+            "datasets.0",
+            "unknown dataset 'mrclam:/data/MRCLAM_Dataset7/robot1'",
+        ),
         (("seeds: [0, 3]", "seeds: 0"), "seeds", "≥ 1"),
         (("seeds: [0, 3]", "seeds: [1, 1]"), "seeds", "distinct"),
         (("sim:landmarks", "sim:nowhere"), "datasets.0", "unknown dataset 'sim:nowhere'"),
         (("{n_landmarks: 10}", "{n_landmarks: ten}"), "datasets.0", "n_landmarks"),
         (("{n_landmarks: 10}", "{n_landmark: 10}"), "datasets.0", "params.n_landmark: Extra inputs are not permitted"),
-        (("{n_landmarks: 10}", "{n_landmarks: -5}"), "datasets.0", "params.n_landmarks: Input should be greater than or equal to 1"),
+        (
+            ("{n_landmarks: 10}", "{n_landmarks: -5}"),
+            "datasets.0",
+            "params.n_landmarks: Input should be greater than or equal to 1",
+        ),
         (("{n_landmarks: 10}", "{seed: 4}"), "datasets.0", "set by the runner"),
         (("name: dead_reckoning", "name: kalman"), "estimators.0", "unknown method 'kalman'"),
-        (("{motion_model: euler}", "{motion_model: rk4}"), "estimators.0", "params.motion_model: Input should be 'arc' or 'euler'"),
+        (
+            ("{motion_model: euler}", "{motion_model: rk4}"),
+            "estimators.0",
+            "params.motion_model: Input should be 'arc' or 'euler'",
+        ),
         (("{motion_model: euler}", "{speed: 3}"), "estimators.0", "params.speed: Extra inputs are not permitted"),
-        (("{motion_model: euler}", "{initial_sigma: [0.1, -1, 0]}"), "estimators.0", "params.initial_sigma.1: Input should be greater than or equal to 0"),
-        (("metrics: [ate, cost]", "metrics: {ate: {align: se3}, cost: {}}"), "metrics.ate.align", "'none', 'se2' or 'sim2'"),
+        (
+            ("{motion_model: euler}", "{initial_sigma: [0.1, -1, 0]}"),
+            "estimators.0",
+            "params.initial_sigma.1: Input should be greater than or equal to 0",
+        ),
+        (
+            ("metrics: [ate, cost]", "metrics: {ate: {align: se3}, cost: {}}"),
+            "metrics.ate.align",
+            "'none', 'se2' or 'sim2'",
+        ),
         (("metrics: [ate, cost]", "metrics: {ate: {}, cost: {}, speed: {}}"), "metrics.speed", "Extra inputs"),
         (("[ate.rmse, cost.wall]", "[ate.rmse, ate.nope]"), "tables.0.columns", "unknown column 'ate.nope'"),
         (("[ate.rmse, cost.wall]", "[ate.rmse, rpe.trans_rmse]"), "", "not enabled under metrics: rpe"),
         (("figures: [errors]", "figures: [heatmap]"), "figures.0", "Input should be"),
-        (("{motion_model: euler}", "{motion_model: euler}\n    datasets: [utias_6_robot1]"), "", "estimators.0.datasets names unknown dataset labels"),
-        (("metrics: [ate, cost]", "metrics: {ate: {}, cost: {}, relations: {file: /no/such.relations}}"), "metrics.relations.file", "does not exist"),
+        (
+            ("{motion_model: euler}", "{motion_model: euler}\n    datasets: [utias_6_robot1]"),
+            "",
+            "estimators.0.datasets names unknown dataset labels",
+        ),
+        (
+            ("metrics: [ate, cost]", "metrics: {ate: {}, cost: {}, relations: {file: /no/such.relations}}"),
+            "metrics.relations.file",
+            "does not exist",
+        ),
         (("name: tiny", "name: my experiment"), "name", "plain directory name"),
     ],
 )
@@ -83,23 +126,32 @@ def test_mistakes_are_rejected_with_their_path(tmp_path, change, path, message):
 
 def test_a_recording_at_a_path_by_name_or_by_params(tmp_path):
     """Any recording of a known format, without editing code: the family and its path, in either form."""
-    text = GOOD.replace("  - name: sim:landmarks\n    params: {n_landmarks: 10}\n", """\
+    text = GOOD.replace(
+        "  - name: sim:landmarks\n    params: {n_landmarks: 10}\n",
+        """\
   - name: utias:/data/MRCLAM_Dataset7/robot1
   - name: utias
     params: {path: /data/MRCLAM_Dataset7, robot: 2}
     label: mrclam7_robot2
   - name: carmen:/data/new.clf
     params: {max_range: 50.0}
-""")
+""",
+    )
     cfg = load_config(_write(tmp_path, text))
     assert cfg.dataset_labels() == ["utias_data_MRCLAM_Dataset7_robot1", "mrclam7_robot2", "carmen_data_new.clf"]
     assert cfg.datasets[0].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 1}
     assert cfg.datasets[1].resolved_params() == {"path": "/data/MRCLAM_Dataset7", "robot": 2}
-    assert cfg.datasets[2].resolved_params()["max_range"] == 50.0 and cfg.datasets[2].resolved_params()["path"] == "/data/new.clf"
+    assert (
+        cfg.datasets[2].resolved_params()["max_range"] == 50.0
+        and cfg.datasets[2].resolved_params()["path"] == "/data/new.clf"
+    )
 
 
 def test_duplicate_labels_need_a_label(tmp_path):
-    text = GOOD.replace("    params: {n_landmarks: 10}\n", "    params: {n_landmarks: 10}\n  - name: sim:landmarks\n    params: {n_landmarks: 20}\n")
+    text = GOOD.replace(
+        "    params: {n_landmarks: 10}\n",
+        "    params: {n_landmarks: 10}\n  - name: sim:landmarks\n    params: {n_landmarks: 20}\n",
+    )
     with pytest.raises(ConfigError, match="labels must be unique"):
         load_config(_write(tmp_path, text))
     text = text.replace("params: {n_landmarks: 20}", "params: {n_landmarks: 20}\n    label: lm20")
@@ -150,34 +202,56 @@ def test_every_shipped_config_is_valid():
 def test_published_rows_are_checked_and_printed_beside_ours_never_best(tmp_path):
     import pandas as pd
 
-    from slamarena.experiments.tables import to_markdown, with_published, aggregate
+    from slamarena.experiments.tables import aggregate, to_markdown, with_published
 
-    text = GOOD + """published:
+    text = (
+        GOOD
+        + """published:
   - label: graph mapping (Kümmerle 2009)
     citation: Kümmerle et al., Auton. Robots 27(4), 2009, Table 2
     values: {sim_landmarks: {ate.rmse: 0.001}}
 """
+    )
     cfg = load_config(_write(tmp_path, text))
-    frame = pd.DataFrame([{"dataset": "sim_landmarks", "estimator": e, "seed": s, "status": "ok", "ate.rmse": v, "cost.wall": 1.0}
-                          for e, vals in (("a", (0.2, 0.3)), ("b", (0.5, 0.4))) for s, v in enumerate(vals)])
+    frame = pd.DataFrame(
+        [
+            {"dataset": "sim_landmarks", "estimator": e, "seed": s, "status": "ok", "ate.rmse": v, "cost.wall": 1.0}
+            for e, vals in (("a", (0.2, 0.3)), ("b", (0.5, 0.4)))
+            for s, v in enumerate(vals)
+        ]
+    )
     means, stds, best = with_published(*aggregate(frame, ["ate.rmse", "cost.wall"]), cfg.published)
     md = to_markdown(means, stds, best, cfg.published)
     assert "| sim_landmarks | graph mapping (Kümmerle 2009) (published) | – | 0.001 | – |" in md
     assert "| sim_landmarks | a | 2 | **0.25 ± 0.0707** |" in md  # ours is best although the quoted row is lower
     assert "Kümmerle et al., Auton. Robots 27(4), 2009, Table 2" in md
-    for bad, message in ((("sim_landmarks: {ate.rmse", "utias_6_robot9: {ate.rmse"), "names unknown dataset labels"),
-                         (("{ate.rmse: 0.001}", "{ate.nope: 0.001}"), "unknown column 'ate.nope'")):
+    for bad, message in (
+        (("sim_landmarks: {ate.rmse", "utias_6_robot9: {ate.rmse"), "names unknown dataset labels"),
+        (("{ate.rmse: 0.001}", "{ate.nope: 0.001}"), "unknown column 'ate.nope'"),
+    ):
         with pytest.raises(ConfigError, match=message):
             load_config(_write(tmp_path, text.replace(*bad)))
 
 
 def test_a_method_is_refused_on_a_dataset_without_the_streams_it_needs(tmp_path):
-    text = GOOD.replace("  - name: sim:landmarks\n", "  - name: sim:localization\n    params: {duration: 5.0}\n  - name: sim:landmarks\n")
-    with pytest.raises(ConfigError, match="estimators.0 \\(ekf_slam\\) cannot run on dataset 'sim_localization': it needs range_bearing"):
-        load_config(_write(tmp_path, text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam")))
+    text = GOOD.replace(
+        "  - name: sim:landmarks\n",
+        "  - name: sim:localization\n    params: {duration: 5.0}\n  - name: sim:landmarks\n",
+    )
+    with pytest.raises(
+        ConfigError,
+        match="estimators.0 \\(ekf_slam\\) cannot run on dataset 'sim_localization': it needs range_bearing",
+    ):
+        load_config(
+            _write(tmp_path, text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam"))
+        )
     with pytest.raises(ConfigError, match="needs scans"):
-        load_config(_write(tmp_path, GOOD.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: grid_slam")))
-    restricted = text.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam\n    datasets: [sim_landmarks]")
+        load_config(
+            _write(tmp_path, GOOD.replace("name: dead_reckoning\n    params: {motion_model: euler}", "name: grid_slam"))
+        )
+    restricted = text.replace(
+        "name: dead_reckoning\n    params: {motion_model: euler}", "name: ekf_slam\n    datasets: [sim_landmarks]"
+    )
     assert load_config(_write(tmp_path, restricted)).estimators[0].name == "ekf_slam"
 
 

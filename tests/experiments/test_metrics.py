@@ -1,4 +1,5 @@
 """Metrics: ATE/RPE against evo on the same trajectories, and known-answer cases for every metric."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,7 +19,9 @@ from slamarena.experiments.metrics.trajectory import ATEParams, RPEParams, ate, 
 def _truth(K=300, seed=0):
     rng = np.random.default_rng(seed)
     t = np.arange(K) * 0.1
-    delta = np.column_stack([0.1 + 0.05 * rng.random(K - 1), 0.01 * rng.standard_normal(K - 1), 0.05 + 0.03 * rng.standard_normal(K - 1)])
+    delta = np.column_stack(
+        [0.1 + 0.05 * rng.random(K - 1), 0.01 * rng.standard_normal(K - 1), 0.05 + 0.03 * rng.standard_normal(K - 1)]
+    )
     from slamarena.datasets.geometry import accumulate
 
     return t, accumulate([0.0, 0.0, 0.2], delta)
@@ -69,7 +72,10 @@ def test_ate_matches_evo(align):
     assert ours["heading_max"] == pytest.approx(rot.get_all_statistics()["max"], abs=1e-6)
 
 
-@pytest.mark.parametrize("unit,delta,all_pairs", [("frames", 1, True), ("frames", 7, False), ("frames", 5, True), ("m", 2.0, True), ("m", 1.5, False)])
+@pytest.mark.parametrize(
+    "unit,delta,all_pairs",
+    [("frames", 1, True), ("frames", 7, False), ("frames", 5, True), ("m", 2.0, True), ("m", 1.5, False)],
+)
 def test_rpe_matches_evo(unit, delta, all_pairs):
     from evo.core import metrics
 
@@ -78,7 +84,10 @@ def test_rpe_matches_evo(unit, delta, all_pairs):
     params = RPEParams(delta=delta, unit=unit, all_pairs=all_pairs)
     ours, _ = rpe(Estimate("x", t, est), _ref(t, gt), params)
     evo_unit = metrics.Unit.frames if unit == "frames" else metrics.Unit.meters
-    for relation, keys in ((metrics.PoseRelation.translation_part, ("trans_rmse", "trans_mean", "trans_median", "trans_max")), (metrics.PoseRelation.rotation_angle_rad, ("rot_rmse", "rot_mean", None, "rot_max"))):
+    for relation, keys in (
+        (metrics.PoseRelation.translation_part, ("trans_rmse", "trans_mean", "trans_median", "trans_max")),
+        (metrics.PoseRelation.rotation_angle_rad, ("rot_rmse", "rot_mean", None, "rot_max")),
+    ):
         m = metrics.RPE(relation, delta=delta, delta_unit=evo_unit, all_pairs=all_pairs, pairs_from_reference=True)
         m.process_data((_evo(t, gt), _evo(t, est)))
         stats = m.get_all_statistics()
@@ -149,7 +158,9 @@ def test_rpe_known_answer_drift():
     res, _ = rpe(Estimate("x", t, est), _ref(t, gt), RPEParams(delta=10, unit="frames"))
     assert res["rot_mean"] == pytest.approx(10 * b) and res["rot_max"] == pytest.approx(10 * b)
     # seconds: pairs 1 s apart at 10 Hz are 10 frames apart
-    np.testing.assert_array_equal(rpe_pairs(t, gt[:, :2], 1.0, "s", rel_tol=0.01), rpe_pairs(t, gt[:, :2], 10, "frames"))
+    np.testing.assert_array_equal(
+        rpe_pairs(t, gt[:, :2], 1.0, "s", rel_tol=0.01), rpe_pairs(t, gt[:, :2], 10, "frames")
+    )
 
 
 def test_nees_consistent_and_inconsistent():
@@ -221,10 +232,14 @@ def test_landmark_error_by_id_and_nearest():
     # plus 3 spurious ones, 5 missed
     est_lm = A.points(xy[:25] + [0.1, 0.0])
     spurious = A.points(np.array([[50.0, 50.0], [60.0, 50.0], [50.0, 70.0]]))
-    e = Estimate("x", t, est_poses, landmark_ids=np.r_[ids[:25], 100, 101, 102], landmarks=np.vstack([est_lm, spurious]))
+    e = Estimate(
+        "x", t, est_poses, landmark_ids=np.r_[ids[:25], 100, 101, 102], landmarks=np.vstack([est_lm, spurious])
+    )
     res, _ = landmark_error(e, ref, MapParams(by="id"))
     assert res["rmse"] == pytest.approx(0.1) and res["matched"] == 25 and res["missed"] == 5 and res["spurious"] == 3
-    unknown = Estimate("x", t, est_poses, landmark_ids=np.full(28, -1), landmarks=rng.permutation(np.vstack([est_lm, spurious])))
+    unknown = Estimate(
+        "x", t, est_poses, landmark_ids=np.full(28, -1), landmarks=rng.permutation(np.vstack([est_lm, spurious]))
+    )
     res, _ = landmark_error(unknown, ref, MapParams(by="nearest", max_distance=1.0))
     assert res["rmse"] == pytest.approx(0.1) and res["matched"] == 25 and res["missed"] == 5 and res["spurious"] == 3
 
@@ -233,7 +248,9 @@ def test_missed_counts_only_observed_landmarks():
     t, gt = _truth(K=20)
     xy = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 3.0]])
     rb = RangeBearing(t=[0.5, 0.5], range=[1, 1], bearing=[0, 0], landmark_id=[0, 1])
-    seq = Sequence("s", range_bearing=rb, ground_truth=Trajectory(t=t, poses=gt), landmarks=LandmarkMap(ids=[0, 1, 2], xy=xy))
+    seq = Sequence(
+        "s", range_bearing=rb, ground_truth=Trajectory(t=t, poses=gt), landmarks=LandmarkMap(ids=[0, 1, 2], xy=xy)
+    )
     e = Estimate("x", t, gt, landmark_ids=[0], landmarks=xy[:1])
     res, _ = landmark_error(e, reference_of(seq), MapParams(align="none"))
     assert res["missed"] == 1 and res["rmse"] == 0.0  # landmark 2 was never observed
@@ -250,7 +267,9 @@ def test_relation_error_known_answer():
     # every reference relation off by 0.1 m along its own x and 0.02 rad: the error is that
     off = compose(reference, np.array([0.1, 0.0, 0.02]))
     res, _ = relation_error(Estimate("x", t, gt), t[i], t[j], off)
-    assert res["trans_mean"] == pytest.approx(0.1) and res["rot_mean"] == pytest.approx(0.02) and res["trans_std"] < 1e-9
+    assert (
+        res["trans_mean"] == pytest.approx(0.1) and res["rot_mean"] == pytest.approx(0.02) and res["trans_std"] < 1e-9
+    )
     # stamps 0.03 s off: nearest within 0.05 s still matches; tolerance 0.01 s drops them all
     assert relation_error(Estimate("x", t, gt), t[i] + 0.03, t[j] + 0.03, reference)[0]["used"] == len(i)
     with pytest.raises(MetricUnavailable):
@@ -258,16 +277,30 @@ def test_relation_error_known_answer():
     from slamarena.datasets.geometry import interpolate_poses
 
     mid_i, mid_j = interpolate_poses(t, gt, t[i] + 0.05), interpolate_poses(t, gt, t[j] + 0.05)
-    interp, _ = relation_error(Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(match="interpolate"))
+    interp, _ = relation_error(
+        Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(match="interpolate")
+    )
     assert interp["used"] == len(i) and interp["trans_mean"] < 1e-12
     # …whereas the nearest pose is a whole step away from the mid-point: a visible error
-    assert relation_error(Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(tolerance=0.06))[0]["trans_mean"] > 1e-3
+    assert (
+        relation_error(
+            Estimate("x", t, gt), t[i] + 0.05, t[j] + 0.05, between(mid_i, mid_j), RelationsParams(tolerance=0.06)
+        )[0]["trans_mean"]
+        > 1e-3
+    )
     # local relations (stamps closer than local_span) are scored apart from the others
-    a, b = np.arange(0, 100, 10), np.arange(0, 100, 10) + np.where(np.arange(10) < 6, 5, 150)  # 6 short spans, 4 long ones
+    a, b = (
+        np.arange(0, 100, 10),
+        np.arange(0, 100, 10) + np.where(np.arange(10) < 6, 5, 150),
+    )  # 6 short spans, 4 long ones
     short = (t[b] - t[a]) < (t[155] - t[0]) / 2
     ref = np.where(short[:, None], between(gt[a], gt[b]), compose(between(gt[a], gt[b]), np.array([0.1, 0.0, 0.0])))
-    split = relation_error(Estimate("x", t, gt), t[a], t[b], ref, RelationsParams(local_span=float((t[155] - t[0]) / 2)))[0]
-    assert split["local"] == 6 and split["local_trans_mean"] < 1e-12 and split["global_trans_mean"] == pytest.approx(0.1)
+    split = relation_error(
+        Estimate("x", t, gt), t[a], t[b], ref, RelationsParams(local_span=float((t[155] - t[0]) / 2))
+    )[0]
+    assert (
+        split["local"] == 6 and split["local_trans_mean"] < 1e-12 and split["global_trans_mean"] == pytest.approx(0.1)
+    )
 
 
 def test_revisit_relations_score_a_loops_overlap():
@@ -300,12 +333,17 @@ def test_loop_metric_scores_the_revisits_of_the_ground_truth():
     seq = Sequence("circle", ground_truth=Trajectory(t=t, poses=truth))
     shifted = truth.copy()
     shifted[100:, 0] += 0.3
-    loop = lambda poses: evaluate(CellData(Estimate("x", t, poses), seq, reference_of(seq)), {"loop": METRICS["loop"].params()})
+    loop = lambda poses: evaluate(
+        CellData(Estimate("x", t, poses), seq, reference_of(seq)), {"loop": METRICS["loop"].params()}
+    )
     assert loop(truth)[0]["loop"]["trans_mean"] < 1e-9
     scores = loop(shifted)[0]["loop"]
     assert scores["trans_mean"] == pytest.approx(0.3) and scores["used"] == 20
     one_lap = Sequence("arc", ground_truth=Trajectory(t=t[:100], poses=truth[:100]))
-    skipped = evaluate(CellData(Estimate("x", t[:100], truth[:100]), one_lap, reference_of(one_lap)), {"loop": METRICS["loop"].params()})[2]
+    skipped = evaluate(
+        CellData(Estimate("x", t[:100], truth[:100]), one_lap, reference_of(one_lap)),
+        {"loop": METRICS["loop"].params()},
+    )[2]
     assert "revisits no place" in skipped["loop"]
 
 
@@ -319,7 +357,11 @@ def test_cost_and_evaluate_records_skipped_metrics():
     assert scalars["cost"]["step_total"] == pytest.approx(0.149)
     assert scalars["cost"]["peak_rss_mb"] == 123.0
     assert "realtime" not in scalars["cost"]  # a sequence without input streams has no duration
-    recording = Sequence("s", ground_truth=Trajectory(t=t, poses=gt), range_bearing=RangeBearing(t=[1.0, 11.0], range=[1, 1], bearing=[0, 0], landmark_id=[0, 1]))
+    recording = Sequence(
+        "s",
+        ground_truth=Trajectory(t=t, poses=gt),
+        range_bearing=RangeBearing(t=[1.0, 11.0], range=[1, 1], bearing=[0, 0], landmark_id=[0, 1]),
+    )
     timed = evaluate(CellData(e, recording, reference_of(recording), wall=0.5), {"cost": METRICS["cost"].params()})[0]
     assert timed["cost"]["realtime"] == pytest.approx(10.0 / 0.5)  # the recording's span over the wall time
     assert scalars["ate"]["rmse"] < 1e-12
@@ -374,7 +416,12 @@ def test_peak_memory_is_the_cell_process_own():
 
     ballast = np.ones(300 * 2**20 // 8)  # 300 MiB, touched
     assert peak_rss_mb() > 300
-    out = subprocess.run([sys.executable, "-c", "from slamarena.experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", "from slamarena.experiments.metrics.cost import peak_rss_mb; print(peak_rss_mb())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert 5 < float(out.stdout) < 200
     del ballast
 
@@ -393,8 +440,13 @@ def test_series_names_are_the_ones_the_metrics_write(tmp_path):
     gt = seq.ground_truth
     i = np.arange(0, len(gt.t) - 10, 10)
     delta = between(gt.poses[i], gt.poses[i + 10])
-    relations.write(tmp_path / "rel.txt", relations.Relations(gt.t[i], gt.t[i + 10], np.column_stack([delta[:, :2], np.zeros((len(i), 3)), delta[:, 2]])))
-    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")} | {"relations": METRICS["relations"].params(file=tmp_path / "rel.txt")}
+    relations.write(
+        tmp_path / "rel.txt",
+        relations.Relations(gt.t[i], gt.t[i + 10], np.column_stack([delta[:, :2], np.zeros((len(i), 3)), delta[:, 2]])),
+    )
+    selected = {name: METRICS[name].params() for name in ("ate", "nees", "nis")} | {
+        "relations": METRICS["relations"].params(file=tmp_path / "rel.txt")
+    }
     _, series, skipped = evaluate(CellData(est, seq, reference_of(seq)), selected)
     assert not skipped
     assert set(Series) <= set(_flatten_series(series)), set(Series) - set(_flatten_series(series))
@@ -404,11 +456,28 @@ def test_estimate_counts_what_the_estimate_reports_of_itself():
     from slamarena.experiments.metrics.estimate import estimate_counts
 
     t, gt = _truth(K=20)
-    filtered = Estimate("ekf_slam", t, gt, landmark_ids=[3, 5, 9], landmarks=np.zeros((3, 2)),
-                        diagnostics={"rejected_nonfinite": np.array(2), "rejected_motion": np.array(1), "nis": np.ones(4)}, meta={"rejected": 4})
+    filtered = Estimate(
+        "ekf_slam",
+        t,
+        gt,
+        landmark_ids=[3, 5, 9],
+        landmarks=np.zeros((3, 2)),
+        diagnostics={"rejected_nonfinite": np.array(2), "rejected_motion": np.array(1), "nis": np.ones(4)},
+        meta={"rejected": 4},
+    )
     assert estimate_counts(filtered)[0] == {"landmarks": 3, "rejected": 7}  # 2 + 1 bad rows, 4 refused by the gate
-    smoothed = Estimate("gtsam_batch", t, gt, diagnostics={"initial_error": np.array(250.0), "final_error": np.array(12.5), "iterations": np.array(7)},
-                        meta={"resamplings": 3, "rejected": {"gps": {"gate": 2}}})  # a nested count is not a row count
-    assert estimate_counts(smoothed)[0] == {"initial_error": 250.0, "final_error": 12.5, "iterations": 7, "resamplings": 3}
+    smoothed = Estimate(
+        "gtsam_batch",
+        t,
+        gt,
+        diagnostics={"initial_error": np.array(250.0), "final_error": np.array(12.5), "iterations": np.array(7)},
+        meta={"resamplings": 3, "rejected": {"gps": {"gate": 2}}},
+    )  # a nested count is not a row count
+    assert estimate_counts(smoothed)[0] == {
+        "initial_error": 250.0,
+        "final_error": 12.5,
+        "iterations": 7,
+        "resamplings": 3,
+    }
     with pytest.raises(MetricUnavailable, match="reports no landmarks"):
         estimate_counts(Estimate("dead_reckoning", t, gt))

@@ -1,5 +1,6 @@
 """Sensor-model identification by the innovation likelihood (experiments.noise_identification): it recovers a simulator's
 observation noise from a model stated 16× too large, and scoring the innovations leaves the filter's estimate unchanged."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,7 +23,7 @@ def test_identification_returns_to_the_simulators_observation_noise_from_a_model
     np.testing.assert_allclose(found.model["range_bearing_cov"], truth["range_bearing_cov"], rtol=1e-12)
     assert found.score == innovation_score(seq, {k: v.tolist() for k, v in truth.items()})
     assert found.score.loglik > max(s.loglik for k, s in found.trace if k != found.exponents) - 1e-12
-    assert abs(found.score.nis_per_dof - 1.0) < 0.1                   # the true model is consistent
+    assert abs(found.score.nis_per_dof - 1.0) < 0.1  # the true model is consistent
 
 
 def test_scoring_leaves_the_estimate_unchanged_and_counts_every_labelled_reobservation():
@@ -32,4 +33,4 @@ def test_scoring_leaves_the_estimate_unchanged_and_counts_every_labelled_reobser
     scored = scoring.run(seq)
     np.testing.assert_array_equal(scored.poses, plain.poses)
     ids = seq.range_bearing.landmark_id
-    assert len(scoring.scored) == len(ids) - len(np.unique(ids))       # every row but each landmark's first
+    assert len(scoring.scored) == len(ids) - len(np.unique(ids))  # every row but each landmark's first

@@ -1,5 +1,6 @@
 """`slamarena results`: a page's quoted tables and values regenerated from the runs, prose left alone; and the page
 the project ships (research/results.md) quotes only tables the shipped configs write."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -32,11 +33,24 @@ def _run(root: Path, name: str = "plaza", config: dict | None = None, failed: bo
     run = root / name
     (run / "tables").mkdir(parents=True)
     (run / "tables" / "accuracy.md").write_text(ACCURACY)
-    write_json(run / "manifest.json", {"experiment": name, "config": config or load_config(name).model_dump(mode="json"), "git_revision": "0123456789abcdef", "finished": "2025-01-02T03:04:05",
-                                       "machine": {"hostname": "box", "cpus": 2}, "duration_s": 90.0, "jobs": 2, "cells": {"total": 7},
-                                       "failed": ["other/ekf_slam/2"] if failed else []})
+    write_json(
+        run / "manifest.json",
+        {
+            "experiment": name,
+            "config": config or load_config(name).model_dump(mode="json"),
+            "git_revision": "0123456789abcdef",
+            "finished": "2025-01-02T03:04:05",
+            "machine": {"hostname": "box", "cpus": 2},
+            "duration_s": 90.0,
+            "jobs": 2,
+            "cells": {"total": 7},
+            "failed": ["other/ekf_slam/2"] if failed else [],
+        },
+    )
     status = "timeout" if failed else "ok"
-    (run / "summary.csv").write_text(f"dataset,estimator,seed,status,error\nworld,ekf_slam,0,ok,\nother,ekf_slam,2,{status},{'timed out after 5 s' if failed else ''}\n")
+    (run / "summary.csv").write_text(
+        f"dataset,estimator,seed,status,error\nworld,ekf_slam,0,ok,\nother,ekf_slam,2,{status},{'timed out after 5 s' if failed else ''}\n"
+    )
     return run
 
 
@@ -45,10 +59,17 @@ def test_a_table_marker_is_replaced_by_the_runs_table_with_its_command_provenanc
     page = "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
     new, missing = update_page(page, tmp_path)
     assert not missing
-    assert new.startswith("# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)")
+    assert new.startswith(
+        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)"
+    )
     assert "old text" not in new and new.endswith("<!-- /table -->\n\nMore prose.\n")
-    assert "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |" in new  # the best mark kept
-    assert "| other |" not in new and "map.rmse" not in new  # rows and columns filtered, the legend of a dropped column too
+    assert (
+        "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |"
+        in new
+    )  # the best mark kept
+    assert (
+        "| other |" not in new and "map.rmse" not in new
+    )  # rows and columns filtered, the legend of a dropped column too
     assert "- `ate.rmse`: ATE RMSE [m]" in new and "- paper (published): A. Author, 2009" in new
     assert "failed: other/ekf_slam/2" not in new  # a failure of a row not shown is not listed
     everything, _ = update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path)
@@ -62,7 +83,10 @@ def test_values_quote_one_cell_its_mean_or_a_range(tmp_path):
     assert render_value(tmp_path, "plaza/accuracy world/ekf_slam ate.rmse mean") == "0.054"
     assert render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse range") == "0.054–0.09"
     page = "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->?<!-- /value --> m."
-    assert update_page(page, tmp_path)[0] == "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->0.056<!-- /value --> m."
+    assert (
+        update_page(page, tmp_path)[0]
+        == "EKF <!-- value: plaza/accuracy world/ekf_slam map.rmse mean -->0.056<!-- /value --> m."
+    )
     with pytest.raises(QuoteError, match="matches 2 rows"):
         render_value(tmp_path, "plaza/accuracy */ekf_slam ate.rmse")
     with pytest.raises(QuoteError, match="no column 'ate.max'"):
@@ -90,14 +114,20 @@ def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked
     new, missing = update_page(page, tmp_path, reduced=True)
     assert not missing and "**† Not the shipped config** — seeds: 3 (shipped: 1)" in new and "-->0.054†<!--" in new
     _run(tmp_path / "same", "plaza", config=shipped)
-    assert "Not the shipped" not in update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path / "same")[0]
+    assert (
+        "Not the shipped" not in update_page("<!-- table: plaza/accuracy -->\n<!-- /table -->\n", tmp_path / "same")[0]
+    )
 
 
 def test_read_table_keeps_the_cells_and_the_legend(tmp_path):
     (tmp_path / "t.md").write_text(ACCURACY)
     table = read_table(tmp_path / "t.md")
     assert table.header[:3] == ["dataset", "estimator", "n"] and table.rows[1][3] == "**0.054 ± 0.013**"
-    assert [table.key(r) for r in table.matching("world/*")] == ["world/dead_reckoning", "world/ekf_slam", "world/paper (published)"]
+    assert [table.key(r) for r in table.matching("world/*")] == [
+        "world/dead_reckoning",
+        "world/ekf_slam",
+        "world/paper (published)",
+    ]
     assert table.legend[0].startswith("n: seeds")
 
 
@@ -133,7 +163,16 @@ def test_every_shipped_config_lists_with_a_description(capsys):
     from slamarena.experiments.cli import app
 
     configs = shipped_configs()
-    assert {"default", "consistency", "mrclam", "victoria_park", "plaza", "pose_graphs", "kummerle2009", "scaling"} <= set(configs)
+    assert {
+        "default",
+        "consistency",
+        "mrclam",
+        "victoria_park",
+        "plaza",
+        "pose_graphs",
+        "kummerle2009",
+        "scaling",
+    } <= set(configs)
     assert all(configs.values()), [k for k, v in configs.items() if not v]
     out = CliRunner().invoke(app, ["run", "--list"]).output
     lines = out.strip().splitlines()
@@ -143,5 +182,11 @@ def test_every_shipped_config_lists_with_a_description(capsys):
 def test_a_run_on_part_of_the_grid_says_which_part(tmp_path):
     shipped = load_config("consistency")
     _run(tmp_path, "consistency", config=shipped.reduced(datasets=["hard"], seeds=3).model_dump(mode="json"))
-    line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path, reduced=True)[0].splitlines()[1]
-    assert "datasets: 1 of 2 (hard)" in line and "estimators: 4 of 5 (ekf_slam, ekf_slam_fej, ekf_slam_oc, ekf_slam_ideal)" in line and "seeds: 3 (shipped: 30)" in line
+    line = update_page("<!-- table: consistency/accuracy -->\n<!-- /table -->\n", tmp_path, reduced=True)[
+        0
+    ].splitlines()[1]
+    assert (
+        "datasets: 1 of 2 (hard)" in line
+        and "estimators: 4 of 5 (ekf_slam, ekf_slam_fej, ekf_slam_oc, ekf_slam_ideal)" in line
+        and "seeds: 3 (shipped: 30)" in line
+    )

@@ -1,6 +1,7 @@
 """``slamarena report`` and ``slamarena run --report``: one self-contained HTML file and its Markdown twin, with the
 run's facts, every table with its caption, every figure with its caption, the failed cells, published reference
 rows beside ours, two results directories side by side; and the HTML rendered by a real (headless) Chromium."""
+
 from __future__ import annotations
 
 import base64
@@ -48,7 +49,13 @@ TABLES = {"table-run", "table-versions", "table-accuracy", "table-cost", "table-
 
 
 def _cli(*args):
-    return subprocess.run([*CLI, *map(str, args)], capture_output=True, text=True, timeout=600, env={**os.environ, "OPENBLAS_NUM_THREADS": "1", "COLUMNS": "400"})
+    return subprocess.run(
+        [*CLI, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "OPENBLAS_NUM_THREADS": "1", "COLUMNS": "400"},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -147,10 +154,14 @@ def test_run_facts_config_and_failed_cells(run):
     text = (out / "report.html").read_text()
     page = Page(text)
     facts = dict((r[0][0], r[1][0]) for r in page.tables["table-run"][1:])
-    assert facts["git revision"] == str(manifest["git_revision"]) and manifest["machine"]["hostname"] in facts["machine"]
+    assert (
+        facts["git revision"] == str(manifest["git_revision"]) and manifest["machine"]["hostname"] in facts["machine"]
+    )
     assert facts["cells"] == "6 total, 6 run, 0 cached, 2 failed"
     assert ("numpy", manifest["versions"]["numpy"]) in [(r[0][0], r[1][0]) for r in page.tables["table-versions"]]
-    assert "Dead reckoning and EKF-SLAM on a small landmark world" in text and "n_landmarks: 8" in text  # the config as run
+    assert (
+        "Dead reckoning and EKF-SLAM on a small landmark world" in text and "n_landmarks: 8" in text
+    )  # the config as run
     failed = page.tables["table-failed"][1:]
     errors = pd.read_csv(out / "summary.csv").query("status != 'ok'")
     assert [(r[1][0], r[2][0]) for r in failed] == [("gtsam_batch", "0"), ("gtsam_batch", "1")]
@@ -173,8 +184,13 @@ def test_published_rows_appear_beside_ours_with_their_citation(run, tmp_path):
     out = tmp_path / "with_published"
     shutil.copytree(run[0], out)
     manifest = json.loads((out / "manifest.json").read_text())
-    manifest["config"]["published"] = [{"label": "Paper", "citation": "A. Author et al., A SLAM paper, 2009",
-                                         "values": {"sim_landmarks": {"ate.rmse": 0.123}, "elsewhere": {"ate.rmse": 9.0}}}]
+    manifest["config"]["published"] = [
+        {
+            "label": "Paper",
+            "citation": "A. Author et al., A SLAM paper, 2009",
+            "values": {"sim_landmarks": {"ate.rmse": 0.123}, "elsewhere": {"ate.rmse": 9.0}},
+        }
+    ]
     (out / "manifest.json").write_text(json.dumps(manifest))
     html_path, md_path = write_report(out)
     page = Page(html_path.read_text())
@@ -183,7 +199,9 @@ def test_published_rows_appear_beside_ours_with_their_citation(run, tmp_path):
     assert rows[-1][3] == ("0.123", "published") and rows[-1][4] == ("–", "published")
     assert "Paper (published)" not in [r[1][0] for r in page.tables["table-cost"]]  # it gives no cost column
     assert html.escape("Paper (published): A. Author et al., A SLAM paper, 2009") in html_path.read_text()
-    assert "| sim_landmarks* | *Paper (published)* |" in md_path.read_text().replace("*sim_landmarks*", "sim_landmarks*")
+    assert "| sim_landmarks* | *Paper (published)* |" in md_path.read_text().replace(
+        "*sim_landmarks*", "sim_landmarks*"
+    )
 
 
 def test_two_runs_side_by_side_with_the_differences_highlighted(run, tmp_path):
@@ -208,7 +226,9 @@ def test_two_runs_side_by_side_with_the_differences_highlighted(run, tmp_path):
     assert ekf[5][1] == "changed worse" and ekf[7][1] == "better changed" and ekf[4][1] == ""
     assert all(c[1] == "" for c in dr)
     assert "A and B ran the same config" in text
-    assert len(page.images) == 6 and [i["alt"] for i in page.images[:2]] == ["trajectories_sim_landmarks"] * 2  # figures in pairs
+    assert (
+        len(page.images) == 6 and [i["alt"] for i in page.images[:2]] == ["trajectories_sim_landmarks"] * 2
+    )  # figures in pairs
     manifest["config"]["seeds"] = 3
     (b / "manifest.json").write_text(json.dumps(manifest))
     text = write_report(a, b, tmp_path / "cmp2")[0].read_text()
@@ -217,14 +237,20 @@ def test_two_runs_side_by_side_with_the_differences_highlighted(run, tmp_path):
 
 def test_report_of_a_folder_that_is_not_a_results_directory_is_a_user_error(tmp_path):
     result = _cli("report", tmp_path)
-    assert result.returncode == 2 and "not a results directory (no manifest.json" in result.stderr and "Traceback" not in result.stderr
+    assert (
+        result.returncode == 2
+        and "not a results directory (no manifest.json" in result.stderr
+        and "Traceback" not in result.stderr
+    )
     (tmp_path / "manifest.json").write_text("{not json")
     result = _cli("report", tmp_path)
     assert result.returncode == 2 and f"{tmp_path / 'manifest.json'}: unreadable manifest" in result.stderr
 
 
 # ---------------------------------------------------------------------------- in a real browser
-CHROMIUM = next((shutil.which(name) for name in ("chromium", "chromium-browser", "google-chrome") if shutil.which(name)), None)
+CHROMIUM = next(
+    (shutil.which(name) for name in ("chromium", "chromium-browser", "google-chrome") if shutil.which(name)), None
+)
 ARTIFACTS = Path(os.environ.get("SLAMARENA_TEST_ARTIFACTS", ROOT / "results" / "test-artifacts"))
 #: added to a copy of the report: on load, writes what the browser made of every image and table into the page
 CHECK = """<script>window.addEventListener("load", () => {
@@ -235,8 +261,17 @@ CHECK = """<script>window.addEventListener("load", () => {
 
 
 def _chromium(tmp_path, *args):
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-             "--disable-component-update", "--disable-sync", f"--user-data-dir={tmp_path / 'chromium-profile'}"]
+    flags = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'chromium-profile'}",
+    ]
     result = subprocess.run([CHROMIUM, *flags, *args], capture_output=True, text=True, timeout=180)
     assert result.returncode == 0, result.stderr[-2000:]
     return result.stdout
@@ -249,7 +284,9 @@ def _rendered(tmp_path, page_text: str, name: str) -> dict:
     return json.loads(html.unescape(re.search(r'<pre id="report-check">(.*?)</pre>', dom, re.S).group(1)))
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it)")
+@pytest.mark.skipif(
+    CHROMIUM is None, reason="Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it)"
+)
 def test_report_renders_in_headless_chromium(run, tmp_path):
     out, _ = run
     text = (out / "report.html").read_text()
@@ -263,6 +300,8 @@ def test_report_renders_in_headless_chromium(run, tmp_path):
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     shot = ARTIFACTS / "report_screenshot.png"
     shot.unlink(missing_ok=True)
-    _chromium(tmp_path, "--window-size=1280,4000", "--hide-scrollbars", f"--screenshot={shot}", (out / "report.html").as_uri())
+    _chromium(
+        tmp_path, "--window-size=1280,4000", "--hide-scrollbars", f"--screenshot={shot}", (out / "report.html").as_uri()
+    )
     assert shot.read_bytes()[:4] == b"\x89PNG" and shot.stat().st_size > 50_000
     print(f"report screenshot kept at {shot}")

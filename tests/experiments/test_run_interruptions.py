@@ -1,4 +1,5 @@
 """Interrupted and damaged runs: SIGKILL takes the cells along, Ctrl-C says how to resume, damaged caches are recomputed."""
+
 from __future__ import annotations
 
 import json
@@ -31,7 +32,11 @@ CLI = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()
 
 def _cell_processes(parent: int | None = None) -> list[int]:
     """PIDs of running experiment-cell processes (of ``parent``, or any)."""
-    out = subprocess.run(["pgrep", *(["-P", str(parent)] if parent else []), "-f", "slamarena.experiments.cell"], capture_output=True, text=True)
+    out = subprocess.run(
+        ["pgrep", *(["-P", str(parent)] if parent else []), "-f", "slamarena.experiments.cell"],
+        capture_output=True,
+        text=True,
+    )
     return [int(p) for p in out.stdout.split()]
 
 
@@ -41,8 +46,13 @@ def _start(tmp_path, text=SLOW):
     out = tmp_path / "out"
     # SIGINT at its default in the child, as under a terminal: a shell starts background jobs with it ignored, and an
     # ignored SIGINT is inherited through exec (Python then installs no KeyboardInterrupt handler)
-    proc = subprocess.Popen([*CLI, "run", str(path), "--out", str(out), "-j", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        [*CLI, "run", str(path), "--out", str(out), "-j", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not _cell_processes(proc.pid):
         time.sleep(0.05)
@@ -78,7 +88,11 @@ def test_ctrl_c_records_the_interruption_and_says_how_to_resume(tmp_path):
 @pytest.mark.parametrize("damaged", ["series.npz", "estimate.npz"])
 def test_a_damaged_cached_file_is_recomputed_not_reused(tmp_path, damaged):
     path = tmp_path / "tiny.yaml"
-    path.write_text(SLOW.replace("n_landmarks: 40, laps: 3", "n_landmarks: 8, laps: 1").replace("seeds: 2", "seeds: 1").replace("ekf_slam", "dead_reckoning"))
+    path.write_text(
+        SLOW.replace("n_landmarks: 40, laps: 3", "n_landmarks: 8, laps: 1")
+        .replace("seeds: 2", "seeds: 1")
+        .replace("ekf_slam", "dead_reckoning")
+    )
     cfg = load_config(path)
     out = tmp_path / "out"
     quiet = __import__("rich.console", fromlist=["Console"]).Console(file=open(os.devnull, "w"))

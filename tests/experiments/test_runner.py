@@ -1,4 +1,5 @@
 """The runner: layout, cache and resume, failures and timeouts, Dask = local, kill and resume."""
+
 from __future__ import annotations
 
 import json
@@ -45,7 +46,10 @@ def _quiet():
 
 
 def _stamps(out):
-    return {p.parent.name: (p.stat().st_mtime_ns, json.loads(p.read_text())["finished"]) for p in sorted(out.glob("runs/*/*/*/metrics.json"))}
+    return {
+        p.parent.name: (p.stat().st_mtime_ns, json.loads(p.read_text())["finished"])
+        for p in sorted(out.glob("runs/*/*/*/metrics.json"))
+    }
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +94,9 @@ def test_layout_and_contents(local_run):
 
     seq = datasets.load("sim:landmarks", n_landmarks=8, laps=1, seed=0)
     expected = ate(est, reference_of(seq))[0]["rmse"]
-    assert json.loads((cell / "metrics.json").read_text())["metrics"]["ate"]["rmse"] == pytest.approx(expected, rel=1e-12)
+    assert json.loads((cell / "metrics.json").read_text())["metrics"]["ate"]["rmse"] == pytest.approx(
+        expected, rel=1e-12
+    )
     # different seeds are different runs
     assert summary["ate.rmse"].nunique() == 2
 
@@ -104,7 +110,10 @@ def test_rerun_skips_finished_cells_and_keys_follow_the_spec(local_run, tmp_path
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["cells"] == {"total": 2, "to_run": 0, "cached": 2}
     # a changed estimator parameter is a different cell key → recomputed
-    changed, _ = _config(tmp_path, TINY.replace("  - name: dead_reckoning\n", "  - name: dead_reckoning\n    params: {motion_model: euler}\n"))
+    changed, _ = _config(
+        tmp_path,
+        TINY.replace("  - name: dead_reckoning\n", "  - name: dead_reckoning\n    params: {motion_model: euler}\n"),
+    )
     assert not any(c.finished() for c in plan(changed, out))
     assert [c.key for c in plan(cfg, out)] != [c.key for c in plan(changed, out)]
 
@@ -119,7 +128,14 @@ def test_changed_metric_settings_reuse_the_estimate_and_force_recomputes(tmp_pat
     estimate_mtime = (cell / "estimate.npz").stat().st_mtime_ns
     first = json.loads((cell / "metrics.json").read_text())
     # other metric settings: same estimate key, new metrics key → only the metrics are recomputed
-    changed, _ = _config(tmp_path, text.replace("metrics: [ate, rpe, nees, map, cost]", "metrics: {ate: {align: none}, rpe: {}, nees: {}, map: {}, cost: {}}"), "changed.yaml")
+    changed, _ = _config(
+        tmp_path,
+        text.replace(
+            "metrics: [ate, rpe, nees, map, cost]",
+            "metrics: {ate: {align: none}, rpe: {}, nees: {}, map: {}, cost: {}}",
+        ),
+        "changed.yaml",
+    )
     [c] = plan(changed, out)
     assert c.key == first["key"] and c.metrics_key != first["metrics_key"] and not c.finished()
     assert run_experiment(changed, out, console=_quiet()) == 0
@@ -139,8 +155,10 @@ def test_recompute_recomputes_the_cells_of_one_method_only(tmp_path):
     before anything runs, naming the config's labels."""
     from slamarena.experiments.runner import UsageError, run_from_cli
 
-    text = TINY.replace("seeds: 2", "seeds: 1").replace("  - name: dead_reckoning\n",
-                                                        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: euler\n    params: {motion_model: euler}\n")
+    text = TINY.replace("seeds: 2", "seeds: 1").replace(
+        "  - name: dead_reckoning\n",
+        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: euler\n    params: {motion_model: euler}\n",
+    )
     cfg, path = _config(tmp_path, text)
     out = tmp_path / "out"
     assert run_experiment(cfg, out, console=_quiet()) == 0
@@ -153,14 +171,20 @@ def test_recompute_recomputes_the_cells_of_one_method_only(tmp_path):
     assert json.loads((out / "manifest.json").read_text())["cells"] == {"total": 2, "to_run": 1, "cached": 1}
     with pytest.raises(UsageError, match="no such method label.*dead_reckoning, euler"):
         run_experiment(cfg, out, console=_quiet(), recompute=frozenset({"eular"}))
-    assert run_from_cli(config=path, jobs=1, scheduler=None, out=out, force=False, dry_run=True, recompute=("eular",)) == 2
+    assert (
+        run_from_cli(config=path, jobs=1, scheduler=None, out=out, force=False, dry_run=True, recompute=("eular",)) == 2
+    )
     assert mtimes() == after
 
 
 def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
     # a world that validates but whose route cannot be driven (it turns at its first waypoint): the cell fails when run
-    broken = "{world: {name: bad, walls: [], route: [[0, 0], [1, 0]], corner_radius: 1.0, description: turns at the start}}"
-    text = TINY.replace("datasets:\n", f"datasets:\n  - name: sim:laser\n    label: broken\n    params: {broken}\n").replace("seeds: 2", "seeds: 1")
+    broken = (
+        "{world: {name: bad, walls: [], route: [[0, 0], [1, 0]], corner_radius: 1.0, description: turns at the start}}"
+    )
+    text = TINY.replace(
+        "datasets:\n", f"datasets:\n  - name: sim:laser\n    label: broken\n    params: {broken}\n"
+    ).replace("seeds: 2", "seeds: 1")
     cfg, _ = _config(tmp_path, text)
     out = tmp_path / "out"
     assert run_experiment(cfg, out, jobs=2, console=_quiet()) == 1
@@ -170,7 +194,9 @@ def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
     assert "route" in summary.at["broken", "error"] and "Traceback" in summary.at["broken", "traceback"]
     assert "broken" in json.loads((out / "manifest.json").read_text())["failed"][0]
     # a timeout kills the cell's process and is reported like a failure
-    cfg, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 0.05").replace("seeds: 2", "seeds: 1"), "timeout.yaml")
+    cfg, _ = _config(
+        tmp_path, TINY.replace("timeout: 120", "timeout: 0.05").replace("seeds: 2", "seeds: 1"), "timeout.yaml"
+    )
     assert run_experiment(cfg, tmp_path / "slow", jobs=1, console=_quiet()) == 1
     summary = pd.read_csv(tmp_path / "slow" / "summary.csv")
     assert summary.at[0, "status"] == "timeout" and "timed out" in summary.at[0, "error"]
@@ -196,7 +222,17 @@ def test_dask_cluster_gives_the_local_results(local_run, tmp_path):
 def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
     _, path = _config(tmp_path, TINY.replace("seeds: 2", "seeds: 3"))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()", "run", str(path), "--out", str(out), "--jobs", "1"]
+    cmd = [
+        sys.executable,
+        "-c",
+        "from slamarena.experiments.cli import main; main()",
+        "run",
+        str(path),
+        "--out",
+        str(out),
+        "--jobs",
+        "1",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(_stamps(out)) < 1:
@@ -218,10 +254,14 @@ def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
 
 def test_methods_restricted_to_datasets(tmp_path):
     text = TINY.replace("datasets:\n", "datasets:\n  - name: sim:localization\n    params: {duration: 5.0}\n").replace(
-        "  - name: dead_reckoning\n", "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: dr_euler\n    params: {motion_model: euler}\n    datasets: [sim_landmarks]\n")
+        "  - name: dead_reckoning\n",
+        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: dr_euler\n    params: {motion_model: euler}\n    datasets: [sim_landmarks]\n",
+    )
     cfg, _ = _config(tmp_path, text)
     grid = {c.id for c in plan(cfg, tmp_path / "o")}
-    assert grid == {f"{d}/{m}/{s}" for d in ("sim_localization", "sim_landmarks") for m in ("dead_reckoning",) for s in (0, 1)} | {f"sim_landmarks/dr_euler/{s}" for s in (0, 1)}
+    assert grid == {
+        f"{d}/{m}/{s}" for d in ("sim_localization", "sim_landmarks") for m in ("dead_reckoning",) for s in (0, 1)
+    } | {f"sim_landmarks/dr_euler/{s}" for s in (0, 1)}
 
 
 def test_dry_run_lists_the_grid(tmp_path, capsys):
@@ -241,15 +281,25 @@ def test_a_recording_at_a_path_runs_and_its_files_are_in_the_cache_key(tmp_path)
     """``utias:<dir>/robot<k>`` in a config: the cell reads that directory, and changing a file there recomputes it."""
     directory = tmp_path / "MRCLAM_Dataset7"
     directory.mkdir()
-    files = {"Barcodes.dat": "6 63\n7 81\n", "Landmark_Groundtruth.dat": "6 1 2 0 0\n7 3 4 0 0\n",
-             "Robot2_Odometry.dat": "".join(f"{10 + 0.1 * k:.1f} 0.2 0.05\n" for k in range(40)),
-             "Robot2_Measurement.dat": "10.5 63 1.5 0.1\n11.5 81 2.5 -0.2\n",
-             "Robot2_Groundtruth.dat": "".join(f"{10 + 0.1 * k:.1f} {0.02 * k:.3f} 0 0\n" for k in range(40))}
+    files = {
+        "Barcodes.dat": "6 63\n7 81\n",
+        "Landmark_Groundtruth.dat": "6 1 2 0 0\n7 3 4 0 0\n",
+        "Robot2_Odometry.dat": "".join(f"{10 + 0.1 * k:.1f} 0.2 0.05\n" for k in range(40)),
+        "Robot2_Measurement.dat": "10.5 63 1.5 0.1\n11.5 81 2.5 -0.2\n",
+        "Robot2_Groundtruth.dat": "".join(f"{10 + 0.1 * k:.1f} {0.02 * k:.3f} 0 0\n" for k in range(40)),
+    }
     for name, rows in files.items():
         (directory / name).write_text("# header\n" + rows)
-    text = TINY.replace("  - name: sim:landmarks\n    params: {n_landmarks: 8, laps: 1}\n", f"  - name: utias:{directory}/robot2\n    label: mrclam7\n")
-    cfg, _ = _config(tmp_path, text.replace("[ate, rpe, nees, map, cost]", "[ate, cost]").replace(
-        "[ate.rmse, rpe.trans_rmse, nees.in_band, cost.step_median]", "[ate.rmse, cost.step_median]"))
+    text = TINY.replace(
+        "  - name: sim:landmarks\n    params: {n_landmarks: 8, laps: 1}\n",
+        f"  - name: utias:{directory}/robot2\n    label: mrclam7\n",
+    )
+    cfg, _ = _config(
+        tmp_path,
+        text.replace("[ate, rpe, nees, map, cost]", "[ate, cost]").replace(
+            "[ate.rmse, rpe.trans_rmse, nees.in_band, cost.step_median]", "[ate.rmse, cost.step_median]"
+        ),
+    )
     out = tmp_path / "out"
     assert run_experiment(cfg, out, jobs=1, console=_quiet()) == 0
     [cell] = plan(cfg, out)
@@ -267,11 +317,21 @@ def test_single_threaded_config_limits_the_threads_of_every_cell(tmp_path):
     single, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 120\nsingle_threaded: true"), "single.yaml")
     assert "OPENBLAS_NUM_THREADS" not in _cell_env(plain)
     env = _cell_env(single)
-    assert {env[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")} == {"1"}
+    assert {env[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")} == {
+        "1"
+    }
     assert env["SLAMARENA_DATA"] == _cell_env(plain)["SLAMARENA_DATA"]
 
 
 def test_table_numbers_three_significant_digits_and_counts_in_full():
     from slamarena.experiments.tables import _fmt
 
-    assert [_fmt(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == ["2724", "50000", "0", "0.0543", "2.72e+03", "3.20e-05", "–"]
+    assert [_fmt(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == [
+        "2724",
+        "50000",
+        "0",
+        "0.0543",
+        "2.72e+03",
+        "3.20e-05",
+        "–",
+    ]

@@ -2,6 +2,7 @@
 asserted on the shipped configs that regenerate their tables, run at reduced size (slow; `pytest -m slow`). The Monte
 Carlo consistency claims: tests/estimators/test_ekf_slam_consistency.py; the pose graphs:
 tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
+
 from __future__ import annotations
 
 import pandas as pd
@@ -31,8 +32,11 @@ def _means(config, out) -> pd.DataFrame:
 def test_default_the_smoother_beats_the_filter_and_isam2_ends_at_the_batch_solution(tmp_path):
     """Section 1: on the landmark world GTSAM batch is more accurate than EKF-SLAM, iSAM2 ends where batch does, and the
     design notes' Q makes the localizer less accurate and under-confident."""
-    config = load_config("default").reduced(datasets=["sim_landmarks"], seeds=2,
-                                            estimators=["ekf_slam", "ekf_localizer_notes", "ekf_localizer", "gtsam_batch", "gtsam_isam2"])
+    config = load_config("default").reduced(
+        datasets=["sim_landmarks"],
+        seeds=2,
+        estimators=["ekf_slam", "ekf_localizer_notes", "ekf_localizer", "gtsam_batch", "gtsam_isam2"],
+    )
     m = _means(config, tmp_path).loc["sim_landmarks"]
     assert m.at["gtsam_batch", "ate.rmse"] < m.at["ekf_slam", "ate.rmse"]
     assert m.at["gtsam_isam2", "ate.rmse"] == pytest.approx(m.at["gtsam_batch", "ate.rmse"], rel=1e-3)
@@ -43,7 +47,9 @@ def test_default_the_smoother_beats_the_filter_and_isam2_ends_at_the_batch_solut
 def test_plaza_the_range_offset_matters_more_than_the_estimator(tmp_path):
     """Section 3, CMU Plaza: the EKF localizer told the range offset beats the one that is not, and the smoother with the
     same offset beats both (Plaza 2: the run on which dead reckoning is worst)."""
-    config = load_config("plaza").reduced(datasets=["plaza_Plaza2"], estimators=["ekf_localizer", "ekf_localizer_bias", "gtsam_batch"])
+    config = load_config("plaza").reduced(
+        datasets=["plaza_Plaza2"], estimators=["ekf_localizer", "ekf_localizer_bias", "gtsam_batch"]
+    )
     m = _means(config, tmp_path).loc["plaza_Plaza2"]
     assert m.at["ekf_localizer_bias", "ate.rmse"] < m.at["ekf_localizer", "ate.rmse"]
     assert m.at["gtsam_batch", "ate.rmse"] < m.at["ekf_localizer_bias", "ate.rmse"]
@@ -66,7 +72,11 @@ def test_smoothers_a_lag_beats_the_online_fixed_lag_output_which_is_the_ekf(tmp_
     config = load_config("smoothers").reduced(datasets=["localization"], seeds=3)
     m = _means(config, tmp_path).loc["localization"]
     assert m.at["gtsam_fixed_lag_online", "ate.rmse"] == pytest.approx(m.at["ekf_localizer", "ate.rmse"], rel=0.05)
-    assert m.at["gtsam_fixed_lag_lag2", "ate.rmse"] < m.at["gtsam_fixed_lag_lag0_5", "ate.rmse"] < m.at["gtsam_fixed_lag_online", "ate.rmse"]
+    assert (
+        m.at["gtsam_fixed_lag_lag2", "ate.rmse"]
+        < m.at["gtsam_fixed_lag_lag0_5", "ate.rmse"]
+        < m.at["gtsam_fixed_lag_online", "ate.rmse"]
+    )
 
 
 def test_smoother_consistency_the_batch_smoother_is_in_the_band(tmp_path):
@@ -97,7 +107,9 @@ def test_victoria_park_batch_reaches_isam2s_optimum_and_association_without_ids_
     _needs("victoria_park")
     config = load_config("victoria_park").reduced(estimators=["gtsam_isam2", "gtsam_batch", "ekf_slam_nn"])
     m = _means(config, tmp_path).loc["victoria_park"]
-    assert m.at["gtsam_batch", "estimate.final_error"] == pytest.approx(m.at["gtsam_isam2", "estimate.final_error"], rel=1e-6)
+    assert m.at["gtsam_batch", "estimate.final_error"] == pytest.approx(
+        m.at["gtsam_isam2", "estimate.final_error"], rel=1e-6
+    )
     assert m.at["gtsam_isam2", "estimate.landmarks"] == 151
     assert m.at["ekf_slam_nn", "estimate.landmarks"] > 1.1 * 151
 

@@ -1,4 +1,5 @@
 """Hand-made laser worlds for the mapping tests (independent of the simulators)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -8,11 +9,24 @@ from slamarena.datasets.geometry import accumulate, between
 from slamarena.datasets.sequence import Scans, Sequence, Trajectory
 
 # an L-shaped 12 × 10 m room with two pillars: segments (x0, y0, x1, y1)
-WALLS = np.array([
-    [-6, -5, 6, -5], [6, -5, 6, 1], [6, 1, 1, 1], [1, 1, 1, 5], [1, 5, -6, 5], [-6, 5, -6, -5],
-    [-3, -2, -2, -2], [-2, -2, -2, -1], [-2, -1, -3, -1], [-3, -1, -3, -2],
-    [3.5, -1.0, 4.2, -0.3], [4.2, -0.3, 3.0, -0.2], [3.0, -0.2, 3.5, -1.0],
-], dtype=float)  # walls on round coordinates: through cell centres of the maps
+WALLS = np.array(
+    [
+        [-6, -5, 6, -5],
+        [6, -5, 6, 1],
+        [6, 1, 1, 1],
+        [1, 1, 1, 5],
+        [1, 5, -6, 5],
+        [-6, 5, -6, -5],
+        [-3, -2, -2, -2],
+        [-2, -2, -2, -1],
+        [-2, -1, -3, -1],
+        [-3, -1, -3, -2],
+        [3.5, -1.0, 4.2, -0.3],
+        [4.2, -0.3, 3.0, -0.2],
+        [3.0, -0.2, 3.5, -1.0],
+    ],
+    dtype=float,
+)  # walls on round coordinates: through cell centres of the maps
 
 
 def raycast(pose, angles, walls=WALLS, max_range=20.0):
@@ -60,7 +74,15 @@ def interlace(seq, layouts: int = 4, sigma: float = 0.01, seed: int = 0) -> Scan
     for k in range(K):
         r = raycast(truth[k], sc.angles[: count[k]] + offset[k], max_range=sc.max_range)
         ranges[k, : count[k]] = np.where(r >= sc.max_range, sc.max_range, r + sigma * rng.standard_normal(r.size))
-    return Scans(t=sc.t, ranges=ranges, angles=sc.angles, max_range=sc.max_range, pose=sc.pose, angle_offset=offset, beam_count=count)
+    return Scans(
+        t=sc.t,
+        ranges=ranges,
+        angles=sc.angles,
+        max_range=sc.max_range,
+        pose=sc.pose,
+        angle_offset=offset,
+        beam_count=count,
+    )
 
 
 @pytest.fixture(scope="session")

@@ -1,4 +1,5 @@
 """Staged real data for the mapping tests (skips when absent)."""
+
 from __future__ import annotations
 
 from functools import lru_cache

@@ -1,4 +1,5 @@
 """``slamarena map``: a hand-written CARMEN log through the whole command, outputs read back."""
+
 from __future__ import annotations
 
 import json
@@ -25,18 +26,27 @@ def carmen_log(tmp_path_factory):
         for k in range(len(sc.t)):
             r = " ".join(f"{v:.3f}" for v in sc.ranges[k])
             x, y, th = sc.pose[k]
-            fh.write(f"FLASER {sc.ranges.shape[1]} {r} {x:.6f} {y:.6f} {th:.6f} {x:.6f} {y:.6f} {th:.6f} {t0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n")
+            fh.write(
+                f"FLASER {sc.ranges.shape[1]} {r} {x:.6f} {y:.6f} {th:.6f} {x:.6f} {y:.6f} {th:.6f} {t0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n"
+            )
     return path, seq, t0
 
 
 def test_map_command_writes_trajectory_map_and_summary(carmen_log, tmp_path):
     path, seq, t0 = carmen_log
     truth = seq.ground_truth.poses
-    rel = relations_format.Relations(t1=t0 + seq.scans.t[:-5], t2=t0 + seq.scans.t[5:],
-                                     motion=np.column_stack([between(truth[:-5], truth[5:])[:, :2], np.zeros((len(truth) - 5, 3)), between(truth[:-5], truth[5:])[:, 2]]))
+    rel = relations_format.Relations(
+        t1=t0 + seq.scans.t[:-5],
+        t2=t0 + seq.scans.t[5:],
+        motion=np.column_stack(
+            [between(truth[:-5], truth[5:])[:, :2], np.zeros((len(truth) - 5, 3)), between(truth[:-5], truth[5:])[:, 2]]
+        ),
+    )
     relations_format.write(tmp_path / "room.relations", rel)
     out = tmp_path / "out"
-    assert map_command(str(path), params={"matcher": "gauss_newton"}, out=out, relations=tmp_path / "room.relations") == 0
+    assert (
+        map_command(str(path), params={"matcher": "gauss_newton"}, out=out, relations=tmp_path / "room.relations") == 0
+    )
     for name in ("trajectory.tum", "estimate.npz", "map.png", "map.pgm", "map.yaml", "summary.json"):
         assert (out / name).stat().st_size > 0, name
     traj = tum.read_trajectory(out / "trajectory.tum")
@@ -96,11 +106,18 @@ def test_map_command_on_an_interlaced_robotlaser_log(tmp_path):
             r, a = sc.beams(k)
             x, y, th = sc.pose[k]
             pose = f"{x:.6f} {y:.6f} {th:.6f}"
-            fh.write(f"ROBOTLASER1 0 {a[0]:.6f} 3.141593 {a[1] - a[0]:.6f} {sc.max_range:.1f} 0.01 0 {r.size} {' '.join(f'{v:.3f}' for v in r)} 0 "
-                     f"{pose} {pose} 0 0 0 0 0 {1000.0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n")
+            fh.write(
+                f"ROBOTLASER1 0 {a[0]:.6f} 3.141593 {a[1] - a[0]:.6f} {sc.max_range:.1f} 0.01 0 {r.size} {' '.join(f'{v:.3f}' for v in r)} 0 "
+                f"{pose} {pose} 0 0 0 0 0 {1000.0 + sc.t[k]:.6f} testhost {sc.t[k]:.6f}\n"
+            )
     truth = seq.ground_truth.poses
-    rel = relations_format.Relations(t1=1000.0 + sc.t[:-1], t2=1000.0 + sc.t[1:],
-                                     motion=np.column_stack([between(truth[:-1], truth[1:])[:, :2], np.zeros((len(truth) - 1, 3)), between(truth[:-1], truth[1:])[:, 2]]))
+    rel = relations_format.Relations(
+        t1=1000.0 + sc.t[:-1],
+        t2=1000.0 + sc.t[1:],
+        motion=np.column_stack(
+            [between(truth[:-1], truth[1:])[:, :2], np.zeros((len(truth) - 1, 3)), between(truth[:-1], truth[1:])[:, 2]]
+        ),
+    )
     relations_format.write(tmp_path / "room.relations", rel)
     out = tmp_path / "out"
     assert map_command(str(path), out=out, relations=tmp_path / "room.relations") == 0

@@ -1,5 +1,6 @@
 """Map-quality numbers for logs without ground truth (slamarena.mapping.evaluation): hand-checked on a
 four-cell grid, and on the hand-made room against known pose errors."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,7 +15,9 @@ def test_map_sharpness_by_hand():
     g.log_odds[0, :4] = logit([0.9, 0.9, 0.1, 0.55])  # occupied, occupied, free, observed but undecided
     s = map_sharpness(g)
     assert s["known_cells"] == 4 and s["occupied_cells"] == 2 and s["free_cells"] == 1
-    assert np.isclose(s["decided_fraction"], 0.75) and np.isclose(s["sharpness"], (0.8 + 0.8 + 0.8 + 0.1) / 4, atol=1e-6)
+    assert np.isclose(s["decided_fraction"], 0.75) and np.isclose(
+        s["sharpness"], (0.8 + 0.8 + 0.8 + 0.1) / 4, atol=1e-6
+    )
 
 
 def _line(g, start, angle, length):

@@ -1,4 +1,5 @@
 """GridSLAM: accuracy on hand-made and simulated drives, bad scans counted, configuration errors."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -27,12 +28,15 @@ def aligned_ate(est, seq):
     return ate(est, reference_of(seq), ATEParams())[0]["rmse"]
 
 
-@pytest.mark.parametrize("matcher,params,tol", [
-    ("gauss_newton", {}, 0.02),
-    ("gauss_newton", {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0}, 0.03),  # pure Hector
-    ("branch_and_bound", {"linear_window": 0.2, "angular_window": 0.1}, 0.03),
-    ("kiss_icp", {}, 0.03),
-])
+@pytest.mark.parametrize(
+    "matcher,params,tol",
+    [
+        ("gauss_newton", {}, 0.02),
+        ("gauss_newton", {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0}, 0.03),  # pure Hector
+        ("branch_and_bound", {"linear_window": 0.2, "angular_window": 0.1}, 0.03),
+        ("kiss_icp", {}, 0.03),
+    ],
+)
 def test_room_drive_beats_odometry(room_sequence, matcher, params, tol):
     truth = room_sequence.ground_truth.poses
     est = GridSLAM(matcher=matcher, matcher_params=params).run(room_sequence)
@@ -69,7 +73,9 @@ def test_sim_laser_trajectory_and_map_against_the_truth():
     aligned = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))
     assert aligned["iou"] > 0.55 and aligned["precision"] > 0.95 and aligned["recall"] > 0.95, aligned
     # the map one cell off the truth agrees much less
-    off = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map + np.array([0.05, 0.0, 0.0])), tol=0)
+    off = occupancy_agreement(
+        slam.map, true_occupancy_on(slam.map, "loop", truth_in_map + np.array([0.05, 0.0, 0.0])), tol=0
+    )
     assert off["iou"] < 0.6 * aligned["iou"], (off, aligned)
 
 
@@ -135,9 +141,14 @@ def test_parameters_bad_values_unknown_keys_and_the_model_form():
         GridSLAM(clamp=(0.55, 0.97))
     with pytest.raises(ValidationError, match=r"matcher_params\.sigma"):  # validated by the chosen matcher's model
         GridSLAM(matcher="correlative", matcher_params={"sigma": 0.0})
-    with pytest.raises(ValidationError, match=r"matcher_params\.sigma"):  # a correlative parameter is not a Gauss-Newton one
+    with pytest.raises(
+        ValidationError, match=r"matcher_params\.sigma"
+    ):  # a correlative parameter is not a Gauss-Newton one
         GridSLAM(matcher_params={"sigma": 0.1})
-    assert GridSLAM(GridSLAM.Params(update_distance=1.0, matcher="kiss_icp")).params == GridSLAM(update_distance=1.0, matcher="kiss_icp").params
+    assert (
+        GridSLAM(GridSLAM.Params(update_distance=1.0, matcher="kiss_icp")).params
+        == GridSLAM(update_distance=1.0, matcher="kiss_icp").params
+    )
     slam = GridSLAM(matcher="branch_and_bound", matcher_params={"linear_window": 0.2}, p_hit=0.8)
     assert slam.params.update_distance == 0.4 and slam.params.p_hit == 0.8
     assert slam.matcher.params.linear_window == 0.2
@@ -162,9 +173,14 @@ metrics: [ate]
     path = tmp_path / "exp.yaml"
     path.write_text(config.replace("PARAMS", "{linear_window: 0.2}"))
     (method,) = load_config(path).estimators
-    assert method.resolved_params()["matcher_params"] == GridSLAM(matcher="correlative", matcher_params={"linear_window": 0.2}).params.canonical()["matcher_params"]
-    for bad, message in (("{linear_window: -1}", "params.matcher_params.linear_window: Input should be greater than or equal to 0"),
-                         ("{iterations: 3}", "params.matcher_params.iterations: Extra inputs are not permitted")):
+    assert (
+        method.resolved_params()["matcher_params"]
+        == GridSLAM(matcher="correlative", matcher_params={"linear_window": 0.2}).params.canonical()["matcher_params"]
+    )
+    for bad, message in (
+        ("{linear_window: -1}", "params.matcher_params.linear_window: Input should be greater than or equal to 0"),
+        ("{iterations: 3}", "params.matcher_params.iterations: Extra inputs are not permitted"),
+    ):
         path.write_text(config.replace("PARAMS", bad))
         with pytest.raises(ConfigError, match=re.escape(message)):
             load_config(path)
@@ -180,7 +196,14 @@ def test_without_odometry_and_with_a_mounted_sensor():
 
     truth = seq.ground_truth.poses
     ranges = np.stack([raycast(compose(p, mount), seq.scans.angles) for p in truth])
-    scans = Scans(t=seq.scans.t, ranges=ranges, angles=seq.scans.angles, max_range=seq.scans.max_range, mount=mount, pose=seq.scans.pose)
+    scans = Scans(
+        t=seq.scans.t,
+        ranges=ranges,
+        angles=seq.scans.angles,
+        max_range=seq.scans.max_range,
+        mount=mount,
+        pose=seq.scans.pose,
+    )
     mounted = dataclasses.replace(seq, scans=scans)
     assert aligned_ate(GridSLAM().run(mounted), seq) < 0.03
     assert aligned_ate(GridSLAM(use_odometry=False).run(seq), seq) < 0.03

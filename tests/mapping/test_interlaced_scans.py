@@ -6,6 +6,7 @@ from −90°, 180 beams from −89.75°, −89.5°, −89.25°) must be as good 
 negative controls drop the offsets: hits leave the walls, and the matched heading of each layout
 jumps by its offset.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -45,7 +46,9 @@ def test_a_scan_with_an_offset_lands_on_the_walls_it_saw():
         grids.append(grid)
     assert np.array_equal(grids[0].origin, grids[1].origin) and np.array_equal(grids[0].log_odds, grids[1].log_odds)
     hits = _hit_cells(grids[0])
-    assert len(hits) == n and np.all(_distance_to_walls(hits) <= 0.5 * 0.05 * np.sqrt(2) + 1e-9)  # every hit cell on a wall
+    assert len(hits) == n and np.all(
+        _distance_to_walls(hits) <= 0.5 * 0.05 * np.sqrt(2) + 1e-9
+    )  # every hit cell on a wall
     ignored = OccupancyGrid(resolution=0.05)
     ignored.integrate(r, angles[:n], pose, max_range=20.0)  # the same readings at the unshifted angles
     assert np.mean(_distance_to_walls(_hit_cells(ignored)) > 0.05) > 0.5

@@ -1,11 +1,13 @@
 """Laser graph SLAM: loop closure on a simulated loop, the robust back end against a false loop, the g2o and map
 outputs, relations on a staged log."""
+
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 import pytest
+from checks import load_staged, staged
 from pydantic import ValidationError
 
 from slamarena.datasets.estimate import Estimate
@@ -18,12 +20,13 @@ from slamarena.mapping.laser_slam import LaserSLAM
 from slamarena.mapping.laser_slam.backend import Backend
 from slamarena.mapping.laser_slam.refine import refine_scans
 from slamarena.robust import RobustKernelParams
-from checks import load_staged, staged
 
 #: a hard loop: two laps, a short usable range and noisy odometry, so the submap front end drifts (0.16 m ATE without
 #: loop closure, 0.04 m with)
 HARD = dict(laps=2, k_r=0.1, k_rt=0.03, n_beams=181, seed=3)
-FRONT = dict(max_usable_range=6.0, search_every=2, tracking="submap")  # the front end drifts; the graph must close the loop
+FRONT = dict(
+    max_usable_range=6.0, search_every=2, tracking="submap"
+)  # the front end drifts; the graph must close the loop
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +52,12 @@ def test_closing_the_loop_reduces_the_error(hard_loop):
     # closure and refinement it is the trajectory itself
     assert closed.diagnostics["front_end_poses"].shape == closed.poses.shape
     np.testing.assert_allclose(open_.diagnostics["front_end_poses"], open_.poses, atol=1e-6)
-    assert ate(Estimate("laser_slam", closed.t, closed.diagnostics["front_end_poses"]), ref, ATEParams(align="se2"))[0]["rmse"] > e_closed
+    assert (
+        ate(Estimate("laser_slam", closed.t, closed.diagnostics["front_end_poses"]), ref, ATEParams(align="se2"))[0][
+            "rmse"
+        ]
+        > e_closed
+    )
 
 
 def test_pairwise_refinement_cuts_the_short_range_error(hard_loop):
@@ -61,14 +69,20 @@ def test_pairwise_refinement_cuts_the_short_range_error(hard_loop):
     plain = LaserSLAM(**FRONT, refine_neighbours=0).run(seq)
     gt = seq.ground_truth
     truth = gt.poses[np.searchsorted(gt.t, seq.scans.t)]
+
     def short(est, gap):
-        return np.linalg.norm(between(est.poses[:-gap], est.poses[gap:])[:, :2] - between(truth[:-gap], truth[gap:])[:, :2], axis=1).mean()
+        return np.linalg.norm(
+            between(est.poses[:-gap], est.poses[gap:])[:, :2] - between(truth[:-gap], truth[gap:])[:, :2], axis=1
+        ).mean()
+
     for gap, factor in ((1, 0.6), (3, 0.75)):
         assert short(closed, gap) < factor * short(plain, gap), (gap, short(closed, gap), short(plain, gap))
     assert closed.meta["refinement"]["pairs"] > 1.9 * len(seq.scans) and plain.meta["refinement"] is None
     np.testing.assert_array_equal(closed.diagnostics["loop_accepted"], plain.diagnostics["loop_accepted"])
     ref = reference_of(seq)
-    assert ate(closed, ref, ATEParams(align="se2"))[0]["rmse"] < 1.05 * ate(plain, ref, ATEParams(align="se2"))[0]["rmse"]
+    assert (
+        ate(closed, ref, ATEParams(align="se2"))[0]["rmse"] < 1.05 * ate(plain, ref, ATEParams(align="se2"))[0]["rmse"]
+    )
 
 
 def test_refinement_holds_the_nodes_and_moves_the_scans_between_them():
@@ -77,12 +91,16 @@ def test_refinement_holds_the_nodes_and_moves_the_scans_between_them():
     rng = np.random.default_rng(1)
     K, node_scan = 30, np.arange(2, 30, 4)  # nodes every fourth scan from scan 2 on
     node_of = np.maximum(np.searchsorted(node_scan, np.arange(K), side="right") - 1, 0)
-    G = np.column_stack([np.arange(len(node_scan)) * 0.4, np.zeros(len(node_scan)), rng.uniform(-0.1, 0.1, len(node_scan))])
+    G = np.column_stack(
+        [np.arange(len(node_scan)) * 0.4, np.zeros(len(node_scan)), rng.uniform(-0.1, 0.1, len(node_scan))]
+    )
     offsets = rng.uniform(-0.1, 0.1, (K, 3)) + [0.2, 0, 0]
     offsets[node_scan] = 0.0
     poses = compose(G[node_of], offsets)
     cov = np.diag([0.03**2, 0.03**2, 0.01**2])
-    hanging = [(int(node_scan[node_of[k]]), k, offsets[k], cov) for k in range(node_scan[0] + 1, K) if k not in node_scan]
+    hanging = [
+        (int(node_scan[node_of[k]]), k, offsets[k], cov) for k in range(node_scan[0] + 1, K) if k not in node_scan
+    ]
     kernel = RobustKernelParams(robust="cauchy", robust_k=1.0)
     out, report = refine_scans(poses, node_scan, hanging, [], kernel)
     np.testing.assert_allclose(out, poses, atol=1e-9)
@@ -120,8 +138,10 @@ def test_a_false_loop_is_down_weighted_by_the_robust_kernel():
     truth, z = _chain()
     true_loops = [(0, 59, between(truth[0], truth[59])), (5, 55, between(truth[5], truth[55]))]
     false_loop = [(10, 40, np.array([0.5, 0.0, 0.0]))]  # nodes 10 and 40 are 10 m apart
+
     def error(poses):
         return float(np.sqrt(np.mean(np.sum((poses[:, :2] - truth[:, :2]) ** 2, axis=1))))
+
     clean = error(_optimise(truth, z, true_loops, RobustKernelParams(robust="cauchy", robust_k=1.0)))
     robust = error(_optimise(truth, z, true_loops + false_loop, RobustKernelParams(robust="cauchy", robust_k=1.0)))
     plain = error(_optimise(truth, z, true_loops + false_loop, RobustKernelParams(robust="none")))
@@ -161,7 +181,9 @@ def test_pose_graph_written_as_g2o_reads_back(hard_loop, tmp_path):
 
 
 def _first(scans, n):
-    return dataclasses.replace(scans, t=scans.t[:n], ranges=scans.ranges[:n], pose=None if scans.pose is None else scans.pose[:n])
+    return dataclasses.replace(
+        scans, t=scans.t[:n], ranges=scans.ranges[:n], pose=None if scans.pose is None else scans.pose[:n]
+    )
 
 
 def test_parameters_are_typed():
@@ -204,11 +226,15 @@ def test_mit_csail_short_relations_are_the_flaser_increments_moved_by_whole_5cm_
     rel = relations.read(staged("radish_laser_logs/relations/mit-csail.relations"))
     ipc, odom = np.asarray(seq.meta["scan_ipc_timestamp"]), seq.scans.pose
     i, j = (np.abs(ipc[None] - t[:, None]).argmin(1) for t in (rel.t1, rel.t2))
-    fresh = np.array([b - a <= 3 and all(np.any(odom[k] != odom[k - 1]) for k in range(a + 1, b + 1)) for a, b in zip(i, j)])
+    fresh = np.array(
+        [b - a <= 3 and all(np.any(odom[k] != odom[k - 1]) for k in range(a + 1, b + 1)) for a, b in zip(i, j)]
+    )
     cells = np.linalg.norm(rel.se2[fresh, :2] - between(odom[i[fresh]], odom[j[fresh]])[:, :2], axis=1) / 0.05
     assert fresh.sum() > 1000
     np.testing.assert_allclose(cells, np.sqrt(np.round(cells**2)), atol=0.02)  # on the lattice, to 1 mm
-    assert 0.4 < np.mean(cells < 0.02) < 0.6 and np.mean((cells > 0.98) & (cells < 1.02)) > 0.25  # half equal, a third one cell off
+    assert (
+        0.4 < np.mean(cells < 0.02) < 0.6 and np.mean((cells > 0.98) & (cells < 1.02)) > 0.25
+    )  # half equal, a third one cell off
 
 
 def test_relative_pose_covariances_are_given_in_the_frame_gtsam_measures_the_error_in():

@@ -13,6 +13,7 @@
 Writes ``results/mapping_study/{sim,carmen}.json`` and the map images there; asserts only
 loose sanity bounds (the numbers are the product).
 """
+
 from __future__ import annotations
 
 import json
@@ -62,11 +63,23 @@ def test_sim_laser_study():
             est = slam.run(seq)
             stats, truth_in_map = _aligned(est, seq)
             agreement = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))
-            rows.append({"seed": seed, "ate_rmse": stats["rmse"], "ate_max": stats["max"], "heading_rmse": stats["heading_rmse"],
-                         "iou": agreement["iou"], "precision": agreement["precision"], "recall": agreement["recall"],
-                         "ms_per_scan": 1e3 * float(np.mean(est.step_time))})
+            rows.append(
+                {
+                    "seed": seed,
+                    "ate_rmse": stats["rmse"],
+                    "ate_max": stats["max"],
+                    "heading_rmse": stats["heading_rmse"],
+                    "iou": agreement["iou"],
+                    "precision": agreement["precision"],
+                    "recall": agreement["recall"],
+                    "ms_per_scan": 1e3 * float(np.mean(est.step_time)),
+                }
+            )
             if seed == 0:
-                slam.map.save_png(OUT / f"sim_{label.split()[0]}{'_' + label.split('(')[1][:-1].replace(' ', '_') if '(' in label else ''}.png")
+                slam.map.save_png(
+                    OUT
+                    / f"sim_{label.split()[0]}{'_' + label.split('(')[1][:-1].replace(' ', '_') if '(' in label else ''}.png"
+                )
         results[label] = rows
         print(label, {k: round(float(np.median([r[k] for r in rows])), 4) for k in rows[0] if k != "seed"})
     odo = []
@@ -111,9 +124,17 @@ def test_carmen_study(raw_name):
     wall = time.perf_counter() - t
     slam.map.save_png(OUT / f"carmen_{raw_name}.png")
     duration = float(seq.scans.t[-1] - seq.scans.t[0])
-    row = {"log": raw_name, "scans": len(seq.scans), "duration_s": duration, "wall_s": wall, "real_time_factor": duration / wall,
-           "bad_beams": est.meta["bad_beams"], "scans_not_matched": est.meta["scans_not_matched"], "map_updates": est.meta["map_updates"],
-           "map_shape": est.meta["map_shape"]}
+    row = {
+        "log": raw_name,
+        "scans": len(seq.scans),
+        "duration_s": duration,
+        "wall_s": wall,
+        "real_time_factor": duration / wall,
+        "bad_beams": est.meta["bad_beams"],
+        "scans_not_matched": est.meta["scans_not_matched"],
+        "map_updates": est.meta["map_updates"],
+        "map_shape": est.meta["map_shape"],
+    }
     odometry = type(est)("odometry", seq.scans.t, seq.scans.pose)
     corrected_name = RAW_TO_CORRECTED[raw_name]
     if corrected_name is not None:
@@ -128,7 +149,14 @@ def test_carmen_study(raw_name):
             for label, e in (("slam", est), ("odometry", odometry)):
                 stats, _ = relation_error(e, t_i, t_j, delta, RelationsParams(tolerance=1e-6))
                 row[f"relations_{gap}_{label}"] = stats
-        print(raw_name, {k: (round(v["trans_mean"], 4), round(v["rot_mean"], 4)) for k, v in row.items() if k.startswith("relations")})
+        print(
+            raw_name,
+            {
+                k: (round(v["trans_mean"], 4), round(v["rot_mean"], 4))
+                for k, v in row.items()
+                if k.startswith("relations")
+            },
+        )
     print(raw_name, {k: v for k, v in row.items() if not k.startswith("relations")})
     path = OUT / "carmen.json"
     table = json.loads(path.read_text()) if path.exists() else {}
@@ -161,20 +189,33 @@ def test_fr_clinic_interlaced_study(first):
     shared = np.flatnonzero(stretch.beam_count == stretch.ranges.shape[1])  # the 181-beam scans: in both runs
     assert np.array_equal(stretch.t[shared], single.t)
     rows, shared_poses = {}, {}
-    for label, scans, common in (("all layouts", stretch, shared), ("181-beam layout only", single, np.arange(len(single)))):
+    for label, scans, common in (
+        ("all layouts", stretch, shared),
+        ("181-beam layout only", single, np.arange(len(single))),
+    ):
         from slamarena.datasets.sequence import Sequence
 
         slam = GridSLAM()
         est = slam.run(Sequence(name=label, scans=scans))
-        rows[label] = {"scans": len(scans), "mean_score": float(np.nanmean(est.diagnostics["score"])), "map_updates": est.meta["map_updates"],
-                       **map_sharpness(slam.map), "shared_hits_on_occupied": hits_on_occupied(slam.map, scans, est.poses[common], common),
-                       "wall_orientation_concentration": wall_orientation_concentration(slam.map), "ms_per_scan": 1e3 * float(np.mean(est.step_time))}
+        rows[label] = {
+            "scans": len(scans),
+            "mean_score": float(np.nanmean(est.diagnostics["score"])),
+            "map_updates": est.meta["map_updates"],
+            **map_sharpness(slam.map),
+            "shared_hits_on_occupied": hits_on_occupied(slam.map, scans, est.poses[common], common),
+            "wall_orientation_concentration": wall_orientation_concentration(slam.map),
+            "ms_per_scan": 1e3 * float(np.mean(est.step_time)),
+        }
         shared_poses[label] = est.poses[common]
         slam.map.save_png(OUT / f"fr-clinic_{first or 'all'}_{label.split()[0]}.png")
         print(first, label, {k: round(v, 4) if isinstance(v, float) else v for k, v in rows[label].items()})
     d = between(shared_poses["181-beam layout only"], shared_poses["all layouts"])
-    rows["difference at shared scans"] = {"trans_median": float(np.median(np.hypot(d[:, 0], d[:, 1]))), "trans_max": float(np.hypot(d[:, 0], d[:, 1]).max()),
-                                          "rot_median_deg": float(np.degrees(np.median(np.abs(d[:, 2])))), "rot_max_deg": float(np.degrees(np.abs(d[:, 2]).max()))}
+    rows["difference at shared scans"] = {
+        "trans_median": float(np.median(np.hypot(d[:, 0], d[:, 1]))),
+        "trans_max": float(np.hypot(d[:, 0], d[:, 1]).max()),
+        "rot_median_deg": float(np.degrees(np.median(np.abs(d[:, 2])))),
+        "rot_max_deg": float(np.degrees(np.abs(d[:, 2]).max())),
+    }
     rows["log_s"] = float(stretch.t[-1] - stretch.t[0])
     print(first, rows["difference at shared scans"], rows["log_s"])
     path = OUT / "fr_clinic_interlaced.json"

@@ -1,4 +1,5 @@
 """Occupancy grid: Bayes update after known hit/miss sequences, conventions, export round trip."""
+
 from __future__ import annotations
 
 import re
@@ -15,7 +16,9 @@ RES = 0.1
 
 def grid(**kw):
     kw.setdefault("clamp", None)
-    return OccupancyGrid(resolution=RES, width=41, height=41, origin=(-2.05, -2.05), **kw)  # cell centres on multiples of 0.1 m
+    return OccupancyGrid(
+        resolution=RES, width=41, height=41, origin=(-2.05, -2.05), **kw
+    )  # cell centres on multiples of 0.1 m
 
 
 def cell_p(g, x, y):
@@ -70,7 +73,9 @@ def test_each_cell_updated_once_per_scan_and_hit_wins_over_free():
 
 def test_max_range_clears_without_hit_and_bad_readings_are_ignored():
     g = grid()
-    g.integrate([10.0, np.nan, np.inf, 0.0, -1.0], [0.0, 0.5, 1.0, 1.5, 2.0], [0.0, 0.0, 0.0], max_range=10.0, clear_range=1.0)
+    g.integrate(
+        [10.0, np.nan, np.inf, 0.0, -1.0], [0.0, 0.5, 1.0, 1.5, 2.0], [0.0, 0.0, 0.0], max_range=10.0, clear_range=1.0
+    )
     assert cell_p(g, 1.0, 0.0) == pytest.approx(0.4, abs=1e-6)  # end of the clearing ray: free, no hit
     assert cell_p(g, 1.2, 0.0) == pytest.approx(0.5)
     assert (np.abs(g.log_odds - g.l0) > 0).sum() == 11  # only the one cleared ray
@@ -130,7 +135,9 @@ def test_map_server_round_trip(tmp_path):
     g = grid()
     rng = np.random.default_rng(0)
     for _ in range(5):
-        g.integrate(rng.uniform(0.5, 1.8, 90), np.linspace(-np.pi, np.pi, 90, endpoint=False), [0.1, -0.2, 0.3], max_range=1.7)
+        g.integrate(
+            rng.uniform(0.5, 1.8, 90), np.linspace(-np.pi, np.pi, 90, endpoint=False), [0.1, -0.2, 0.3], max_range=1.7
+        )
     ros = g.to_ros()
     assert set(np.unique(ros)) == {-1, 0, 100}
     pgm, yml = g.save_map_server(tmp_path / "map")
@@ -158,14 +165,24 @@ def test_bad_parameters_rejected():
 
 
 def test_parameters_bad_values_unknown_keys_and_the_model_form():
-    for bad, message in (({"p_hit": 1.0}, "p_hit"), ({"p_miss": 0.5}, "p_miss < p_prior < p_hit"), ({"clamp": (0.6, 0.97)}, "clamp"),
-                         ({"clamp": (0.0, 0.97)}, "clamp.0"), ({"hit_guard": -1}, "hit_guard"), ({"width": 0}, "width"), ({"dtype": "int8"}, "dtype"),
-                         ({"free_threshold": 0.7}, "free_threshold < occupied_threshold"), ({"no_such_parameter": 1}, "no_such_parameter")):
+    for bad, message in (
+        ({"p_hit": 1.0}, "p_hit"),
+        ({"p_miss": 0.5}, "p_miss < p_prior < p_hit"),
+        ({"clamp": (0.6, 0.97)}, "clamp"),
+        ({"clamp": (0.0, 0.97)}, "clamp.0"),
+        ({"hit_guard": -1}, "hit_guard"),
+        ({"width": 0}, "width"),
+        ({"dtype": "int8"}, "dtype"),
+        ({"free_threshold": 0.7}, "free_threshold < occupied_threshold"),
+        ({"no_such_parameter": 1}, "no_such_parameter"),
+    ):
         with pytest.raises(ValidationError, match=re.escape(message)):
             OccupancyGrid(**bad)
     assert OccupancyGrid(OccupancyGrid.Params(p_hit=0.8, width=10)).params == OccupancyGrid(p_hit=0.8, width=10).params
     g = OccupancyGrid(p_hit=0.8, p_prior=0.45, width=10, height=4, resolution=0.2, dtype="float64")
-    assert g.l_hit == pytest.approx(logit(0.8)) and g.l0 == pytest.approx(logit(0.45)) and g.log_odds.dtype == np.float64
+    assert (
+        g.l_hit == pytest.approx(logit(0.8)) and g.l0 == pytest.approx(logit(0.45)) and g.log_odds.dtype == np.float64
+    )
     assert g.shape == (4, 10) and np.allclose(g.origin, [-1.0, -0.4])
 
 
@@ -180,7 +197,9 @@ def test_map_pyramid_parameters_reach_every_level():
     maps = MapPyramid(resolution=0.1, levels=3, size=4.0, centre=(0.8, -1.6), p_hit=0.8, clamp=None, hit_guard=1)
     assert [g.params.resolution for g in maps.levels] == pytest.approx([0.1, 0.2, 0.4])
     assert all(g.params.p_hit == 0.8 and g.params.clamp is None and g.params.hit_guard == 1 for g in maps.levels)
-    assert all(np.allclose(g.grid_to_world(np.array(g.shape)[::-1] // 2), [0.8, -1.6]) for g in maps.levels)  # the middle cell on the centre
+    assert all(
+        np.allclose(g.grid_to_world(np.array(g.shape)[::-1] // 2), [0.8, -1.6]) for g in maps.levels
+    )  # the middle cell on the centre
 
 
 def test_hit_guard_keeps_cells_next_to_hits_from_being_cleared():
@@ -201,7 +220,10 @@ def test_vectorised_integration_equals_the_literal_loop():
 
     rng = np.random.default_rng(7)
     angles = np.linspace(-2.0, 2.0, 150)
-    fast, slow = grid(clamp=(0.12, 0.97), grow=False), grid(clamp=(0.12, 0.97), grow=False)  # rays leave the grid: both drop those cells
+    fast, slow = (
+        grid(clamp=(0.12, 0.97), grow=False),
+        grid(clamp=(0.12, 0.97), grow=False),
+    )  # rays leave the grid: both drop those cells
     for _ in range(6):
         pose = np.r_[rng.uniform(-0.5, 0.5, 2), rng.uniform(-np.pi, np.pi)]
         r = rng.uniform(0.05, 2.2, angles.size)
@@ -219,14 +241,20 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
     rng = np.random.default_rng(11)
     angles = np.linspace(-2.0, 2.0, 120)
     kw = dict(resolution=0.1, levels=3, clamp=(0.12, 0.97), hit_guard=1)
-    shared = [MapPyramid(**kw, size=4.0, centre=(0.3, -0.7)), MapPyramid(**kw, size=2.0, centre=(-1.9, 2.4)), MapPyramid(**kw, size=9.0, centre=(5.0, 5.0))]
+    shared = [
+        MapPyramid(**kw, size=4.0, centre=(0.3, -0.7)),
+        MapPyramid(**kw, size=2.0, centre=(-1.9, 2.4)),
+        MapPyramid(**kw, size=9.0, centre=(5.0, 5.0)),
+    ]
     alone = [MapPyramid(m.params) for m in shared]
     for _ in range(8):
         pose = np.r_[rng.uniform(-3, 3, 2), rng.uniform(-np.pi, np.pi)]
         r = rng.uniform(0.05, 4.0, angles.size)
         r[rng.random(angles.size) < 0.1] = 4.0  # no-returns
         n = shared[0].integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5, also=shared[1:])
-        assert [m.integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5) for m in alone][0] == n
+        assert [m.integrate(r, angles, pose, mount=[0.1, 0.0, 0.2], max_range=4.0, clear_range=2.5) for m in alone][
+            0
+        ] == n
         for grid in shared[0].levels:  # a released scratch is made again when the next scan comes
             grid.release_scratch()
     for a, b in zip(shared, alone):
@@ -234,4 +262,7 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
             np.testing.assert_array_equal(ga.origin, gb.origin)
             np.testing.assert_array_equal(ga.log_odds, gb.log_odds)
     with pytest.raises(ValueError, match="one lattice"):
-        shared[0].finest.cells_in(shared[0].finest.scan_cells([1.0], [0.0], [0, 0, 0], max_range=4.0), OccupancyGrid(resolution=0.1, origin=(0.01, 0.0)))
+        shared[0].finest.cells_in(
+            shared[0].finest.scan_cells([1.0], [0.0], [0, 0, 0], max_range=4.0),
+            OccupancyGrid(resolution=0.1, origin=(0.01, 0.0)),
+        )

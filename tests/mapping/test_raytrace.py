@@ -1,4 +1,5 @@
 """Bresenham closed form vs the textbook integer loop and hand-checked reference lines."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,5 @@
 """The grid RBPF: copy-on-write tiles, resampling, the proposal, parameters, and the filter on simulated drives."""
+
 from __future__ import annotations
 
 import copy
@@ -30,7 +31,9 @@ def _same_cells(tiled: OccupancyGrid, ref: OccupancyGrid) -> bool:
     big = np.pad(tiled.log_odds, pad, constant_values=tiled.l0)
     h, w = ref.shape
     window = big[off[1] + pad : off[1] + pad + h, off[0] + pad : off[0] + pad + w]
-    return np.array_equal(window, ref.log_odds) and np.count_nonzero(tiled.log_odds != tiled.l0) == np.count_nonzero(ref.log_odds != ref.l0)
+    return np.array_equal(window, ref.log_odds) and np.count_nonzero(tiled.log_odds != tiled.l0) == np.count_nonzero(
+        ref.log_odds != ref.l0
+    )
 
 
 @pytest.mark.parametrize("hit_guard", [0, 1])
@@ -40,7 +43,10 @@ def test_every_particle_map_equals_its_own_occupancy_grid_through_writes_and_res
     P = 4
     rng = np.random.default_rng(1)
     grid = TiledGrid(P, {"hit_guard": hit_guard}, 0.05, tile=16, size=2.0)
-    refs = [OccupancyGrid(hit_guard=hit_guard, resolution=0.05, width=40, height=40, origin=tuple(grid.origin)) for _ in range(P)]
+    refs = [
+        OccupancyGrid(hit_guard=hit_guard, resolution=0.05, width=40, height=40, origin=tuple(grid.origin))
+        for _ in range(P)
+    ]
     for k in range(0, 80, 3):
         reach, a, hit, r = _scan(room_sequence, k)
         poses = room_sequence.ground_truth.poses[k] + rng.normal(0, [0.05, 0.05, 0.02], (P, 3))
@@ -74,7 +80,9 @@ def test_a_write_to_one_particle_never_changes_another(room_sequence):
     for i in range(P):
         assert np.array_equal(after[i], before[i]) == (i != 2), i
     copied = np.flatnonzero((grid.table[2] != grid.table[0]).ravel())
-    assert copied.size > 0 and np.all(grid.refs[grid.table[0].ravel()[copied][grid.table[0].ravel()[copied] >= 0]] == P - 1)
+    assert copied.size > 0 and np.all(
+        grid.refs[grid.table[0].ravel()[copied][grid.table[0].ravel()[copied] >= 0]] == P - 1
+    )
     assert grid.memory()["used"] > shared["used"]
 
 
@@ -126,7 +134,9 @@ def _target_state(k=150, particles=1):
     from slamarena.datasets.sim.laser import simulate
     from slamarena.mapping.rbpf.tiled_grid import TiledPyramid
 
-    seq = simulate(max_range=4.0, n_beams=91, sigma_range=0.02, k_r=0.06, k_rt=0.03, k_t=0.085, scan_rate=2.5, laps=1, seed=0)
+    seq = simulate(
+        max_range=4.0, n_beams=91, sigma_range=0.02, k_r=0.06, k_rt=0.03, k_t=0.085, scan_rate=2.5, laps=1, seed=0
+    )
     scans, p = seq.scans, RBPF.Params()
     truth = seq.ground_truth.poses[np.searchsorted(seq.ground_truth.t, scans.t)]
     maps = TiledPyramid(particles, {}, p.resolution, p.levels, p.tile, size=8.0, centre=tuple(truth[0, :2]))
@@ -158,7 +168,9 @@ def _literal_ssr(grid: OccupancyGrid, pts, X):
         inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
         return np.where(inside, prob[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)], 1.0 / (1.0 + np.exp(-grid.l0)))
 
-    M = (1 - fy) * ((1 - fx) * m(x0, y0) + fx * m(x0 + 1, y0)) + fy * ((1 - fx) * m(x0, y0 + 1) + fx * m(x0 + 1, y0 + 1))
+    M = (1 - fy) * ((1 - fx) * m(x0, y0) + fx * m(x0 + 1, y0)) + fy * (
+        (1 - fx) * m(x0, y0 + 1) + fx * m(x0 + 1, y0 + 1)
+    )
     return np.sum((1.0 - M) ** 2, axis=1)
 
 
@@ -172,7 +184,11 @@ def _brute_force_target(grid, pts, guess, motion_cov, sigma, centre, half, n=41)
     ssr = np.concatenate([_literal_ssr(grid, pts, X[i : i + 8192]) for i in range(0, len(X), 8192)])
     e = X - guess
     e[:, 2] = (e[:, 2] + np.pi) % (2 * np.pi) - np.pi
-    log_tau = -0.5 * ssr / sigma**2 - 0.5 * np.einsum("ki,ij,kj->k", e, np.linalg.inv(motion_cov), e) - 0.5 * np.log(np.linalg.det(2 * np.pi * motion_cov))
+    log_tau = (
+        -0.5 * ssr / sigma**2
+        - 0.5 * np.einsum("ki,ij,kj->k", e, np.linalg.inv(motion_cov), e)
+        - 0.5 * np.log(np.linalg.det(2 * np.pi * motion_cov))
+    )
     tau = np.exp(log_tau - log_tau.max())
     w = tau / tau.sum()
     mean = w @ D
@@ -187,8 +203,19 @@ def _proposal_and_brute_force(sigma, half):
 
     maps, pts, guess, motion_cov = _target_state()
     p = RBPF.Params()
-    modes, _ = gauss_newton(maps, pts, guess, np.linalg.inv(motion_cov), sigma, p.iterations, p.tol_translation, p.tol_rotation,
-                           p.max_step_translation, p.max_step_rotation, halvings=p.step_halvings)
+    modes, _ = gauss_newton(
+        maps,
+        pts,
+        guess,
+        np.linalg.inv(motion_cov),
+        sigma,
+        p.iterations,
+        p.tol_translation,
+        p.tol_rotation,
+        p.max_step_translation,
+        p.max_step_rotation,
+        halvings=p.step_halvings,
+    )
     mu, cov, log_eta, _ = quadrature(maps, pts, modes, guess, motion_cov, sigma)
     brute = _brute_force_target(maps.finest.dense(0), pts, guess[0], motion_cov, sigma, modes[0], half)
     return (mu[0], cov[0], log_eta[0]), brute
@@ -219,13 +246,18 @@ def test_proposal_is_the_brute_force_target_where_the_likelihood_is_sharp():
     assert abs(log_eta - blog_eta) < 0.3, (log_eta, blog_eta)
 
 
-@pytest.mark.xfail(strict=True, reason="research/mapping.md §6 'Is the proposal the target?': at the shipped σ_z = 1 the "
-                   "target is a narrow peak on a wide base; the 27 points, placed by the peak's curvature, give a heading "
-                   "standard deviation 4–5× smaller than the target's and log η 1.4–1.5 too small")
+@pytest.mark.xfail(
+    strict=True,
+    reason="research/mapping.md §6 'Is the proposal the target?': at the shipped σ_z = 1 the "
+    "target is a narrow peak on a wide base; the 27 points, placed by the peak's curvature, give a heading "
+    "standard deviation 4–5× smaller than the target's and log η 1.4–1.5 too small",
+)
 def test_proposal_is_the_brute_force_target_at_the_shipped_likelihood():
     """The same check at the shipped σ_z = 1 (target on a 41³ lattice of ±(0.8 m, 0.7 m, 0.6 rad)): standard
     deviations within 30 %, log η within 0.3."""
-    (mu, cov, log_eta), (mean, bcov, blog_eta, face) = _proposal_and_brute_force(RBPF.Params().sigma_likelihood, (0.8, 0.7, 0.6))
+    (mu, cov, log_eta), (mean, bcov, blog_eta, face) = _proposal_and_brute_force(
+        RBPF.Params().sigma_likelihood, (0.8, 0.7, 0.6)
+    )
     assert face < 1e-3
     np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(bcov)), rtol=0.3)
     assert abs(log_eta - blog_eta) < 0.3, (log_eta, blog_eta)
@@ -248,8 +280,19 @@ def test_mode_proposal_draws_narrowly_and_weights_by_the_target():
     f = RBPF(particles=P, proposal="mode")
     f.maps, p, info = maps, f.params, np.linalg.inv(motion_cov)
     poses, fallbacks, log_eta, _ = f._propose(pts, np.repeat(guess, P, axis=0), motion_cov, np.random.default_rng(1))
-    modes, _ = gauss_newton(maps, pts, guess, info, p.sigma_likelihood, p.iterations, p.tol_translation, p.tol_rotation,
-                            p.max_step_translation, p.max_step_rotation, halvings=p.step_halvings)
+    modes, _ = gauss_newton(
+        maps,
+        pts,
+        guess,
+        info,
+        p.sigma_likelihood,
+        p.iterations,
+        p.tol_translation,
+        p.tol_rotation,
+        p.max_step_translation,
+        p.max_step_rotation,
+        halvings=p.step_halvings,
+    )
     _, cov, target_log_eta, _ = quadrature(maps, pts, modes, guess, motion_cov, p.sigma_likelihood)
     _, H, _ = residuals(maps, pts, modes[:, None, :])
     A_inv = np.linalg.inv(H[0] / p.sigma_likelihood**2 + info)
@@ -296,7 +339,10 @@ def test_filter_reports_resampling_neff_and_memory(room_sequence):
     np.testing.assert_array_equal(d["neff_t"], room_sequence.scans.t[steps][1:])
     assert np.array_equal(d["resampled"], d["neff"] < P) and np.all((d["neff"] >= 1 - 1e-9) & (d["neff"] <= P + 1e-9))
     assert est.meta["resampling_events"] == d["resampled"].sum() > 0
-    assert np.all(d["memory_per_particle"][steps] > 0) and est.meta["memory_per_particle"] < est.meta["memory_unshared_per_particle"]
+    assert (
+        np.all(d["memory_per_particle"][steps] > 0)
+        and est.meta["memory_per_particle"] < est.meta["memory_unshared_per_particle"]
+    )
     never = RBPF(particles=P, resample_threshold=1e-9).run(room_sequence)
     assert never.meta["resampling_events"] == 0
 
@@ -324,7 +370,9 @@ def test_room_drive_is_seeded_and_beats_odometry(room_sequence):
     a = slam.run(room_sequence)
     assert np.array_equal(slam.trajectory(a.meta["best_particle"]), a.poses)  # every lineage, the best one the estimate
     assert all(slam.trajectory(i).shape == a.poses.shape and np.all(np.isfinite(slam.trajectory(i))) for i in range(6))
-    assert list(slam.map.shape) == a.meta["map_shape"] and slam.map is slam.map  # the best particle's finest grid, one copy
+    assert (
+        list(slam.map.shape) == a.meta["map_shape"] and slam.map is slam.map
+    )  # the best particle's finest grid, one copy
     assert np.array_equal(slam.map.log_odds, slam.maps.finest.dense(a.meta["best_particle"]).log_odds)
     b = RBPF(particles=6, seed=3).run(room_sequence)
     c = RBPF(particles=6, seed=4).run(room_sequence)
@@ -383,7 +431,17 @@ def test_sim_loop_with_30_particles_maps_as_well_as_grid_slam():
     assert est.meta["resampling_events"] > 0 and est.meta["proposal_fallbacks"] == 0
 
 
-LONG_LOOP = {"world": "long_loop", "max_range": 4.0, "n_beams": 91, "sigma_range": 0.02, "k_r": 0.06, "k_rt": 0.03, "k_t": 0.085, "scan_rate": 2.5, "laps": 2}
+LONG_LOOP = {
+    "world": "long_loop",
+    "max_range": 4.0,
+    "n_beams": 91,
+    "sigma_range": 0.02,
+    "k_r": 0.06,
+    "k_rt": 0.03,
+    "k_t": 0.085,
+    "scan_rate": 2.5,
+    "laps": 2,
+}
 
 
 def _closure(seed: int) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -433,7 +491,15 @@ def test_step_halving_makes_the_proposals_gauss_newton_a_descent_that_converges(
 
     maps, pts, guess, motion_cov = _target_state()
     p, info = RBPF.Params(), np.linalg.inv(motion_cov)
-    gn = dict(sigma=p.sigma_likelihood, iterations=100, tol_t=1e-6, tol_r=1e-6, max_step_t=p.max_step_translation, max_step_r=p.max_step_rotation, halvings=halvings)
+    gn = dict(
+        sigma=p.sigma_likelihood,
+        iterations=100,
+        tol_t=1e-6,
+        tol_r=1e-6,
+        max_step_t=p.max_step_translation,
+        max_step_r=p.max_step_rotation,
+        halvings=halvings,
+    )
 
     def cost(x):
         e = guess[0] - x
@@ -446,4 +512,6 @@ def test_step_halving_makes_the_proposals_gauss_newton_a_descent_that_converges(
     if halvings == 0:
         assert moved.max() > 1e-3, moved  # the two-cycle the halving removes
     else:
-        assert moved.max() < 1e-5 and cost(again[0]) <= cost(mode[0]) + 1e-9 and cost(mode[0]) < cost(guess[0].copy()), moved
+        assert (
+            moved.max() < 1e-5 and cost(again[0]) <= cost(mode[0]) + 1e-9 and cost(mode[0]) < cost(guess[0].copy())
+        ), moved

@@ -1,5 +1,6 @@
 """Scan matchers: gradients, the Hector objective and its errata, offsets recovered on hand-made,
 simulated and real (corrected-log) scans, branch and bound = exhaustive search, covariances."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,10 +46,12 @@ def test_interpolation_gradient_matches_finite_differences_and_the_hector_bug_do
     pts, _ = scan_points(ROOM_POSES[1])
     xy = transform_points(ROOM_POSES[1], pts)[::7] + rng.uniform(-0.03, 0.03, (len(pts[::7]), 2))
     h = 1e-6
-    fd = np.column_stack([
-        (interpolate(L, ox, oy, res, xy + [h, 0]) - interpolate(L, ox, oy, res, xy - [h, 0]))[:, 0] / (2 * h),
-        (interpolate(L, ox, oy, res, xy + [0, h]) - interpolate(L, ox, oy, res, xy - [0, h]))[:, 0] / (2 * h),
-    ])
+    fd = np.column_stack(
+        [
+            (interpolate(L, ox, oy, res, xy + [h, 0]) - interpolate(L, ox, oy, res, xy - [h, 0]))[:, 0] / (2 * h),
+            (interpolate(L, ox, oy, res, xy + [0, h]) - interpolate(L, ox, oy, res, xy - [0, h]))[:, 0] / (2 * h),
+        ]
+    )
     good = interpolate(L, ox, oy, res, xy, False)[:, 1:]
     bug = interpolate(L, ox, oy, res, xy, True)[:, 1:]
     assert np.allclose(good, fd, atol=1e-4 * np.abs(fd).max())
@@ -92,7 +95,9 @@ def test_notes_update_rule_walks_away_from_the_map(room_map):
     def step(pose, notes):
         c, s = np.cos(pose[2]), np.sin(pose[2])
         V = interpolate(L, ox, oy, res, transform_points(pose, pts))
-        J = np.column_stack([V[:, 1], V[:, 2], V[:, 1] * (-s * pts[:, 0] - c * pts[:, 1]) + V[:, 2] * (c * pts[:, 0] - s * pts[:, 1])])
+        J = np.column_stack(
+            [V[:, 1], V[:, 2], V[:, 1] * (-s * pts[:, 0] - c * pts[:, 1]) + V[:, 2] * (c * pts[:, 0] - s * pts[:, 1])]
+        )
         r = V[:, 0] if notes else 1.0 - V[:, 0]
         d = np.linalg.solve(J.T @ J, J.T @ r)
         return pose - d if notes else pose + d
@@ -107,9 +112,19 @@ def test_notes_update_rule_walks_away_from_the_map(room_map):
 
 
 # --------------------------------------------------------------------------- recover offsets
-GRID_MATCHERS = [("gauss_newton", {}), ("gauss_newton", {"hector_gradient_bug": True}), ("correlative", {}), ("branch_and_bound", {})]
-POINT_MATCHERS = [("kiss_icp", {}), ("open3d_icp", {"method": "point_to_point"}), ("open3d_icp", {"method": "point_to_plane"}), ("open3d_icp", {"method": "generalized"}),
-                  ("point_to_line", {})]
+GRID_MATCHERS = [
+    ("gauss_newton", {}),
+    ("gauss_newton", {"hector_gradient_bug": True}),
+    ("correlative", {}),
+    ("branch_and_bound", {}),
+]
+POINT_MATCHERS = [
+    ("kiss_icp", {}),
+    ("open3d_icp", {"method": "point_to_point"}),
+    ("open3d_icp", {"method": "point_to_plane"}),
+    ("open3d_icp", {"method": "generalized"}),
+    ("point_to_line", {}),
+]
 
 
 @pytest.mark.parametrize("name,params", GRID_MATCHERS + POINT_MATCHERS)
@@ -164,8 +179,12 @@ def test_point_to_line_residual_jacobian_matches_finite_differences():
     pose = np.array([0.3, -0.2, 0.7])
     r, J = residuals_and_jacobian(pose, s, q, n)
     eps = 1e-6
-    numeric = np.column_stack([(residuals_and_jacobian(pose + e, s, q, n)[0] - residuals_and_jacobian(pose - e, s, q, n)[0]) / (2 * eps)
-                               for e in np.eye(3) * eps])
+    numeric = np.column_stack(
+        [
+            (residuals_and_jacobian(pose + e, s, q, n)[0] - residuals_and_jacobian(pose - e, s, q, n)[0]) / (2 * eps)
+            for e in np.eye(3) * eps
+        ]
+    )
     np.testing.assert_allclose(J, numeric, atol=1e-7)
     assert np.allclose(r, np.sum(n * (transform_points(pose, s) - q), axis=1))
 
@@ -186,7 +205,9 @@ def test_point_to_line_kernel_equals_the_literal_brute_force_form():
             normals[i] = np.linalg.eigh(np.cov(P[near].T, bias=True))[1][:, 0]
     has = ~np.isnan(ref.normals[:, 0])
     assert has.mean() > 0.9 and np.array_equal(has, ~np.isnan(normals[:, 0]))
-    np.testing.assert_allclose(np.abs(np.sum(ref.normals[has] * normals[has], axis=1)), 1.0, atol=1e-9)  # the same line, either sign
+    np.testing.assert_allclose(
+        np.abs(np.sum(ref.normals[has] * normals[has], axis=1)), 1.0, atol=1e-9
+    )  # the same line, either sign
     pose = ROOM_POSES[1] + np.array([0.04, -0.03, 0.02])
     pts = scan_points(ROOM_POSES[1] + np.array([0.3, 0.1, 0.05]))[0]
     world = transform_points(pose, pts)
@@ -196,7 +217,9 @@ def test_point_to_line_kernel_equals_the_literal_brute_force_form():
     paired = Dq[np.arange(len(world)), j] <= m.params.max_correspondence
     r, J = residuals_and_jacobian(pose, pts[paired], P[j[paired]], ref.normals[j[paired]])
     ny, nx = ref.shape
-    H, g, ssr, n = _normal_equations(P, ref.normals, ref.start, ref.origin, ref.cell, nx, ny, pts, pose, m.params.max_correspondence)
+    H, g, ssr, n = _normal_equations(
+        P, ref.normals, ref.start, ref.origin, ref.cell, nx, ny, pts, pose, m.params.max_correspondence
+    )
     assert n == paired.sum() > 100
     np.testing.assert_allclose(H, J.T @ J, rtol=1e-10)
     np.testing.assert_allclose(g, J.T @ r, rtol=1e-10, atol=1e-12)
@@ -214,8 +237,14 @@ def test_point_to_line_covariance_is_long_along_a_corridor():
     exact = m.match(ref, pts, truth + np.array([0.0, 0.03, -0.01]))
     assert np.all(np.isinf(np.diag(exact.cov))) and exact.pose[0] == truth[0]  # x left at the guess, not thrown away
     assert abs(exact.pose[1] - truth[1]) < 1e-6 and abs(exact.pose[2] - truth[2]) < 1e-6
-    out = m.match(ref + rng.normal(0, 0.005, ref.shape), pts + rng.normal(0, 0.005, pts.shape), truth + np.array([0.0, 0.03, -0.01]))
-    assert abs(out.pose[1] - truth[1]) < 3e-3 and abs(out.pose[2] - truth[2]) < 2e-3  # across the corridor and the heading
+    out = m.match(
+        ref + rng.normal(0, 0.005, ref.shape),
+        pts + rng.normal(0, 0.005, pts.shape),
+        truth + np.array([0.0, 0.03, -0.01]),
+    )
+    assert (
+        abs(out.pose[1] - truth[1]) < 3e-3 and abs(out.pose[2] - truth[2]) < 2e-3
+    )  # across the corridor and the heading
     w, V = np.linalg.eigh(out.cov[:2, :2])
     assert abs(V[0, 1]) > 0.99 and w[1] > 100 * w[0], out.cov  # major axis along x
 
@@ -253,7 +282,12 @@ def test_matchers_on_consecutive_corrected_intel_scans():
     sc = corrected_intel()
     offset = np.array([0.1, -0.08, 0.05])
     ks = range(104, 900, 80)
-    for name, params, tol in [("gauss_newton", {}, (0.07, 0.02)), ("branch_and_bound", {}, (0.05, 0.01)), ("kiss_icp", {}, (0.05, 0.01)), ("open3d_icp", {"method": "generalized"}, (0.05, 0.01))]:
+    for name, params, tol in [
+        ("gauss_newton", {}, (0.07, 0.02)),
+        ("branch_and_bound", {}, (0.05, 0.01)),
+        ("kiss_icp", {}, (0.05, 0.01)),
+        ("open3d_icp", {"method": "generalized"}, (0.05, 0.01)),
+    ]:
         m = make_matcher(name, **params)
         errs = []
         for k in ks:
@@ -279,7 +313,14 @@ def _points(sc, k):
 
 
 def test_registry_and_bad_parameters():
-    assert set(MATCHERS) == {"gauss_newton", "correlative", "branch_and_bound", "kiss_icp", "open3d_icp", "point_to_line"}
+    assert set(MATCHERS) == {
+        "gauss_newton",
+        "correlative",
+        "branch_and_bound",
+        "kiss_icp",
+        "open3d_icp",
+        "point_to_line",
+    }
     with pytest.raises(KeyError):
         make_matcher("ndt")
     with pytest.raises(ValueError):
@@ -308,7 +349,7 @@ def test_parameters_bad_values_unknown_keys_and_the_model_form(name, good, bad):
         make_matcher(name, **bad)
     with pytest.raises(ValidationError, match="no_such_parameter"):
         cls(no_such_parameter=1)
-    (key, value), = good.items()
+    ((key, value),) = good.items()
     m = make_matcher(name, **good)
     assert getattr(m.params, key) == value != getattr(cls().params, key)
     assert cls(cls.Params(**good)).params == m.params
