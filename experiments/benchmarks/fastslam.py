@@ -1,7 +1,8 @@
 """``slamarena bench fastslam``: FastSLAM cost per step against the map size n and the particle count M.
 
 The world is ``sim:landmarks`` with n = 50 … 3200 landmarks at a fixed density (the route grows with
-n, so the landmarks in view per step — about 8 — do not), known association; the run is long enough for the timed windows after the first lap. The filter
+n, so the landmarks in view per step — about 8 — do not), known association; the run is long enough
+for the timed windows after the first lap. The filter
 (:class:`slamarena.estimators.fastslam.FastSLAM`, version 2 unless stated) is driven set by set — the
 motion since the last observation set (``predict_twists``), then the set (``update``) — through the
 first lap on every ``MAP_STRIDE``-th observation set (which maps every landmark, cheaply), then through
@@ -18,6 +19,9 @@ Three series, all measured in one run, each in a child process with one BLAS thr
 * time per step against M at fixed n (exponent near 1: the per-particle work is independent);
 * the live map bytes per particle (``LandmarkStore.nbytes() / M``, the ``map_bytes`` of
   ``Estimate.meta``) at the end of the timed windows, shared and eager, against n.
+
+Aims, printed with their verdicts: the exponent in n at most :data:`AIM_EXPONENT_N` (O(M log n) looks flat on a
+log-log plot), the exponent in M within :data:`AIM_EXPONENT_M_TOL` of 1.
 """
 
 from __future__ import annotations
@@ -32,10 +36,13 @@ import numpy as np
 from numba import njit
 
 from slamarena.estimators.fastslam.storage import LEAF, LandmarkStore, find, writable
-from slamarena.experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
+from slamarena.experiments.benchmarks import aim, loglog_slope, measure_single_threaded, table, write_rows
 
+STAGED_DATA: dict[str, bool] = {}
 MAP_STRIDE = 10
 WINDOWS = 3
+AIM_EXPONENT_N = 0.2
+AIM_EXPONENT_M_TOL = 0.2
 
 
 @njit(cache=True)
@@ -164,7 +171,6 @@ def measure(n: int, M: int, steps: int, version: int = 2, eager: bool = False, s
 
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
-    from rich.table import Table
 
     sizes = [50, 100, 200, 400, 800] if quick else [50, 100, 200, 400, 800, 1600, 3200, 6400]
     particles = [10, 30, 100, 300] if quick else [10, 30, 100, 300, 1000]
@@ -188,23 +194,23 @@ def main(out: Path | None = None, quick: bool = False) -> int:
     }
     exp_m = loglog_slope(rows_m, "step", 100 if not quick else 30, particles[-1], size="M")
 
-    table = Table(
-        title=f"FastSLAM 2.0, M = {M_fixed}, known association: CPU time per step (≈ {rows_n[0]['observations_per_step']:.0f} "
-        f"observations), least mean of {WINDOWS} windows of {steps} steps"
+    by_n = table(
+        f"FastSLAM 2.0, M = {M_fixed}, known association: CPU time per step (≈ {rows_n[0]['observations_per_step']:.0f} "
+        f"observations), least mean of {WINDOWS} windows of {steps} steps",
+        (
+            "n",
+            "shared [ms]",
+            "eager copy [ms]",
+            "eager / shared",
+            "resamplings / step",
+            "live bytes / particle, shared",
+            "eager",
+            "dense map (44 B/landmark)",
+        ),
+        justify="right",
     )
-    for col in (
-        "n",
-        "shared [ms]",
-        "eager copy [ms]",
-        "eager / shared",
-        "resamplings / step",
-        "live bytes / particle, shared",
-        "eager",
-        "dense map (44 B/landmark)",
-    ):
-        table.add_column(col, justify="right")
     for r in rows_n:
-        table.add_row(
+        by_n.add_row(
             str(r["n"]),
             f"{1e3 * r['step']:.2f}",
             f"{1e3 * r['eager_step']:.2f}",
@@ -214,19 +220,27 @@ def main(out: Path | None = None, quick: bool = False) -> int:
             f"{r['eager_bytes_per_particle']:.0f}",
             f"{r['dense_bytes_per_particle']:.0f}",
         )
-    console.print(table)
-    table = Table(title=f"FastSLAM 2.0, n = {n_fixed}: CPU time per step against M")
-    for col in ("M", "per step [ms]", "per step and particle [µs]"):
-        table.add_column(col, justify="right")
-    for r in rows_m:
-        table.add_row(str(r["M"]), f"{1e3 * r['step']:.2f}", f"{1e6 * r['step'] / r['M']:.1f}")
-    console.print(table)
-    console.print(
-        f"log-log exponents over n ∈ [{lo_n}, {hi_n}] at M = {M_fixed}: time per step {exp_n['step']:.2f} (claim O(M log n): ≈ 0–0.2), "
-        f"eager copy {exp_n['eager_step']:.2f}; live bytes per particle {exp_n['bytes_per_particle']:.2f}, "
-        f"eager {exp_n['eager_bytes_per_particle']:.2f}"
+    console.print(by_n)
+    by_m = table(
+        f"FastSLAM 2.0, n = {n_fixed}: CPU time per step against M",
+        ("M", "per step [ms]", "per step and particle [µs]"),
+        justify="right",
     )
-    console.print(f"log-log exponent over M at n = {n_fixed}: {exp_m:.2f} (≈ 1)")
+    for r in rows_m:
+        by_m.add_row(str(r["M"]), f"{1e3 * r['step']:.2f}", f"{1e6 * r['step'] / r['M']:.1f}")
+    console.print(by_m)
+    console.print(
+        f"log-log exponents over n ∈ [{lo_n}, {hi_n}] at M = {M_fixed}: time per step {exp_n['step']:.2f} "
+        f"{aim(f'≤ {AIM_EXPONENT_N} (O(M log n))', exp_n['step'] <= AIM_EXPONENT_N)}, "
+        f"eager copy {exp_n['eager_step']:.2f}; live bytes per particle {exp_n['bytes_per_particle']:.2f}, "
+        f"eager {exp_n['eager_bytes_per_particle']:.2f}",
+        markup=False,
+    )
+    console.print(
+        f"log-log exponent over M at n = {n_fixed}: {exp_m:.2f} "
+        f"{aim(f'1 ± {AIM_EXPONENT_M_TOL}', abs(exp_m - 1) <= AIM_EXPONENT_M_TOL)}",
+        markup=False,
+    )
     write_rows(rows_n, out, "fastslam_scaling_n.csv")
     write_rows(rows_m, out, "fastslam_scaling_M.csv")
     return 0

@@ -21,9 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from slamarena.datasets.geometry import compose, transform_points
-from slamarena.experiments.benchmarks import loglog_slope, write_rows
+from slamarena.experiments.benchmarks import loglog_slope, table, write_rows
 from slamarena.mapping.occupancy_grid import OccupancyGrid
 from slamarena.mapping.raytrace import bresenham
+
+#: the corrected Intel log when staged, else sim:laser
+STAGED_DATA: dict[str, bool] = {"carmen-corrected:intel": False}
 
 
 def integrate_literal(
@@ -81,7 +84,6 @@ def _grid_for(scans, poses, cap):
 
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
-    from rich.table import Table
 
     console = Console()
     name, scans = _scans()
@@ -105,20 +107,19 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         check.integrate(*scans.beams(k), scans.pose[k], scans.mount, scans.max_range, cap)
     same = bool(np.array_equal(check.log_odds, slow.log_odds))
     per_scan_fast, per_scan_slow = t_fast / len(idx), t_slow / len(sub)
-    table = Table(
-        title=f"grid updates on {name} ({len(idx)} scans, {scans.ranges.shape[1]} beams, 0.05 m, no-return cleared to {cap} m)"
+    updates = table(
+        f"grid updates on {name} ({len(idx)} scans, {scans.ranges.shape[1]} beams, 0.05 m, no-return cleared to {cap} m)",
+        ("implementation", "ms / scan", "cell updates / s", "ratio"),
     )
-    for col in ("implementation", "ms / scan", "cell updates / s", "ratio"):
-        table.add_column(col)
     rate = n_fast / t_fast
-    table.add_row("vectorised (numpy)", f"{1e3 * per_scan_fast:.2f}", f"{rate:,.0f}", "1")
-    table.add_row(
+    updates.add_row("vectorised (numpy)", f"{1e3 * per_scan_fast:.2f}", f"{rate:,.0f}", "1")
+    updates.add_row(
         "literal loop",
         f"{1e3 * per_scan_slow:.2f}",
         f"{rate * per_scan_fast / per_scan_slow:,.0f}",
         f"{per_scan_slow / per_scan_fast:.1f}× slower",
     )
-    console.print(table)
+    console.print(updates)
     console.print(f"literal and vectorised grids identical on {len(sub)} scans: {same}")
 
     # 2. scaling with the cells a scan traces

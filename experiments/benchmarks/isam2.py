@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from slamarena.experiments.benchmarks import loglog_slope, measure_single_threaded, write_rows
+from slamarena.experiments.benchmarks import loglog_slope, measure_single_threaded, table, write_rows
 
+STAGED_DATA: dict[str, bool] = {}
 OBSERVATIONS = 10
 R = np.diag([0.1**2, np.radians(1.0) ** 2])
 M = np.diag([0.1**2, 0.05**2])
@@ -87,7 +88,6 @@ def measure(n: int, steps: int, seed: int = 0) -> dict:
 
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
-    from rich.table import Table
 
     sizes = [25, 50, 100, 200, 400] if quick else [25, 50, 100, 200, 400, 800, 1600]
     steps = 60 if quick else 200
@@ -98,18 +98,13 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         console.log(f"n = {n}: mean {1e3 * rows[-1]['mean']:.2f} ms/step, median {1e3 * rows[-1]['median']:.2f}")
     fit_lo, fit_hi = (100, 400) if quick else (200, 1600)
     exponents = {key: loglog_slope(rows, key, fit_lo, fit_hi) for key in ("mean", "median")}
-    table = Table(title=f"iSAM2 CPU time per step (1 pose + {OBSERVATIONS} observations) over {rows[0]['steps']} steps")
-    for col in (
-        "n",
-        "mean [ms]",
-        "median [ms]",
-        "p90 [ms]",
-        f"mean vs n = {sizes[0]}",
-        "first update (maps all n) [ms]",
-    ):
-        table.add_column(col, justify="right")
+    steps_table = table(
+        f"iSAM2 CPU time per step (1 pose + {OBSERVATIONS} observations) over {rows[0]['steps']} steps",
+        ("n", "mean [ms]", "median [ms]", "p90 [ms]", f"mean vs n = {sizes[0]}", "first update (maps all n) [ms]"),
+        justify="right",
+    )
     for r in rows:
-        table.add_row(
+        steps_table.add_row(
             str(r["n"]),
             f"{1e3 * r['mean']:.2f}",
             f"{1e3 * r['median']:.2f}",
@@ -117,10 +112,11 @@ def main(out: Path | None = None, quick: bool = False) -> int:
             f"{r['mean'] / rows[0]['mean']:.1f}×",
             f"{1e3 * r['first']:.1f}",
         )
-    console.print(table)
+    console.print(steps_table)
     console.print(
         f"log-log exponent of the step time over n ∈ [{fit_lo}, {fit_hi}]: mean {exponents['mean']:.2f}, "
-        f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)"
+        f"median {exponents['median']:.2f} (EKF-SLAM: O(n²) per step, see `slamarena bench ekf-slam`)",
+        markup=False,
     )
     write_rows(rows, out, "isam2_scaling.csv")
     return 0
