@@ -33,6 +33,7 @@ import difflib
 import html
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -45,6 +46,7 @@ from .results import CAPTION_SUFFIX, MANIFEST, SUMMARY, atomic_write_text
 __all__ = ["write_report", "build", "build_comparison", "to_html", "to_markdown", "Results", "ResultsError", "REPORT"]
 
 REPORT = "report"  # <results>/report.html and report.md
+NEES_COLUMN = "nees.mean_over_dof"
 
 
 class ResultsError(UserError, ValueError):
@@ -69,6 +71,7 @@ class Heading:
 class Text:
     text: str
     items: list[str] = field(default_factory=list)  # a bullet list after the paragraph
+    links: dict[str, str] = field(default_factory=dict)  # a fragment of the text or items → the address it links to
 
 
 @dataclass
@@ -217,6 +220,50 @@ def _facts(r: Results) -> list[tuple[str, str]]:
     ]
 
 
+#: the research page that explains a method's known inconsistency: registry name → (what it is, page, section title)
+KNOWN_INCONSISTENCY = {
+    "fastslam": (
+        "FastSLAM's known over-confidence, expected and not a defect: resampling depletes the path hypotheses, so the "
+        "particle cloud forgets the uncertainty of the past and its covariance shrinks below the error; more particles "
+        "delay it, none prevent it (Bailey, Nieto & Nebot 2006, reproduced here)",
+        "research/fastslam.md",
+        "5.2 Consistency and cost against accuracy on sim:landmarks",
+    ),
+}
+#: NEES / dof above this is flagged: the covariance understates the error by more than √2 in standard deviation
+OVER_CONFIDENT = 2.0
+#: the checkout whose research pages a report links to (when they exist there: not in an installed wheel)
+CHECKOUT = Path(__file__).resolve().parents[1]
+
+
+def _anchor(title: str) -> str:
+    """The anchor of a Markdown heading as GitHub and most renderers make it."""
+    return "-".join(re.sub(r"[^\w\s-]", "", title.lower()).split(" "))
+
+
+def _consistency_notes(r: Results, rows) -> tuple[list[str], dict[str, str]]:
+    """Caption items for the rows ``(dataset, method label, NEES / dof)`` that are over-confident
+    (:data:`OVER_CONFIDENT`) and whose method has a known explanation (:data:`KNOWN_INCONSISTENCY`), with the links
+    to it."""
+    from .config import sanitize
+
+    names = {e.get("label") or sanitize(e["name"]): e["name"] for e in r.config.get("estimators") or []}
+    items, links = [], {}
+    for dataset, method, value in rows:
+        known = KNOWN_INCONSISTENCY.get(names.get(method))
+        if known is None or not np.isfinite(value) or value <= OVER_CONFIDENT:
+            continue
+        what, page, section = known
+        where = f"{page} § {section}"
+        items.append(
+            f"{method} on {dataset}: NEES / dof = {_fmt(value)} (a consistent filter gives 1; its error is "
+            f"{np.sqrt(value):.1f}× the standard deviation it reports). {what}; explained in {where}."
+        )
+        if (CHECKOUT / page).is_file():
+            links[where] = f"{(CHECKOUT / page).as_uri()}#{_anchor(section)}"
+    return items, links
+
+
 def _caption(r: Results, columns: list[str], published: list[dict]) -> Text:
     from .metrics import output_columns
 
@@ -275,6 +322,9 @@ def _monte_carlo_table(r: Results) -> Table | None:
         "two-sided band [χ²_{N·dof}(α/2), χ²_{N·dof}(1 − α/2)] / N.",
         [f"{c}: {MONTE_CARLO_COLUMNS[c]}" for c in header if c in MONTE_CARLO_COLUMNS],
     )
+    nees = mc[mc["statistic"] == "nees"]
+    notes, caption.links = _consistency_notes(r, zip(nees["dataset"], nees["estimator"], nees["mean_over_dof"]))
+    caption.items += notes
     return Table("table-monte_carlo", header, rows, caption)
 
 
@@ -330,10 +380,16 @@ def build(r: Results) -> tuple[str, list]:
         published = r.published()
         for spec in r.table_specs():
             columns = list(spec["columns"])
-            _, rows, cited = _table_cells(r, columns, published)
+            means, rows, cited = _table_cells(r, columns, published)
+            caption = _caption(r, columns, cited)
+            if NEES_COLUMN in columns:
+                notes, caption.links = _consistency_notes(
+                    r, ((ds, method, v) for (ds, method), v in means[NEES_COLUMN].items())
+                )
+                caption.items += notes
             blocks += [
                 Heading(3, spec["name"]),
-                Table(f"table-{spec['name']}", ["dataset", "method", "n", *columns], rows, _caption(r, columns, cited)),
+                Table(f"table-{spec['name']}", ["dataset", "method", "n", *columns], rows, caption),
             ]
         mc = _monte_carlo_table(r)
         if mc is not None:
@@ -457,6 +513,7 @@ th:nth-child(-n+2), td:nth-child(-n+2) { text-align: left; }
 .best { font-weight: bold; } .published { font-style: italic; color: #555; background: #f4f4f4; }
 .changed { background: #fff3b0; } .better { background: #c8ecc9; } .worse { background: #f7c6c5; }
 .caption { font-size: .9em; color: #444; max-width: 70em; } .caption ul { margin: .2em 0; }
+.table-scroll { overflow-x: auto; max-width: 100%; } .caption a { color: inherit; }
 .figures { display: flex; gap: 1em; margin: 1em 0; } figure { margin: 0; flex: 1; }
 figure img { max-width: 100%; height: auto; border: 1px solid #eee; display: block; }
 pre { background: #f6f6f6; padding: .6em; overflow-x: auto; font-size: .85em; } pre.changed { background: #fff3b0; }
@@ -467,23 +524,33 @@ def _esc(s: str) -> str:
     return html.escape(str(s), quote=True)
 
 
+def _linked(t: Text, s: str) -> str:
+    """``s`` escaped, each fragment of ``t.links`` in it a link."""
+    out = _esc(s)
+    for fragment, href in t.links.items():
+        out = out.replace(_esc(fragment), f'<a href="{_esc(href)}">{_esc(fragment)}</a>')
+    return out
+
+
 def _html_text(t: Text, cls: str = "") -> str:
-    items = "".join(f"<li>{_esc(i)}</li>" for i in t.items)
-    return f'<div class="{cls}"><p>{_esc(t.text)}</p>' + (f"<ul>{items}</ul>" if items else "") + "</div>"
+    items = "".join(f"<li>{_linked(t, i)}</li>" for i in t.items)
+    return f'<div class="{cls}"><p>{_linked(t, t.text)}</p>' + (f"<ul>{items}</ul>" if items else "") + "</div>"
 
 
 def _img(f: Figure) -> str:
     """The PNG embedded as a data: URI, shown at ``SCREEN`` of its pixel width (its width is in the PNG header)."""
     data = f.path.read_bytes()
     width = int.from_bytes(data[16:20], "big")
-    return f'<img src="data:image/png;base64,{base64.b64encode(data).decode("ascii")}" alt="{_esc(f.stem)}" style="width: {width * SCREEN:.0f}px">'
+    src = f"data:image/png;base64,{base64.b64encode(data).decode('ascii')}"
+    return f'<img src="{src}" alt="{_esc(f.stem)}" style="width: {width * SCREEN:.0f}px">'
 
 
 def to_html(title: str, blocks: list) -> str:
     """The blocks as one self-contained HTML page (no external resource, no script)."""
     out = [
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">',
-        f'<meta name="viewport" content="width=device-width, initial-scale=1"><title>{_esc(title)}</title><style>{_CSS}</style></head><body>',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
     ]
     for b in blocks:
         if isinstance(b, Heading):
@@ -503,7 +570,10 @@ def to_html(title: str, blocks: list) -> str:
                 + "</tr>"
                 for row in b.rows
             )
-            out.append(f'<table id="{_esc(b.anchor)}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>')
+            out.append(
+                f'<div class="table-scroll"><table id="{_esc(b.anchor)}"><thead><tr>{head}</tr></thead>'
+                f"<tbody>{body}</tbody></table></div>"
+            )
             if b.caption:
                 out.append(_html_text(b.caption, "caption"))
         elif isinstance(b, Figures):
@@ -537,7 +607,12 @@ def _md_cell(c: Cell) -> str:
 
 
 def _md_text(t: Text) -> str:
-    return t.text + "\n" + "".join(f"\n- {i}" for i in t.items) + ("\n" if t.items else "")
+    def linked(s: str) -> str:
+        for fragment, href in t.links.items():
+            s = s.replace(fragment, f"[{fragment}]({href})")
+        return s
+
+    return linked(t.text) + "\n" + "".join(f"\n- {linked(i)}" for i in t.items) + ("\n" if t.items else "")
 
 
 def to_markdown(title: str, blocks: list, base: Path) -> str:

@@ -5,7 +5,9 @@ and ``<metric>.<output>`` columns). Each table groups the successful cells by (d
 method) and reports ``mean ± std`` over the seeds (``std`` with ``ddof=1``; a single run shows
 the mean alone) and ``n``, the number of seeds. In every column the best mean within each
 dataset is marked — bold in Markdown and LaTeX, a trailing ``*`` in CSV — where the metric
-says which direction is better (``slamarena.experiments.metrics`` outputs: lower or higher).
+says which direction is better (``slamarena.experiments.metrics`` outputs: lower or higher); every
+mean that reads the same as the best (the same text at the table's three significant digits) is
+marked too, so no value a reader sees as tied for best is left plain.
 The CSV also carries the raw ``<column>_mean`` / ``<column>_std`` numbers.
 """
 
@@ -78,8 +80,8 @@ def aggregate(frame: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, pd
         for ds, block in means[col].groupby(level="dataset", sort=False):
             if block.notna().sum() < 2:
                 continue
-            target = block.min() if direction == "lower" else block.max()
-            best.loc[block.index[block == target], col] = True
+            target = _fmt(block.min() if direction == "lower" else block.max())
+            best.loc[block.index[block.map(_fmt) == target], col] = True
     means.insert(0, "n", counts)
     return means, stds, best
 

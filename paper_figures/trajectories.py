@@ -9,7 +9,8 @@ Gaussian is ``{x : (x − m)ᵀ Σ⁻¹ (x − m) ≤ χ²₂(0.95) = 5.991}``.
 Two curves cannot be told apart on the map when they lie closer than ``RESOLVABLE`` (1 %) of the plotted extent
 — a line is ≈ 0.4 % of a column-wide panel. When two of the drawn curves (the ground truth included) stay that
 close over half their length (:func:`overlapping`), a second panel shows each estimate's ATE position error over
-time on a log axis, where the methods separate.
+time on a log axis, where the methods separate; the caption names the groups of curves that merge
+(:func:`merged_groups`: the curves joined by a chain of such pairs), each curve once, not every pair.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from slamarena.experiments.metrics.series import Series
 from .runs import FigureSkipped, by, load_runs
 from .style import COLUMN, TRUTH, MethodStyles, figure, log_axis, robust_limits, save
 
-__all__ = ["plot", "ellipse_points", "overlapping", "RESOLVABLE"]
+__all__ = ["plot", "ellipse_points", "overlapping", "merged_groups", "RESOLVABLE"]
 
 CHI2_2_95 = 5.991464547107979
 RESOLVABLE = 0.01  # fraction of the plotted extent below which two curves merge on the map
@@ -69,6 +70,19 @@ def overlapping(
             if np.median(np.linalg.norm(pa[inside] - other, axis=1)) < resolvable * extent:
                 pairs.append((a, b))
     return pairs
+
+
+def merged_groups(pairs: list[tuple[str, str]]) -> list[list[str]]:
+    """The connected groups of the overlapping ``pairs`` (each curve once, in the order first named): the curves
+    that form one line on the map."""
+    group: dict[str, list[str]] = {}
+    for a, b in pairs:
+        ga, gb = group.setdefault(a, [a]), group.setdefault(b, [b])
+        if ga is not gb:
+            ga += gb
+            for name in gb:
+                group[name] = ga
+    return list({id(g): g for g in group.values()}.values())
 
 
 def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
@@ -150,10 +164,14 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             log_axis(ax_e, "y", robust_limits(values, log=True))
             ax_e.set_xlabel("time [s]")
             ax_e.set_ylabel("position error [m]")
+            groups = merged_groups(merged)
             caption += (
                 " Lower panel: ATE position error over time (log scale), because "
-                + "; ".join(f"{a} and {b}" for a, b in merged)
-                + f" lie within {RESOLVABLE:.0%} of the plot's extent of each other on the map."
+                + ("these curves merge" if len(groups) == 1 else "each of these groups of curves merges")
+                + f" into one line on the map (each curve within {RESOLVABLE:.0%} of the plot's extent of another of "
+                + "its group): "
+                + "; ".join(f"({', '.join(g)})" for g in groups)
+                + "."
             )
         written += save(fig, out_dir, f"trajectories_{dataset}", caption)
     if not written:

@@ -20,8 +20,10 @@ import pandas as pd
 import pytest
 
 from slamarena.experiments.metrics import output_columns
-from slamarena.experiments.report import write_report
+from slamarena.experiments.report import Cell, Results, Table, _anchor, _monte_carlo_table, to_html, write_report
+from slamarena.experiments.report import to_markdown as report_markdown
 from slamarena.experiments.runner import MONTE_CARLO_COLUMNS
+from slamarena.experiments.tables import aggregate
 
 ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()"]
@@ -305,3 +307,91 @@ def test_report_renders_in_headless_chromium(run, tmp_path):
     )
     assert shot.read_bytes()[:4] == b"\x89PNG" and shot.stat().st_size > 50_000
     print(f"report screenshot kept at {shot}")
+
+
+# ---------------------------------------------------------------------------- what a reader trusts
+def test_every_mean_that_reads_as_the_best_is_marked():
+    """0.05012 and 0.05014 both read 0.0501: both are the best a reader sees."""
+    frame = pd.DataFrame(
+        {
+            "dataset": ["d"] * 6,
+            "estimator": ["a", "a", "b", "b", "c", "c"],
+            "seed": [0, 1] * 3,
+            "status": ["ok"] * 6,
+            "ate.rmse": [0.05011, 0.05013, 0.05013, 0.05015, 0.06, 0.06],
+        }
+    )
+    _, _, best = aggregate(frame, ["ate.rmse"])
+    assert best["ate.rmse"].tolist() == [True, True, False]
+
+
+def _results_with(tmp_path, estimators, mc_rows) -> Results:
+    (tmp_path / "tables").mkdir(parents=True, exist_ok=True)
+    pd.DataFrame(mc_rows).to_csv(tmp_path / "tables" / "monte_carlo.csv", index=False)
+    return Results(tmp_path, {"config": {"name": "t", "estimators": estimators}}, None)
+
+
+def _mc_row(estimator, value, statistic="nees"):
+    return dict(
+        dataset="sim_landmarks",
+        estimator=estimator,
+        statistic=statistic,
+        runs=5,
+        stamps=100,
+        mean_over_dof=value,
+        in_band=0.1,
+        early_over_dof=1.0,
+        late_over_dof=value,
+        band_lo_over_dof=0.6,
+        band_hi_over_dof=1.5,
+    )
+
+
+def test_fastslam_over_confidence_is_named_and_linked_to_its_explanation(tmp_path):
+    r = _results_with(
+        tmp_path,
+        [{"name": "fastslam", "params": {"version": 2}}, {"name": "ekf_slam", "label": "ekf_fej"}],
+        [_mc_row("fastslam", 50.0), _mc_row("ekf_fej", 50.0), _mc_row("fastslam", 80.0, "nis")],
+    )
+    caption = _monte_carlo_table(r).caption
+    notes = [i for i in caption.items if "NEES / dof" in i]
+    assert len(notes) == 1  # FastSLAM's NEES only: the EKF's 50 has no recorded explanation, NIS is not NEES
+    assert notes[0].startswith("fastslam on sim_landmarks: NEES / dof = 50 ") and "expected" in notes[0]
+    assert "7.1× the standard deviation it reports" in notes[0]
+    ((where, href),) = caption.links.items()
+    assert where in notes[0] and where.startswith("research/fastslam.md § ")
+    page, anchor = href.split("#")
+    headings = (ROOT / "research" / "fastslam.md").read_text().splitlines()
+    assert page == (ROOT / "research" / "fastslam.md").as_uri()
+    assert anchor in {_anchor(h.lstrip("#").strip()) for h in headings if h.startswith("#")}  # the link lands
+    html_text = to_html("t", [Table("table-monte_carlo", ["a"], [[Cell("1")]], caption)])
+    assert f'<a href="{href}">{html.escape(where)}</a>' in html_text
+    assert f"[{where}]({href})" in report_markdown("t", [caption], tmp_path)
+    consistent = _results_with(tmp_path, [{"name": "fastslam"}], [_mc_row("fastslam", 1.2)])
+    assert not [i for i in _monte_carlo_table(consistent).caption.items if "NEES / dof" in i]
+
+
+@pytest.mark.skipif(
+    CHROMIUM is None, reason="Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it)"
+)
+def test_a_wide_table_scrolls_inside_the_page_instead_of_being_clipped(tmp_path):
+    columns = [f"metric_{k}.output_{k}" for k in range(30)]
+    table = Table(
+        "table-wide",
+        ["dataset", "method", *columns],
+        [[Cell("sim_landmarks"), Cell("ekf_slam")] + [Cell("0.0123 ± 0.0045")] * 30],
+    )
+    page = tmp_path / "wide.html"
+    probe = """<script>window.addEventListener("load", () => {
+      const t = document.getElementById("table-wide"), box = t.parentElement;
+      const out = document.createElement("pre"); out.id = "report-check";
+      out.textContent = JSON.stringify({page: document.documentElement.scrollWidth, window: window.innerWidth,
+        box: box.clientWidth, box_scroll: box.scrollWidth, table: t.offsetWidth,
+        overflow: getComputedStyle(box).overflowX});
+      document.body.appendChild(out); });</script>"""
+    page.write_text(to_html("wide", [table]).replace("</body>", probe + "</body>"))
+    dom = _chromium(tmp_path, "--window-size=1400,900", "--virtual-time-budget=5000", "--dump-dom", page.as_uri())
+    seen = json.loads(html.unescape(re.search(r'<pre id="report-check">(.*?)</pre>', dom, re.S).group(1)))
+    assert seen["table"] > seen["window"]  # the table is wider than the window ...
+    assert seen["page"] <= seen["window"]  # ... but the page is not: nothing is cut off at the window's edge
+    assert seen["overflow"] == "auto" and seen["box_scroll"] >= seen["table"] > seen["box"]  # the table scrolls

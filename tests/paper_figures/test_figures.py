@@ -19,7 +19,7 @@ from slamarena.experiments.metrics.relations import relation_error
 from slamarena.experiments.results import cell_dir, save_npz, write_json
 from slamarena.paper_figures.scaling import crossovers, find_sweeps, fit_slope
 from slamarena.paper_figures.style import COLUMN, PAGE, MethodStyles
-from slamarena.paper_figures.trajectories import CHI2_2_95, ellipse_points, overlapping
+from slamarena.paper_figures.trajectories import CHI2_2_95, ellipse_points, merged_groups, overlapping
 
 KINDS = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
 
@@ -391,6 +391,21 @@ def test_trajectory_figure_adds_the_error_panel_where_estimates_overlap(drawn):
     seen, _ = drawn
     traj = seen["trajectories_world"]
     assert len(traj["axes"]) == 2 and traj["axes"][1].get_yscale() == "log"
+
+
+def test_merged_groups_name_each_curve_once():
+    pairs = [("truth", "a"), ("b", "c"), ("a", "d"), ("c", "e"), ("truth", "d"), ("d", "b"), ("f", "g")]
+    assert merged_groups(pairs) == [["truth", "a", "d", "b", "c", "e"], ["f", "g"]]
+    assert merged_groups([]) == []
+
+
+def test_trajectory_caption_names_the_merged_curves_once_not_every_pair(results, drawn):
+    caption = (results / "figures" / "trajectories_world.caption").read_text()
+    panel = caption.split("Lower panel:")[1]
+    names = re.findall(r"[\w ]+", panel.split(":", 1)[1])
+    curves = [n.strip() for n in names if n.strip()]
+    assert len(curves) == len(set(curves)) >= 3, panel  # each curve once
+    assert " and " not in panel.split(":", 1)[1]  # no pair-by-pair list
 
 
 def test_sizes_fit_a_paper_and_fonts_are_embedded(drawn):
