@@ -21,7 +21,8 @@ it ended above where it started, and when the optimiser stopped without convergi
 gave up (no damping up to ``lambdaUpperBound`` lowers the error: GTSAM's "cannot decrease error with
 maximum lambda"), the last iteration raised the error by more than the tolerances (Gauss-Newton
 diverging: GTSAM's "stopping because error increased"), or ``max_iterations`` ran out with the last
-decrease above the tolerances — unless the answer is the optimum of its own linearisation all the same: a Gauss-Newton step from it promises at most the tolerance or :data:`NEGLIGIBLE_DECREASE` (the
+decrease above the tolerances — unless the answer is the optimum of its own linearisation all the same: a
+Gauss-Newton step from it promises at most the tolerance or :data:`NEGLIGIBLE_DECREASE` (the
 answer within 1 % of a standard deviation of that optimum; Levenberg-Marquardt can give up there when
 the tolerances ask for more than round-off allows). Inside :func:`gtsam_errors`, GTSAM's own
 ``RuntimeError`` (an indeterminate linear system, …) becomes an :class:`OptimizationError` that says
@@ -49,6 +50,8 @@ from .problem import LandmarkProblem
 __all__ = [
     "X",
     "L",
+    "symbols",
+    "information_models",
     "RobustKernelParams",
     "OptimizerParams",
     "RelinearizationParams",
@@ -141,6 +144,24 @@ def L(j: int) -> int:
     return gtsam.symbol("l", int(j))
 
 
+def symbols(char: str, ids) -> list[int]:
+    """``gtsam.symbol(char, i)`` of every id (one numpy expression: the character in the top byte, the index below)."""
+    return (np.uint64(ord(char)) << np.uint64(56) | np.asarray(ids, dtype=np.uint64)).tolist()
+
+
+def information_models(information: np.ndarray, robust: np.ndarray | None = None, kernel=None) -> list:
+    """The noise model of each factor from its information matrix (E, d, d), robustified by ``kernel`` where
+    ``robust`` (E,) is set: one ``Gaussian.Information`` per distinct (matrix, robust) pair, shared by the factors
+    that have it (GTSAM's factors hold their model by shared pointer)."""
+    E = len(information)
+    flat = np.ascontiguousarray(information, dtype=float).reshape(E, -1)
+    wrapped = np.zeros(E, dtype=bool) if robust is None or kernel is None else np.asarray(robust, dtype=bool)
+    distinct, index = np.unique(np.column_stack([flat, wrapped]), axis=0, return_inverse=True)
+    d = information.shape[-1] if E else 0
+    models = [information_model(row[:-1].reshape(d, d), kernel if row[-1] else None) for row in distinct]
+    return [models[k] for k in index.ravel().tolist()]
+
+
 def observation_noise(R: np.ndarray, kernel: RobustKernelParams | None = None):
     """Noise of a ``BearingRangeFactor2D`` from the (range, bearing) covariance R."""
     return noise_model(_SWAP @ R @ _SWAP, kernel)
@@ -227,14 +248,14 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
     settings.setAbsoluteErrorTol(float(params.absolute_error_tol))
     steps: list[tuple[float, float]] = []  # (error before, error after) of every iteration
     settings.iterationHook = lambda iteration, before, after: steps.append((before, after))
-    initial_error = finite_error(graph, initial, f"{name}: at the initial values")
     tic = time.perf_counter()
     opt = optimizer_cls(graph, initial, settings)
+    initial_error = finite_error(graph, initial, f"{name}: at the initial values", opt.error())
     with gtsam_errors(name):
         values = opt.optimize()
     elapsed = time.perf_counter() - tic
     n = int(opt.iterations())
-    final_error = finite_error(graph, values, f"{name}: after {n} iterations")
+    final_error = finite_error(graph, values, f"{name}: after {n} iterations", opt.error())
     ran = f"{name}, {n} iterations, error {initial_error:.6g} → {final_error:.6g}"
     before, after = steps[-1] if steps else (initial_error, final_error)
     tol = max(
@@ -279,10 +300,11 @@ def remaining_decrease(graph, values, where: str) -> float:
     return float(linear.error(gtsam.VectorValues.Zero(step)) - linear.error(step))
 
 
-def finite_error(graph, values, where: str) -> float:
-    """The error ½ Σ ‖e‖² of ``graph`` at ``values``; :class:`OptimizationError` naming ``where`` and the first
-    factor whose error is not finite if the sum is not."""
-    error = float(graph.error(values))
+def finite_error(graph, values, where: str, error: float | None = None) -> float:
+    """The error ½ Σ ‖e‖² of ``graph`` at ``values`` (``error`` when the caller has it: an optimiser's own, computed
+    the same way); :class:`OptimizationError` naming ``where`` and the first factor whose error is not finite if the
+    sum is not."""
+    error = float(graph.error(values) if error is None else error)
     if np.isfinite(error):
         return error
     culprit = "each factor's error is finite, their sum is not"
@@ -295,7 +317,17 @@ def finite_error(graph, values, where: str) -> float:
 
 
 def poses_of(values, keys) -> np.ndarray:
-    """Poses (K, 3) of the given pose keys."""
+    """Poses (K, 3) of the given pose keys: read at once (``gtsam.utilities.extractPose2``: every Pose2 of ``values``
+    in key order) when the keys are exactly the ``x`` keys of ``values`` and those are all its poses, else one by
+    one."""
+    wanted = np.asarray(keys, dtype=np.uint64)
+    held = np.asarray(values.keys(), dtype=np.uint64)
+    held = held[held >> np.uint64(56) == ord("x")]
+    every = gtsam.utilities.extractPose2(values)
+    if len(every) == len(held) and np.array_equal(np.sort(wanted), held):
+        out = np.empty((len(keys), 3))
+        out[np.argsort(wanted, kind="stable")] = every
+        return out
     out = np.empty((len(keys), 3))
     for i, key in enumerate(keys):
         p = values.atPose2(key)

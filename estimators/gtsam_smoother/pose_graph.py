@@ -1,9 +1,9 @@
 """Pose-graph optimisation of a :class:`~slamarena.datasets.posegraph.PoseGraph` (g2o, TORO, iSAM files) with GTSAM.
 
 Graph (2D): nodes x_i ∈ SE(2) keyed by their file ids, one ``BetweenFactorPose2`` per edge with
-``Gaussian.Information(Ω)`` — the file's information matrix in (x, y, θ) order, which is the
-order of GTSAM's Pose2 tangent (vx, vy, ω) and, like g2o's, a right (body-frame) perturbation of
-the measured relative pose — and a prior that anchors the first node at its initial pose
+``Gaussian.Information(Ω)`` (one model per distinct Ω, shared by its edges: :func:`~.graph.information_models`) —
+the file's information matrix in (x, y, θ) order, which is the order of GTSAM's Pose2 tangent (vx, vy, ω) and,
+like g2o's, a right (body-frame) perturbation of the measured relative pose — and a prior that anchors the first node at its initial pose
 (σ = ``anchor_sigma``). Landmark edges, when the graph has them: ``"xy"`` (a point in the robot
 frame, iSAM's LANDMARK lines) as the factor ``e = x_i⁻¹ · l_j − z`` (``Pose2.transformTo`` with
 its Jacobians, in a ``CustomFactor``); ``"bearing_range"`` with z = (bearing, range) and the
@@ -56,11 +56,13 @@ from .graph import (
     X,
     gtsam_errors,
     information_model,
+    information_models,
     noise_model,
     optimize,
     point_covariances,
     points_of,
     poses_of,
+    symbols,
     world_pose_covariances,
 )
 
@@ -113,14 +115,14 @@ def build_pose_graph(
             X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)
         )
     )
-    odometry = graph.odometry_mask()
-    for i, j, z, info, odo in zip(graph.edge_i, graph.edge_j, graph.edge_z, graph.edge_information, odometry):
-        factors.add(
-            gtsam.BetweenFactorPose2(X(i), X(j), gtsam.Pose2(*z), information_model(info, None if odo else params))
-        )
+    models = information_models(graph.edge_information, ~graph.odometry_mask(), params)
+    for i, j, (dx, dy, dth), model in zip(
+        symbols("x", graph.edge_i), symbols("x", graph.edge_j), graph.edge_z.tolist(), models
+    ):
+        factors.add(gtsam.BetweenFactorPose2(i, j, gtsam.Pose2(dx, dy, dth), model))
     values = gtsam.Values()
-    for node, p in zip(graph.node_ids, poses):
-        values.insert(X(node), gtsam.Pose2(*p))
+    for key, (x, y, th) in zip(symbols("x", graph.node_ids), np.asarray(poses, dtype=float).tolist()):
+        values.insert(key, gtsam.Pose2(x, y, th))
     if graph.landmark_pose is not None:
         rows = graph.index_of(graph.landmark_pose)
         ids, first = np.unique(graph.landmark_id, return_index=True)
@@ -168,7 +170,7 @@ class PoseGraphOptimizer:
         graph, initial = build_pose_graph(data, self.params)
         time_build = time.perf_counter() - tic
         result = optimize(graph, initial, self.params)
-        pose_keys = [X(i) for i in data.node_ids]
+        pose_keys = symbols("x", data.node_ids)
         poses = poses_of(result.values, pose_keys)
         ids = landmarks = pose_cov = landmark_cov = None
         if data.landmark_id is not None:

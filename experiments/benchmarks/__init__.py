@@ -38,6 +38,7 @@ BENCHMARKS: dict[str, str] = {
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
+    "gtsam": "slamarena.experiments.benchmarks.gtsam:main",
 }
 
 
