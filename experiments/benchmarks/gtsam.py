@@ -17,6 +17,12 @@ time split into reading the file, building the graph, optimising (LM alone, as t
 rest (the checks and the ``Estimate``), the bare script's into reading and optimising, and whether both reach the
 same final error (to 1e-9 relative: readG2o keeps a diagonal information matrix as a diagonal model, ours as a
 full one, so the last digits may differ).
+
+Landmark SLAM has no bare script to compare with (the smoother's problem — the between factors' covariances from the
+filters' noise propagation — is the project's own), so for ``BatchSmoother()`` on ``sim:landmarks`` with
+:data:`LANDMARKS` landmarks (``--quick``: :data:`LANDMARKS_QUICK`) the run is split into its parts instead (least
+of :data:`LANDMARK_REPEATS`): the problem (noise propagation), the graph build, the initial values (an iSAM2 run),
+Levenberg-Marquardt, and ``run()`` whole.
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ from slamarena.experiments.benchmarks import aim, measure_single_threaded, table
 STAGED_DATA: dict[str, bool] = {"g2o:intel": True, "g2o:manhattan": False, "g2o:city10000": False}
 GRAPHS = ("intel", "manhattan", "city10000")
 AIM_RATIO = 1.1
+LANDMARKS, LANDMARKS_QUICK, LANDMARK_REPEATS = 200, 50, 3
 TOLERANCE = 1e-8  # PoseGraphOptimizer's default relative and absolute error tolerances
 
 
@@ -117,6 +124,33 @@ def measure(name: str, repeats: int) -> dict:
     return row
 
 
+def landmark_parts(n: int, repeats: int) -> dict:
+    """Least CPU time of each part of ``BatchSmoother().run`` on ``sim:landmarks`` with n landmarks (in this process)."""
+    from slamarena import datasets
+    from slamarena.estimators.gtsam_smoother import BatchSmoother
+    from slamarena.estimators.gtsam_smoother.graph import optimize
+
+    seq = datasets.load("sim:landmarks", n_landmarks=n, seed=0)
+    smoother = BatchSmoother()
+    smoother.run(seq)  # warm-up
+    best: dict[str, float] = {}
+    for _ in range(repeats):
+        t0 = time.process_time()
+        problem = smoother.problem(seq)
+        t1 = time.process_time()
+        graph = smoother.graph(problem, problem.cov)
+        t2 = time.process_time()
+        initial = smoother.initial_values(problem)
+        t3 = time.process_time()
+        optimize(graph, initial, smoother.params)
+        t4 = time.process_time()
+        smoother.run(seq)
+        t5 = time.process_time()
+        parts = {"problem": t1 - t0, "build": t2 - t1, "initial": t3 - t2, "optimise": t4 - t3, "run": t5 - t4}
+        best = {k: min(best.get(k, float("inf")), v) for k, v in parts.items()}
+    return {"n": n, "poses": problem.n_poses, "observations": int(problem.obs_id.size), **best}
+
+
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
 
@@ -165,8 +199,31 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         markup=False,
     )
     write_rows(rows, out, "gtsam_wrapper.csv")
+
+    n = LANDMARKS_QUICK if quick else LANDMARKS
+    row = measure_single_threaded(
+        "slamarena.experiments.benchmarks.gtsam", task="landmark_parts", n=n, repeats=LANDMARK_REPEATS
+    )
+    labels = {
+        "problem": "the problem (noise propagation per step)",
+        "build": "graph build",
+        "initial": "initial values (an iSAM2 run)",
+        "optimise": "Levenberg-Marquardt",
+        "run": "run() whole (with the marginals)",
+    }
+    parts = table(
+        f"BatchSmoother() on sim:landmarks, n = {n} ({row['poses']} poses, {row['observations']} observations): "
+        f"CPU time of its parts, least of {LANDMARK_REPEATS}",
+        ("part", "CPU [s]", "share of run()"),
+    )
+    for key, label in labels.items():
+        parts.add_row(label, f"{row[key]:.3f}", f"{100 * row[key] / row['run']:.0f} %")
+    console.print(parts)
+    write_rows([row], out, "gtsam_landmark_parts.csv")
     return 0
 
 
 if __name__ == "__main__":
-    print(json.dumps(measure(**json.loads(sys.argv[1]))))
+    kwargs = json.loads(sys.argv[1])
+    task = {"measure": measure, "landmark_parts": landmark_parts}[kwargs.pop("task", "measure")]
+    print(json.dumps(task(**kwargs)))
