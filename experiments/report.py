@@ -279,8 +279,8 @@ def _caption(r: Results, columns: list[str], published: list[dict]) -> Text:
         items.append(f"{row.get('label')} (published): {row.get('citation', 'no citation given')}")
     return Text(
         "n: seeds. Each value is the mean ± standard deviation over the seeds of a dataset and method "
-        "(std with ddof = 1; one seed shows the mean alone); in bold the best mean within each dataset, for columns "
-        "with a better direction."
+        "(std with ddof = 1; one seed shows the mean alone); in bold the best mean within each dataset, and every mean "
+        "that reads the same, for columns with a better direction."
         + (
             " Rows marked (published) are reference values from the literature, not computed here." if published else ""
         ),
