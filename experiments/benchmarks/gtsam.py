@@ -6,8 +6,8 @@ run alternately so that both see the same machine load:
 
 * **ours**: ``datasets.load("g2o:NAME")`` (the project's reader, validated) and
   :class:`~slamarena.estimators.gtsam_smoother.PoseGraphOptimizer` ``.run`` with its defaults (graph built from the
-  arrays, Levenberg-Marquardt with tolerances 1e-8, the checks of :func:`~slamarena.estimators.gtsam_smoother.graph.
-  optimize`, the poses read back into an ``Estimate``);
+  arrays, Levenberg-Marquardt with tolerances 1e-8, the checks of
+  :func:`~slamarena.estimators.gtsam_smoother.graph.optimize`, the poses read back into an ``Estimate``);
 * **bare**: the script a GTSAM user writes: ``gtsam.readG2o`` (C++; a ``.gz`` file is decompressed once beforehand,
   outside the timing), a ``PriorFactorPose2`` on node 0 with σ = 1e-6, ``LevenbergMarquardtOptimizer`` with the same
   tolerances, ``gtsam.utilities.extractPose2``.
