@@ -29,7 +29,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from . import isam
-from ._text import check_unique, record_values, records, upper_triangle
+from ._text import check_unique, integer_ids, record_values, records, upper_triangle
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
@@ -39,13 +39,7 @@ OTHER = {"FIX": 1}
 
 
 def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
-    ids = values[:, cols]
-    bad = np.flatnonzero(
-        ((ids != np.round(ids)) | (ids < 0)).any(axis=-1) if ids.ndim > 1 else ((ids != np.round(ids)) | (ids < 0))
-    )
-    if bad.size:
-        raise DataFormatError(path, int(rows[bad[0]]) + 1, "non-negative integer ids", str(ids[bad[0]]))
-    return ids.astype(np.int64)
+    return integer_ids(path, values[:, cols], rows + 1)
 
 
 def read(path: str | Path, name: str | None = None, ground_truth: str | Path | None = None) -> PoseGraph:

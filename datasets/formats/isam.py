@@ -31,7 +31,7 @@ from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
 from ..source import Layout, SourceParams
-from ._text import record_values, records, upper_triangle, upper_triangular
+from ._text import integer_ids, record_values, records, upper_triangle, upper_triangular
 
 __all__ = [
     "IsamRecords",
@@ -83,13 +83,8 @@ def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE
     lm_rows = np.flatnonzero(tag == "LANDMARK")
     p = record_values(lines, pose_rows, 11, "a pose constraint (i j dx dy dtheta + 6 noise values)")
     q = record_values(lines, lm_rows, 7, "a LANDMARK record (p l dx dy + 3 noise values)")
-    for arr, rows, cols in ((p, pose_rows, (0, 1)), (q, lm_rows, (0, 1))):
-        ids = arr[:, cols]
-        bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
-        if bad.size:
-            raise DataFormatError(
-                lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80]
-            )
+    for arr, rows in ((p, pose_rows), (q, lm_rows)):
+        integer_ids(lines.path, arr[:, :2], rows + 1)
     return IsamRecords(
         path=lines.path,
         pose_i=p[:, 0].astype(np.int64),
