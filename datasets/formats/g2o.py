@@ -42,6 +42,13 @@ def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
     return integer_ids(path, values[:, cols], rows + 1)
 
 
+def _information(path: str, noise: np.ndarray, n: int, rows: np.ndarray, what: str) -> np.ndarray:
+    """The information matrices (K, n, n) of the records on ``rows`` (0-based), each positive definite (iSAM's check)."""
+    info = upper_triangle(noise, n)
+    isam.check_positive_definite(path, info, rows + 1, what)
+    return info
+
+
 def read(path: str | Path, name: str | None = None, ground_truth: str | Path | None = None) -> PoseGraph:
     """A g2o file as a :class:`PoseGraph` (2D, or 3D when it has SE3 records).
 
@@ -81,7 +88,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             vrows,
             _ids(lines.path, e, erows, [0, 1]),
             e[:, 2:9],
-            upper_triangle(e[:, 9:30], 6),
+            _information(lines.path, e[:, 9:30], 6, erows, "pose-constraint"),
             erows,
             meta,
         )
@@ -96,7 +103,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             landmark_pose=lm[:, 0],
             landmark_id=lm[:, 1],
             landmark_z=le[:, 2:4],
-            landmark_information=upper_triangle(le[:, 4:7], 2),
+            landmark_information=_information(lines.path, le[:, 4:7], 2, lerows, "landmark"),
             landmark_kind="xy",
         )
     if lv.shape[0]:
@@ -111,7 +118,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
         vrows,
         _ids(lines.path, e, erows, [0, 1]),
         e[:, 2:5],
-        upper_triangle(e[:, 5:11], 3),
+        _information(lines.path, e[:, 5:11], 3, erows, "pose-constraint"),
         erows,
         meta,
         **extra,

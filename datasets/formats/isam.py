@@ -38,6 +38,7 @@ __all__ = [
     "read_records",
     "information",
     "noise_information",
+    "check_positive_definite",
     "read",
     "true_poses_and_landmarks",
     "load",
@@ -121,7 +122,9 @@ def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
 MAX_CONDITION = 1e12
 
 
-def _check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
+def check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
+    """Raise at the line (``lines`` (K,), 1-based) of the first of ``matrices`` (K, n, n) that is not positive definite
+    (smallest eigenvalue not above the largest / :data:`MAX_CONDITION`); shared by the graph readers."""
     if matrices.shape[0] == 0:
         return
     eig = np.linalg.eigvalsh(matrices)
@@ -143,9 +146,9 @@ def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np
         (rec.lm_noise, 2, rec.lm_line, "landmark"),
     ):
         if convention == "covariance":
-            _check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
+            check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
         info = information(noise, n, convention)
-        _check_positive_definite(rec.path, info, lines, what)
+        check_positive_definite(rec.path, info, lines, what)
         out.append(info)
     return out[0], out[1]
 

@@ -26,6 +26,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ..source import Layout, SourceParams
+from . import isam
 from ._text import check_unique, integer_ids, record_values, records
 
 __all__ = ["read", "load", "ToroSource", "toro_information", "RECORDS"]
@@ -57,6 +58,7 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
     q, _ = table["EQUIV"]
     br, brows = table["BR"]
     info = toro_information(e[:, 5:11])
+    isam.check_positive_definite(lines.path, info, erows + 1, "EDGE2")
     node_ids = v[:, 0].astype(np.int64)
     edge_ids = e[:, :2].astype(np.int64)
     if node_ids.size:
