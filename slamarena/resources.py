@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["available_memory", "fits_in_memory", "gib"]
+__all__ = ["available_memory", "fits_in_memory", "require_memory", "gib"]
 
 
 def available_memory() -> int:
@@ -34,3 +34,11 @@ def fits_in_memory(n_bytes: float) -> tuple[bool, int]:
     """Whether ``n_bytes`` fit in the memory available now, and that memory [bytes]."""
     free = available_memory()
     return n_bytes <= free, free
+
+
+def require_memory(n_bytes: float, what: str) -> None:
+    """``ValueError`` unless ``n_bytes`` fit in the memory available now; ``what`` says what needs them and how the
+    size was derived (it starts the message)."""
+    fits, free = fits_in_memory(n_bytes)
+    if not fits:
+        raise ValueError(f"{what}: ≈ {gib(n_bytes)}, beyond the {gib(free)} of memory available on this machine")
