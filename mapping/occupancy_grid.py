@@ -34,10 +34,10 @@ the half-cell origin shift the notes mention (their formula ``(w − origin) / r
 both the rounding and the shift; see research/mapping.md). The grid grows in whole blocks of
 cells when a scan reaches beyond it, keeping every existing cell at its world position.
 
-Bad input raises ``ValueError`` before anything changes: ranges and angles of different lengths, a
-non-finite pose or mount, and a scan whose growth the machine cannot hold (the grown grid and the
-tracing's scratch, 8 bytes a cell, beyond the memory available: a 1e5 m reading at 5 cm cells asks for
-4·10¹² cells) — such a reading is not a measurement; give ``max_range`` or drop it.
+Bad input raises ``ValueError`` before anything changes: ranges and angles of different shapes, a
+non-finite pose or mount, and a scan whose growth the machine cannot hold (the grown log-odds and the
+tracing's int64 scratch beyond the memory available: a 1e5 m reading at 5 cm cells asks for terabytes)
+— such a reading is not a measurement; give ``max_range`` or drop it.
 """
 
 from __future__ import annotations
