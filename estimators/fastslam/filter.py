@@ -372,12 +372,14 @@ class FastSLAM:
         p = self.params
         if p.use_ids:
             z = z[z[:, 2] >= 0]
-            _, first = np.unique(z[:, 2].astype(np.int64), return_index=True)
-            z = z[np.sort(first)]  # one row per landmark per set
         R = self._noise(z)
         xhat, P = self.predicted()
         keep = self._representable(z, R, xhat)
         z, R = z[keep], R[keep]
+        if p.use_ids:
+            _, first = np.unique(z[:, 2].astype(np.int64), return_index=True)
+            first = np.sort(first)  # one row per landmark per set
+            z, R = z[first], R[first]
         slots = (
             np.array([self._slot(int(i)) for i in z[:, 2]], dtype=np.int64)
             if p.use_ids
