@@ -399,10 +399,12 @@ class LaserWorldParams(Params):
     @model_validator(mode="after")
     def _fits_in_memory(self):
         """The run's arrays must fit in the memory available (:func:`slamarena.resources.require_memory`): K = laps ×
-        the route's steps per lap odometry rows (≈ 200 B each: increments, their covariance, truth, odometry) and
-        K / (odom_rate / scan_rate) scans of n_beams beams (32 B a beam: true and noisy ranges, dropouts)."""
-        dt = 1.0 / self.odom_rate
-        steps = self.laps * route_controls(_world(self.world), self.speed, dt)[0].size
+        (the route polygon's length, an upper bound of the driven lap's) / (speed / odom_rate) odometry rows (≈ 200 B
+        each: increments, their covariance, truth, odometry) and K / (odom_rate / scan_rate) scans of n_beams beams
+        (32 B a beam: true and noisy ranges, dropouts)."""
+        route = np.asarray(_world(self.world).route, dtype=float)
+        lap = float(np.hypot(*(np.roll(route, -1, axis=0) - route).T).sum())
+        steps = self.laps * lap / self.speed * self.odom_rate
         scans = steps * self.scan_rate / self.odom_rate
         require_memory(
             steps * 200.0 + scans * self.n_beams * 32.0,
