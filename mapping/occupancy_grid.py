@@ -208,7 +208,8 @@ class OccupancyGrid:
             return
         pad_lo = -(-pad_lo // _GROW_BLOCK) * _GROW_BLOCK
         pad_hi = -(-pad_hi // _GROW_BLOCK) * _GROW_BLOCK
-        cells = (w + pad_lo[0] + pad_hi[0]) * (h + pad_lo[1] + pad_hi[1])
+        with np.errstate(over="ignore"):  # a box of 1e300 m overflows to inf cells: refused below
+            cells = (w + pad_lo[0] + pad_hi[0]) * (h + pad_lo[1] + pad_hi[1])
         need = cells * (self.log_odds.itemsize + 8)  # the log-odds and scan_cells' int64 scratch
         fits, free = fits_in_memory(need)
         if not fits:
