@@ -176,6 +176,16 @@ class EstimatorSpec(BaseModel):
     datasets: list[str] | None = Field(None, description="dataset labels this method runs on (default: all)")
     _resolved: dict = PrivateAttr(default_factory=dict)
 
+    @field_validator("datasets")
+    @classmethod
+    def _not_empty(cls, datasets):
+        if datasets is not None and not datasets:
+            raise ValueError(
+                "an empty list runs the method on no dataset; leave 'datasets' out to run it on every dataset, "
+                "or remove the method"
+            )
+        return datasets
+
     @model_validator(mode="after")
     def _registered(self):
         table = method_table()
@@ -404,6 +414,24 @@ def shipped_configs() -> dict[str, str]:
     return out
 
 
+def _duplicate_keys(node, path: tuple[str, ...] = ()):
+    """Each key given twice in one mapping of a composed YAML document: (its field path, its line, the first line)."""
+    import yaml
+
+    if isinstance(node, yaml.MappingNode):
+        first: dict[str, int] = {}
+        for key, value in node.value:
+            line = key.start_mark.line + 1
+            if key.value in first:
+                yield (*path, str(key.value)), line, first[key.value]
+            else:
+                first[key.value] = line
+            yield from _duplicate_keys(value, (*path, str(key.value)))
+    elif isinstance(node, yaml.SequenceNode):
+        for k, item in enumerate(node.value):
+            yield from _duplicate_keys(item, (*path, str(k)))
+
+
 def load_config(path: str | Path | None = None) -> ExperimentConfig:
     """Read and validate an experiment YAML: a path, or the name of a shipped config
     (``experiments/configs/<name>.yaml``); ``None`` → the shipped ``default``."""
@@ -417,18 +445,32 @@ def load_config(path: str | Path | None = None) -> ExperimentConfig:
         Path(name).name == name and not Path(name).suffix
     )  # "scaling", not "scaling.yaml" or "dir/x"
     if path is not None and Path(path).is_file():
-        text, where = Path(path).read_text(), str(path)
+        blob, where = Path(path).read_bytes(), str(path)
     elif bare and shipped.joinpath(f"{name}.yaml").is_file():
-        text, where = shipped.joinpath(f"{name}.yaml").read_text(), f"{name}.yaml (shipped)"
+        blob, where = shipped.joinpath(f"{name}.yaml").read_bytes(), f"{name}.yaml (shipped)"
     else:
         names = sorted(p.name.removesuffix(".yaml") for p in shipped.iterdir() if p.name.endswith(".yaml"))
         raise ConfigError(
             f"{path}: no such config file (a shipped config is named without a suffix: {', '.join(names)})"
         )
     try:
+        text = blob.decode("utf-8-sig")  # a byte order mark, if an editor wrote one, is not part of the YAML
+    except UnicodeDecodeError as exc:
+        line = blob[: exc.start].count(b"\n") + 1
+        raise ConfigError(
+            f"{where}:{line}: not UTF-8 text (byte {blob[exc.start]:#04x} at offset {exc.start}); save the config as UTF-8"
+        ) from None
+    try:
+        duplicate = next(_duplicate_keys(yaml.compose(text, Loader=yaml.SafeLoader)), None)
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{where}: not valid YAML: {exc}") from None
+    if duplicate is not None:
+        key_path, line, first = duplicate
+        raise ConfigError(
+            f"{where}:{line}: {'.'.join(key_path)}: a key given twice (first on line {first}); YAML would keep the last "
+            "silently: remove one"
+        )
     if not isinstance(raw, dict):
         raise ConfigError(f"{where}: an experiment config is a mapping (name, datasets, estimators, …)")
     try:

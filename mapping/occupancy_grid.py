@@ -33,6 +33,11 @@ corner of cell ``(0, 0)`` (as in a map_server YAML), so the centre of cell ``(ix
 the half-cell origin shift the notes mention (their formula ``(w − origin) / res`` leaves out
 both the rounding and the shift; see research/mapping.md). The grid grows in whole blocks of
 cells when a scan reaches beyond it, keeping every existing cell at its world position.
+
+Bad input raises ``ValueError`` before anything changes: ranges and angles of different shapes, a
+non-finite pose or mount, and a scan whose growth the machine cannot hold (the grown log-odds and the
+tracing's int64 scratch beyond the memory available: a 1e5 m reading at 5 cm cells asks for terabytes)
+— such a reading is not a measurement; give ``max_range`` or drop it.
 """
 
 from __future__ import annotations
@@ -46,6 +51,7 @@ from pydantic import NonNegativeInt, PositiveFloat, PositiveInt, model_validator
 
 from slamarena.datasets.geometry import compose, transform_points
 from slamarena.params import Field, Params
+from slamarena.resources import fits_in_memory, gib
 
 from .raytrace import bresenham
 
@@ -187,16 +193,32 @@ class OccupancyGrid:
         self._scratch_cells = None
 
     def ensure_contains(self, xy_min, xy_max) -> None:
-        """Grow (in blocks of cells) so the world box ``[xy_min, xy_max]`` lies inside."""
-        lo = self.world_to_grid(np.asarray(xy_min, dtype=float))
-        hi = self.world_to_grid(np.asarray(xy_max, dtype=float))
+        """Grow (in blocks of cells) so the world box ``[xy_min, xy_max]`` lies inside; ``ValueError`` (nothing
+        changed) for a box that is not finite or whose grid would not fit in the memory available."""
+        box = np.array([xy_min, xy_max], dtype=float)
+        if not np.all(np.isfinite(box)):
+            raise ValueError(f"the occupancy grid cannot grow to a non-finite box {box.tolist()}")
+        res = self.params.resolution
         h, w = self.shape
+        lo = np.floor((box[0] - self.origin) / res)  # in floats: a huge box must not wrap around int64
+        hi = np.floor((box[1] - self.origin) / res)
         pad_lo = np.maximum(-lo, 0)
         pad_hi = np.maximum(hi - np.array([w - 1, h - 1]), 0)
         if not (pad_lo.any() or pad_hi.any()):
             return
         pad_lo = -(-pad_lo // _GROW_BLOCK) * _GROW_BLOCK
         pad_hi = -(-pad_hi // _GROW_BLOCK) * _GROW_BLOCK
+        with np.errstate(over="ignore"):  # a box of 1e300 m overflows to inf cells: refused below
+            cells = (w + pad_lo[0] + pad_hi[0]) * (h + pad_lo[1] + pad_hi[1])
+        need = cells * (self.log_odds.itemsize + 8)  # the log-odds and scan_cells' int64 scratch
+        fits, free = fits_in_memory(need)
+        if not fits:
+            raise ValueError(
+                f"the occupancy grid would grow to {cells:.3g} cells to hold the box {box.tolist()} [m] at {res} m: "
+                f"{gib(need)} with the tracing's scratch, beyond the {gib(free)} of memory available; a reading that "
+                "long is not a measurement (give max_range, or drop it); the grid is unchanged"
+            )
+        pad_lo, pad_hi = pad_lo.astype(np.int64), pad_hi.astype(np.int64)
         self.log_odds = np.pad(self.log_odds, ((pad_lo[1], pad_hi[1]), (pad_lo[0], pad_hi[0])), constant_values=self.l0)
         self.origin = self.origin - pad_lo * self.params.resolution
         self.version += 1
@@ -211,16 +233,22 @@ class OccupancyGrid:
         readings (non-finite, ≤ 0) are ignored; readings ``≥ max_range`` clear space up
         to ``min(range, clear_range)`` (``clear_range`` default: ``max_range``) without a hit.
         Grows the grid (if enabled) so every traced cell lies inside; otherwise cells
-        outside the grid are dropped.
+        outside the grid are dropped. ``ValueError`` (the grid unchanged) for ranges and angles of different
+        shapes, a non-finite pose or mount, or a growth beyond the memory available (:meth:`ensure_contains`).
         """
         r = np.asarray(ranges, dtype=float)
         a = np.asarray(angles, dtype=float)
+        if r.ndim != 1 or a.shape != r.shape:
+            raise ValueError(f"ranges and angles must be 1-D of one length, got shapes {r.shape} and {a.shape}")
+        pose, mount = np.asarray(pose, dtype=float), np.asarray(mount, dtype=float)
+        if pose.shape != (3,) or mount.shape != (3,) or not (np.all(np.isfinite(pose)) and np.all(np.isfinite(mount))):
+            raise ValueError(f"pose and mount must be finite (x, y, θ), got {pose.tolist()} and {mount.tolist()}")
         valid = np.isfinite(r) & (r > 0)
         hit = valid & (r < max_range)
         reach = np.where(hit, r, np.minimum(r, max_range if clear_range is None else clear_range))
         reach = reach[valid]
         hit = hit[valid]
-        sensor = compose(np.asarray(pose, dtype=float), np.asarray(mount, dtype=float))
+        sensor = compose(pose, mount)
         if reach.size == 0:
             return ScanCells(np.zeros(0, np.int64), np.zeros(0, np.int64))
         ends = transform_points(sensor, np.column_stack([reach * np.cos(a[valid]), reach * np.sin(a[valid])]))

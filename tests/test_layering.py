@@ -18,6 +18,7 @@ BASE = {
     "slamarena.params",
     "slamarena.errors",
     "slamarena.robust",
+    "slamarena.resources",
 }  # the namespace's own modules, below every layer
 DATASETS_MAY_IMPORT = {
     "numpy",

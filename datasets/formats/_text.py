@@ -61,6 +61,7 @@ __all__ = [
     "numeric_table",
     "check_finite",
     "check_unique",
+    "integer_ids",
     "tags",
     "numbers",
     "fixed",
@@ -74,13 +75,19 @@ __all__ = [
 _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 
 
+#: the UTF-8 byte order mark some editors (Notepad, Excel's "CSV UTF-8") put at the start of a text file
+BOM = b"\xef\xbb\xbf"
+
+
 def read_bytes(path: str | Path) -> bytes:
-    """The (decompressed) content of a file."""
+    """The (decompressed) content of a text file, a leading UTF-8 byte order mark removed (the one place every text
+    reader reads through, so that a file saved "with BOM" reads as without)."""
     path = Path(path)
     opener = _OPENERS.get(path.suffix, open)
     try:
         with opener(path, "rb") as f:
-            return f.read()
+            blob = f.read()
+        return blob[len(BOM) :] if blob.startswith(BOM) else blob
     except (OSError, EOFError, lzma.LZMAError) as exc:
         if isinstance(exc, FileNotFoundError):
             raise
@@ -378,6 +385,18 @@ def check_finite(path: str, values: np.ndarray, line_numbers: np.ndarray, what: 
     if bad.size:
         k = int(bad[0])
         raise DataFormatError(path, int(line_numbers[k]), f"finite numbers in {what}", str(values[k].tolist()))
+
+
+def integer_ids(path: str | Path, values: np.ndarray, line_numbers: np.ndarray, what: str = "ids") -> np.ndarray:
+    """``values`` (N,) or (N, k) as int64; raise at the first row holding a value that is not a non-negative integer
+    (a barcode 14.5 is not 14: truncating would name another subject)."""
+    v = np.asarray(values, dtype=float)
+    bad = ~((v == np.round(v)) & (v >= 0))
+    rows = np.flatnonzero(bad.any(axis=1) if v.ndim > 1 else bad)
+    if rows.size:
+        k = int(rows[0])
+        raise DataFormatError(path, int(line_numbers[k]), f"non-negative integer {what}", str(v[k].tolist()))
+    return v.astype(np.int64)
 
 
 def check_unique(path: str, ids: np.ndarray, line_numbers: np.ndarray, what: str) -> None:

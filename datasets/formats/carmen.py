@@ -81,6 +81,7 @@ from ..errors import DataFormatError, DataWarning
 from ..geometry import between
 from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
 from ..source import Layout, SourceParams
+from ._physical import Bound, dropped_lines, outside
 from ._text import Lines, binary_lines, check_monotonic, fixed, numbers, records
 
 __all__ = ["read", "load", "CarmenParams", "CarmenSource", "beam_angles", "beam_step", "clock_faults", "JITTER_S"]
@@ -88,6 +89,15 @@ __all__ = ["read", "load", "CarmenParams", "CarmenSource", "beam_angles", "beam_
 #: largest distance of an ipc timestamp from its stream's clock treated as jitter (clamped), seconds
 JITTER_S = 1.0
 _NAME = re.compile(r"^[A-Z][A-Z0-9_\-]*$")
+
+#: physical ranges (research/method/data-validation.md): a message with a value outside is dropped (``out_of_range``)
+POSITION = Bound(-1e5, 1e5, "m", "x, y of a pose: the staged logs span ≤ 211 m; 100 km bounds any ground robot's log")
+HEADING = Bound(
+    -1e4, 1e4, "rad", "θ of a pose: some loggers do not wrap (mit-csail reaches 11.1 rad); 1600 turns bound any log"
+)
+READING = Bound(
+    0.0, 1000.0, "m", "a laser reading: 2D lidars of these logs return ≤ 81.91 m (SICK LMS); none reads negative"
+)
 
 
 def beam_step(n: int) -> float:
@@ -219,16 +229,8 @@ def _carries_time(ts: np.ndarray, faults: np.ndarray) -> bool:
 
 
 def _dropped(path: str, rows: np.ndarray, reason: str) -> list[int]:
-    """The 1-based line numbers of the dropped ``rows``, announced by one warning naming the file and the first lines."""
-    numbers = (np.sort(rows) + 1).tolist()
-    if numbers:
-        shown = ", ".join(map(str, numbers[:5])) + (", …" if len(numbers) > 5 else "")
-        warnings.warn(
-            f"{path}:{numbers[0]}: {len(numbers)} message(s) dropped, {reason} "
-            f"({'line' if len(numbers) == 1 else 'lines'} {shown}; all in meta['dropped_lines'])",
-            DataWarning,
-        )
-    return numbers
+    """The 1-based line numbers of the dropped messages (0-based ``rows``), announced by one warning."""
+    return dropped_lines(path, np.asarray(rows) + 1, reason, noun="message")
 
 
 def _params(lines: Lines, rows: np.ndarray) -> dict:
@@ -321,6 +323,26 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     zero_odom_count = int((odo_ts == 0).sum())
     odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
 
+    # --- values outside their physical range: the message is dropped (its neighbours carry the motion across)
+    absurd_odom, why_odom = outside(
+        {"ODOM x": (odo[:, 0], POSITION), "ODOM y": (odo[:, 1], POSITION), "ODOM theta": (odo[:, 2], HEADING)}
+    )
+    bad_value = np.r_[0, np.cumsum(READING.outside(values))]
+    pose_fields = {
+        f"{which} {c}": (pose[:, k], bound)
+        for which, pose in (("scan pose", laser_pose), ("robot pose", robot_pose))
+        for k, (c, bound) in enumerate(zip(("x", "y", "theta"), (POSITION, POSITION, HEADING)))
+    }
+    absurd_scan, why_scan = outside(pose_fields)
+    reading = bad_value[first + n] > bad_value[first]
+    absurd_scan |= reading
+    dropped["out_of_range"] = _dropped(
+        lines.path,
+        np.concatenate([odom_rows[absurd_odom], scan_rows[absurd_scan]]),
+        "; ".join(w for w in (why_odom, why_scan, f"a reading outside {READING}" if reading.any() else "") if w),
+    )
+    odo, odo_ts, odom_rows = odo[~absurd_odom], odo_ts[~absurd_odom], odom_rows[~absurd_odom]
+
     # --- beam layouts: the most common one (or ``beams=``), plus its interlaced partners
     key = np.column_stack([n, *(np.round(a, 6) for a in layout)]) if layout else n[:, None]
     layouts, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
@@ -341,6 +363,7 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         members |= _interlaced_with(chosen, n_l, start_l, step_l)
     keep = members[inverse]
     dropped_other_layout = int((~keep).sum())
+    keep &= ~absurd_scan
 
     # --- time (per stream: its clock, jitter clamped by a running maximum, faults dropped; else the scan index)
     meta: dict = {}

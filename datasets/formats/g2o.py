@@ -29,7 +29,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from . import isam
-from ._text import check_unique, record_values, records, upper_triangle
+from ._text import check_unique, integer_ids, record_values, records, upper_triangle
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
@@ -39,13 +39,14 @@ OTHER = {"FIX": 1}
 
 
 def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
-    ids = values[:, cols]
-    bad = np.flatnonzero(
-        ((ids != np.round(ids)) | (ids < 0)).any(axis=-1) if ids.ndim > 1 else ((ids != np.round(ids)) | (ids < 0))
-    )
-    if bad.size:
-        raise DataFormatError(path, int(rows[bad[0]]) + 1, "non-negative integer ids", str(ids[bad[0]]))
-    return ids.astype(np.int64)
+    return integer_ids(path, values[:, cols], rows + 1)
+
+
+def _information(path: str, noise: np.ndarray, n: int, rows: np.ndarray, what: str) -> np.ndarray:
+    """The information matrices (K, n, n) of the records on ``rows`` (0-based), each positive definite (iSAM's check)."""
+    info = upper_triangle(noise, n)
+    isam.check_positive_definite(path, info, rows + 1, what)
+    return info
 
 
 def read(path: str | Path, name: str | None = None, ground_truth: str | Path | None = None) -> PoseGraph:
@@ -87,7 +88,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             vrows,
             _ids(lines.path, e, erows, [0, 1]),
             e[:, 2:9],
-            upper_triangle(e[:, 9:30], 6),
+            _information(lines.path, e[:, 9:30], 6, erows, "pose-constraint"),
             erows,
             meta,
         )
@@ -102,7 +103,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             landmark_pose=lm[:, 0],
             landmark_id=lm[:, 1],
             landmark_z=le[:, 2:4],
-            landmark_information=upper_triangle(le[:, 4:7], 2),
+            landmark_information=_information(lines.path, le[:, 4:7], 2, lerows, "landmark"),
             landmark_kind="xy",
         )
     if lv.shape[0]:
@@ -117,7 +118,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
         vrows,
         _ids(lines.path, e, erows, [0, 1]),
         e[:, 2:5],
-        upper_triangle(e[:, 5:11], 3),
+        _information(lines.path, e[:, 5:11], 3, erows, "pose-constraint"),
         erows,
         meta,
         **extra,

@@ -31,13 +31,14 @@ from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
 from ..source import Layout, SourceParams
-from ._text import record_values, records, upper_triangle, upper_triangular
+from ._text import integer_ids, record_values, records, upper_triangle, upper_triangular
 
 __all__ = [
     "IsamRecords",
     "read_records",
     "information",
     "noise_information",
+    "check_positive_definite",
     "read",
     "true_poses_and_landmarks",
     "load",
@@ -83,13 +84,8 @@ def read_records(path: str | Path, allowed: tuple[str, ...] = ("ODOMETRY", "EDGE
     lm_rows = np.flatnonzero(tag == "LANDMARK")
     p = record_values(lines, pose_rows, 11, "a pose constraint (i j dx dy dtheta + 6 noise values)")
     q = record_values(lines, lm_rows, 7, "a LANDMARK record (p l dx dy + 3 noise values)")
-    for arr, rows, cols in ((p, pose_rows, (0, 1)), (q, lm_rows, (0, 1))):
-        ids = arr[:, cols]
-        bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
-        if bad.size:
-            raise DataFormatError(
-                lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80]
-            )
+    for arr, rows in ((p, pose_rows), (q, lm_rows)):
+        integer_ids(lines.path, arr[:, :2], rows + 1)
     return IsamRecords(
         path=lines.path,
         pose_i=p[:, 0].astype(np.int64),
@@ -126,7 +122,9 @@ def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
 MAX_CONDITION = 1e12
 
 
-def _check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
+def check_positive_definite(path: str, matrices: np.ndarray, lines: np.ndarray, what: str) -> None:
+    """Raise at the line (``lines`` (K,), 1-based) of the first of ``matrices`` (K, n, n) that is not positive definite
+    (smallest eigenvalue not above the largest / :data:`MAX_CONDITION`); shared by the graph readers."""
     if matrices.shape[0] == 0:
         return
     eig = np.linalg.eigvalsh(matrices)
@@ -148,9 +146,9 @@ def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np
         (rec.lm_noise, 2, rec.lm_line, "landmark"),
     ):
         if convention == "covariance":
-            _check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
+            check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
         info = information(noise, n, convention)
-        _check_positive_definite(rec.path, info, lines, what)
+        check_positive_definite(rec.path, info, lines, what)
         out.append(info)
     return out[0], out[1]
 

@@ -26,6 +26,9 @@ What the reader does about the files' quirks (each counted in ``meta``):
   the ground-truth heading and the direction of travel — and, when it is near π, rotates the
   ground-truth headings by π (``meta["ground_truth_heading"]`` says whether it did and why;
   ``align_heading=False`` keeps the file's values).
+- **Values outside their physical range** (:data:`RANGE`, :data:`STEP`, :data:`TURN`; a negative or 1e300 m range,
+  a 1e300 m odometry step) are dropped, their lines listed in ``meta["dropped_lines"]["out_of_range"]`` per file
+  (a dropped odometry row's motion is lost: the increment cannot be trusted in part).
 - The odometry of Plaza1 is unusually good: its Δθ equal the ground-truth heading changes
   exactly (correlation 1.0), so its heading is not independent of the ground truth.
 - The ranges carry a bias: measured minus true distance has median +2.8 m (both runs, every
@@ -52,12 +55,22 @@ from ..errors import DataFormatError
 from ..geometry import wrap_angle
 from ..sequence import BeaconRanges, Increments, LandmarkMap, Noise, Sequence, Trajectory
 from ..source import Layout, SourceParams
-from ._text import check_monotonic, numeric_table
+from ._physical import Bound, dropped_lines, outside
+from ._text import check_monotonic, integer_ids, numeric_table
 
 __all__ = ["read_run", "read", "read_mat", "PlazaParams", "PlazaSource", "heading_offset"]
 
 #: a ground-truth step shorter than this [m] says nothing about the direction of travel
 _MOVING = 0.05
+
+#: physical ranges (research/method/data-validation.md): a row with a value outside is dropped (``out_of_range``)
+RANGE = Bound(
+    0.0, 1000.0, "m", "a radio range: the beacons are ≤ 89 m away in both runs; 1 km is beyond the radios' reach"
+)
+STEP = Bound(
+    -10.0, 10.0, "m", "Δd of one odometry row (rows ≈ 0.2 s apart, ≤ 1.24 m in both runs): a 10 m step is 50 m/s"
+)
+TURN = Bound(-np.pi, np.pi, "rad", "Δθ of one odometry row (≤ 0.15 rad in both runs): more than half a turn in one row")
 
 
 def read_mat(path: str | Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -106,24 +119,26 @@ def heading_offset(poses: np.ndarray) -> tuple[float, float]:
     return median, float(np.mean(np.abs(wrap_angle(angle - median)) < 0.5))
 
 
-def _ranges(path: Path, strict_time: bool) -> tuple[BeaconRanges, dict]:
+def _ranges(path: Path, strict_time: bool) -> tuple[BeaconRanges, dict, list[int]]:
+    """The range rows (sorted by time), their counts for meta, and the lines dropped out of range."""
     rows, lines = numeric_table(path, 4, "a range row (t robot_id beacon_id range)")
+    n_rows = len(rows)
+    absurd, why = outside({"range": (rows[:, 3], RANGE)})
+    dropped = dropped_lines(str(path), lines[absurd], why)
+    rows, lines = rows[~absurd], lines[~absurd]
     t = rows[:, 0]
     if strict_time:
         check_monotonic(str(path), t, lines, "range measurements")
     late = t < np.maximum.accumulate(t)
     order = np.argsort(t, kind="stable")
-    ids = rows[:, 2]
-    if np.any(ids != np.round(ids)) or np.any(ids < 0):
-        k = int(np.flatnonzero((ids != np.round(ids)) | (ids < 0))[0])
-        raise DataFormatError(path, int(lines[k]), "a non-negative integer beacon id", str(ids[k]))
-    stream = BeaconRanges(t=t[order], range=rows[order, 3], beacon_id=ids[order].astype(np.int64))
+    ids = integer_ids(path, rows[:, 2], lines, "beacon ids")
+    stream = BeaconRanges(t=t[order], range=rows[order, 3], beacon_id=ids[order])
     meta = {
-        "range_rows": int(len(rows)),
+        "range_rows": n_rows,
         "range_rows_out_of_order": int(late.sum()),
         "robot_ids": np.unique(rows[:, 1]).astype(int).tolist(),
     }
-    return stream, meta
+    return stream, meta, dropped
 
 
 class PlazaParams(Params):
@@ -150,13 +165,17 @@ def read_run(
     """One Plaza run from its files (see the module docstring); ``truth`` is the ``.mat`` file."""
     odo, odo_lines = numeric_table(odometry, 3, "an odometry row (t delta_distance delta_heading)")
     check_monotonic(str(odometry), odo[:, 0], odo_lines, "odometry")
+    absurd, why = outside({"delta_distance": (odo[:, 1], STEP), "delta_heading": (odo[:, 2], TURN)})
+    dropped = dropped_lines(str(odometry), odo_lines[absurd], why)
+    odo = odo[~absurd]
     delta = np.column_stack([odo[:, 1], np.zeros(len(odo)), odo[:, 2]])
-    beacon_ranges, meta = _ranges(Path(ranges), params.strict_time)
+    beacon_ranges, meta, dropped_ranges = _ranges(Path(ranges), params.strict_time)
     meta = {
         "dataset": "CMU Plaza (range-only)",
         "files": [str(p) for p in (odometry, ranges, truth) if p is not None],
         "odometry_rows": int(len(odo)),
         **meta,
+        "dropped_lines": {"out_of_range": {"odometry": dropped, "ranges": dropped_ranges}},
         "noise": "not stated by the dataset",
         "time": "seconds (dataset clock)",
     }

@@ -26,7 +26,8 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from ..source import Layout, SourceParams
-from ._text import check_unique, record_values, records
+from . import isam
+from ._text import check_unique, integer_ids, record_values, records
 
 __all__ = ["read", "load", "ToroSource", "toro_information", "RECORDS"]
 
@@ -50,18 +51,14 @@ def read(path: str | Path, name: str | None = None) -> PoseGraph:
     for record, ncols in RECORDS.items():
         rows = np.flatnonzero(tag == record)
         values = record_values(lines, rows, ncols, f"a {record} record")
-        ids = values[:, :2] if record != "VERTEX2" else values[:, :1]
-        bad = np.flatnonzero(((ids != np.round(ids)) | (ids < 0)).any(axis=1))
-        if bad.size:
-            raise DataFormatError(
-                lines.path, int(rows[bad[0]]) + 1, "non-negative integer ids", lines[rows[bad[0]]][:80]
-            )
+        integer_ids(lines.path, values[:, :2] if record != "VERTEX2" else values[:, :1], rows + 1)
         table[record] = (values, rows)
     v, vrows = table["VERTEX2"]
     e, erows = table["EDGE2"]
     q, _ = table["EQUIV"]
     br, brows = table["BR"]
     info = toro_information(e[:, 5:11])
+    isam.check_positive_definite(lines.path, info, erows + 1, "EDGE2")
     node_ids = v[:, 0].astype(np.int64)
     edge_ids = e[:, :2].astype(np.int64)
     if node_ids.size:

@@ -64,6 +64,7 @@ import numpy as np
 from pydantic import ConfigDict, PositiveInt, model_validator
 
 from slamarena.params import Field, Params, with_params
+from slamarena.resources import require_memory
 
 from .. import kinematics
 from ..geometry import wrap_angle
@@ -182,6 +183,24 @@ class LandmarkWorldParams(Params):
     def _clearance_below_band(self):
         if self.clearance >= self.band:
             raise ValueError(f"clearance ({self.clearance}) must be < band ({self.band})")
+        return self
+
+    @model_validator(mode="after")
+    def _fits_in_memory(self):
+        """The run's arrays must fit in the memory available (:func:`slamarena.resources.require_memory`): a route of
+        P = n / (2 density (band − clearance)) metres walked ``laps`` times at ``speed`` is K ≈ laps P / (speed dt)
+        steps, each seeing ≈ V = min(n, max_observations, density · (fov / 2) · max_range²) landmarks (the sensor's
+        sector); 16 B a landmark, 128 B a step (controls, truth, noise, working copies), 96 B an observation."""
+        if self.clearance >= self.band:
+            return self
+        n = self.n_landmarks
+        steps = self.laps * n / (2 * self.density * (self.band - self.clearance)) / (self.speed * self.dt)
+        seen = min(n, self.max_observations or n, self.density * 0.5 * self.fov * self.max_range**2)
+        require_memory(
+            16.0 * n + steps * (128.0 + 96.0 * seen),
+            f"n_landmarks = {n} with laps = {self.laps}, density = {self.density:g} /m², speed · dt = "
+            f"{self.speed * self.dt:g} m makes a run of ≈ {steps:.3g} steps seeing ≈ {seen:.3g} landmarks each",
+        )
         return self
 
 

@@ -56,6 +56,7 @@ import numpy as np
 from pydantic import ConfigDict, model_validator
 
 from slamarena.params import Field, Params, with_params
+from slamarena.resources import require_memory
 
 from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
@@ -393,6 +394,23 @@ class LaserWorldParams(Params):
         ratio = self.odom_rate / self.scan_rate
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(f"odom_rate / scan_rate must be a whole number >= 1, got {ratio!r}")
+        return self
+
+    @model_validator(mode="after")
+    def _fits_in_memory(self):
+        """The run's arrays must fit in the memory available (:func:`slamarena.resources.require_memory`): K = laps ×
+        (the route polygon's length, an upper bound of the driven lap's) / (speed / odom_rate) odometry rows (≈ 200 B
+        each: increments, their covariance, truth, odometry) and K / (odom_rate / scan_rate) scans of n_beams beams
+        (32 B a beam: true and noisy ranges, dropouts)."""
+        route = np.asarray(_world(self.world).route, dtype=float)
+        lap = float(np.hypot(*(np.roll(route, -1, axis=0) - route).T).sum())
+        steps = self.laps * lap / self.speed * self.odom_rate
+        scans = steps * self.scan_rate / self.odom_rate
+        require_memory(
+            steps * 200.0 + scans * self.n_beams * 32.0,
+            f"laps = {self.laps}, odom_rate = {self.odom_rate:g} Hz, scan_rate = {self.scan_rate:g} Hz, "
+            f"n_beams = {self.n_beams} make a run of {steps:.3g} odometry rows and {scans:.3g} scans",
+        )
         return self
 
 

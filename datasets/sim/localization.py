@@ -64,6 +64,7 @@ import numpy as np
 from pydantic import AfterValidator, ConfigDict, NonNegativeFloat, model_validator
 
 from slamarena.params import Field, Params, with_params
+from slamarena.resources import require_memory
 
 from .. import kinematics
 from ..geometry import interpolate_poses, wrap_angle
@@ -190,6 +191,20 @@ class LocalizationWorldParams(Params):
                 f"duration × cmd_rate ({self.duration * self.cmd_rate:g}) and cmd_rate × substeps "
                 f"({self.cmd_rate * self.substeps:g}) must be ≥ 1: at least one command row, fine steps of at most 1 s"
             )
+        return self
+
+    @model_validator(mode="after")
+    def _fits_in_memory(self):
+        """The run's arrays must fit in the memory available (:func:`slamarena.resources.require_memory`): duration ×
+        cmd_rate × substeps fine steps (≈ 128 B each: the true state, wheel speeds, working copies) and the GPS and
+        IMU rows (64 B each)."""
+        fine = self.duration * self.cmd_rate * self.substeps
+        rows = self.duration * (self.cmd_rate + self.gps_rate + self.imu_rate)
+        require_memory(
+            fine * 128.0 + rows * 64.0,
+            f"duration = {self.duration:g} s at cmd_rate = {self.cmd_rate:g} Hz × substeps = {self.substeps} "
+            f"makes {fine:.3g} fine steps",
+        )
         return self
 
 

@@ -15,6 +15,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..inputs import PSD_TOL as _TOL
+from ..inputs import CovarianceError
+from ..inputs import psd3 as _psd3
+
 __all__ = [
     "CovarianceError",
     "innovation_cov_error",
@@ -27,30 +31,13 @@ __all__ = [
     "check_augmented",
 ]
 
-#: relative tolerance for "negative" (round-off of a semi-definite zero block is not an error)
-_TOL = 1e-12
-
 #: the checked entries: the diagonal d (N,), the robot block (3, 3), ``off[k] = P[s + 1, s]`` of landmark k (n,)
 Entries = tuple[np.ndarray, np.ndarray, np.ndarray]
-
-
-class CovarianceError(FloatingPointError):
-    """The covariance lost positive (semi-)definiteness."""
 
 
 def innovation_cov_error(S: np.ndarray) -> CovarianceError:
     """The error of an innovation covariance S that has no Cholesky factor."""
     return CovarianceError(f"innovation covariance is not positive definite: S = {np.asarray(S).tolist()}")
-
-
-@njit(cache=True)
-def _psd3(A, tol):
-    """3 × 3 symmetric A is PSD iff every principal minor is ≥ 0 (up to tol)."""
-    a, b, c, d, e, f = A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2]
-    minor2 = min(a * d - b * b, a * f - c * c, d * f - e * e)
-    det = a * (d * f - e * e) - b * (b * f - c * e) + c * (b * e - c * d)
-    scale2 = max(tol, 1e-300) / _TOL
-    return min(a, d, f) >= -tol and minor2 >= -tol * scale2 and det >= -tol * scale2 * scale2
 
 
 #: what :func:`entries_failure` found: nothing, a non-finite diagonal, a negative diagonal entry, an indefinite robot block,

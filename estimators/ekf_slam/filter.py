@@ -100,9 +100,10 @@ mapped landmark is χ²-gated too: applied only if ``d² = νᵀ S⁻¹ ν < χ�
 1e-5; an outlier of a real sensor is not applied). ``known_confidence=None`` removes the gate
 (the notes' filter, for oracle comparisons); a row whose d² is not finite is still rejected.
 
-Bad input. Every step computes its result, checks it, and only then changes the state, so a
-rejected or failing step leaves x and P exactly as they were:
+Bad input (:mod:`slamarena.estimators.inputs`, shared with FastSLAM). Every step computes its result, checks it, and
+only then changes the state, so a rejected or failing step leaves x and P exactly as they were:
 
+* stamps: an update's t must be finite and not before the last update's, else ``ValueError``;
 * observations: rows with a non-finite value or a negative range are rejected and counted; a row
   is also rejected (counted in ``rejected["nonfinite"]``) when its update is not representable —
   a non-finite d², gain step or covariance term, or a new landmark whose mean or covariance is
@@ -127,6 +128,7 @@ from pydantic import FiniteFloat, model_validator
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
+from ..inputs import next_stamp, valid_rows
 from ..kernels import twist_motion
 from ..models import (
     ARC,
@@ -390,17 +392,6 @@ _NONE, _NONE_3, _NONE_33 = (
 )  # an argument of a compiled call not given
 
 
-def _valid_rows(z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rows of an observation set (M, 3) that are finite with a non-negative range; the masks of the non-finite rows'
-    complement (``finite``) and of the negative ranges."""
-    z = np.asarray(z, dtype=float)
-    if z.ndim != 2 or z.shape[1] != 3:
-        raise ValueError(f"z must be an (M, 3) array [range, bearing, id], got shape {z.shape}")
-    finite = np.all(np.isfinite(z), axis=1)
-    negative = finite & (z[:, 0] < 0)
-    return z[finite & ~negative], finite, negative
-
-
 def _matrix(value) -> np.ndarray | None:
     return None if value is None else np.asarray(value, dtype=float)
 
@@ -462,7 +453,7 @@ class EKFSLAM:
         self.book = assoc.LandmarkBook(
             p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov
         )
-        self._sets, self._t = 0, 0.0
+        self._sets, self._t = 0, None  # the number of update sets and the last one's stamp
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
@@ -647,11 +638,12 @@ class EKFSLAM:
         ambiguous, outside a gate, or whose update would not be finite (counted in ``rejected["nonfinite"]``)
         or would make P indefinite (``on_indefinite="record"``) — is logged as rejected and changes nothing.
         """
-        z, finite, negative = _valid_rows(z)
+        t = next_stamp(self._sets + 1 if t is None else t, self._t)
+        z, finite, negative = valid_rows(z)
         self.rejected["nonfinite"] += int((~finite).sum())
         self.rejected["negative_range"] += int(negative.sum())
         self._sets += 1
-        self._t = t = float(self._sets if t is None else t)
+        self._t = t
         if not len(z):
             return
         counting = self.book.miss_limit is not None  # the quality counter is on
@@ -727,7 +719,7 @@ class EKFSLAM:
         """The first row of set z (M, 3) (an index into its valid rows, as :meth:`update` numbers them) associated without an
         id that is ambiguous on the current estimate, and its hypotheses (landmark slots, −1: not in the map), or None
         (association.hypotheses); rows in ``decided`` are not asked about. The state is not changed."""
-        z = _valid_rows(z)[0]
+        z = valid_rows(z)[0]
         unknown = np.flatnonzero(np.full(len(z), not self.params.use_ids) | (z[:, 2] < 0))
         unknown = unknown[~np.isin(unknown, list(decided or ()))]
         if not unknown.size or not self.n_landmarks:

@@ -68,6 +68,17 @@ one prior),
     s'_m = min(s_{a_m}, …, s_{a_{m+1} − 1})    otherwise,
     t_A  = min_m s_m.
 
+Bad input (:mod:`slamarena.estimators.inputs`, as EKF-SLAM)
+----------------------------------------------------------
+Every step checks its input and its result before the state changes. A prediction with ``dt ≤ 0``, a
+non-finite control or increment, or whose Δ, Σ_Δ or predicted poses are not finite (``v = 1e300``: Σ_Δ
+overflows) raises ``ValueError``; one whose Σ_Δ is not positive semi-definite (an increment covariance
+−I) raises ``CovarianceError``. An update's stamp must be finite and not before the last update's
+(``ValueError``). Observation rows with a non-finite value or a negative range, and rows the particles
+cannot represent (a new landmark whose mean or covariance G_z R G_zᵀ is not finite, an infinite d² to a
+mapped landmark: a range of 1e300 m), are dropped and counted in ``rejected``; the update is then the
+update of the set without them.
+
 Randomness comes from one ``numpy.random.Generator`` seeded by ``seed``; the same seed gives the same run.
 """
 
@@ -83,6 +94,7 @@ from scipy.stats import chi2
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
 
+from ..inputs import CovarianceError, first_indefinite, next_stamp, valid_rows
 from ..models import (
     DEFAULT_RANGE_BEARING_COV,
     DEFAULT_TWIST_COV,
@@ -90,6 +102,8 @@ from ..models import (
     RangeBearingNoise,
     compose_chain,
     compose_jacobians,
+    inverse_observation_jacobians,
+    inverse_observe,
     observation_covariances,
 )
 from ..stepping import StepClock
@@ -234,6 +248,7 @@ class FastSLAM:
         self.resamplings = 0
         self._sets = 0
         self._t = float(getattr(sequence, "t0", 0.0))
+        self._last_stamp: float | None = None  # the last update's t
         self.split_t = np.full(
             M - 1, self._t
         )  # s_m: when the lineages of particles m and m + 1 last met (module docstring)
@@ -286,9 +301,11 @@ class FastSLAM:
             )
         if not (np.all(np.isfinite(v)) and np.all(np.isfinite(omega))):
             raise ValueError("predict: controls must be finite")
-        delta = self.model.increment(v, omega, dt)
-        V = self.model.jacobians(np.zeros(3), v, omega, dt)[1]
-        return self._chain(delta, V @ self.M_twist @ np.swapaxes(V, 1, 2))
+        with np.errstate(over="ignore", invalid="ignore"):  # an absurd control overflows; _chain checks the result
+            delta = self.model.increment(v, omega, dt)
+            V = self.model.jacobians(np.zeros(3), v, omega, dt)[1]
+            C = V @ self.M_twist @ np.swapaxes(V, 1, 2)
+        return self._chain(delta, C)
 
     def predict_increments(self, delta, cov=None) -> tuple[np.ndarray, np.ndarray]:
         """A chain of body-frame odometry increments (K, 3) with covariances (K, 3, 3) (default ``increment_cov``)."""
@@ -304,7 +321,27 @@ class FastSLAM:
         return self._chain(delta, C)
 
     def _chain(self, delta: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        deltas, Sigmas = compose_chain(self.delta, self.Sigma_delta, delta, C)
+        """Δ ← Δ ⊕ δ_1 ⊕ … ⊕ δ_K with Σ_Δ, computed and checked before the state changes: a chain whose Δ, Σ_Δ or
+        predicted poses x0 ⊕ Δ are not finite raises ``ValueError``, one whose Σ_Δ is not positive semi-definite
+        :class:`~slamarena.estimators.inputs.CovarianceError` (e.g. an increment covariance −I)."""
+        if len(delta) == 0:
+            return np.zeros((0, 3)), np.zeros((0, 3, 3))
+        with np.errstate(over="ignore", invalid="ignore"):  # an absurd input overflows; checked below
+            deltas, Sigmas = compose_chain(self.delta, self.Sigma_delta, delta, C)
+            poses = compose(self.x0, deltas[-1])
+        bad = np.flatnonzero(~np.all(np.isfinite(deltas), axis=1))
+        k = int(first_indefinite(np.ascontiguousarray(Sigmas)))
+        if bad.size or not np.all(np.isfinite(poses)) or (k >= 0 and not np.all(np.isfinite(Sigmas[k]))):
+            k = int(bad[0]) if bad.size else (k if k >= 0 else len(delta) - 1)
+            raise ValueError(
+                f"prediction {k} of {len(delta)} gives a non-finite pose or covariance (the motion or its covariance "
+                "is beyond what the model can represent); the state is unchanged"
+            )
+        if k >= 0:
+            raise CovarianceError(
+                f"prediction {k} of {len(delta)}: the motion covariance Σ_Δ is not positive semi-definite "
+                f"({Sigmas[k].tolist()}); the state is unchanged"
+            )
         self.delta, self.Sigma_delta = deltas[-1], Sigmas[-1]
         return deltas, Sigmas
 
@@ -322,30 +359,36 @@ class FastSLAM:
         """Apply one observation set z (k, 3) = rows [range, bearing, id] taken at time t [s] (None: the number of sets so
         far; the clock of the tentative landmarks); returns the slot each particle gave each row (M, k).
 
-        Rows with a non-finite value or a negative range are rejected and counted; with ``use_ids`` a
-        negative id is rejected as unlabelled. Resamples when N_eff falls below the threshold.
+        Rows with a non-finite value or a negative range are rejected and counted, and so is a row the particles cannot
+        represent (counted in ``rejected["nonfinite"]``, :meth:`_representable`); with ``use_ids`` a negative id is
+        rejected as unlabelled. A rejected row changes nothing: the update is the one of the set without it. The stamp t
+        must be finite and not before the last update's (else ``ValueError``, nothing changed). Resamples when N_eff
+        falls below the threshold.
         """
-        z = np.asarray(z, dtype=float).reshape(-1, 3)
-        self._sets += 1
-        t = float(self._sets if t is None else t)
-        self._t = t
-        finite = np.all(np.isfinite(z[:, :2]), axis=1)
-        positive = z[:, 0] >= 0
+        t = next_stamp(self._sets + 1 if t is None else t, self._last_stamp)
+        z, finite, negative = valid_rows(z)
         self.rejected["nonfinite"] += int((~finite).sum())
-        self.rejected["negative_range"] += int((finite & ~positive).sum())
-        z = z[finite & positive]
+        self.rejected["negative_range"] += int(negative.sum())
         p = self.params
         if p.use_ids:
             z = z[z[:, 2] >= 0]
-            _, first = np.unique(z[:, 2].astype(np.int64), return_index=True)
-            z = z[np.sort(first)]  # one row per landmark per set
-            slots = np.array([self._slot(int(i)) for i in z[:, 2]], dtype=np.int64)
-        else:
-            slots = np.zeros(len(z), dtype=np.int64)
         R = self._noise(z)
         xhat, P = self.predicted()
-        if p.use_ids and np.isfinite(self.gate_known) and len(z):
+        keep = self._representable(z, R, xhat)
+        z, R = z[keep], R[keep]
+        if p.use_ids:
+            _, first = np.unique(z[:, 2].astype(np.int64), return_index=True)
+            first = np.sort(first)  # one row per landmark per set
+            z, R = z[first], R[first]
+        slots = (
+            np.array([self._slot(int(i)) for i in z[:, 2]], dtype=np.int64)
+            if p.use_ids
+            else np.zeros(len(z), dtype=np.int64)
+        )
+        if p.use_ids and len(z):
             z, slots, R = self._gated(z, slots, R, xhat, P)
+        self._sets += 1
+        self._t = self._last_stamp = t
         eps = self.rng.standard_normal((self.M, 3))
         poses = np.empty((self.M, 3))
         assoc = np.full((self.M, len(z)), -1, dtype=np.int64)
@@ -393,8 +436,27 @@ class FastSLAM:
             self.resample()
         return assoc
 
+    def _representable(self, z: np.ndarray, R: np.ndarray, xhat: np.ndarray) -> np.ndarray:
+        """The rows (k,) whose new landmark is finite at every particle's predicted pose — its mean x̂_m ⊞ z and its
+        covariance G_z R_j G_zᵀ — and whose r² is finite (the innovations' scale); the others are counted as non-finite.
+
+        The definition of an absurd range is the EKF-SLAM one: one the model cannot represent (e.g. 1e300 m, whose
+        covariance overflows), not a bound on range; a reader drops ranges outside its sensor's physical range."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            mean = inverse_observe(xhat[:, None, :], z[None, :, :2])  # (M, k, 2)
+            Gz = inverse_observation_jacobians(xhat[:, None, :], z[None, :, :2])[1]  # (M, k, 2, 2)
+            cov = Gz @ R[None] @ np.swapaxes(Gz, -1, -2)
+            ok = (
+                np.isfinite(z[:, 0] * z[:, 0])
+                & np.all(np.isfinite(mean), axis=(0, 2))
+                & np.all(np.isfinite(cov), axis=(0, 2, 3))
+            )
+        self.rejected["nonfinite"] += int((~ok).sum())
+        return ok
+
     def _gated(self, z, slots, R, xhat, P):
-        """The rows of a labelled set that pass the known-landmark gate (``known_confidence``); the others are counted.
+        """The rows of a labelled set whose d² is finite at every particle's predicted pose (the others are counted as
+        non-finite) and that pass the known-landmark gate (``known_confidence``; counted as ``gate``).
 
         A row is an outlier when the particles that consider it one — d² = νᵀ L⁻¹ ν at their predicted pose beyond
         χ²₂(known_confidence), :func:`.kernels.predictive_d2` — hold more than half the weight. Decided once for the
@@ -414,9 +476,11 @@ class FastSLAM:
             self.store.leaf_mu,
             self.store.leaf_S,
         )
-        outlier = self.weights @ (d2 > self.gate_known) > 0.5  # NaN (not mapped) compares False
+        unrepresentable = np.any(np.isinf(d2), axis=0)  # NaN: not mapped
+        outlier = ~unrepresentable & (self.weights @ (d2 > self.gate_known) > 0.5)  # NaN compares False
+        self.rejected["nonfinite"] += int(unrepresentable.sum())
         self.rejected["gate"] += int(outlier.sum())
-        keep = ~outlier
+        keep = ~(outlier | unrepresentable)
         return z[keep], slots[keep], R[keep]
 
     def _slot(self, landmark_id: int) -> int:

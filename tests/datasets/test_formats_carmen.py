@@ -215,7 +215,7 @@ def test_one_stamp_out_of_order_drops_its_message_not_the_time_base(tmp_path, li
     path = _log(tmp_path, "\n".join(lines) + "\n")
     with pytest.warns(DataWarning, match=re.escape(f"{path}:{line}: 1 message(s) dropped")):
         s = carmen.read(path)
-    assert s.meta["dropped_lines"] == {"binary_garbage": [], "bad_timestamp": [line]}
+    assert s.meta["dropped_lines"] == {"binary_garbage": [], "out_of_range": [], "bad_timestamp": [line]}
     assert s.meta["time_source"].startswith("ipc_timestamp") and s.meta["time_adjusted_messages"] == 0
     assert 4.7 < s.summary()["scans"]["rate_hz"] < 5.3  # the log's own 5 Hz, not the scan index's 1 Hz
     scan_lines = 2 * np.arange(20) + 3
@@ -243,7 +243,7 @@ def test_a_line_of_binary_garbage_is_dropped_counted_and_warned(tmp_path, garbag
     path.write_bytes(b"\n".join(lines) + b"\n")
     with pytest.warns(DataWarning, match=re.escape(f"{path}:7: 1 message(s) dropped, holding binary garbage")):
         s = carmen.read(path)
-    assert s.meta["dropped_lines"] == {"binary_garbage": [7], "bad_timestamp": []}
+    assert s.meta["dropped_lines"] == {"binary_garbage": [7], "out_of_range": [], "bad_timestamp": []}
     assert s.meta["ignored_messages"] == {} and len(s.scans) == 19 and s.meta["time_source"].startswith("ipc_timestamp")
 
 
@@ -279,7 +279,11 @@ def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel,
     path.write_bytes(b"\n".join(lines))
     with pytest.warns(DataWarning):
         s = carmen.read(path, max_range=80.0)
-    assert s.meta["dropped_lines"] == {"binary_garbage": [scan[lost] + 1], "bad_timestamp": [odom + 1]}
+    assert s.meta["dropped_lines"] == {
+        "binary_garbage": [scan[lost] + 1],
+        "out_of_range": [],
+        "bad_timestamp": [odom + 1],
+    }
     assert s.meta["time_source"] == intel.meta["time_source"]
     np.testing.assert_array_equal(s.meta["scan_ipc_timestamp"], np.delete(intel.meta["scan_ipc_timestamp"], lost))
     assert len(s.motion) == len(intel.motion) - 1
@@ -313,3 +317,28 @@ def test_clamped_stamps_are_spread_to_increase_strictly():
     )  # at most one median step (1 s) per run
     assert np.all(np.diff(t) > 0)
     np.testing.assert_array_equal(carmen.strictly_increasing([0.0, 0.2, 0.4]), [0.0, 0.2, 0.4])  # nothing to do
+
+
+@pytest.mark.parametrize(
+    "line, field, value, why",
+    [
+        (6, 1, "1e300", "ODOM x outside"),  # ODOM x
+        (6, 3, "-1e5", "ODOM theta outside"),
+        (7, 2, "-5", "a reading outside [0, 1000] m"),  # FLASER's first reading
+        (7, 6, "1e300", "scan pose x outside"),
+    ],
+)
+def test_a_value_outside_its_physical_range_drops_its_message(tmp_path, line, field, value, why):
+    """An ODOM x of 1e300 m, a reading of −5 m: the message is dropped, counted with its line and warned about; its
+    neighbours carry the motion across (dead reckoning ends where the clean log's does)."""
+    lines = _steady_log()
+    parts = lines[line - 1].split()
+    parts[field] = value
+    lines[line - 1] = " ".join(parts)
+    path = _log(tmp_path, "\n".join(lines) + "\n")
+    with pytest.warns(DataWarning, match=re.escape(f"{path}:{line}: 1 message(s) dropped") + ".*" + re.escape(why)):
+        s = carmen.read(path)
+    assert s.meta["dropped_lines"]["out_of_range"] == [line]
+    assert len(s.scans) == 20 - (line == 7) and len(s.motion) == 19 - (line == 6)
+    assert np.nanmin(s.scans.ranges) >= 0 and s.scans.max_range == 4
+    np.testing.assert_allclose(accumulate(s.initial_pose, s.motion.delta)[-1], [1.9, 0, 0], atol=1e-12)

@@ -153,6 +153,15 @@ def test_g2o_round_trip_with_landmarks(tmp_path):
         (toro.read, "VERTEX2 0 0 0 0\nEDGE2 0 0 1 0 0 1 0 1 1 0\n", 2, "11 numeric fields"),
         (isam.read, "ODOMETRY 0 1 1 0 0 1 0 0 1 0 1\nPOINT 3\n", 2, "record of type"),
         (isam.read, "ODOMETRY 0 1 1 0 0 1 0 0 1 0 0\n", 1, "positive-definite"),
+        # an information matrix with smallest eigenvalue −100 (iSAM's check, shared): pose edges, xy landmark edges, TORO
+        (
+            g2o.read,
+            "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 -100\n",
+            3,
+            "positive-definite",
+        ),
+        (g2o.read, "VERTEX_SE2 0 0 0 0\nEDGE_SE2_XY 0 5 1 0 1 0 -100\n", 2, "positive-definite landmark"),
+        (toro.read, "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 1 0 1 -100 0 0\n", 3, "positive-definite"),
         (isam.read, "EDGE2 0 1 1 0 0 1 0 0 1 0 1\nLANDMARK 1 0 1 1 1 0\n", 2, "7 numeric fields"),
     ],
 )
@@ -162,3 +171,13 @@ def test_malformed_graphs(tmp_path, reader, text, line, fragment):
     with pytest.raises(DataFormatError) as err:
         reader(f)
     assert err.value.line == line and str(f) in str(err.value) and fragment in str(err.value)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    """A g2o file saved "with BOM" reads as without it (the mark was rejected at line 1)."""
+    text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
+    (tmp_path / "plain.g2o").write_text(text)
+    (tmp_path / "bom.g2o").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    plain, bom = g2o.read(tmp_path / "plain.g2o"), g2o.read(tmp_path / "bom.g2o")
+    np.testing.assert_array_equal(bom.node_ids, plain.node_ids)
+    np.testing.assert_array_equal(bom.edge_information, plain.edge_information)

@@ -9,6 +9,8 @@ import pytest
 from checks import load_staged
 
 from slamarena.datasets import DataFormatError, load
+from slamarena.datasets.errors import DataWarning
+from slamarena.estimators.dead_reckoning import DeadReckoning
 
 pytestmark = pytest.mark.realdata
 
@@ -136,3 +138,73 @@ def test_malformed_odometry_names_file_and_line(tmp_path, rows, line, fragment):
     with pytest.raises(DataFormatError) as err:
         load(f"utias:{tmp_path}/robot1")
     assert err.value.line == line and "Robot1_Odometry.dat" in str(err.value) and fragment in str(err.value)
+
+
+def _read_with(tmp_path, odometry=None, measurement=None, barcodes=None, landmarks=None):
+    """The small recording with some files' rows replaced."""
+    _recording(tmp_path)
+    for name, rows in (
+        ("Robot2_Odometry.dat", odometry),
+        ("Barcodes.dat", barcodes),
+        ("Landmark_Groundtruth.dat", landmarks),
+    ):
+        if rows is not None:
+            _write(tmp_path / name, 4, rows)
+    if measurement is not None:
+        (tmp_path / "Robot2_Measurement.dat.gz").unlink()
+        _write(tmp_path / "Robot2_Measurement.dat", 4, measurement)
+    return load(f"utias:{tmp_path}/robot2")
+
+
+@pytest.mark.parametrize(
+    "odometry, measurement, dropped",
+    [
+        (["10.0 0.1 0.0", "10.5 1e300 0.1", "11.0 0.0 0.0"], None, {"odometry": [6], "measurement": []}),
+        (["10.0 0.1 0.0", "10.5 0.3 -50", "11.0 0.0 0.0"], None, {"odometry": [6], "measurement": []}),
+        (None, ["10.2 63 1.5 0.1", "10.7 81 -1.0 0.0", "10.9 81 1e300 -0.2"], {"odometry": [], "measurement": [6, 7]}),
+        (None, ["10.2 63 1.5 7.0", "10.9 81 2.5 -0.2"], {"odometry": [], "measurement": [5]}),
+    ],
+)
+def test_a_value_outside_its_physical_range_is_dropped_and_counted_with_its_line(
+    tmp_path, odometry, measurement, dropped
+):
+    """v = 1e300 m/s, ω = −50 rad/s, a negative or 1e300 m range, a bearing of 7 rad: the row is dropped, its line
+    listed per file in meta (``slamarena data info`` shows it) and warned about; dead reckoning stays finite."""
+    with pytest.warns(DataWarning, match="dropped"):
+        s = _read_with(tmp_path, odometry=odometry, measurement=measurement)
+    assert s.meta["dropped_lines"]["out_of_range"] == dropped
+    assert s.summary()["meta"]["dropped_lines"]["out_of_range"] == dropped
+    assert np.all(np.abs(s.motion.v) <= 5) and np.all((s.range_bearing.range >= 0) & (s.range_bearing.range < 10))
+    assert np.all(np.isfinite(DeadReckoning().run(s).poses))
+
+
+@pytest.mark.parametrize(
+    "files, line, fragment",
+    [
+        (
+            dict(landmarks=["6 1.0 2.0 0.01 0.02", "7 3.0 4.0 0.01 0.02", "6 5.0 6.0 0.01 0.02"]),
+            7,
+            "unique landmark subject ids (also declared on line 5)",
+        ),
+        (dict(measurement=["10.2 63 1.5 0.1", "10.9 14.5 2.5 -0.2"]), 6, "non-negative integer barcode"),
+        (dict(barcodes=["1 5", "2 14", "6 63", "7 63"]), 8, "unique barcode ids (also declared on line 7)"),
+        (dict(barcodes=["1 5", "2.5 14", "6 63"]), 6, "non-negative integer subject and barcode"),
+    ],
+)
+def test_bad_ids_name_file_and_line(tmp_path, files, line, fragment):
+    """A duplicate landmark id or barcode, a barcode 14.5 (not 14: robot 2's), a subject 2.5."""
+    with pytest.raises(DataFormatError) as err:
+        _read_with(tmp_path, **files)
+    assert err.value.line == line and fragment in str(err.value)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    """A file saved "with BOM" (Notepad, Excel) reads as without it; line numbers are unchanged."""
+    plain = _read_with(tmp_path / "plain")
+    _recording(tmp_path / "bom")
+    for name in ("Barcodes.dat", "Robot2_Odometry.dat"):
+        path = tmp_path / "bom" / name
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    bom = load(f"utias:{tmp_path / 'bom'}/robot2")
+    np.testing.assert_array_equal(bom.motion.v, plain.motion.v)
+    np.testing.assert_array_equal(bom.range_bearing.landmark_id, plain.range_bearing.landmark_id)

@@ -124,7 +124,7 @@ def test_malformed_files_name_file_and_line(tmp_path):
         plaza.read_run(dr, bad)
     lines[6] = "  3.1536e+003\t  2.0e+000\t  -1.0e+000\t 4.0e+001"
     bad.write_text("\n".join(lines) + "\n")
-    with pytest.raises(DataFormatError, match=r"Plaza2_TD.txt:7: expected a non-negative integer beacon id"):
+    with pytest.raises(DataFormatError, match=r"Plaza2_TD.txt:7: expected non-negative integer beacon ids"):
         plaza.read_run(dr, bad)
     without_truth = plaza.read_run(dr, src)
     assert (
@@ -165,3 +165,17 @@ def test_mat_files_scipy_cannot_read_name_the_file(tmp_path):
     (tmp_path / "cut.mat").write_bytes(truncated[: len(truncated) // 2])
     with pytest.raises(DataFormatError, match="cut.mat"):
         read_mat(tmp_path / "cut.mat", ("GT",))
+
+
+def test_a_value_outside_its_physical_range_is_dropped_and_counted_with_its_line(tmp_path):
+    """Ranges of −3 m and 1e300 m, an odometry step of 1e300 m: dropped, their lines listed per file, warned about."""
+    from slamarena.datasets.errors import DataWarning
+
+    dr, td = tmp_path / "X_DR.txt", tmp_path / "X_TD.txt"
+    dr.write_text("1.0\t0.2\t0.0\n1.2\t1e300\t0.0\n1.4\t0.2\t0.01\n")
+    td.write_text("1.0\t0\t1\t10.5\n1.1\t0\t1\t-3.0\n1.2\t0\t2\t1e300\n1.3\t0\t2\t20.0\n")
+    with pytest.warns(DataWarning, match="dropped"):
+        s = plaza.read_run(dr, td)
+    assert s.meta["dropped_lines"]["out_of_range"] == {"odometry": [2], "ranges": [2, 3]}
+    assert s.beacon_ranges.range.tolist() == [10.5, 20.0] and s.meta["range_rows"] == 4
+    np.testing.assert_array_equal(s.motion.delta[:, 0], [0.2, 0.2])

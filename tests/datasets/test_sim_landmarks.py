@@ -198,6 +198,8 @@ def test_events_predict_then_update(seq):
         dict(fov=7.0),
         dict(seed=-1),
         dict(n_landmark=5),
+        dict(n_landmarks=10**12),  # a world beyond the memory available (an empty MemoryError in the cell)
+        dict(laps=10**12),
     ],
 )
 def test_bad_config_is_rejected_naming_the_field(bad):

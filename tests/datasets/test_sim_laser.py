@@ -224,6 +224,8 @@ def test_registry_and_determinism():
         dict(mount=(0.0, 0.0)),
         dict(seed=-1),
         dict(nbeams=8),
+        dict(laps=10**9),  # a run beyond the memory available
+        dict(n_beams=10**9),
     ],
 )
 def test_bad_config_is_rejected_naming_the_field(bad):

@@ -183,6 +183,7 @@ def test_step_response_of_the_actuator():
         dict(substeps=1, cmd_rate=0.3, duration=10.0),
         dict(seed=-1),
         dict(gps_sigmma=0.1),
+        dict(duration=1e12),  # a run beyond the memory available
     ],
 )
 def test_bad_config_is_rejected_naming_the_field(bad):

@@ -114,6 +114,16 @@ def test_good_config_and_derived_values(tmp_path):
             "does not exist",
         ),
         (("name: tiny", "name: my experiment"), "name", "plain directory name"),
+        (  # silently dropped the method
+            ("{motion_model: euler}", "{motion_model: euler}\n    datasets: []"),
+            "estimators.0.datasets",
+            "an empty list runs the method on no dataset",
+        ),
+        (  # passed, then an empty MemoryError in the cell
+            ("{n_landmarks: 10}", "{n_landmarks: 1000000000000}"),
+            "datasets.0",
+            "n_landmarks = 1000000000000",
+        ),
     ],
 )
 def test_mistakes_are_rejected_with_their_path(tmp_path, change, path, message):
@@ -265,3 +275,26 @@ def test_a_config_reduced_to_part_of_its_grid_keeps_its_settings():
     assert part.datasets[0].resolved_params() == full.datasets[1].resolved_params() and part.metrics == full.metrics
     laser = load_config("kummerle2009").reduced(datasets=["intel"])
     assert all(set(row.values) == {"intel"} for row in laser.published)
+
+
+def test_a_world_too_large_for_the_machine_names_its_size_and_the_memory(tmp_path):
+    with pytest.raises(ConfigError, match=r"≈ [0-9.e+]+ GiB, beyond the [0-9.]+ GiB of memory available"):
+        load_config(_write(tmp_path, GOOD.replace("{n_landmarks: 10}", "{n_landmarks: 1000000000000}")))
+
+
+def test_a_duplicate_key_names_its_path_and_both_lines(tmp_path):
+    """YAML keeps the last of two equal keys silently; a config refuses it (here seeds, and a method's parameter)."""
+    with pytest.raises(ConfigError, match=r"exp.yaml:4: seeds: a key given twice \(first on line 3\)"):
+        load_config(_write(tmp_path, GOOD.replace("seeds: [0, 3]", "seeds: [0, 3]\nseeds: 5")))
+    twice = "{motion_model: euler, motion_model: arc}"
+    with pytest.raises(ConfigError, match=r"estimators.0.params.motion_model: a key given twice"):
+        load_config(_write(tmp_path, GOOD.replace("{motion_model: euler}", twice)))
+
+
+def test_a_config_that_is_not_utf8_is_one_line_naming_file_and_line(tmp_path):
+    path = tmp_path / "exp.yaml"
+    path.write_bytes(textwrap.dedent(GOOD).replace("name: tiny", "name: tiny\ndescription: caf\xe9").encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"exp.yaml:3: not UTF-8 text \(byte 0xe9"):
+        load_config(path)
+    path.write_bytes(b"\xef\xbb\xbf" + textwrap.dedent(GOOD).encode())  # a byte order mark is fine
+    assert load_config(path).name == "tiny"

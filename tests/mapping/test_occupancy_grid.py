@@ -266,3 +266,25 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
             shared[0].finest.scan_cells([1.0], [0.0], [0, 0, 0], max_range=4.0),
             OccupancyGrid(resolution=0.1, origin=(0.01, 0.0)),
         )
+
+
+@pytest.mark.parametrize(
+    "ranges, angles, pose, match",
+    [
+        ([1.0, 2.0], [0.0, 0.1], [np.nan, 0.0, 0.0], "finite"),  # numpy's "Maximum allowed dimension exceeded"
+        ([1.0, 2.0], [0.0, 0.1], [0.0, 0.0, np.inf], "finite"),
+        ([1.0, 1e5], [0.0, 0.1], [0.0, 0.0, 0.0], "memory available"),  # a 29 TiB MemoryError at 5 cm cells
+        ([1.0, 1e300], [0.0, 0.1], [0.0, 0.0, 0.0], "memory available"),
+        ([1.0, 2.0, 3.0], [0.0, 0.1], [0.0, 0.0, 0.0], "one length"),  # an IndexError
+        ([[1.0, 2.0]], [[0.0, 0.1]], [0.0, 0.0, 0.0], "1-D"),
+    ],
+)
+def test_bad_scans_raise_a_clear_error_and_leave_the_grid_unchanged(ranges, angles, pose, match):
+    g = OccupancyGrid(resolution=0.05)
+    g.integrate([2.0, 3.0], [0.0, 1.0], [0.0, 0.0, 0.0])
+    before = g.log_odds.copy(), g.origin.copy(), g.version, g.cell_updates
+    with pytest.raises(ValueError, match=match):
+        g.integrate(ranges, angles, pose)
+    np.testing.assert_array_equal(g.log_odds, before[0])
+    np.testing.assert_array_equal(g.origin, before[1])
+    assert (g.version, g.cell_updates) == before[2:]
