@@ -1,0 +1,109 @@
+"""Small ROS bags written by the tests with rosbags' writers (ROS 1, ROS 2 sqlite3, ROS 2 MCAP, bare MCAP).
+
+:func:`robot_bag` writes a bag with every message type the bag reader reads and returns what it wrote, so the tests
+compare the reader's Sequence with these numbers. Header stamps are ``t``, receive times ``t + RECEIVE_LAG``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from slamarena.datasets.formats.bag_write import BagWriter
+from slamarena.datasets.formats.ros_messages import header, message, pose2d, stamp
+from slamarena.datasets.formats.tum import yaw_to_quaternion
+from slamarena.datasets.geometry import compose
+
+RECEIVE_LAG = 0.05
+#: the laser's mounting as a TF chain base_link → laser_mount → laser, and the composed pose
+MOUNT_LINKS = (np.array([0.20, 0.0, 0.3]), np.array([0.0, 0.10, 0.2]))
+MOUNT = compose(*MOUNT_LINKS)
+GPS_ORIGIN = (48.0, 11.0, 500.0)
+
+
+def quaternion(yaw: float) -> dict:
+    q = yaw_to_quaternion(yaw)
+    return {"x": q[0], "y": q[1], "z": q[2], "w": q[3]}
+
+
+def transform(ts, t: float, parent: str, child: str, pose: np.ndarray):
+    return message(
+        ts,
+        "geometry_msgs/msg/TransformStamped",
+        header=header(t, parent),
+        child_frame_id=child,
+        transform={"translation": {"x": pose[0], "y": pose[1]}, "rotation": quaternion(pose[2])},
+    )
+
+
+def robot_bag(path: Path, storage: str = "sqlite3", scan_stamps=None, cmd_vel: str = "Twist") -> dict:
+    """A bag at ``path`` with /scan, /odom, /tf_static, /tf, /cmd_vel, /gps, /imu and /truth; returns the values.
+
+    ``scan_stamps``: the scans' header stamps (default 10.0 + 0.1 k; they are received at those times in any case)."""
+    n_scan, B = 5, 8
+    t_scan = np.arange(n_scan) * 0.1 + 10.0 if scan_stamps is None else np.asarray(scan_stamps, dtype=float)
+    t_odom = np.arange(11) * 0.05 + 9.95  # every other one at a scan stamp
+    odom = np.column_stack([0.3 * (t_odom - 10), 0.1 * (t_odom - 10) ** 2, 0.5 * (t_odom - 10)])
+    twist = np.column_stack([np.full(11, 0.3), np.full(11, 0.5)])
+    ranges = np.full((n_scan, B), 5.0, dtype=np.float32) + np.arange(B, dtype=np.float32)[None] * 0.25
+    ranges[0, 1], ranges[1, 2], ranges[2, 3], ranges[3, 4] = np.inf, np.nan, 0.05, 12.0
+    intensities = np.arange(n_scan * B, dtype=np.float32).reshape(n_scan, B)
+    t_cmd = np.arange(6) * 0.1 + 10.0
+    cmd = np.column_stack([np.linspace(0.1, 0.6, 6), np.linspace(-0.2, 0.3, 6)])
+    t_gps = np.arange(3) * 0.2 + 10.0
+    d_lat = np.array([0.0, 1e-5, 2e-5])
+    d_lon = np.array([0.0, 0.0, 1e-5])
+    t_imu = np.arange(4) * 0.1 + 10.0
+    imu_yaw = np.array([0.1, 0.2, -3.0, 3.1])
+    imu_rate = np.array([0.5, 0.4, 0.3, 0.2])
+    truth = odom + np.array([0.01, -0.01, 0.0])
+    with BagWriter(path, storage=storage) as w:
+        ts = w.typestore
+        w.write("/tf_static", 9.9, message(ts, "tf2_msgs/msg/TFMessage", transforms=[
+            transform(ts, 9.9, "base_link", "laser_mount", MOUNT_LINKS[0]),
+            transform(ts, 9.9, "laser_mount", "laser", MOUNT_LINKS[1]),
+        ]))  # fmt: skip
+        events = []
+        for k, t in enumerate(t_odom):
+            events.append((t, "/odom", message(
+                ts, "nav_msgs/msg/Odometry", header=header(t, "odom"), child_frame_id="base_link",
+                pose={"pose": pose2d(*odom[k])},
+                twist={"twist": {"linear": {"x": twist[k, 0]}, "angular": {"z": twist[k, 1]}}},
+            )))  # fmt: skip
+            events.append((t, "/tf", message(ts, "tf2_msgs/msg/TFMessage", transforms=[
+                transform(ts, t, "odom", "base_link", odom[k])])))  # fmt: skip
+            events.append((t, "/truth", message(ts, "geometry_msgs/msg/PoseStamped", header=header(t, "map"),
+                                                pose=pose2d(*truth[k]))))  # fmt: skip
+        for k, t in enumerate(t_scan):  # received in index order at the nominal 10 Hz, whatever the header says
+            events.append((10.0 + 0.1 * k, "/scan", message(
+                ts, "sensor_msgs/msg/LaserScan", header=header(t, "laser"), angle_min=-1.0,
+                angle_max=-1.0 + 0.25 * (B - 1), angle_increment=0.25, range_min=0.1, range_max=10.0,
+                ranges=ranges[k], intensities=intensities[k],
+            )))  # fmt: skip
+        for k, t in enumerate(t_cmd):
+            body = {"linear": {"x": cmd[k, 0]}, "angular": {"z": cmd[k, 1]}}
+            msg = (
+                message(ts, "geometry_msgs/msg/Twist", **body)
+                if cmd_vel == "Twist"
+                else message(ts, "geometry_msgs/msg/TwistStamped", header=header(t, "base_link"), twist=body)
+            )
+            events.append((t, "/cmd_vel", msg))
+        for k, t in enumerate(t_gps):
+            events.append((t, "/gps", message(
+                ts, "sensor_msgs/msg/NavSatFix", header=header(t, "gps"), status={"status": 0},
+                latitude=GPS_ORIGIN[0] + d_lat[k], longitude=GPS_ORIGIN[1] + d_lon[k], altitude=GPS_ORIGIN[2],
+                position_covariance=np.diag([4.0, 9.0, 16.0]).ravel(), position_covariance_type=2,
+            )))  # fmt: skip
+        for k, t in enumerate(t_imu):
+            events.append((t, "/imu", message(
+                ts, "sensor_msgs/msg/Imu", header=header(t, "imu"), orientation=quaternion(imu_yaw[k]),
+                orientation_covariance=np.diag([1e-3, 1e-3, 2e-3]).ravel(), angular_velocity={"z": imu_rate[k]},
+            )))  # fmt: skip
+        for t, topic, msg in sorted(events, key=lambda e: e[0]):
+            w.write(topic, t + RECEIVE_LAG, msg)
+    return dict(
+        t_scan=t_scan, t_odom=t_odom, odom=odom, twist=twist, ranges=ranges, intensities=intensities, t_cmd=t_cmd,
+        cmd=cmd, t_gps=t_gps, d_lat=d_lat, d_lon=d_lon, t_imu=t_imu, imu_yaw=imu_yaw, imu_rate=imu_rate, truth=truth,
+        stamp=stamp,
+    )  # fmt: skip
