@@ -9,7 +9,8 @@ message that does not deserialize, stamps that step back — is a :class:`~slama
 naming the bag, the topic and the 0-based index of the message in that topic (:func:`bag_error`).
 
 Stamps (:class:`TopicMessages`): ``receive`` is the bag's record time of each message; ``header`` the message's
-``header.stamp`` (NaN for a type without a header, e.g. ``geometry_msgs/Twist``); both in seconds.
+``header.stamp`` (NaN for a type without a header, e.g. ``geometry_msgs/Twist``); both in seconds, and exactly as
+integer nanoseconds (``receive_ns``, ``header_ns``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from ..errors import DataFormatError
 
-__all__ = ["TopicMessages", "bag_error", "bag_location", "open_bag", "read_topic", "pick_topic", "stamps_of"]
+__all__ = ["TopicMessages", "bag_error", "bag_location", "open_bag", "read_topic", "pick_topic", "header_ns"]
 
 
 def bag_error(bag: str | Path, topic: str | None, index: int | None, expected: str, got: str | None = None):
@@ -64,26 +65,33 @@ def open_bag(path: str | Path) -> Iterator:
 
 @dataclass(frozen=True)
 class TopicMessages:
-    """The messages of one topic in bag order, with their receive and header stamps [s]."""
+    """The messages of one topic in bag order, with their receive and header stamps [ns] (``header_ns`` None when
+    a message has no header)."""
 
     bag: str
     topic: str
     msgtype: str
-    receive: np.ndarray
-    header: np.ndarray
+    receive_ns: np.ndarray
+    header_ns: np.ndarray | None
     messages: list
+
+    @property
+    def receive(self) -> np.ndarray:
+        return self.receive_ns / 1e9
+
+    @property
+    def header(self) -> np.ndarray:
+        return np.full(len(self), np.nan) if self.header_ns is None else self.header_ns / 1e9
 
     def __len__(self) -> int:
         return len(self.messages)
 
     def stamps(self, source: str) -> np.ndarray:
         """The stamps of ``source`` ("header" or "receive"); a type without a header always gives its receive time."""
-        if source == "header" and np.all(np.isfinite(self.header)):
-            return self.header
-        return self.receive
+        return self.header if self.stamp_source(source) == "header" else self.receive
 
     def stamp_source(self, source: str) -> str:
-        return "header" if source == "header" and np.all(np.isfinite(self.header)) else "receive"
+        return "header" if source == "header" and self.header_ns is not None else "receive"
 
     def monotonic(self, source: str) -> np.ndarray:
         """The stamps of ``source``, checked non-decreasing (else the error names the first message stepping back)."""
@@ -148,23 +156,29 @@ def read_topic(reader, topic: str) -> TopicMessages:
             except Exception as exc:
                 raise bag_error(bag, topic, index, f"a {msgtype} message", f"{type(exc).__name__}: {exc}") from None
             receive.append(stamp)
-            header.append(stamps_of(message))
+            header.append(header_ns(message))
             messages.append(message)
             index += 1
     except DataFormatError:
         raise
     except Exception as exc:  # a truncated chunk or a damaged record ends the topic early
         raise bag_error(bag, topic, index, "a readable message record", f"{type(exc).__name__}: {exc}") from None
+    has_header = all(h is not None for h in header)
     return TopicMessages(
-        str(bag), topic, msgtype, np.asarray(receive, dtype=np.int64) * 1e-9, np.asarray(header, dtype=float), messages
+        str(bag),
+        topic,
+        msgtype,
+        np.asarray(receive, dtype=np.int64),
+        np.asarray(header, dtype=np.int64) if has_header else None,
+        messages,
     )
 
 
-def stamps_of(message) -> float:
-    """The ``header.stamp`` of a message in seconds (NaN without a header; a TFMessage: its first transform's)."""
+def header_ns(message) -> int | None:
+    """The ``header.stamp`` of a message in nanoseconds (None without a header; a TFMessage: its first transform's)."""
     header = getattr(message, "header", None)
     if header is None and getattr(message, "transforms", None):
         header = message.transforms[0].header
     if header is None:
-        return float("nan")
-    return header.stamp.sec + 1e-9 * header.stamp.nanosec
+        return None
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
