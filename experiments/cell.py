@@ -190,6 +190,8 @@ def execute(spec: dict) -> dict:
         write_json(previous, {"key": spec["key"], "wall": wall, "finished": _now()})
 
     ref = reference_of(data)
+    if ref.t is not None:  # beside trajectory.tum, same stamps convention: `evo_ape tum groundtruth.tum trajectory.tum`
+        write_trajectory_tum(cell / "groundtruth.tum", ref.t, ref.poses)
     selected = {name: METRICS[name].params(**p) for name, p in spec["metrics"].items()}
     cell_data = CellData(estimate, data, ref, wall=wall, peak_rss=peak_rss_mb())
     scalars, series, skipped = evaluate(cell_data, selected)

@@ -191,7 +191,10 @@ def bench(
 
 @app.command("map")
 def map_log(
-    log: str = typer.Argument(..., help="A CARMEN log path, or a registry name such as carmen:intel or sim:laser."),
+    log: str = typer.Argument(
+        ...,
+        help="A CARMEN log or ROS bag path, or a registry name such as carmen:intel, bag:/data/run.bag or sim:laser.",
+    ),
     method: str = typer.Option(
         "grid_slam",
         "--method",

@@ -1,10 +1,11 @@
 """``slamarena map LOG [--method M] [--param key=value …]``: a laser mapping method over a log, with its outputs.
 
-LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``, a log at a path as
-``carmen:<path>`` or ``carmen-corrected:<path>``) or the path of a CARMEN log (``.clf``/``.log``, optionally
-``.gz``/``.bz2``; short for ``carmen:<path>``). M is a name of ``slamarena.mapping.REGISTRY`` (``grid_slam``, the
-front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built with the ``--param`` values (its
-``Params`` model validates them). Writes into ``--out``:
+LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``bag:aces``, ``sim:laser``, a log at a path as
+``carmen:<path>``, ``carmen-corrected:<path>`` or ``bag:<path>``), the path of a ROS bag (``.bag``, ``.mcap`` or a ROS 2
+bag folder; short for ``bag:<path>``, which takes the one LaserScan and Odometry topic) or the path of a CARMEN log
+(``.clf``/``.log``, optionally ``.gz``/``.bz2``; short for ``carmen:<path>``). M is a name of
+``slamarena.mapping.REGISTRY`` (``grid_slam``, the front end alone, by default; ``laser_slam`` with loop closure;
+``rbpf``), built with the ``--param`` values (its ``Params`` model validates them). Writes into ``--out``:
 
     trajectory.tum      the estimated robot poses at the scan stamps (TUM, z = 0)
     estimate.npz        the full :class:`~slamarena.datasets.estimate.Estimate` (diagnostics included)
@@ -27,8 +28,9 @@ __all__ = ["map_command", "load_log", "parse_params", "write_loop_closures"]
 
 
 def load_log(log: str):
-    """A dataset name (``slamarena.datasets.load``: catalogued, ``carmen:<path>`` and the other family forms, a
-    simulator), or the path of a CARMEN log (short for ``carmen:<path>``), as a Sequence."""
+    """A dataset name (``slamarena.datasets.load``: catalogued, ``carmen:<path>``, ``bag:<path>`` and the other family
+    forms, a simulator), or the path of a ROS bag (``.bag``, ``.mcap``, a ROS 2 bag folder: short for ``bag:<path>``)
+    or of a CARMEN log (short for ``carmen:<path>``), as a Sequence."""
     from slamarena import datasets
     from slamarena.errors import UnknownNameError, UserError
 
@@ -40,7 +42,9 @@ def load_log(log: str):
                 f"{log!r} is neither a dataset name (see `slamarena data list`, or <family>:<path> for a "
                 f"recording at a path) nor a file"
             ) from None
-    return datasets.load(f"carmen:{log}")
+    path = Path(log)
+    ros = path.suffix in (".bag", ".mcap") or (path.is_dir() and (path / "metadata.yaml").is_file())
+    return datasets.load(f"{'bag' if ros else 'carmen'}:{log}")
 
 
 def parse_params(pairs: list[str]) -> dict:

@@ -107,3 +107,57 @@ def robot_bag(path: Path, storage: str = "sqlite3", scan_stamps=None, cmd_vel: s
         cmd=cmd, t_gps=t_gps, d_lat=d_lat, d_lon=d_lon, t_imu=t_imu, imu_yaw=imu_yaw, imu_rate=imu_rate, truth=truth,
         stamp=stamp,
     )  # fmt: skip
+
+
+def geodetic_of(enu: np.ndarray, origin: tuple[float, float, float]) -> np.ndarray:
+    """(lat°, lon°, alt m) of east-north-up points ``enu`` (N, 3) at ``origin``: ENU → ECEF → geodetic by the
+    fixed-point iteration of the latitude (Bowring's form), written here independently of the reader's projection."""
+    from slamarena.datasets.formats.ros_convert import WGS84_A, WGS84_F, ecef_of
+
+    phi, lam = np.radians(origin[0]), np.radians(origin[1])
+    R = np.array(
+        [
+            [-np.sin(lam), np.cos(lam), 0.0],
+            [-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)],
+            [np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)],
+        ]
+    )
+    xyz = ecef_of(np.array([origin[0]]), np.array([origin[1]]), np.array([origin[2]])) + enu @ R
+    e2 = WGS84_F * (2 - WGS84_F)
+    p = np.hypot(xyz[:, 0], xyz[:, 1])
+    lat = np.arctan2(xyz[:, 2], p * (1 - e2))
+    for _ in range(10):
+        N = WGS84_A / np.sqrt(1 - e2 * np.sin(lat) ** 2)
+        h = p / np.cos(lat) - N
+        lat = np.arctan2(xyz[:, 2], p * (1 - e2 * N / (N + h)))
+    return np.column_stack([np.degrees(lat), np.degrees(np.arctan2(xyz[:, 1], xyz[:, 0])), h])
+
+
+def localization_bag(seq, path: Path, origin=GPS_ORIGIN) -> None:
+    """The Sequence of ``sim:localization`` as a bag: /cmd_vel (Twist, received at the command stamps), /gps
+    (NavSatFix at ``origin``, its stated covariance), /imu (Imu yaw, its stated variance) and /truth (PoseStamped)."""
+    lla = geodetic_of(np.column_stack([seq.gps.xy, np.zeros(len(seq.gps))]), origin)
+    gps_cov = np.zeros((3, 3))
+    gps_cov[:2, :2] = seq.noise.gps_cov
+    with BagWriter(path) as w:
+        ts = w.typestore
+        events = [
+            (t, "/cmd_vel", message(ts, "geometry_msgs/msg/Twist", linear={"x": v}, angular={"z": om}))
+            for t, v, om in zip(seq.motion.t, seq.motion.v, seq.motion.omega)
+        ]
+        events += [
+            (t, "/gps", message(ts, "sensor_msgs/msg/NavSatFix", header=header(t, "gps"), latitude=a, longitude=b,
+                                altitude=c, position_covariance=gps_cov.ravel(), position_covariance_type=3))
+            for t, (a, b, c) in zip(seq.gps.t, lla)
+        ]  # fmt: skip
+        events += [
+            (t, "/imu", message(ts, "sensor_msgs/msg/Imu", header=header(t, "imu"), orientation=quaternion(yaw),
+                                orientation_covariance=np.diag([1.0, 1.0, seq.noise.yaw_var]).ravel()))
+            for t, yaw in zip(seq.heading.t, seq.heading.yaw)
+        ]  # fmt: skip
+        events += [
+            (t, "/truth", message(ts, "geometry_msgs/msg/PoseStamped", header=header(t, "map"), pose=pose2d(*p)))
+            for t, p in zip(seq.ground_truth.t, seq.ground_truth.poses)
+        ]
+        for t, topic, msg in sorted(events, key=lambda e: e[0]):
+            w.write(topic, t, msg)
