@@ -10,6 +10,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
+    slamarena eval TRAJ --ref REF     slamarena.experiments.cli_eval (any trajectory file against a reference)
 
 (``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
 """
@@ -222,6 +223,34 @@ def map_log(
     params = parse_params(param)
     params.update({k: v for k, v in (("matcher", matcher), ("particles", particles)) if v is not None})
     raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations))
+
+
+@app.command("eval")
+def eval_trajectory(
+    traj: Path = typer.Argument(
+        ..., help="A trajectory file: TUM, KITTI poses, EuRoC CSV or g2o (by suffix or --format)."
+    ),
+    ref: str = typer.Option(..., "--ref", help="A trajectory file, or a dataset name (its ground truth / relations)."),
+    metrics: str = typer.Option("ate,rpe", "--metrics", help="Comma-separated metric names, e.g. ate,rpe,relations."),
+    format: str | None = typer.Option(None, "--format", help="TRAJ's format: tum, kitti, euroc, g2o."),
+    ref_format: str | None = typer.Option(None, "--ref-format", help="The reference file's format."),
+    times: Path | None = typer.Option(None, "--times", help="KITTI stamps (times.txt) for TRAJ; default the index."),
+    align: str = typer.Option("se2", "--align", help="ATE alignment: none, se2, sim2 (as in configs)."),
+    max_gap: float = typer.Option(0.1, "--max-gap", help="Seconds from an estimate to the reference around it."),
+    rpe_delta: float = typer.Option(1.0, "--rpe-delta", help="RPE pair distance (in --rpe-unit)."),
+    rpe_unit: str = typer.Option("s", "--rpe-unit", help="RPE pair distance unit: frames, s, m."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+):
+    """Score a trajectory from any system against a dataset's ground truth or a reference file."""
+    from .cli_eval import eval_command, evaluate_file
+
+    params = {
+        "ate": {"align": align, "max_gap": max_gap},
+        "rpe": {"delta": rpe_delta, "unit": rpe_unit, "max_gap": max_gap},
+    }
+    names = [m.strip() for m in metrics.split(",") if m.strip()]
+    result = evaluate_file(traj, ref, names, params, traj_format=format, ref_format=ref_format, times=times)
+    raise typer.Exit(eval_command(result, as_json))
 
 
 def main() -> None:
