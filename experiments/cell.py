@@ -187,6 +187,10 @@ def execute(spec: dict) -> dict:
         wall = time.perf_counter() - t1
         estimate.save(estimate_file)
         write_trajectory_tum(cell / "trajectory.tum", estimate.t, estimate.poses)
+        if spec.get("mcap"):
+            from .mcap_output import MCAP_NAME, write_result_mcap
+
+            write_result_mcap(cell / MCAP_NAME, estimate, method)
         write_json(previous, {"key": spec["key"], "wall": wall, "finished": _now()})
 
     ref = reference_of(data)

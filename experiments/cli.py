@@ -216,13 +216,16 @@ def map_log(
     relations: Path | None = typer.Option(
         None, "--relations", help="A Kümmerle et al. relations file to score the trajectory against."
     ),
+    mcap: bool = typer.Option(
+        False, "--mcap", help="Also write result.mcap (trajectory, tf, grid) for Foxglove / RViz 2."
+    ),
 ):
     """A laser mapping method over a log: trajectory, map PNG/PGM, pose graph, timing."""
     from .cli_map import map_command, parse_params
 
     params = parse_params(param)
     params.update({k: v for k, v in (("matcher", matcher), ("particles", particles)) if v is not None})
-    raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations))
+    raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations, mcap=mcap))
 
 
 @app.command("eval")

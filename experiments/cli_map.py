@@ -13,6 +13,8 @@ bag folder; short for ``bag:<path>``, which takes the one LaserScan and Odometry
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
     pose_graph.g2o      the pose graph, for methods that build one (laser_slam)
     loop_closures.csv   every loop-closure candidate: node, submap, scores, accepted, time (laser_slam)
+    result.mcap         with ``--mcap``: /tf per pose, /trajectory (nav_msgs/Path), /map (nav_msgs/OccupancyGrid), for
+                        Foxglove or RViz 2 (:mod:`slamarena.datasets.formats.ros_results`)
     summary.json        timing (wall, per scan, real-time factor), the method's counts, map size, beam layouts
                         (interlaced logs: one stream, several angle offsets); the relation error when
                         ``--relations`` is given
@@ -68,6 +70,7 @@ def map_command(
     params: dict | None = None,
     out: Path = Path("results/maps"),
     relations: Path | None = None,
+    mcap: bool = False,
 ) -> int:
     """Run a mapping method of ``slamarena.mapping.REGISTRY`` over a log and write its outputs (module docstring).
     User errors (a bad method, parameter, log or relations file) raise :class:`~slamarena.errors.UserError`."""
@@ -135,6 +138,11 @@ def map_command(
     if "loop_node" in estimate.diagnostics:
         write_loop_closures(out / "loop_closures.csv", estimate.diagnostics)
         written.append("loop_closures.csv")
+    if mcap:
+        from .mcap_output import MCAP_NAME, write_result_mcap
+
+        write_result_mcap(out / MCAP_NAME, estimate, slam)
+        written.append(MCAP_NAME)
     duration = float(sequence.scans.t[-1] - sequence.scans.t[0])
     summary = {
         "log": log,

@@ -273,6 +273,10 @@ class ExperimentConfig(BaseModel):
     )
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
+    mcap: bool = Field(
+        False,
+        description="every computed cell also writes result.mcap (trajectory, tf, its grid or landmarks) for Foxglove",
+    )
     single_threaded: bool = Field(
         False,
         description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
