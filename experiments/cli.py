@@ -52,10 +52,21 @@ app = typer.Typer(
 app.add_typer(data_app, name="data")
 
 
+def _version(value: bool) -> None:
+    if value:
+        from slamarena import __version__
+
+        typer.echo(f"slamarena {__version__}")
+        raise typer.Exit(0)
+
+
 @app.callback()
 def _main(
     data_root: Path | None = typer.Option(
         None, "--data-root", help="Directory holding the datasets (before SLAMARENA_DATA and the defaults)."
+    ),
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
     ),
 ):
     if data_root is not None:

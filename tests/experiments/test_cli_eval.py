@@ -76,3 +76,10 @@ def test_the_command_prints_a_table_and_json(run, tmp_path):
     assert bad.exit_code == 2 and "align" in bad.output
     unknown = runner.invoke(app, ["eval", str(tmp_path / "est.tum"), "--ref", "sim:landmarks", "--metrics", "atee"])
     assert unknown.exit_code == 2 and "atee" in unknown.output
+
+
+def test_version():
+    from slamarena import __version__
+
+    out = CliRunner().invoke(app, ["--version"])
+    assert out.exit_code == 0 and out.output.strip() == f"slamarena {__version__}"
