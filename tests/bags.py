@@ -28,19 +28,33 @@ def quaternion(yaw: float) -> dict:
 
 
 def transform(ts, t: float, parent: str, child: str, pose: np.ndarray):
+    """A TransformStamped of a planar pose ``(x, y, yaw)`` or of a 4 × 4 pose."""
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape == (4, 4):
+        from scipy.spatial.transform import Rotation
+
+        x, y, z, w = Rotation.from_matrix(pose[:3, :3]).as_quat()
+        body = {"translation": dict(zip("xyz", pose[:3, 3])), "rotation": {"x": x, "y": y, "z": z, "w": w}}
+    else:
+        body = {"translation": {"x": pose[0], "y": pose[1]}, "rotation": quaternion(pose[2])}
     return message(
-        ts,
-        "geometry_msgs/msg/TransformStamped",
-        header=header(t, parent),
-        child_frame_id=child,
-        transform={"translation": {"x": pose[0], "y": pose[1]}, "rotation": quaternion(pose[2])},
+        ts, "geometry_msgs/msg/TransformStamped", header=header(t, parent), child_frame_id=child, transform=body
     )
 
 
-def robot_bag(path: Path, storage: str = "sqlite3", scan_stamps=None, cmd_vel: str = "Twist") -> dict:
+def robot_bag(
+    path: Path,
+    storage: str = "sqlite3",
+    scan_stamps=None,
+    cmd_vel: str = "Twist",
+    mount_links=MOUNT_LINKS,
+    angle_min=None,
+) -> dict:
     """A bag at ``path`` with /scan, /odom, /tf_static, /tf, /cmd_vel, /gps, /imu and /truth; returns the values.
 
-    ``scan_stamps``: the scans' header stamps (default 10.0 + 0.1 k; they are received at those times in any case)."""
+    ``scan_stamps``: the scans' header stamps (default 10.0 + 0.1 k; they are received at those times in any case);
+    ``mount_links``: the two links of the laser's TF chain, each ``(x, y, yaw)`` or a 4 × 4 pose (None: no /tf_static);
+    ``angle_min``: per scan (default −1 for all)."""
     n_scan, B = 5, 8
     t_scan = np.arange(n_scan) * 0.1 + 10.0 if scan_stamps is None else np.asarray(scan_stamps, dtype=float)
     t_odom = np.arange(11) * 0.05 + 9.95  # every other one at a scan stamp
@@ -60,10 +74,11 @@ def robot_bag(path: Path, storage: str = "sqlite3", scan_stamps=None, cmd_vel: s
     truth = odom + np.array([0.01, -0.01, 0.0])
     with BagWriter(path, storage=storage) as w:
         ts = w.typestore
-        w.write("/tf_static", 9.9, message(ts, "tf2_msgs/msg/TFMessage", transforms=[
-            transform(ts, 9.9, "base_link", "laser_mount", MOUNT_LINKS[0]),
-            transform(ts, 9.9, "laser_mount", "laser", MOUNT_LINKS[1]),
-        ]))  # fmt: skip
+        if mount_links is not None:
+            w.write("/tf_static", 9.9, message(ts, "tf2_msgs/msg/TFMessage", transforms=[
+                transform(ts, 9.9, "base_link", "laser_mount", mount_links[0]),
+                transform(ts, 9.9, "laser_mount", "laser", mount_links[1]),
+            ]))  # fmt: skip
         events = []
         for k, t in enumerate(t_odom):
             events.append((t, "/odom", message(
@@ -77,7 +92,8 @@ def robot_bag(path: Path, storage: str = "sqlite3", scan_stamps=None, cmd_vel: s
                                                 pose=pose2d(*truth[k]))))  # fmt: skip
         for k, t in enumerate(t_scan):  # received in index order at the nominal 10 Hz, whatever the header says
             events.append((10.0 + 0.1 * k, "/scan", message(
-                ts, "sensor_msgs/msg/LaserScan", header=header(t, "laser"), angle_min=-1.0,
+                ts, "sensor_msgs/msg/LaserScan", header=header(t, "laser"),
+                angle_min=-1.0 if angle_min is None else angle_min[k],
                 angle_max=-1.0 + 0.25 * (B - 1), angle_increment=0.25, range_min=0.1, range_max=10.0,
                 ranges=ranges[k], intensities=intensities[k],
             )))  # fmt: skip

@@ -51,7 +51,7 @@ from ..geometry import between, interpolate_poses
 from ..sequence import Gps, Heading, Increments, Noise, Scans, Sequence, Trajectory, Twist
 from ..source import Layout, SourceParams
 from .bag_io import TopicMessages, bag_error, bag_location, open_bag, pick_topic, read_topic
-from .ros_convert import enu_of, layouts, mount_from_tf, scan_arrays, yaw_of
+from .ros_convert import enu_of, layout_of, mount_from_tf, planar_mount, scan_arrays, yaw_of
 
 __all__ = ["read", "load", "BagParams", "BagSource", "TYPES"]
 
@@ -126,38 +126,46 @@ def _poses(messages: TopicMessages) -> np.ndarray:
     return _finite(messages, out, "pose")
 
 
-def _scans(bag, scan: TopicMessages, t: np.ndarray, odom, base: str, tf: list, params: BagParams, meta: dict) -> Scans:
-    found = layouts(scan.messages)
-    if len(found) > 1:
-        first = next(
-            k
-            for k, m in enumerate(scan.messages)
-            if (len(m.ranges), round(float(m.angle_min), 9), round(float(m.angle_increment), 12)) != found[0]
+def _mount(bag, base: str, laser: str, tf: list, meta: dict) -> np.ndarray:
+    """The laser's planar mounting in the base frame from the TF chain (module docstring); sets meta["mount_source"]."""
+    meta["mount_source"] = "identity: the scans are in the base frame"
+    if not laser or laser == base.lstrip("/"):
+        return np.zeros(3)
+    chain = mount_from_tf(tf, base, laser)
+    if chain is None:
+        warnings.warn(
+            f"{bag}: no tf chain from {base} to the laser frame {laser}: the laser is taken at the base", DataWarning
         )
-        raise bag_error(scan.bag, scan.topic, first, "one beam layout (beams, angle_min, angle_increment)", str(found))
+        meta["mount_source"] = f"identity: no tf chain from {base} to {laser}"
+        return np.zeros(3)
+    pose, frames = chain
+    mount = planar_mount(pose)
+    if mount is None:
+        raise bag_error(
+            bag,
+            "/tf_static",
+            None,
+            f"a level laser ({laser} rotated about z only in {base})",
+            str(pose[:3, :3].round(6).tolist()),
+        )
+    meta["mount_source"] = "tf: " + " → ".join(frames)
+    return mount
+
+
+def _scans(bag, scan: TopicMessages, t: np.ndarray, odom, base: str, tf: list, params: BagParams, meta: dict) -> Scans:
+    keys = [layout_of(m) for m in scan.messages]
+    other = next((k for k, key in enumerate(keys) if key != keys[0]), None)
+    if other is not None:
+        raise bag_error(
+            scan.bag,
+            scan.topic,
+            other,
+            f"the beam layout of message 0 (beams, angle_min, angle_increment) {keys[0]}",
+            str(keys[other]),
+        )
     arrays = scan_arrays(scan.messages)
     laser = scan.messages[0].header.frame_id.lstrip("/")
-    mount, meta["mount_source"] = np.zeros(3), "identity: the scans are in the base frame"
-    if laser and laser != base.lstrip("/"):
-        chain = mount_from_tf(tf, base, laser)
-        if chain is None:
-            warnings.warn(
-                f"{bag}: no tf chain from {base} to the laser frame {laser}: the laser is taken at the base",
-                DataWarning,
-            )
-            meta["mount_source"] = f"identity: no tf chain from {base} to {laser}"
-        else:
-            pose, frames = chain
-            if abs(pose[2, 2] - 1.0) > 1e-6:
-                raise bag_error(
-                    bag,
-                    "/tf_static",
-                    None,
-                    f"a level laser ({laser} rotated about z only in {base})",
-                    str(pose[:3, :3].round(6).tolist()),
-                )
-            mount = np.array([pose[0, 3], pose[1, 3], np.arctan2(pose[1, 0], pose[0, 0])])
-            meta["mount_source"] = "tf: " + " → ".join(frames)
+    mount = _mount(bag, base, laser, tf, meta)
     pose = None
     if odom is not None:
         t_odom, odom_poses = odom

@@ -20,7 +20,17 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["yaw_of", "scan_arrays", "layouts", "mount_from_tf", "enu_of", "ecef_of", "WGS84_A", "WGS84_F"]
+__all__ = [
+    "yaw_of",
+    "scan_arrays",
+    "layout_of",
+    "planar_mount",
+    "mount_from_tf",
+    "enu_of",
+    "ecef_of",
+    "WGS84_A",
+    "WGS84_F",
+]
 
 WGS84_A = 6378137.0
 WGS84_F = 1.0 / 298.257223563
@@ -35,7 +45,7 @@ def yaw_of(q: np.ndarray) -> np.ndarray:
 
 def scan_arrays(messages: list) -> dict:
     """The ranges (S, B) float32, intensities (S, B) or None, angles (B,), range_min, range_max and the count of
-    readings of each kind of the LaserScan ``messages`` (one beam layout; callers check :func:`layouts`)."""
+    readings of each kind of the LaserScan ``messages`` (one beam layout; callers check :func:`layout_of`)."""
     first = messages[0]
     B = len(first.ranges)
     ranges = np.stack([np.asarray(m.ranges, dtype=np.float32) for m in messages])
@@ -59,11 +69,16 @@ def scan_arrays(messages: list) -> dict:
     }
 
 
-def layouts(messages: list) -> list[tuple[int, float, float]]:
-    """The distinct beam layouts ``(beams, angle_min, angle_increment)`` of LaserScan ``messages``."""
-    return sorted(
-        {(len(m.ranges), round(float(m.angle_min), 9), round(float(m.angle_increment), 12)) for m in messages}
-    )
+def layout_of(m) -> tuple[int, float, float]:
+    """The beam layout ``(beams, angle_min, angle_increment)`` of a LaserScan (angles rounded to 1e-9 rad)."""
+    return len(m.ranges), round(float(m.angle_min), 9), round(float(m.angle_increment), 12)
+
+
+def planar_mount(pose: np.ndarray) -> np.ndarray | None:
+    """``(x, y, yaw)`` of a 4 × 4 pose that rotates about z only (|R₂₂ − 1| ≤ 1e-6), else None."""
+    if abs(pose[2, 2] - 1.0) > 1e-6:
+        return None
+    return np.array([pose[0, 3], pose[1, 3], np.arctan2(pose[1, 0], pose[0, 0])])
 
 
 def _transform_matrix(transform) -> np.ndarray:

@@ -137,6 +137,41 @@ def test_a_damaged_message_names_topic_and_index(tmp_path):
     _fails(path, "topic /scan, message 1: expected a sensor_msgs/msg/LaserScan message")
 
 
+def test_a_tf_chain_with_a_3d_link_composes_in_3d(tmp_path):
+    # base → mount: 0.5 m up and pitched by 30°, mount → laser: pitched back by −30°: a level laser, the chain in 3D
+    from scipy.spatial.transform import Rotation
+
+    up = np.eye(4)
+    up[:3, :3] = Rotation.from_euler("y", 30, degrees=True).as_matrix()
+    up[:3, 3] = (0.1, 0.2, 0.5)
+    back = np.eye(4)
+    back[:3, :3] = Rotation.from_euler("y", -30, degrees=True).as_matrix() @ Rotation.from_euler("z", 0.4).as_matrix()
+    back[:3, 3] = (0.3, 0.0, 0.0)
+    robot_bag(tmp_path / "tilt.bag", mount_links=(up, back))
+    expected = up @ back
+    s = datasets.load(f"bag:{tmp_path / 'tilt.bag'}")
+    np.testing.assert_allclose(s.scans.mount, [expected[0, 3], expected[1, 3], 0.4], atol=1e-9)
+    assert abs(expected[0, 3] - 0.1 - 0.3 * np.cos(np.radians(30))) < 1e-12  # the 30° pitch shortens the x offset
+
+
+def test_a_tilted_laser_is_refused_and_a_missing_chain_warned(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    tilted = np.eye(4)
+    tilted[:3, :3] = Rotation.from_euler("x", 10, degrees=True).as_matrix()
+    robot_bag(tmp_path / "tilted.bag", mount_links=(tilted, np.zeros(3)))
+    _fails(tmp_path / "tilted.bag", "a level laser")
+    robot_bag(tmp_path / "none.bag", mount_links=None)
+    with pytest.warns(datasets.DataWarning, match="no tf chain from base_link to the laser frame laser"):
+        s = datasets.load(f"bag:{tmp_path / 'none.bag'}")
+    np.testing.assert_array_equal(s.scans.mount, 0.0)
+
+
+def test_a_second_beam_layout_is_named(tmp_path):
+    robot_bag(tmp_path / "layout.bag", angle_min=[-1.0, -1.0, -1.0, -0.9, -1.0])
+    _fails(tmp_path / "layout.bag", "topic /scan, message 3: expected the beam layout of message 0")
+
+
 @pytest.mark.realdata
 def test_staged_aces_bag_equals_the_carmen_log_message_for_message():
     bag = staged("ros_bags/aces.clf2bag.bag")
