@@ -189,3 +189,14 @@ def test_staged_aces_bag_equals_the_carmen_log_message_for_message():
     np.testing.assert_allclose(b.scans.t, 1e9 + 0.1 * np.arange(7374), atol=1e-6)
     assert b.meta["stamps"] == {"/scan": "header", "/odom": "header"}
     np.testing.assert_allclose(b.scans.mount, 0.0)
+
+
+def test_an_empty_file_and_a_bag_without_a_topic_read_are_errors(tmp_path):
+    from slamarena.datasets.formats.bag_write import BagWriter
+    from slamarena.datasets.formats.ros_messages import message
+
+    (tmp_path / "empty.bag").write_bytes(b"")
+    _fails(tmp_path / "empty.bag", "a readable ROS bag")
+    with BagWriter(tmp_path / "other.mcap") as w:
+        w.write("/chatter", 1.0, message(w.typestore, "std_msgs/msg/String", data="hello"))
+    _fails(tmp_path / "other.mcap", "a topic of a type read")
