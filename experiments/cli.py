@@ -248,6 +248,9 @@ def eval_trajectory(
     metrics: str = typer.Option("ate,rpe", "--metrics", help="Comma-separated metric names, e.g. ate,rpe,relations."),
     format: str | None = typer.Option(None, "--format", help="TRAJ's format: tum, kitti, euroc, g2o."),
     ref_format: str | None = typer.Option(None, "--ref-format", help="The reference file's format."),
+    ref_param: list[str] = typer.Option(
+        [], "--ref-param", help="An option of the reference dataset's reader, key=value (repeatable): truth_topic=/gt."
+    ),
     times: Path | None = typer.Option(None, "--times", help="KITTI stamps (times.txt) for TRAJ; default the index."),
     align: str = typer.Option("se2", "--align", help="ATE alignment: none, se2, sim2 (as in configs)."),
     max_gap: float = typer.Option(0.1, "--max-gap", help="Seconds from an estimate to the reference around it."),
@@ -257,13 +260,23 @@ def eval_trajectory(
 ):
     """Score a trajectory from any system against a dataset's ground truth or a reference file."""
     from .cli_eval import eval_command, evaluate_file
+    from .cli_map import parse_params
 
     params = {
         "ate": {"align": align, "max_gap": max_gap},
         "rpe": {"delta": rpe_delta, "unit": rpe_unit, "max_gap": max_gap},
     }
     names = [m.strip() for m in metrics.split(",") if m.strip()]
-    result = evaluate_file(traj, ref, names, params, traj_format=format, ref_format=ref_format, times=times)
+    result = evaluate_file(
+        traj,
+        ref,
+        names,
+        params,
+        traj_format=format,
+        ref_format=ref_format,
+        times=times,
+        ref_params=parse_params(ref_param),
+    )
     raise typer.Exit(eval_command(result, as_json))
 
 

@@ -2,10 +2,11 @@
 
 TRAJ is a trajectory file (:mod:`slamarena.datasets.formats.trajectories`: TUM, KITTI poses, EuRoC CSV, g2o
 vertices; by suffix or ``--format``). The reference is a trajectory file in one of those formats (``--ref-format``)
-or a dataset name (``slamarena data list``, ``bag:<path>``, …): its ground truth, and for ``relations`` its relations
-file. Metrics are names of :data:`slamarena.experiments.metrics.METRICS` with the parameters a config gives them:
-``--align`` and ``--max-gap`` for ``ate`` (and ``max_gap`` for ``rpe``), ``--rpe-delta``/``--rpe-unit`` for ``rpe``.
-A metric that does not apply (a file reference has no relations) is listed with the reason.
+or a dataset name (``slamarena data list``, ``bag:<path>``, …; ``--ref-param key=value`` gives its reader's
+options, such as a bag's ``truth_topic``): its ground truth, and for ``relations`` its relations file. Metrics are
+names of :data:`slamarena.experiments.metrics.METRICS` with the parameters a config gives them: ``--align`` and
+``--max-gap`` for ``ate`` (and ``max_gap`` for ``rpe``), ``--rpe-delta``/``--rpe-unit`` for ``rpe``. A metric that
+does not apply (a file reference has no relations) is listed with the reason.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pathlib import Path
 __all__ = ["evaluate_file", "eval_command"]
 
 
-def _reference(ref: str, ref_format: str | None):
+def _reference(ref: str, ref_format: str | None, ref_params: dict):
     """(data the metrics may read, Reference) of a trajectory file or a dataset name."""
     from slamarena.datasets.formats import trajectories
     from slamarena.experiments.metrics.reference import Reference, reference_of
@@ -26,7 +27,7 @@ def _reference(ref: str, ref_format: str | None):
         return None, Reference(truth.t, truth.poses, None, None, None)
     from slamarena import datasets
 
-    data = datasets.load(ref)
+    data = datasets.load(ref, **ref_params)
     return data, reference_of(data)
 
 
@@ -38,6 +39,7 @@ def evaluate_file(
     traj_format: str | None = None,
     ref_format: str | None = None,
     times: Path | None = None,
+    ref_params: dict | None = None,
 ) -> dict:
     """Scalars, skipped reasons and the counts of one trajectory file against a reference (module docstring)."""
     from slamarena.datasets.estimate import Estimate
@@ -53,7 +55,7 @@ def evaluate_file(
     except ValueError as exc:
         raise UserError(f"metric parameters: {exc}") from None
     estimated = trajectories.read(traj, traj_format, times)
-    data, reference = _reference(ref, ref_format)
+    data, reference = _reference(ref, ref_format, ref_params or {})
     estimate = Estimate(method=Path(traj).name, t=estimated.t, poses=estimated.poses)
     scalars, _, skipped = evaluate(CellData(estimate, data, reference), selected)
     return {"trajectory": str(traj), "reference": ref, "poses": len(estimated), "metrics": scalars, "skipped": skipped}

@@ -9,7 +9,8 @@ message that does not deserialize, stamps that step back — is a :class:`~slama
 naming the bag, the topic and the 0-based index of the message in that topic (:func:`bag_error`).
 
 Stamps (:class:`TopicMessages`): ``receive`` is the bag's record time of each message; ``header`` the message's
-``header.stamp`` (NaN for a type without a header, e.g. ``geometry_msgs/Twist``); both in seconds, and exactly as
+``header.stamp`` (NaN for a type without a header, e.g. ``geometry_msgs/Twist``; a topic whose header stamps are all
+zero falls back to its receive times, :meth:`TopicMessages.stamp_source`); both in seconds, and exactly as
 integer nanoseconds (``receive_ns``, ``header_ns``).
 """
 
@@ -91,7 +92,10 @@ class TopicMessages:
         return self.header if self.stamp_source(source) == "header" else self.receive
 
     def stamp_source(self, source: str) -> str:
-        return "header" if source == "header" and self.header_ns is not None else "receive"
+        """``"header"`` when asked for and every message has a header stamp, not all of them zero (a publisher that
+        leaves its headers unset); else ``"receive"``."""
+        usable = self.header_ns is not None and bool(np.any(self.header_ns != 0))
+        return "header" if source == "header" and usable else "receive"
 
     def monotonic(self, source: str) -> np.ndarray:
         """The stamps of ``source``, checked non-decreasing (else the error names the first message stepping back)."""

@@ -200,3 +200,17 @@ def test_an_empty_file_and_a_bag_without_a_topic_read_are_errors(tmp_path):
     with BagWriter(tmp_path / "other.mcap") as w:
         w.write("/chatter", 1.0, message(w.typestore, "std_msgs/msg/String", data="hello"))
     _fails(tmp_path / "other.mcap", "a topic of a type read")
+
+
+def test_header_stamps_all_zero_fall_back_to_receive_time(tmp_path):
+    from slamarena.datasets.formats.bag_write import BagWriter
+    from slamarena.datasets.formats.ros_messages import header, message
+
+    with BagWriter(tmp_path / "zero.mcap") as w:
+        for k in range(4):
+            body = {"linear": {"x": 0.5}, "angular": {"z": 0.1}}
+            msg = message(w.typestore, "geometry_msgs/msg/TwistStamped", header=header(0.0, "base_link"), twist=body)
+            w.write("/cmd_vel", 5.0 + 0.02 * k, msg)
+    s = datasets.load(f"bag:{tmp_path / 'zero.mcap'}")
+    np.testing.assert_allclose(s.motion.t, 5.0 + 0.02 * np.arange(4))
+    assert s.meta["stamps"] == {"/cmd_vel": "receive"}

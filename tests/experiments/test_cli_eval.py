@@ -83,3 +83,19 @@ def test_version():
 
     out = CliRunner().invoke(app, ["--version"])
     assert out.exit_code == 0 and out.output.strip() == f"slamarena {__version__}"
+
+
+def test_eval_against_a_bag_with_a_truth_topic(tmp_path):
+    from bags import robot_bag
+
+    robot_bag(tmp_path / "run.bag")
+    bag = slamarena.load(f"bag:{tmp_path / 'run.bag'}", truth_topic="/truth")
+    est = slamarena.create("dead_reckoning").run(bag)
+    trajectories.write(tmp_path / "est.tum", est.t, est.poses)
+    args = ["eval", str(tmp_path / "est.tum"), "--ref", f"bag:{tmp_path / 'run.bag'}", "--metrics", "ate", "--json"]
+    out = CliRunner().invoke(app, [*args, "--ref-param", "truth_topic=/truth", "--align", "none"])
+    expected, _ = ate(est, reference_of(bag), ATEParams(align="none"))
+    assert json.loads(out.output)["metrics"]["ate"]["rmse"] == pytest.approx(expected["rmse"], rel=1e-12)
+    assert expected["rmse"] == pytest.approx(np.hypot(0.01, 0.01), rel=1e-6)  # the truth topic is odometry + (1, −1) cm
+    without = json.loads(CliRunner().invoke(app, args).output)
+    assert "ate" in without["skipped"]  # no truth topic named: no ground truth
