@@ -327,7 +327,7 @@ class ExperimentConfig(BaseModel):
             for label, ds in zip(labels, self.datasets):
                 if es.datasets is not None and label not in es.datasets:
                     continue
-                have = streams_of(ds.name)
+                have = streams_of(ds.name, ds.params)
                 missing = [
                     " or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have
                 ]

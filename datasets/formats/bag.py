@@ -53,7 +53,7 @@ from ..source import Layout, SourceParams
 from .bag_io import TopicMessages, bag_error, bag_location, open_bag, pick_topic, read_topic
 from .ros_convert import enu_of, layout_of, mount_from_tf, planar_mount, scan_arrays, yaw_of
 
-__all__ = ["read", "load", "BagParams", "BagSource", "TYPES"]
+__all__ = ["read", "load", "streams_in", "BagParams", "BagSource", "TYPES"]
 
 #: role → the message types read for it
 TYPES: dict[str, tuple[str, ...]] = {
@@ -318,6 +318,26 @@ def read(path: str | Path, name: str | None = None, /, *, params: BagParams) -> 
         noise=Noise(gps_cov=gps_cov, yaw_var=yaw_var),
         meta=meta,
     )
+
+
+def streams_in(path: str | Path, options: dict) -> frozenset[str]:
+    """The Sequence streams the bag at ``path`` gives with reader ``options`` (a mapping of :class:`BagParams` fields),
+    from its topics' types alone (no message is read): for the experiment config's check."""
+    params = BagParams.of({k: v for k, v in options.items() if k in BagParams.model_fields})
+    with open_bag(path) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+    named = {"scan": params.scan_topic, "odom": params.odom_topic, "cmd_vel": params.cmd_vel_topic,
+             "gps": params.gps_topic, "imu": params.imu_topic}  # fmt: skip
+    have = {
+        role
+        for role, topic in named.items()
+        if ((types.get(topic) in TYPES[role]) if topic else any(m in TYPES[role] for m in types.values()))
+    }
+    streams = {"scans": "scan", "gps": "gps", "heading": "imu"}
+    out = {stream for stream, role in streams.items() if role in have}
+    if have & {"odom", "cmd_vel"}:
+        out.add("motion")
+    return frozenset(out)
 
 
 class BagSource(BagParams, SourceParams):

@@ -79,3 +79,22 @@ def test_a_config_runs_grid_slam_and_dead_reckoning_on_a_bag(tmp_path):
         truth = np.loadtxt(cell / "groundtruth.tum")
         np.testing.assert_allclose(truth[:, 0], written["t_odom"])
         np.testing.assert_allclose(truth[:, 1:3], written["truth"][:, :2], atol=1e-12)
+
+
+def test_a_config_refuses_a_landmark_method_on_a_laser_bag_before_any_cell_runs(tmp_path):
+    from slamarena.experiments.config import ConfigError
+
+    robot_bag(tmp_path / "run.bag")
+    path = tmp_path / "exp.yaml"
+    path.write_text(
+        textwrap.dedent(f"""
+        name: bad
+        datasets:
+          - name: bag
+            params: {{path: {tmp_path / "run.bag"}}}
+        estimators:
+          - name: ekf_slam
+        """)
+    )
+    with pytest.raises(ConfigError, match="needs range_bearing"):
+        load_config(path)
