@@ -252,6 +252,12 @@ def eval_trajectory(
         [], "--ref-param", help="An option of the reference dataset's reader, key=value (repeatable): truth_topic=/gt."
     ),
     times: Path | None = typer.Option(None, "--times", help="KITTI stamps (times.txt) for TRAJ; default the index."),
+    kitti_frame: str = typer.Option(
+        "xy", "--kitti-frame", help="KITTI poses: xy (planar, z up) or camera (KITTI odometry ground truth)."
+    ),
+    max_tilt: float = typer.Option(
+        1e-6, "--max-tilt", help="Largest tilt out of the x-y plane [rad] projected; a larger one is refused."
+    ),
     align: str = typer.Option("se2", "--align", help="ATE alignment: none, se2, sim2 (as in configs)."),
     max_gap: float = typer.Option(0.1, "--max-gap", help="Seconds from an estimate to the reference around it."),
     rpe_delta: float = typer.Option(1.0, "--rpe-delta", help="RPE pair distance (in --rpe-unit)."),
@@ -276,6 +282,8 @@ def eval_trajectory(
         ref_format=ref_format,
         times=times,
         ref_params=parse_params(ref_param),
+        kitti_frame=kitti_frame,
+        max_tilt=max_tilt,
     )
     raise typer.Exit(eval_command(result, as_json))
 

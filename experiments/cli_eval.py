@@ -1,7 +1,8 @@
 """``slamarena eval TRAJ --ref DATASET_OR_FILE``: score a trajectory from any system with the metrics registry.
 
 TRAJ is a trajectory file (:mod:`slamarena.datasets.formats.trajectories`: TUM, KITTI poses, EuRoC CSV, g2o
-vertices; by suffix or ``--format``). The reference is a trajectory file in one of those formats (``--ref-format``)
+vertices; by suffix or ``--format``; ``--kitti-frame camera`` for KITTI odometry ground truth, ``--max-tilt`` for
+poses slightly out of the x-y plane). The reference is a trajectory file in one of those formats (``--ref-format``)
 or a dataset name (``slamarena data list``, ``bag:<path>``, …; ``--ref-param key=value`` gives its reader's
 options, such as a bag's ``truth_topic``): its ground truth, and for ``relations`` its relations file. Metrics are
 names of :data:`slamarena.experiments.metrics.METRICS` with the parameters a config gives them: ``--align`` and
@@ -16,14 +17,14 @@ from pathlib import Path
 __all__ = ["evaluate_file", "eval_command"]
 
 
-def _reference(ref: str, ref_format: str | None, ref_params: dict):
+def _reference(ref: str, ref_format: str | None, ref_params: dict, kitti_frame: str, max_tilt: float):
     """(data the metrics may read, Reference) of a trajectory file or a dataset name."""
     from slamarena.datasets.formats import trajectories
     from slamarena.experiments.metrics.reference import Reference, reference_of
 
     path = Path(ref)
     if path.is_file() and (ref_format or path.suffix in (".tum", ".kitti", ".csv", ".g2o", ".txt")):
-        truth = trajectories.read(path, ref_format)
+        truth = trajectories.read(path, ref_format, kitti_frame=kitti_frame, max_tilt=max_tilt)
         return None, Reference(truth.t, truth.poses, None, None, None)
     from slamarena import datasets
 
@@ -40,6 +41,8 @@ def evaluate_file(
     ref_format: str | None = None,
     times: Path | None = None,
     ref_params: dict | None = None,
+    kitti_frame: str = "xy",
+    max_tilt: float = 1e-6,
 ) -> dict:
     """Scalars, skipped reasons and the counts of one trajectory file against a reference (module docstring)."""
     from slamarena.datasets.estimate import Estimate
@@ -54,8 +57,15 @@ def evaluate_file(
         selected = {m: METRICS[m].params(**params.get(m, {})) for m in metrics}
     except ValueError as exc:
         raise UserError(f"metric parameters: {exc}") from None
-    estimated = trajectories.read(traj, traj_format, times)
-    data, reference = _reference(ref, ref_format, ref_params or {})
+    for option, value, known in (
+        ("--format", traj_format, trajectories.FORMATS),
+        ("--ref-format", ref_format, trajectories.FORMATS),
+        ("--kitti-frame", kitti_frame, ("xy", "camera")),
+    ):
+        if value is not None and value not in known:
+            raise UserError(f"{option} {value!r}: one of {', '.join(known)}")
+    estimated = trajectories.read(traj, traj_format, times, kitti_frame=kitti_frame, max_tilt=max_tilt)
+    data, reference = _reference(ref, ref_format, ref_params or {}, kitti_frame, max_tilt)
     estimate = Estimate(method=Path(traj).name, t=estimated.t, poses=estimated.poses)
     scalars, _, skipped = evaluate(CellData(estimate, data, reference), selected)
     return {"trajectory": str(traj), "reference": ref, "poses": len(estimated), "metrics": scalars, "skipped": skipped}

@@ -13,10 +13,18 @@ format     suffix        one pose per line
 ``g2o``    ``.g2o``      ``VERTEX_SE2 id x y θ`` (read by :mod:`.g2o`, edges allowed): ``t`` = the vertex id
 =========  ============  ================================================================================
 
-A ``.txt`` file is TUM when its lines have 8 numbers and KITTI when they have 12. Planar poses are the x-y plane
-with a rotation about z (z = 0 when written, as :mod:`.tum` does); a pose tilted out of that plane (|qx|, |qy| or
-|r13|, |r23|, |r31|, |r32| above 1e-6) is refused, naming the file and line. Writing a format without stamps
-(KITTI, g2o) drops ``t``: KITTI lines are in time order, g2o vertex ids are the index.
+KITTI frames: ``"xy"`` (default) reads ``[R | t]`` as a pose in the x-y plane like the others; ``"camera"`` reads
+KITTI odometry ground truth, the pose of a camera (x right, y down, z forward) in the first camera's frame:
+``R_b = C R Cᵀ``, ``t_b = C t`` with ``C`` = :data:`CAMERA_TO_BODY` (x_b = z_c forward, y_b = −x_c left,
+z_b = −y_c up), then planar as the others. A ``.txt`` file is TUM when its lines have 8 numbers and KITTI when they
+have 12.
+
+Planar poses are the x-y plane with a rotation about z (z = 0 when written, as :mod:`.tum` does). A pose's tilt is
+the angle between its z axis and the world's, ``atan2(‖(R₂₀, R₂₁)‖, R₂₂)`` (for a quaternion ``2 asin ‖(qx, qy)‖``);
+a pose tilted by more than ``max_tilt`` (default :data:`MAX_TILT`, 1e-6 rad) is refused, naming the file and line;
+below it the pose is projected: yaw ``atan2(R₁₀, R₀₀)`` (the yaw of the ZYX Euler angles), position ``(x, y)``.
+Writing a format without stamps (KITTI, g2o) drops ``t``: KITTI lines are in time order, g2o vertex ids are the
+index.
 """
 
 from __future__ import annotations
@@ -30,11 +38,12 @@ from ..sequence import Trajectory
 from . import g2o, tum
 from ._text import check_monotonic, numeric_table
 
-__all__ = ["FORMATS", "format_of", "read", "write"]
+__all__ = ["FORMATS", "CAMERA_TO_BODY", "MAX_TILT", "format_of", "read", "write"]
 
 FORMATS = ("tum", "kitti", "euroc", "g2o")
 _SUFFIX = {".tum": "tum", ".kitti": "kitti", ".csv": "euroc", ".g2o": "g2o"}
-_TILT = 1e-6
+#: default largest tilt of a pose out of the x-y plane [rad]: the angle between its z axis and the world's
+MAX_TILT = 1e-6
 
 
 def format_of(path: str | Path) -> str:
@@ -54,18 +63,39 @@ def format_of(path: str | Path) -> str:
     )
 
 
-def _from_rotation(path: str, lines: np.ndarray, t: np.ndarray, xy: np.ndarray, R: np.ndarray) -> Trajectory:
-    """Planar poses from positions and rotation matrices (N, 3, 3), refusing rotations not about z."""
-    tilt = np.abs(np.stack([R[:, 0, 2], R[:, 1, 2], R[:, 2, 0], R[:, 2, 1]], axis=1)).max(axis=1)
-    bad = np.flatnonzero(tilt > _TILT)
+def _tilt_of_quaternion(q: np.ndarray) -> np.ndarray:
+    """Angle [rad] between the z axis of unit quaternions ``(x, y, z, w)`` (N, 4) and the world's: 2 asin √(x² + y²)."""
+    return 2.0 * np.arcsin(np.clip(np.hypot(q[:, 0], q[:, 1]), 0.0, 1.0))
+
+
+def _refuse_tilted(path: str, lines: np.ndarray, tilt: np.ndarray, max_tilt: float, rows: np.ndarray) -> None:
+    bad = np.flatnonzero(tilt > max_tilt)
     if bad.size:
-        raise DataFormatError(path, int(lines[bad[0]]), "a rotation about z (a planar pose)", str(R[bad[0]].tolist()))
+        k = int(bad[0])
+        raise DataFormatError(
+            path, int(lines[k]), f"a planar pose (tilt out of the x-y plane <= {max_tilt:g} rad)", str(rows[k].tolist())
+        )
+
+
+def _from_rotation(
+    path: str, lines: np.ndarray, t: np.ndarray, xy: np.ndarray, R: np.ndarray, max_tilt: float
+) -> Trajectory:
+    """Planar poses from positions and rotation matrices (N, 3, 3): yaw ``atan2(R₁₀, R₀₀)``, refusing a tilt
+    ``atan2(‖(R₂₀, R₂₁)‖, R₂₂)`` above ``max_tilt``."""
+    _refuse_tilted(path, lines, np.arctan2(np.hypot(R[:, 2, 0], R[:, 2, 1]), R[:, 2, 2]), max_tilt, R)
     return Trajectory(t=t, poses=np.column_stack([xy, np.arctan2(R[:, 1, 0], R[:, 0, 0])]))
 
 
-def _kitti(path: str, times: str | Path | None) -> Trajectory:
+#: camera axes (x right, y down, z forward) → body axes (x forward, y left, z up): rows x_b = z_c, y_b = −x_c, z_b = −y_c
+CAMERA_TO_BODY = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def _kitti(path: str, times: str | Path | None, frame: str, max_tilt: float) -> Trajectory:
     v, line = numeric_table(path, 12, "a KITTI pose (the 3 x 4 matrix [R | t], 12 numbers)")
     M = v.reshape(-1, 3, 4)
+    if frame == "camera":  # poses of a camera in the first camera's frame: both re-expressed in body axes
+        C = CAMERA_TO_BODY
+        M = np.concatenate([C @ M[:, :, :3] @ C.T, (C @ M[:, :, 3:])], axis=2)
     if times is None:
         t = np.arange(len(v), dtype=float)
     else:
@@ -74,10 +104,10 @@ def _kitti(path: str, times: str | Path | None) -> Trajectory:
         if t.size != len(v):
             raise DataFormatError(times, None, f"{len(v)} times (one per pose of {path})", f"{t.size}")
         check_monotonic(str(times), t, t_line, "KITTI times")
-    return _from_rotation(path, line, t, M[:, :2, 3], M[:, :, :3])
+    return _from_rotation(path, line, t, M[:, :2, 3], M[:, :, :3], max_tilt)
 
 
-def _euroc(path: str) -> Trajectory:
+def _euroc(path: str, max_tilt: float) -> Trajectory:
     rows, lines = [], []
     for k, text in enumerate(Path(path).read_text().splitlines(), start=1):
         if not text.strip() or text.lstrip().startswith("#"):
@@ -97,10 +127,15 @@ def _euroc(path: str) -> Trajectory:
     check_monotonic(path, t, lines, "EuRoC timestamps")
     q = v[:, [4, 5, 6, 3]]  # (x, y, z, w) from EuRoC's (w, x, y, z)
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    bad = np.flatnonzero((np.abs(q[:, :2]) > _TILT).any(axis=1))
-    if bad.size:
-        raise DataFormatError(path, int(lines[bad[0]]), "a rotation about z (q_x = q_y = 0)", str(v[bad[0]].tolist()))
+    _refuse_tilted(path, lines, _tilt_of_quaternion(q), max_tilt, v)
     return Trajectory(t=t, poses=np.column_stack([v[:, :2], tum.quaternion_to_yaw(q)]))
+
+
+def _tum(path: str, max_tilt: float) -> Trajectory:
+    raw = tum.read(path)
+    q = raw.quat / np.linalg.norm(raw.quat, axis=1, keepdims=True)
+    _refuse_tilted(path, raw.line, _tilt_of_quaternion(q), max_tilt, np.column_stack([raw.xyz, raw.quat]))
+    return Trajectory(t=raw.t, poses=np.column_stack([raw.xyz[:, :2], tum.quaternion_to_yaw(q)]))
 
 
 def _g2o(path: str) -> Trajectory:
@@ -115,23 +150,36 @@ def _g2o(path: str) -> Trajectory:
     return Trajectory(t=np.asarray(graph.node_ids, dtype=float), poses=graph.poses)
 
 
-def read(path: str | Path, format: str | None = None, times: str | Path | None = None) -> Trajectory:
-    """The planar trajectory in ``path`` (format by suffix unless given; ``times``: KITTI's stamps file)."""
+def read(
+    path: str | Path,
+    format: str | None = None,
+    times: str | Path | None = None,
+    kitti_frame: str = "xy",
+    max_tilt: float = MAX_TILT,
+) -> Trajectory:
+    """The planar trajectory in ``path`` (format by suffix unless given; ``times``: KITTI's stamps file;
+    ``kitti_frame``: ``"xy"`` or ``"camera"`` for KITTI files; poses tilted out of the x-y plane by more than
+    ``max_tilt`` rad are refused, the others projected: see the module docstring)."""
+    if kitti_frame not in ("xy", "camera"):
+        raise ValueError(f"kitti_frame must be 'xy' or 'camera', got {kitti_frame!r}")
     format = format or format_of(path)
     path = str(path)
     if format == "tum":
-        return tum.read_trajectory(path)
+        return _tum(path, max_tilt)
     if format == "kitti":
-        return _kitti(path, times)
+        return _kitti(path, times, kitti_frame, max_tilt)
     if format == "euroc":
-        return _euroc(path)
+        return _euroc(path, max_tilt)
     if format == "g2o":
         return _g2o(path)
     raise ValueError(f"unknown trajectory format {format!r}; known: {', '.join(FORMATS)}")
 
 
-def write(path: str | Path, t: np.ndarray, poses: np.ndarray, format: str | None = None) -> None:
-    """Write planar ``poses`` (N, 3) at ``t`` in ``format`` (by suffix unless given; ``.txt`` is TUM)."""
+def write(
+    path: str | Path, t: np.ndarray, poses: np.ndarray, format: str | None = None, kitti_frame: str = "xy"
+) -> None:
+    """Write planar ``poses`` (N, 3) at ``t`` in ``format`` (by suffix unless given; ``.txt`` is TUM; KITTI in
+    ``kitti_frame``)."""
     format = format or (_SUFFIX.get(Path(path).suffix) or "tum")
     t = np.asarray(t, dtype=float)
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
@@ -141,6 +189,10 @@ def write(path: str | Path, t: np.ndarray, poses: np.ndarray, format: str | None
     elif format == "kitti":
         z, o = np.zeros_like(c), np.ones_like(c)
         rows = np.column_stack([c, -s, z, poses[:, 0], s, c, z, poses[:, 1], z, z, o, z])
+        if kitti_frame == "camera":
+            C = CAMERA_TO_BODY
+            M = rows.reshape(-1, 3, 4)
+            rows = np.concatenate([C.T @ M[:, :, :3] @ C, C.T @ M[:, :, 3:]], axis=2).reshape(-1, 12) + 0.0
         np.savetxt(path, rows, fmt="%.17g")
     elif format == "euroc":
         q = tum.yaw_to_quaternion(poses[:, 2])

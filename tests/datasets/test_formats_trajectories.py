@@ -88,3 +88,32 @@ def test_unknown_suffix_and_column_count_are_named(tmp_path):
     (tmp_path / "a.txt").write_text("0 0 0\n")
     with pytest.raises(DataFormatError, match="8 columns"):
         trajectories.read(tmp_path / "a.txt")
+
+
+def test_kitti_camera_frame_is_the_ground_plane_x_z(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    # a car 2 m forward, 1 m left, turned 0.3 rad left: in the camera frame (x right, y down, z forward) the position
+    # is (−1, 0, 2) and the rotation is about the down axis by −0.3 rad
+    R = Rotation.from_euler("y", -0.3).as_matrix()
+    M = np.column_stack([R, [-1.0, 0.0, 2.0]])
+    path = tmp_path / "00.txt"
+    path.write_text("1 0 0 0 0 1 0 0 0 0 1 0\n" + " ".join(f"{v:.17g}" for v in M.ravel()) + "\n")
+    traj = trajectories.read(path, kitti_frame="camera")
+    np.testing.assert_allclose(traj.poses, [[0, 0, 0], [2, 1, 0.3]], atol=1e-15)
+    with pytest.raises(DataFormatError, match="00.txt:2"):  # read as x-y poses it is tilted: refused
+        trajectories.read(path)
+    trajectories.write(tmp_path / "back.kitti", traj.t, traj.poses, kitti_frame="camera")
+    np.testing.assert_allclose(np.loadtxt(tmp_path / "back.kitti")[1], M.ravel(), atol=1e-15)
+
+
+def test_a_small_tilt_is_projected_when_allowed(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_euler("ZYX", [0.7, 0.01, -0.02]).as_matrix()  # yaw 0.7, pitch 0.01, roll −0.02 (z up)
+    path = tmp_path / "pitched.kitti"
+    path.write_text(" ".join(f"{v:.17g}" for v in np.column_stack([R, [1.0, 2.0, 0.3]]).ravel()) + "\n")
+    with pytest.raises(DataFormatError, match=r"pitched.kitti:1: expected a planar pose \(tilt"):
+        trajectories.read(path)
+    traj = trajectories.read(path, max_tilt=0.05)
+    np.testing.assert_allclose(traj.poses, [[1.0, 2.0, 0.7]], atol=1e-12)

@@ -76,6 +76,8 @@ def test_the_command_prints_a_table_and_json(run, tmp_path):
     assert bad.exit_code == 2 and "align" in bad.output
     unknown = runner.invoke(app, ["eval", str(tmp_path / "est.tum"), "--ref", "sim:landmarks", "--metrics", "atee"])
     assert unknown.exit_code == 2 and "atee" in unknown.output
+    fmt = runner.invoke(app, ["eval", str(tmp_path / "est.tum"), "--ref", "sim:landmarks", "--format", "kitty"])
+    assert fmt.exit_code == 2 and "--format 'kitty'" in fmt.output
 
 
 def test_version():
