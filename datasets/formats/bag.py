@@ -22,7 +22,8 @@ option            message type                               Sequence field
 * ``scans.pose``: the odometry pose at each scan stamp (SE(2) interpolation between the odometry messages around
   it; NaN outside their span). ``scans.mount``: the laser frame (the scans' ``header.frame_id``) in the base frame
   (``base_frame``, else the odometry's ``child_frame_id``, else ``base_link``) from ``/tf_static`` and ``/tf``
-  (:func:`~.ros_convert.mount_from_tf`); the same frame, or no chain (warned), is the identity.
+  (:func:`~.ros_convert.mount_from_tf`); the same frame, or no chain (warned), is the identity; an upside-down laser
+  gets negated beam angles (:func:`~.ros_convert.planar_mount`).
   ``max_range``: the largest ``range_max`` (or the option).
 * ``gps``: fixes with a fix (``status ≥ 0``) in the east-north plane of a local tangent frame at ``gps_origin``
   (lat°, lon°, alt m; default the first fix), :func:`~.ros_convert.enu_of`; ``meta["gps_origin"]``.
@@ -126,18 +127,19 @@ def _poses(messages: TopicMessages) -> np.ndarray:
     return _finite(messages, out, "pose")
 
 
-def _mount(bag, base: str, laser: str, tf: list, meta: dict) -> np.ndarray:
-    """The laser's planar mounting in the base frame from the TF chain (module docstring); sets meta["mount_source"]."""
+def _mount(bag, base: str, laser: str, tf: list, meta: dict) -> tuple[np.ndarray, bool]:
+    """The laser's planar mounting in the base frame from the TF chain and whether it is upside down (module
+    docstring); sets meta["mount_source"]."""
     meta["mount_source"] = "identity: the scans are in the base frame"
     if not laser or laser == base.lstrip("/"):
-        return np.zeros(3)
+        return np.zeros(3), False
     chain = mount_from_tf(tf, base, laser)
     if chain is None:
         warnings.warn(
             f"{bag}: no tf chain from {base} to the laser frame {laser}: the laser is taken at the base", DataWarning
         )
         meta["mount_source"] = f"identity: no tf chain from {base} to {laser}"
-        return np.zeros(3)
+        return np.zeros(3), False
     pose, frames = chain
     mount = planar_mount(pose)
     if mount is None:
@@ -145,10 +147,10 @@ def _mount(bag, base: str, laser: str, tf: list, meta: dict) -> np.ndarray:
             bag,
             "/tf_static",
             None,
-            f"a level laser ({laser} rotated about z only in {base})",
+            f"a level or upside-down laser ({laser} rotated about z, or about z and by π about x, in {base})",
             str(pose[:3, :3].round(6).tolist()),
         )
-    meta["mount_source"] = "tf: " + " → ".join(frames)
+    meta["mount_source"] = "tf: " + " → ".join(frames) + (" (upside down: beam angles negated)" if mount[1] else "")
     return mount
 
 
@@ -165,7 +167,7 @@ def _scans(bag, scan: TopicMessages, t: np.ndarray, odom, base: str, tf: list, p
         )
     arrays = scan_arrays(scan.messages)
     laser = scan.messages[0].header.frame_id.lstrip("/")
-    mount = _mount(bag, base, laser, tf, meta)
+    mount, upside_down = _mount(bag, base, laser, tf, meta)
     pose = None
     if odom is not None:
         t_odom, odom_poses = odom
@@ -191,7 +193,7 @@ def _scans(bag, scan: TopicMessages, t: np.ndarray, odom, base: str, tf: list, p
     return Scans(
         t=t,
         ranges=arrays["ranges"],
-        angles=arrays["angles"],
+        angles=-arrays["angles"] if upside_down else arrays["angles"],
         max_range=params.max_range or arrays["range_max"],
         mount=mount,
         pose=pose,

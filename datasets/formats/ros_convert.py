@@ -8,7 +8,8 @@
   ``range_min`` (stored as NaN: consumers reject and count it).
 * ``tf2_msgs/TFMessage``: the laser's mounting is the chain of transforms from the base frame to the laser's frame
   (each ``parent → child``, static ones from ``/tf_static``, a moving link's first transform from ``/tf``),
-  composed in 3D; it must be a rotation about z (a level laser), then it is ``(x, y, yaw)``.
+  composed in 3D; it must be a rotation about z (a level laser), then it is ``(x, y, yaw)``, or an upside-down laser
+  (``R_z(ψ) R_x(π)``): ``(x, y, ψ)`` with the beam angles negated (:func:`planar_mount`).
 * ``sensor_msgs/NavSatFix`` → a local east-north frame: WGS-84 geodetic (φ, λ, h) → ECEF → ENU at the origin
   (φ₀, λ₀, h₀) (the first valid fix unless given): ``e = −sin λ₀ Δx + cos λ₀ Δy``,
   ``n = −sin φ₀ cos λ₀ Δx − sin φ₀ sin λ₀ Δy + cos φ₀ Δz`` with ``Δ = ECEF(φ, λ, h) − ECEF(φ₀, λ₀, h₀)``
@@ -74,11 +75,14 @@ def layout_of(m) -> tuple[int, float, float]:
     return len(m.ranges), round(float(m.angle_min), 9), round(float(m.angle_increment), 12)
 
 
-def planar_mount(pose: np.ndarray) -> np.ndarray | None:
-    """``(x, y, yaw)`` of a 4 × 4 pose that rotates about z only (|R₂₂ − 1| ≤ 1e-6), else None."""
-    if abs(pose[2, 2] - 1.0) > 1e-6:
+def planar_mount(pose: np.ndarray) -> tuple[np.ndarray, bool] | None:
+    """``(x, y, ψ)`` of a 4 × 4 laser pose in the base frame and whether the laser is upside down, or None when it is
+    not level. Level: ``R = R_z(ψ)`` (|R₂₂ − 1| ≤ 1e-6). Upside down: ``R = R_z(ψ) R_x(π)`` (|R₂₂ + 1| ≤ 1e-6; a beam
+    at angle a in the laser frame points at ψ − a in the base frame, so the caller negates the beam angles). Either
+    way ψ = atan2(R₁₀, R₀₀) (R_x(π) keeps the x axis)."""
+    if abs(abs(pose[2, 2]) - 1.0) > 1e-6:
         return None
-    return np.array([pose[0, 3], pose[1, 3], np.arctan2(pose[1, 0], pose[0, 0])])
+    return np.array([pose[0, 3], pose[1, 3], np.arctan2(pose[1, 0], pose[0, 0])]), bool(pose[2, 2] < 0)
 
 
 def _transform_matrix(transform) -> np.ndarray:

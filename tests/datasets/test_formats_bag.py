@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from bags import GPS_ORIGIN, MOUNT, RECEIVE_LAG, robot_bag
+from bags import GPS_ORIGIN, MOUNT, MOUNT_LINKS, RECEIVE_LAG, robot_bag
 from checks import load_staged, staged
 
 from slamarena import datasets
@@ -160,11 +160,35 @@ def test_a_tilted_laser_is_refused_and_a_missing_chain_warned(tmp_path):
     tilted = np.eye(4)
     tilted[:3, :3] = Rotation.from_euler("x", 10, degrees=True).as_matrix()
     robot_bag(tmp_path / "tilted.bag", mount_links=(tilted, np.zeros(3)))
-    _fails(tmp_path / "tilted.bag", "a level laser")
+    _fails(tmp_path / "tilted.bag", "a level or upside-down laser")
     robot_bag(tmp_path / "none.bag", mount_links=None)
     with pytest.warns(datasets.DataWarning, match="no tf chain from base_link to the laser frame laser"):
         s = datasets.load(f"bag:{tmp_path / 'none.bag'}")
     np.testing.assert_array_equal(s.scans.mount, 0.0)
+
+
+def test_an_upside_down_laser_sees_the_same_points_in_the_base_frame(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from slamarena.datasets.geometry import transform_points
+
+    flipped = np.eye(4)
+    flipped[:3, :3] = Rotation.from_euler("x", np.pi).as_matrix()
+    flipped[:3, 3] = (0.05, -0.02, 0.1)
+    robot_bag(tmp_path / "flip.bag", mount_links=(MOUNT_LINKS[0], flipped))
+    s = datasets.load(f"bag:{tmp_path / 'flip.bag'}")
+    assert s.meta["mount_source"].endswith("(upside down: beam angles negated)")
+    # oracle: every beam's end point through the 3D chain, against the Sequence's planar mount and angles
+    base_mount = np.eye(4)
+    base_mount[:3, :3] = Rotation.from_euler("z", MOUNT_LINKS[0][2]).as_matrix()
+    base_mount[:2, 3] = MOUNT_LINKS[0][:2]
+    r, a = s.scans.beams(0)
+    ok = np.isfinite(r)
+    a_laser = -1.0 + 0.25 * np.arange(8)
+    laser_points = np.column_stack([r * np.cos(a_laser), r * np.sin(a_laser), np.zeros(8), np.ones(8)])[ok]
+    expected = (base_mount @ flipped @ laser_points.T).T[:, :2]
+    got = transform_points(s.scans.mount, np.column_stack([r * np.cos(a), r * np.sin(a)])[ok])
+    np.testing.assert_allclose(got, expected, atol=1e-9)
 
 
 def test_a_second_beam_layout_is_named(tmp_path):
