@@ -239,6 +239,31 @@ def _twists(messages: TopicMessages, t: np.ndarray, odometry: bool) -> Twist:
     return Twist.from_stamps(t, vw[:, 0], vw[:, 1])
 
 
+def _motion(bag, params: BagParams, present: dict, t: dict, odom, meta: dict):
+    """``(Sequence.motion, initial_pose)`` of the ``motion`` option (module docstring); sets meta["motion_source"]."""
+    choice = params.motion if params.motion != "auto" else ("odometry" if odom else "cmd_vel")
+    if choice in ("odometry", "odometry_twist") and odom is None:
+        raise bag_error(bag, params.odom_topic, None, f"an Odometry topic for motion={choice!r}", "none")
+    if choice == "odometry":
+        meta["motion_source"] = f"{present['odom'].topic}: odometry poses, between consecutive messages"
+        if len(odom[0]) < 2:
+            return None, odom[1][0]
+        return Increments(t=odom[0][1:], delta=between(odom[1][:-1], odom[1][1:])), odom[1][0]
+    if choice == "odometry_twist":
+        meta["motion_source"] = f"{present['odom'].topic}: odometry twists (linear.x, angular.z)"
+        return _twists(present["odom"], t["odom"], odometry=True), odom[1][0]
+    if "cmd_vel" not in present:
+        if params.motion == "cmd_vel":
+            raise bag_error(
+                bag, params.cmd_vel_topic, None, "a Twist or TwistStamped topic for motion='cmd_vel'", "none"
+            )
+        return None, None
+    meta["motion_source"] = (
+        f"{present['cmd_vel'].topic}: velocity commands (linear.x, angular.z), each held to the next"
+    )
+    return _twists(present["cmd_vel"], t["cmd_vel"], odometry=False), None
+
+
 @with_params(BagParams)
 def read(path: str | Path, name: str | None = None, /, *, params: BagParams) -> Sequence:
     """A ROS bag as a :class:`Sequence` (see the module docstring)."""
@@ -277,26 +302,7 @@ def read(path: str | Path, name: str | None = None, /, *, params: BagParams) -> 
     meta["time_source"] = f"{params.stamps} stamps as recorded in the bag (per topic: meta['stamps'])"
 
     odom = (t["odom"], _poses(present["odom"])) if "odom" in present else None
-    motion, initial = None, None
-    choice = params.motion if params.motion != "auto" else ("odometry" if odom else "cmd_vel")
-    if choice in ("odometry", "odometry_twist") and odom is None:
-        raise bag_error(bag, params.odom_topic, None, f"an Odometry topic for motion={choice!r}", "none")
-    if choice == "cmd_vel" and "cmd_vel" not in present and params.motion == "cmd_vel":
-        raise bag_error(bag, params.cmd_vel_topic, None, "a Twist or TwistStamped topic for motion='cmd_vel'", "none")
-    if choice == "odometry" and len(odom[0]) >= 2:
-        motion = Increments(t=odom[0][1:], delta=between(odom[1][:-1], odom[1][1:]))
-        initial = odom[1][0]
-        meta["motion_source"] = f"{present['odom'].topic}: odometry poses, between consecutive messages"
-    elif choice == "odometry_twist":
-        motion = _twists(present["odom"], t["odom"], odometry=True)
-        initial = odom[1][0]
-        meta["motion_source"] = f"{present['odom'].topic}: odometry twists (linear.x, angular.z)"
-    elif choice == "cmd_vel" and "cmd_vel" in present:
-        motion = _twists(present["cmd_vel"], t["cmd_vel"], odometry=False)
-        meta["motion_source"] = (
-            f"{present['cmd_vel'].topic}: velocity commands (linear.x, angular.z), each held to the next"
-        )
-
+    motion, initial = _motion(bag, params, present, t, odom, meta)
     base = params.base_frame or (present["odom"].messages[0].child_frame_id if odom else "") or "base_link"
     meta["base_frame"] = base
     scans = _scans(bag, present["scan"], t["scan"], odom, base, tf, params, meta) if "scan" in present else None
