@@ -238,3 +238,22 @@ def test_header_stamps_all_zero_fall_back_to_receive_time(tmp_path):
     s = datasets.load(f"bag:{tmp_path / 'zero.mcap'}")
     np.testing.assert_allclose(s.motion.t, 5.0 + 0.02 * np.arange(4))
     assert s.meta["stamps"] == {"/cmd_vel": "receive"}
+
+
+def test_a_topic_of_an_unknown_type_is_listed_and_refused_when_named(tmp_path):
+    from rosbags.typesys import get_types_from_msg
+
+    from slamarena.datasets.formats.bag_write import BagWriter
+    from slamarena.datasets.formats.ros_messages import header, message
+
+    path = tmp_path / "custom.mcap"
+    with BagWriter(path) as w:
+        w.typestore.register(get_types_from_msg("uint8[] data\nfloat64 quality", "my_msgs/msg/Blob"))
+        for k in range(3):
+            w.write("/blob", 1.0 + k, message(w.typestore, "my_msgs/msg/Blob", data=[1, 2, 3], quality=0.5))
+            scan = message(w.typestore, "sensor_msgs/msg/LaserScan", header=header(1.0 + k, "base_link"),
+                           angle_increment=0.1, range_max=5.0, ranges=[1.0, 2.0])  # fmt: skip
+            w.write("/scan", 1.0 + k, scan)
+    s = datasets.load(f"bag:{path}")
+    assert s.meta["topics"]["/blob"] == "my_msgs/msg/Blob" and len(s.scans) == 3
+    _fails(path, "topic /blob: expected a message of type sensor_msgs/msg/LaserScan", scan_topic="/blob")
