@@ -2,8 +2,9 @@
 
 Depends on numpy, scipy (MAT files) and pydantic (the parameter models of readers and simulators,
 through :mod:`slamarena.params`) besides the standard library; on gtsam, when installed, only to locate
-the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), and on pooch only to download
-(:mod:`slamarena.datasets.fetch`).
+the example data its wheel ships (:mod:`slamarena.datasets.dataroot`), on pooch only to download
+(:mod:`slamarena.datasets.fetch`), and on rosbags only to read and write ROS bags and MCAP files
+(:mod:`slamarena.datasets.formats.bag`, :mod:`slamarena.datasets.formats.ros_results`).
 """
 
 from .dataroot import data_roots, set_data_root

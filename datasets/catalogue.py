@@ -56,6 +56,7 @@ FORMATS: dict[str, Format] = {
     "carmen-corrected": Format(
         "slamarena.datasets.formats.carmen:load", "carmen-corrected:/data/log-corrected.log", {"corrected": True}
     ),
+    "bag": Format("slamarena.datasets.formats.bag:load", "bag:/data/run.bag (or a ROS 2 bag folder, or run.mcap)"),
 }
 
 
@@ -350,4 +351,12 @@ CATALOGUE: dict[str, CatalogueEntry] = {
     **_plaza(),
     **_graphs(),
     **_carmen(),
+    "bag:aces": CatalogueEntry(
+        "bag:aces",
+        "bag",
+        "laser log 2D (scans + odometry), real, as a ROS 1 bag (synthetic stamps: ros_bags/SOURCE.md)",
+        "none",
+        {"path": "ros_bags/aces.clf2bag.bag"},
+        f"P. Beeson (UT Austin); {_RADISH}; bag made by INESCTEC/ricoslam's clf2bag.py",
+    ),
 }

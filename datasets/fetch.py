@@ -362,6 +362,11 @@ FILES: dict[str, tuple[str, str, bool]] = {
         "583b7bba8c1a3ef1f7ad41221c151534333e71b52f5fc267d5e343c79355300c",
         False,
     ),
+    "ros_bags/aces.clf2bag.bag": (
+        "INESCTEC/ricoslam/52bfaa91c8e5e56f119265d409b1692ca29d48d2/inesctec_mrdt_slam_2d_datasets/bag/aces.clf2bag.bag",
+        "ed6669e3522179079241ba5b29130ad9215b668fc3a40e1fc687ab02cdec29e0",
+        False,
+    ),
     "radish_laser_logs/aces.clf.bz2": (
         "MOLAorg/mola_test_datasets/13a2ed141116bc654e14ffca1d88fb740b3d1253/datasets/radish/aces.clf.bz2",
         "b663e2976ed0621c2bec0cc20c4e7cc117b88db5bac6f921d3fbaa9685d2232a",

@@ -7,6 +7,7 @@ Names (exact forms)::
     plaza:<run>                   e.g. plaza:Plaza1          CMU Plaza range-only
     g2o:<name>   isam:<name>                                 pose graphs
     carmen:<name>   carmen-corrected:<name>                  laser logs
+    bag:<path>                    e.g. bag:/data/run.bag     ROS 1 bags, ROS 2 bag folders, .mcap files
     sim:landmarks   sim:localization   sim:laser             simulators (seeded)
 
     <family>:<path>               e.g. utias:/data/MRCLAM_Dataset7/robot1, carmen:/data/new.clf
@@ -16,7 +17,7 @@ A catalogued name (:data:`~slamarena.datasets.catalogue.CATALOGUE`) is a staged 
 is fixed, its files are found under the data roots (all under one root), the caller's keywords are the
 reader's options. Any other recording in a known format is named by its family and path
 (:data:`~slamarena.datasets.catalogue.FORMATS`: utias, victoria_park, plaza, g2o, toro, isam, carmen,
-carmen-corrected); a relative path is looked for in the working directory first, then under the data
+carmen-corrected, bag); a relative path is looked for in the working directory first, then under the data
 roots. Either way the reader's ``Params`` model validates every keyword before a file is looked for: an
 unknown or bad one is a ``pydantic.ValidationError`` naming it, and a location field given to a
 catalogued name, or given twice, is a :class:`~slamarena.datasets.errors.DatasetNameError`.

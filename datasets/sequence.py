@@ -245,16 +245,21 @@ class Gps(_Stream):
 
 @dataclass(frozen=True)
 class Heading(_Stream):
-    """Absolute yaw [rad] in the world frame (x east, y north, counter-clockwise from east)."""
+    """Absolute yaw [rad] in the world frame (x east, y north, counter-clockwise from east); optionally the
+    gyro's yaw rate [rad/s] at the same stamps (an IMU's ``angular_velocity.z``)."""
 
     t: np.ndarray
     yaw: np.ndarray
+    yaw_rate: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "t", _f64(self.t))
         object.__setattr__(self, "yaw", _f64(self.yaw))
         _check_time("Heading", self.t)
         _check_len("Heading", self.t, yaw=self.yaw)
+        if self.yaw_rate is not None:
+            object.__setattr__(self, "yaw_rate", _f64(self.yaw_rate))
+            _check_len("Heading", self.t, yaw_rate=self.yaw_rate)
 
     def _measurement_arrays(self):
         return {"yaw": self.yaw}
@@ -267,7 +272,8 @@ class Scans(_Stream):
     ranges (S, B) [m]; angles (B,) beam angles in the sensor frame [rad]; max_range [m]:
     readings ``>= max_range`` are "no return"; mount (3,) sensor pose in the robot frame;
     pose (S, 3) the robot pose the log attached to each scan (odometry, or the corrected
-    pose of a corrected log), optional.
+    pose of a corrected log), optional. intensities (S, B), optional: each reading's intensity
+    (remission) as the sensor reports it, unitless.
 
     Interlaced scanners (several beam layouts with one angular step in one stream, e.g.
     fr-clinic's SICK at 1° steps starting at −90°, −89.75°, −89.5°, −89.25°):
@@ -293,6 +299,7 @@ class Scans(_Stream):
     pose: np.ndarray | None = None
     angle_offset: np.ndarray | None = None
     beam_count: np.ndarray | None = None
+    intensities: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "t", _f64(self.t))
@@ -312,6 +319,11 @@ class Scans(_Stream):
             object.__setattr__(self, "pose", _f64(self.pose).reshape(-1, 3))
             _check_len("Scans", self.t, pose=self.pose)
         S, B = self.ranges.shape
+        if self.intensities is not None:
+            intensities = np.ascontiguousarray(self.intensities, dtype=np.float32)
+            if intensities.shape != (S, B):
+                raise ValueError(f"Scans.intensities must be ({S}, {B}), got {intensities.shape}")
+            object.__setattr__(self, "intensities", intensities)
         if self.angle_offset is not None:
             offset = _f64(self.angle_offset)
             if offset.shape != (S,):

@@ -9,6 +9,8 @@ runs. Ground truth is not a stream here: a method never needs it to run (metrics
 
 from __future__ import annotations
 
+from slamarena.errors import UserError
+
 __all__ = ["STREAMS", "streams_of"]
 
 #: reader or simulator target → the streams its datasets provide
@@ -26,10 +28,24 @@ STREAMS: dict[str, frozenset[str]] = {
 }
 
 
-def streams_of(name: str) -> frozenset[str]:
-    """The streams of the registered dataset ``name`` (empty when its reader is not described here)."""
-    from .catalogue import CATALOGUE
+#: the bag reader's streams follow from the bag's topic types (:func:`slamarena.datasets.formats.bag.streams_in`)
+BAG_READER = "slamarena.datasets.formats.bag:load"
+
+
+def streams_of(name: str, params: dict | None = None) -> frozenset[str]:
+    """The streams of the dataset ``name`` (with ``params``, which locate a bag at a path): from its reader or
+    simulator, or for a bag from its topics' types; empty when not known here (not described, or a bag absent)."""
+    from .catalogue import CATALOGUE, FORMATS
     from .registry import SIMULATORS
 
     target = SIMULATORS.get(name) or (CATALOGUE[name].reader if name in CATALOGUE else None)
+    family = name.partition(":")[0]
+    if target == BAG_READER or (target is None and family in FORMATS and FORMATS[family].reader == BAG_READER):
+        from .formats.bag import streams_in
+        from .registry import resolve
+
+        try:
+            return streams_in(resolve(name, params).files()["bag"], params or {})
+        except (UserError, ValueError, OSError):  # an absent or unreadable bag, bad options: the cell reports them
+            return frozenset()
     return STREAMS.get(target, frozenset())

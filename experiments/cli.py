@@ -10,6 +10,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
+    slamarena eval TRAJ --ref REF     slamarena.experiments.cli_eval (any trajectory file against a reference)
 
 (``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
 """
@@ -51,10 +52,21 @@ app = typer.Typer(
 app.add_typer(data_app, name="data")
 
 
+def _version(value: bool) -> None:
+    if value:
+        from slamarena import __version__
+
+        typer.echo(f"slamarena {__version__}")
+        raise typer.Exit(0)
+
+
 @app.callback()
 def _main(
     data_root: Path | None = typer.Option(
         None, "--data-root", help="Directory holding the datasets (before SLAMARENA_DATA and the defaults)."
+    ),
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
     ),
 ):
     if data_root is not None:
@@ -191,7 +203,10 @@ def bench(
 
 @app.command("map")
 def map_log(
-    log: str = typer.Argument(..., help="A CARMEN log path, or a registry name such as carmen:intel or sim:laser."),
+    log: str = typer.Argument(
+        ...,
+        help="A CARMEN log or ROS bag path, or a registry name such as carmen:intel, bag:/data/run.bag or sim:laser.",
+    ),
     method: str = typer.Option(
         "grid_slam",
         "--method",
@@ -212,13 +227,65 @@ def map_log(
     relations: Path | None = typer.Option(
         None, "--relations", help="A Kümmerle et al. relations file to score the trajectory against."
     ),
+    mcap: bool = typer.Option(
+        False, "--mcap", help="Also write result.mcap (trajectory, tf, grid) for Foxglove / RViz 2."
+    ),
 ):
     """A laser mapping method over a log: trajectory, map PNG/PGM, pose graph, timing."""
     from .cli_map import map_command, parse_params
 
     params = parse_params(param)
     params.update({k: v for k, v in (("matcher", matcher), ("particles", particles)) if v is not None})
-    raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations))
+    raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations, mcap=mcap))
+
+
+@app.command("eval")
+def eval_trajectory(
+    traj: Path = typer.Argument(
+        ..., help="A trajectory file: TUM, KITTI poses, EuRoC CSV or g2o (by suffix or --format)."
+    ),
+    ref: str = typer.Option(..., "--ref", help="A trajectory file, or a dataset name (its ground truth / relations)."),
+    metrics: str = typer.Option("ate,rpe", "--metrics", help="Comma-separated metric names, e.g. ate,rpe,relations."),
+    format: str | None = typer.Option(None, "--format", help="TRAJ's format: tum, kitti, euroc, g2o."),
+    ref_format: str | None = typer.Option(None, "--ref-format", help="The reference file's format."),
+    ref_param: list[str] = typer.Option(
+        [], "--ref-param", help="An option of the reference dataset's reader, key=value (repeatable): truth_topic=/gt."
+    ),
+    times: Path | None = typer.Option(None, "--times", help="KITTI stamps (times.txt) for TRAJ; default the index."),
+    kitti_frame: str = typer.Option(
+        "xy", "--kitti-frame", help="KITTI poses: xy (planar, z up) or camera (KITTI odometry ground truth)."
+    ),
+    max_tilt: float = typer.Option(
+        1e-6, "--max-tilt", help="Largest tilt out of the x-y plane [rad] projected; a larger one is refused."
+    ),
+    align: str = typer.Option("se2", "--align", help="ATE alignment: none, se2, sim2 (as in configs)."),
+    max_gap: float = typer.Option(0.1, "--max-gap", help="Seconds from an estimate to the reference around it."),
+    rpe_delta: float = typer.Option(1.0, "--rpe-delta", help="RPE pair distance (in --rpe-unit)."),
+    rpe_unit: str = typer.Option("s", "--rpe-unit", help="RPE pair distance unit: frames, s, m."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+):
+    """Score a trajectory from any system against a dataset's ground truth or a reference file."""
+    from .cli_eval import eval_command, evaluate_file
+    from .cli_map import parse_params
+
+    params = {
+        "ate": {"align": align, "max_gap": max_gap},
+        "rpe": {"delta": rpe_delta, "unit": rpe_unit, "max_gap": max_gap},
+    }
+    names = [m.strip() for m in metrics.split(",") if m.strip()]
+    result = evaluate_file(
+        traj,
+        ref,
+        names,
+        params,
+        traj_format=format,
+        ref_format=ref_format,
+        times=times,
+        ref_params=parse_params(ref_param),
+        kitti_frame=kitti_frame,
+        max_tilt=max_tilt,
+    )
+    raise typer.Exit(eval_command(result, as_json))
 
 
 def main() -> None:

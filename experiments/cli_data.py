@@ -26,8 +26,11 @@ def list_datasets():
 
 
 @data_app.command("info")
-def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/robot1 or carmen:intel.")):
-    """Load a dataset and print its summary (counts, time span, rates, noise, what the reader dropped)."""
+def info(
+    name: str = typer.Argument(..., help="A registry name, e.g. utias:6/robot1, carmen:intel or bag:/data/run.bag."),
+):
+    """Load a dataset and print its summary (counts, time span, rates, noise, what the reader dropped); a bag first
+    lists its topics: types, counts, rates, time span, stamp source and stamp anomalies."""
     import json
 
     import numpy as np
@@ -36,12 +39,16 @@ def info(name: str = typer.Argument(..., help="A registry name, e.g. utias:6/rob
     from slamarena.datasets import load
 
     console = Console()
-    data = load(name)  # a bad name, missing files or a malformed file is a UserError: one message, exit code 2
-    summary = data.summary()
 
     def plain(x):
         return x.tolist() if isinstance(x, np.ndarray) else x.item() if isinstance(x, np.generic) else str(x)
 
+    if name.partition(":")[0] == "bag":  # the bag as recorded first: a reader's refusal (stamps stepping back) follows
+        from .cli_bag import print_survey
+
+        print_survey(console, name)
+    data = load(name)  # a bad name, missing files or a malformed file is a UserError: one message, exit code 2
+    summary = data.summary()
     console.print_json(json.dumps(summary, default=plain))
 
 

@@ -1,10 +1,11 @@
 """``slamarena map LOG [--method M] [--param key=value …]``: a laser mapping method over a log, with its outputs.
 
-LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``sim:laser``, a log at a path as
-``carmen:<path>`` or ``carmen-corrected:<path>``) or the path of a CARMEN log (``.clf``/``.log``, optionally
-``.gz``/``.bz2``; short for ``carmen:<path>``). M is a name of ``slamarena.mapping.REGISTRY`` (``grid_slam``, the
-front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built with the ``--param`` values (its
-``Params`` model validates them). Writes into ``--out``:
+LOG is a registry name (``carmen:intel``, ``carmen-corrected:aces``, ``bag:aces``, ``sim:laser``, a log at a path as
+``carmen:<path>``, ``carmen-corrected:<path>`` or ``bag:<path>``), the path of a ROS bag (``.bag``, ``.mcap`` or a ROS 2
+bag folder; short for ``bag:<path>``, which takes the one LaserScan and Odometry topic) or the path of a CARMEN log
+(``.clf``/``.log``, optionally ``.gz``/``.bz2``; short for ``carmen:<path>``). M is a name of
+``slamarena.mapping.REGISTRY`` (``grid_slam``, the front end alone, by default; ``laser_slam`` with loop closure;
+``rbpf``), built with the ``--param`` values (its ``Params`` model validates them). Writes into ``--out``:
 
     trajectory.tum      the estimated robot poses at the scan stamps (TUM, z = 0)
     estimate.npz        the full :class:`~slamarena.datasets.estimate.Estimate` (diagnostics included)
@@ -12,6 +13,8 @@ front end alone, by default; ``laser_slam`` with loop closure; ``rbpf``), built 
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
     pose_graph.g2o      the pose graph, for methods that build one (laser_slam)
     loop_closures.csv   every loop-closure candidate: node, submap, scores, accepted, time (laser_slam)
+    result.mcap         with ``--mcap``: /tf per pose, /trajectory (nav_msgs/Path), /map (nav_msgs/OccupancyGrid), for
+                        Foxglove or RViz 2 (:mod:`slamarena.datasets.formats.ros_results`)
     summary.json        timing (wall, per scan, real-time factor), the method's counts, map size, beam layouts
                         (interlaced logs: one stream, several angle offsets); the relation error when
                         ``--relations`` is given
@@ -27,8 +30,9 @@ __all__ = ["map_command", "load_log", "parse_params", "write_loop_closures"]
 
 
 def load_log(log: str):
-    """A dataset name (``slamarena.datasets.load``: catalogued, ``carmen:<path>`` and the other family forms, a
-    simulator), or the path of a CARMEN log (short for ``carmen:<path>``), as a Sequence."""
+    """A dataset name (``slamarena.datasets.load``: catalogued, ``carmen:<path>``, ``bag:<path>`` and the other family
+    forms, a simulator), or the path of a ROS bag (``.bag``, ``.mcap``, a ROS 2 bag folder: short for ``bag:<path>``)
+    or of a CARMEN log (short for ``carmen:<path>``), as a Sequence."""
     from slamarena import datasets
     from slamarena.errors import UnknownNameError, UserError
 
@@ -40,7 +44,9 @@ def load_log(log: str):
                 f"{log!r} is neither a dataset name (see `slamarena data list`, or <family>:<path> for a "
                 f"recording at a path) nor a file"
             ) from None
-    return datasets.load(f"carmen:{log}")
+    path = Path(log)
+    ros = path.suffix in (".bag", ".mcap") or (path.is_dir() and (path / "metadata.yaml").is_file())
+    return datasets.load(f"{'bag' if ros else 'carmen'}:{log}")
 
 
 def parse_params(pairs: list[str]) -> dict:
@@ -64,6 +70,7 @@ def map_command(
     params: dict | None = None,
     out: Path = Path("results/maps"),
     relations: Path | None = None,
+    mcap: bool = False,
 ) -> int:
     """Run a mapping method of ``slamarena.mapping.REGISTRY`` over a log and write its outputs (module docstring).
     User errors (a bad method, parameter, log or relations file) raise :class:`~slamarena.errors.UserError`."""
@@ -131,6 +138,11 @@ def map_command(
     if "loop_node" in estimate.diagnostics:
         write_loop_closures(out / "loop_closures.csv", estimate.diagnostics)
         written.append("loop_closures.csv")
+    if mcap:
+        from .mcap_output import MCAP_NAME, write_result_mcap
+
+        write_result_mcap(out / MCAP_NAME, estimate, slam)
+        written.append(MCAP_NAME)
     duration = float(sequence.scans.t[-1] - sequence.scans.t[0])
     summary = {
         "log": log,

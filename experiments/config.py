@@ -283,6 +283,10 @@ class ExperimentConfig(BaseModel):
     )
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
+    mcap: bool = Field(
+        False,
+        description="every computed cell also writes result.mcap (trajectory, tf, its grid or landmarks) for Foxglove",
+    )
     single_threaded: bool = Field(
         False,
         description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
@@ -333,7 +337,7 @@ class ExperimentConfig(BaseModel):
             for label, ds in zip(labels, self.datasets):
                 if es.datasets is not None and label not in es.datasets:
                     continue
-                have = streams_of(ds.name)
+                have = streams_of(ds.name, ds.params)
                 missing = [
                     " or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have
                 ]

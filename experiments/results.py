@@ -7,6 +7,10 @@
       runs/<dataset>/<method>/<seed>/
         estimate.npz                         datasets.Estimate (save/load)
         trajectory.tum                       the estimated trajectory, TUM format (evo reads it)
+        groundtruth.tum                      the dataset's ground-truth trajectory, same stamps convention
+                                             (where it has one): evo_ape tum groundtruth.tum trajectory.tum
+        result.mcap                          with the config's ``mcap: true``: the estimate (and grid) as ROS
+                                             messages for Foxglove / RViz 2
         truth.npz                            the dataset's ground truth (t, poses, landmark ids/xy)
         series.npz                           per-step metric series ("<metric>/<name>" arrays)
         metrics.json                         scalars, skipped metrics with reasons, cache keys

@@ -191,6 +191,7 @@ def _spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = False) 
         "metrics": {k: v.model_dump(mode="json") for k, v in config.enabled_metrics().items()},
         "env": env,
         "force": force,
+        "mcap": config.mcap,
     }
 
 

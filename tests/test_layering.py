@@ -26,7 +26,9 @@ DATASETS_MAY_IMPORT = {
     "pydantic",
     "pooch",
     "gtsam",
-}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example data
+    "rosbags",
+}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example
+# data, rosbags only inside the ROS bag and MCAP readers and writers (formats/bag*.py, ros_results.py)
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
@@ -83,7 +85,7 @@ def test_nothing_imports_a_top_level_package_name():
     assert not offences, "\n".join(offences)
 
 
-def test_datasets_depends_on_numpy_scipy_pydantic_and_the_standard_library_only():
+def test_datasets_depends_on_numpy_scipy_pydantic_rosbags_and_the_standard_library_only():
     stdlib = set(sys.stdlib_module_names)
     offences = [
         f"{path.relative_to(ROOT)}:{line} imports {module}"

@@ -25,6 +25,7 @@ class TumTrajectory:
     xyz: np.ndarray
     quat: np.ndarray  # (N, 4) qx qy qz qw
     path: str = ""
+    line: np.ndarray | None = None  # (N,) the 1-based line of each pose in the file
 
     def to_se2(self, tol: float = 1e-6) -> Trajectory:
         q = self.quat / np.linalg.norm(self.quat, axis=1, keepdims=True)
@@ -54,7 +55,7 @@ def read(path: str | Path) -> TumTrajectory:
     bad = np.flatnonzero(~(norm > 0.5) | ~np.isfinite(v[:, 1:]).all(axis=1))
     if bad.size:
         raise DataFormatError(path, int(line[bad[0]]), "a finite pose with a unit quaternion", str(v[bad[0]].tolist()))
-    return TumTrajectory(t=v[:, 0], xyz=v[:, 1:4], quat=v[:, 4:8], path=path)
+    return TumTrajectory(t=v[:, 0], xyz=v[:, 1:4], quat=v[:, 4:8], path=path, line=line)
 
 
 def read_trajectory(path: str | Path) -> Trajectory:

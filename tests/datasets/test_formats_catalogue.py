@@ -84,6 +84,7 @@ READERS = {
     "slamarena.datasets.formats.toro:load": ("g2o:w100", "toro:/nowhere.graph", None),
     "slamarena.datasets.formats.isam:load": ("isam:w20000", "isam:/nowhere.txt", ("noise", "cov")),
     "slamarena.datasets.formats.carmen:load": ("carmen:intel", "carmen:/nowhere.clf", ("max_range", -1.0)),
+    "slamarena.datasets.formats.bag:load": ("bag:aces", "bag:/nowhere.bag", ("stamps", "sometimes")),
 }
 
 
