@@ -10,6 +10,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
+    slamarena params METHOD           slamarena.experiments.cli_params
 
 (``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
 """
@@ -223,6 +224,16 @@ def map_log(
     shorthands = (("frontend.matcher", matcher), ("particles", particles))
     params = parse_params(param + [f"{key}={value}" for key, value in shorthands if value is not None])
     raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations))
+
+
+@app.command("params")
+def params(
+    method: str = typer.Argument(..., help="A method name of an experiment config (e.g. laser_slam, rbpf, ekf_slam)."),
+):
+    """A method's parameters, nested as a config's params: takes them, with defaults, units and descriptions."""
+    from .cli_params import params_command
+
+    typer.echo(params_command(method))
 
 
 def main() -> None:

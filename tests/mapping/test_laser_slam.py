@@ -200,7 +200,7 @@ def test_parameters_are_typed():
     with pytest.raises(ValidationError, match=r"refine_neighbours: .*; did you mean refine\.neighbours\?"):
         LaserSLAM(refine_neighbours=0)
     with pytest.raises(
-        ValidationError, match=r"loop\s+levl: not a parameter of LoopClosureParams; did you mean level\?"
+        ValidationError, match=r"loop\.levl\s+levl: not a parameter of LoopClosureParams; did you mean level\?"
     ):
         LaserSLAM(loop={"levl": 2})
     assert LaserSLAM(LaserSLAM.Params(submap_scans=20)).params == LaserSLAM(submap_scans=20).params
