@@ -56,7 +56,7 @@ ERROR_TYPES = frozenset(ErrorType.__args__)
 __all__ = [
     "Params",
     "describe_error",
-    "leaf_paths",
+    "parameter_paths",
     "covariance",
     "Covariance2",
     "Covariance3",
@@ -160,22 +160,20 @@ def _submodel(annotation) -> type[Params] | None:
     return found[0] if len(found) == 1 else None
 
 
-def leaf_paths(model: type[Params], prefix: str = "") -> Iterator[str]:
-    """Every parameter of ``model`` as a dotted path, sub-models expanded (``loop.level``, ``pyramid.cells.p_hit``)."""
+def parameter_paths(model: type[Params], prefix: str = "") -> Iterator[str]:
+    """Every parameter of ``model`` as a dotted path, each sub-model followed by its own (``loop``, ``loop.level``)."""
     for name, field in model.model_fields.items():
+        yield prefix + name
         sub = _submodel(field.annotation)
-        if sub is None:
-            yield prefix + name
-        else:
-            yield prefix + name
-            yield from leaf_paths(sub, f"{prefix}{name}.")
+        if sub is not None:
+            yield from parameter_paths(sub, f"{prefix}{name}.")
 
 
 def _closest(model: type[Params], key: str) -> list[str]:
     """The (at most three) paths of ``model`` closest to ``key`` (difflib), matched as written, with dots read as
     underscores (so the flat ``loop_level`` of earlier versions finds ``loop.level``) and by their last name."""
     spelt: dict[str, str] = {}
-    for path in leaf_paths(model):
+    for path in parameter_paths(model):
         for form in (path, path.replace(".", "_"), path.rsplit(".", 1)[-1]):
             spelt.setdefault(form, path)
     if key in spelt:  # a flat name of earlier versions, or a parameter of a sub-model given one level too high

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError, field_validator
 
-from slamarena.params import Field, Params, describe_error, leaf_paths
+from slamarena.params import Field, Params, describe_error, parameter_paths
 
 
 class Inner(Params):
@@ -61,8 +61,8 @@ def test_errors_without_an_unknown_key_are_pydantics_own():
     assert [(e["type"], e["loc"]) for e in err.value.errors()] == [("greater_than_equal", ("loop", "level"))]
 
 
-def test_leaf_paths_expand_sub_models():
-    assert list(leaf_paths(Outer)) == [
+def test_parameter_paths_expand_sub_models():
+    assert list(parameter_paths(Outer)) == [
         "count",
         "loop",
         "loop.level",

@@ -178,10 +178,6 @@ class RBPF:
             i = hist_parent[k, i]
         return trajectory
 
-    def motion_cov(self, motion: np.ndarray) -> np.ndarray:
-        """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)`` (:class:`MotionNoiseParams`)."""
-        return self.params.motion.cov(motion)
-
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Filter ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
         scans = sequence.scans
@@ -261,13 +257,13 @@ class RBPF:
                 )
                 if updates > 0 and not step:
                     poses, diag["iterations"][k] = gauss_newton(
-                        self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn
+                        self.maps, pts, poses, np.linalg.inv(p.motion.cov(motion)), **gn
                     )
                     diag["matched"][k] = True
                 elif step:
                     if updates > 0:
                         poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(
-                            pts, poses, self.motion_cov(since), rng
+                            pts, poses, p.motion.cov(since), rng
                         )
                         logw += p.weight_tempering * log_eta
                         evidence += log_eta

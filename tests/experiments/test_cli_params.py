@@ -12,7 +12,7 @@ from slamarena.experiments.cli import app
 from slamarena.experiments.cli_map import parse_params
 from slamarena.experiments.cli_params import parameter_rows
 from slamarena.experiments.config import method_table
-from slamarena.params import leaf_paths, params_model
+from slamarena.params import parameter_paths, params_model
 from slamarena.targets import import_target
 
 
@@ -46,7 +46,7 @@ def test_every_method_parameter_is_printed_with_a_description_and_its_path_sets_
     model = params_model(import_target(method_table()[method]))
     rows = {path: (default, unit, text) for path, default, unit, text in parameter_rows(model())}
     canonical = model().canonical()
-    for path in leaf_paths(model):
+    for path in parameter_paths(model):
         assert rows[path][2], f"{method}: {path} has no description"
         value = canonical
         for part in path.split("."):
