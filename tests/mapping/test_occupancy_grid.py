@@ -271,3 +271,15 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
             shared[0].finest.scan_cells([1.0], [0.0], [0, 0, 0], max_range=4.0),
             OccupancyGrid(resolution=0.1, origin=(0.01, 0.0)),
         )
+
+
+def test_the_mapping_methods_maps_start_on_a_square_twice_the_scans_reach_at_most_100_m():
+    from slamarena.mapping.map_pyramid import PyramidParams
+
+    pyramid = PyramidParams(resolution=0.1, levels=2, cells={"hit_guard": 1})
+    for reach, side in ((4.0, 8.0), (80.0, 100.0)):
+        maps = MapPyramid.around(pyramid, np.array([1.23, -4.5, 0.7]), reach)
+        assert maps.params == MapPyramid.Params(
+            resolution=0.1, levels=2, cells={"hit_guard": 1}, size=side, centre=(1.23, -4.5)
+        )
+        assert [g.params.cells for g in maps.levels] == [pyramid.cells] * 2
