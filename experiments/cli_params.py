@@ -2,7 +2,8 @@
 
 One row per parameter, named by its dotted path (``loop.level``: the key ``level`` of the section ``loop`` in a
 config's ``params:``, and the form ``slamarena map --param`` takes); a sub-model is a row of its own (its description)
-followed by its parameters; a dict-valued parameter (a matcher's ``matcher_params``) is expanded key by key. The
+followed by its parameters; a dict-valued parameter is expanded key by key, with the descriptions of the model that
+validates it where its field names one (``json_schema_extra={"model": attribute}``: a matcher's ``matcher_params``). The
 default is the method's own (the RBPF's ``pyramid.cells.hit_guard`` is 1 where the cell model's is 0), in the
 canonical JSON form an experiment's cache key hashes. The unit is the bracketed part of the description (``[m]``).
 """
@@ -41,7 +42,11 @@ def parameter_rows(params: Params, prefix: str = "") -> list[tuple[str, str, str
             rows += parameter_rows(value, f"{path}.")
         elif isinstance(value, dict) and value:
             rows.append((path, "", "", text))
-            rows += [(f"{path}.{key}", json.dumps(v), "", "") for key, v in canonical[name].items()]
+            model = getattr(params, (field.json_schema_extra or {}).get("model", ""), None)
+            if isinstance(model, Params):
+                rows += parameter_rows(model, f"{path}.")
+            else:
+                rows += [(f"{path}.{key}", json.dumps(v), "", "") for key, v in canonical[name].items()]
         else:
             rows.append((path, json.dumps(canonical[name]), unit, text))
     return rows

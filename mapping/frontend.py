@@ -58,7 +58,9 @@ class FrontEndParams(Params):
         "gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS"
     )
     matcher_params: dict[str, Any] = Field(
-        default_factory=dict, description="the matcher's parameters (its Params model)"
+        default_factory=dict,
+        description="the matcher's parameters (its Params model)",
+        json_schema_extra={"model": "matcher_model"},  # the attribute that gives them as that model
     )
     use_odometry: bool = Field(
         True, description="guess each pose from the scans' odometry poses (else: the previous pose)"
@@ -77,6 +79,11 @@ class FrontEndParams(Params):
         None, description="longer returns are neither matched nor mapped [m]; None: all returns"
     )
     min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
+
+    @property
+    def matcher_model(self) -> Params:
+        """``matcher_params`` as the matcher's own parameter model."""
+        return params_model(matcher_class(self.matcher)).of(self.matcher_params)
 
     @field_validator("matcher_params")
     @classmethod

@@ -32,7 +32,16 @@ def test_laser_slam_prints_its_nested_defaults_with_units_and_descriptions():
     assert rows["pyramid.cells.clamp"][0] == "[0.12, 0.97]"
     assert rows["robust_kernel.robust"][0] == '"cauchy"'  # the method's default, not the kernel model's "none"
     assert rows["loop"] == ["the loop-closure search"]  # a section: its description, no default
-    assert rows["frontend.matcher_params.iterations"] == ["10"]  # the matcher's canonical parameters, expanded
+    # the matcher's parameters, expanded with the descriptions and units of the matcher's own model
+    assert rows["frontend.matcher_params.iterations"] == ["10", "most Gauss-Newton iterations per pyramid level"]
+    assert rows["frontend.matcher_params.tol_rotation"][:2] == ["0.0001", "rad"]
+
+
+def test_the_matcher_parameters_follow_the_chosen_matcher():
+    from slamarena.mapping.grid_slam import GridSLAM
+
+    rows = {r[0]: r[1:] for r in parameter_rows(GridSLAM.Params(frontend={"matcher": "correlative"}))}
+    assert rows["frontend.matcher_params.linear_window"][1] == "m" and "frontend.matcher_params.iterations" not in rows
 
 
 def test_the_rbpf_shows_its_own_defaults_of_a_shared_sub_model():
