@@ -11,6 +11,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
     slamarena eval TRAJ --ref REF     slamarena.experiments.cli_eval (any trajectory file against a reference)
+    slamarena params METHOD           slamarena.experiments.cli_params
 
 (``figures`` reaches one layer up, into ``paper_figures``: the CLI is the top of the stack.)
 """
@@ -213,12 +214,16 @@ def map_log(
         help="Mapping method: grid_slam (front end alone), laser_slam (with loop closure), rbpf.",
     ),
     param: list[str] = typer.Option(
-        [], "--param", help="A parameter of the method, key=value (repeatable), e.g. --param matcher=branch_and_bound."
+        [],
+        "--param",
+        help="A parameter of the method, key=value (repeatable), a sub-model's by its dotted path as `slamarena params "
+        "METHOD` prints it, e.g. --param loop.level=2 --param pyramid.resolution=0.1.",
     ),
     matcher: str | None = typer.Option(
         None,
         "--matcher",
-        help="Scan matcher (short for --param matcher=NAME): gauss_newton, correlative, branch_and_bound, kiss_icp, open3d_icp, point_to_line.",
+        help="Scan matcher of grid_slam and laser_slam (short for --param frontend.matcher=NAME): gauss_newton, "
+        "correlative, branch_and_bound, kiss_icp, open3d_icp, point_to_line.",
     ),
     particles: int | None = typer.Option(
         None, "--particles", help="Particles of a particle filter (short for --param particles=N)."
@@ -234,8 +239,8 @@ def map_log(
     """A laser mapping method over a log: trajectory, map PNG/PGM, pose graph, timing."""
     from .cli_map import map_command, parse_params
 
-    params = parse_params(param)
-    params.update({k: v for k, v in (("matcher", matcher), ("particles", particles)) if v is not None})
+    shorthands = (("frontend.matcher", matcher), ("particles", particles))
+    params = parse_params(param + [f"{key}={value}" for key, value in shorthands if value is not None])
     raise typer.Exit(map_command(log, method=method, params=params, out=out, relations=relations, mcap=mcap))
 
 
@@ -286,6 +291,16 @@ def eval_trajectory(
         max_tilt=max_tilt,
     )
     raise typer.Exit(eval_command(result, as_json))
+
+
+@app.command("params")
+def params(
+    method: str = typer.Argument(..., help="A method name of an experiment config (e.g. laser_slam, rbpf, ekf_slam)."),
+):
+    """A method's parameters, nested as a config's params: takes them, with defaults, units and descriptions."""
+    from .cli_params import params_command
+
+    typer.echo(params_command(method))
 
 
 def main() -> None:

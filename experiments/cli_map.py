@@ -50,17 +50,27 @@ def load_log(log: str):
 
 
 def parse_params(pairs: list[str]) -> dict:
-    """``key=value`` pairs of ``--param`` into a dict; values are YAML scalars (``0.05``, ``true``, ``[1, 2]``, ``cauchy``)."""
+    """``key=value`` pairs of ``--param`` into a nested dict; a dotted key names a parameter of a sub-model
+    (``loop.level=2`` → ``{"loop": {"level": 2}}``, as ``slamarena params METHOD`` prints them); values are YAML
+    (``0.05``, ``true``, ``[1, 2]``, ``cauchy``, ``{robust: huber}``)."""
     import yaml
 
     from slamarena.errors import UserError
 
-    out = {}
+    out: dict = {}
     for pair in pairs:
         key, sep, value = pair.partition("=")
-        if not sep or not key:
-            raise UserError(f"--param {pair!r}: write key=value")
-        out[key.strip()] = yaml.safe_load(value)
+        *parents, name = [part.strip() for part in key.split(".")]
+        if not sep or not all(parents) or not name:
+            raise UserError(f"--param {pair!r}: write key=value (key: a name, or names joined by dots)")
+        section = out
+        for part in parents:
+            section = section.setdefault(part, {})
+            if not isinstance(section, dict):
+                raise UserError(f"--param {pair!r}: {part} is given a value and a parameter inside it")
+        if isinstance(section.get(name), dict):
+            raise UserError(f"--param {pair!r}: {key.strip()} is given a value and a parameter inside it")
+        section[name] = yaml.safe_load(value)
     return out
 
 
@@ -87,6 +97,7 @@ def map_command(
 
     from slamarena.errors import UnknownNameError, UserError
     from slamarena.mapping import REGISTRY
+    from slamarena.params import describe_error
     from slamarena.targets import import_target
 
     console = Console()
@@ -95,9 +106,7 @@ def map_command(
     try:
         slam = import_target(REGISTRY[method])(**(params or {}))
     except ValidationError as exc:
-        raise UserError(
-            f"{method}: " + "; ".join(f"params.{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
-        ) from None
+        raise UserError(f"{method}: " + "; ".join(describe_error(e) for e in exc.errors())) from None
     if relations is not None and not Path(relations).is_file():
         raise UserError(f"relations file {relations} does not exist")
     sequence = load_log(log)

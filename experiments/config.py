@@ -49,7 +49,7 @@ from pydantic import (
 )
 
 from slamarena.errors import UserError
-from slamarena.params import params_model
+from slamarena.params import describe_error, params_model
 from slamarena.targets import import_target
 
 from .metrics import METRICS, output_columns
@@ -118,11 +118,9 @@ def resolve_params(target, params: dict, what: str, reserved: tuple[str, ...] = 
 
 
 def problems(exc: ValidationError) -> str:
-    """Each error of a parameter model's validation as ``params.<field>: message``."""
-    return "; ".join(
-        f"params.{'.'.join(map(str, e['loc'])) or '(all)'}: {e['msg'].removeprefix('Value error, ')}"
-        for e in exc.errors()
-    )
+    """Each error of a parameter model's validation as ``params.<field>: message`` (an unknown key with the
+    closest valid ones: :func:`slamarena.params.describe_error`)."""
+    return "; ".join(describe_error(e) for e in exc.errors())
 
 
 class DatasetSpec(BaseModel):

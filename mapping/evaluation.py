@@ -60,7 +60,7 @@ def occupancy_agreement(grid, true_occupied: np.ndarray, tol: int = 1) -> dict:
     true_occupied = np.asarray(true_occupied, dtype=bool)
     if true_occupied.shape != grid.shape:
         raise ValueError(f"true occupancy {true_occupied.shape} is not on the grid's lattice {grid.shape}")
-    est = grid.probability() > grid.params.occupied_threshold
+    est = grid.probability() > grid.params.cells.occupied_threshold
     known = _dilate(np.abs(grid.log_odds - grid.l0) > 1e-6, tol)
     union = (est | true_occupied).sum()
     seen_truth = true_occupied & known
@@ -96,7 +96,7 @@ def map_sharpness(grid) -> dict:
     """Observed, occupied and free cells, the decided fraction and mean ``|2p − 1|`` of the observed cells."""
     p = grid.probability()
     known = np.abs(grid.log_odds - grid.l0) > 1e-6
-    occupied, free = p > grid.params.occupied_threshold, p < grid.params.free_threshold
+    occupied, free = p > grid.params.cells.occupied_threshold, p < grid.params.cells.free_threshold
     n = int(known.sum())
     return {
         "known_cells": n,
@@ -119,7 +119,7 @@ def _end_points(scans, pose, k, max_range):
 
 def hits_on_occupied(grid, scans, poses, index, tol: int = 1) -> float:
     """Fraction of the usable end points of scans ``index`` at ``poses`` (one per index) within ``tol`` cells of an occupied cell."""
-    near = _dilate(grid.probability() > grid.params.occupied_threshold, tol)
+    near = _dilate(grid.probability() > grid.params.cells.occupied_threshold, tol)
     hits = total = 0
     for k, pose in zip(index, poses):
         ok, pts = _end_points(scans, pose, k, scans.max_range)

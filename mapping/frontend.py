@@ -25,16 +25,72 @@ For scan k (robot pose ``x_k = (x, y, θ)``):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, ValidationInfo, field_validator
 
 from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
 from slamarena.datasets.sequence import Scans
+from slamarena.params import Field, Params, params_model
 
 from .beams import classify
-from .scan_matching import MatchResult, make_matcher
+from .scan_matching import MATCHERS, MatchResult, make_matcher, matcher_class
 
-__all__ = ["FrontEnd", "ScanBeams"]
+__all__ = ["FrontEnd", "FrontEndParams", "ScanBeams"]
+
+
+class FrontEndParams(Params):
+    """The front end's parameters (module docstring): the matcher, the beams used, and when a scan is inserted (the
+    ``frontend`` of grid SLAM's and laser graph SLAM's parameters).
+
+    ``matcher_params`` are validated by the matcher's own model (``MatcherClass.Params``) and kept in its
+    canonical form, every default filled in: a wrong matcher parameter in an experiment config fails before
+    any cell runs, naming ``params.frontend.matcher_params.<field>``.
+
+    ``update_distance``, ``update_angle``: Hector's 0.4 m, 0.9 rad. ``initial_updates``: a one-scan map is
+    sparse at grazing angles and the Gauss-Newton match against it can jump by a cell (the notes' "10–20 scans
+    before scan matching"). ``clear_range``: 5 m, Cartographer's missing_data_ray_length: no-returns of real
+    lasers also come from glass and dark surfaces, and long clearing rays erase walls they pass.
+    """
+
+    matcher: Literal[tuple(MATCHERS)] = Field(
+        "gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS"
+    )
+    matcher_params: dict[str, Any] = Field(
+        default_factory=dict,
+        description="the matcher's parameters (its Params model)",
+        json_schema_extra={"model": "matcher_model"},  # the attribute that gives them as that model
+    )
+    use_odometry: bool = Field(
+        True, description="guess each pose from the scans' odometry poses (else: the previous pose)"
+    )
+    update_distance: NonNegativeFloat = Field(
+        0.4, description="update the map when the pose moved more than this since the last update [m]"
+    )
+    update_angle: NonNegativeFloat = Field(
+        0.9, description="update the map when the pose turned more than this since the last update [rad]"
+    )
+    initial_updates: NonNegativeInt = Field(
+        10, description="update the map at every usable scan until it holds this many scans"
+    )
+    clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
+    max_usable_range: PositiveFloat | None = Field(
+        None, description="longer returns are neither matched nor mapped [m]; None: all returns"
+    )
+    min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
+
+    @property
+    def matcher_model(self) -> Params:
+        """``matcher_params`` as the matcher's own parameter model."""
+        return params_model(matcher_class(self.matcher)).of(self.matcher_params)
+
+    @field_validator("matcher_params")
+    @classmethod
+    def _matcher_params(cls, value: dict, info: ValidationInfo) -> dict:
+        if "matcher" not in info.data:  # the matcher's name is wrong: reported on its own
+            return value
+        return params_model(matcher_class(info.data["matcher"])).of(value).canonical()
 
 
 @dataclass
@@ -56,10 +112,9 @@ class ScanBeams:
 
 
 class FrontEnd:
-    """The per-scan steps of the module docstring for one log, with the parameters of a
-    :class:`~slamarena.mapping.grid_slam.GridSLAMParams` (or a model that extends it)."""
+    """The per-scan steps of the module docstring for one log (:class:`FrontEndParams`)."""
 
-    def __init__(self, params, scans: Scans):
+    def __init__(self, params: FrontEndParams, scans: Scans):
         self.params = params
         self.scans = scans
         self.matcher = make_matcher(params.matcher, **params.matcher_params)

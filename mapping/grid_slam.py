@@ -17,72 +17,34 @@ covariance, hence not ``pose_cov``). After ``run`` the map is ``self.maps`` (a
 from __future__ import annotations
 
 import time
-from typing import Any, Literal
 
 import numpy as np
-from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt, ValidationInfo, field_validator
+from pydantic import PositiveInt
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import transform_points
 from slamarena.datasets.sequence import Sequence
-from slamarena.params import Field, params_model
+from slamarena.params import Field, Params
 
 from .beams import scan_counts
-from .frontend import FrontEnd
+from .frontend import FrontEnd, FrontEndParams
 from .map_pyramid import MapPyramid, PyramidParams
-from .scan_matching import MATCHERS, make_matcher, matcher_class
+from .scan_matching import make_matcher
 
 __all__ = ["GridSLAM", "GridSLAMParams"]
 
 
-class GridSLAMParams(PyramidParams):
-    """Parameters of :class:`GridSLAM` (see the module docstring): the matcher, the map pyramid and its cell
-    model (:class:`~slamarena.mapping.map_pyramid.PyramidParams`; ``hit_guard``: see
-    :mod:`slamarena.mapping.occupancy_grid`), the beams used, and when the map is updated.
+class GridSLAMParams(Params):
+    """Parameters of :class:`GridSLAM` (see the module docstring): the front end (:class:`~.frontend.FrontEndParams`:
+    the matcher, the beams used, when the map is updated), the map pyramid and its cell model
+    (:class:`~slamarena.mapping.map_pyramid.PyramidParams`; ``cells.hit_guard``: see
+    :mod:`slamarena.mapping.occupancy_grid`), and the point matchers' reference."""
 
-    ``matcher_params`` are validated by the matcher's own model (``MatcherClass.Params``) and kept in its
-    canonical form, every default filled in: a wrong matcher parameter in an experiment config fails before
-    any cell runs, naming ``params.matcher_params.<field>``.
-
-    ``update_distance``, ``update_angle``: Hector's 0.4 m, 0.9 rad. ``initial_updates``: a one-scan map is
-    sparse at grazing angles and the Gauss-Newton match against it can jump by a cell (the notes' "10–20 scans
-    before scan matching"). ``clear_range``: 5 m, Cartographer's missing_data_ray_length: no-returns of real
-    lasers also come from glass and dark surfaces, and long clearing rays erase walls they pass.
-    """
-
-    matcher: Literal[tuple(MATCHERS)] = Field(
-        "gauss_newton", description="scan matcher, a name of slamarena.mapping.scan_matching.MATCHERS"
-    )
-    matcher_params: dict[str, Any] = Field(
-        default_factory=dict, description="the matcher's parameters (its Params model)"
-    )
-    use_odometry: bool = Field(
-        True, description="guess each pose from the scans' odometry poses (else: the previous pose)"
-    )
-    update_distance: NonNegativeFloat = Field(
-        0.4, description="update the map when the pose moved more than this since the last update [m]"
-    )
-    update_angle: NonNegativeFloat = Field(
-        0.9, description="update the map when the pose turned more than this since the last update [rad]"
-    )
-    initial_updates: NonNegativeInt = Field(
-        10, description="update the map at every usable scan until it holds this many scans"
-    )
-    clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
-    max_usable_range: PositiveFloat | None = Field(
-        None, description="longer returns are neither matched nor mapped [m]; None: all returns"
-    )
-    min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
+    frontend: FrontEndParams = Field(FrontEndParams(), description="the scan-to-map front end")
+    pyramid: PyramidParams = Field(PyramidParams(), description="the map pyramid and its cell model")
     reference_scans: PositiveInt = Field(
         10, description="point matchers match against the end points of this many last map-update scans"
     )
-
-    @field_validator("matcher_params")
-    @classmethod
-    def _matcher_params(cls, value: dict, info: ValidationInfo) -> dict:
-        if "matcher" not in info.data:  # the matcher's name is wrong: reported on its own
-            return value
-        return params_model(matcher_class(info.data["matcher"])).of(value).canonical()
 
 
 class GridSLAM:
@@ -92,7 +54,8 @@ class GridSLAM:
 
     def __init__(self, params: GridSLAMParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
-        self.matcher = make_matcher(self.params.matcher, **self.params.matcher_params)  # validated now, rebuilt per run
+        front = self.params.frontend
+        self.matcher = make_matcher(front.matcher, **front.matcher_params)  # validated now, rebuilt per run
         self.maps: MapPyramid | None = None
 
     @property
@@ -106,7 +69,7 @@ class GridSLAM:
             raise ValueError(f"GridSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         K, B = scans.ranges.shape
         p = self.params
-        front = FrontEnd(p, scans)
+        front = FrontEnd(p.frontend, scans)
         self.matcher = front.matcher
         poses = np.zeros((K, 3))
         step_time = np.zeros(K)
@@ -121,11 +84,7 @@ class GridSLAM:
             "match_cov": np.full((K, 3, 3), np.nan),
         }
         pose = front.start_pose(sequence.start_pose)
-        self.maps = MapPyramid(
-            p.model_dump(include=set(PyramidParams.model_fields)),
-            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
-            centre=tuple(pose[:2]),
-        )
+        self.maps = MapPyramid.around(p.pyramid, pose, min(scans.max_range, p.frontend.clear_range))
         keyframes: list[np.ndarray] = []
         n_beams = np.zeros(K, np.int64)
         for k in range(K):
@@ -144,14 +103,14 @@ class GridSLAM:
                     pose = res.pose
                     diag["matched"][k] = True
                     diag["score"][k], diag["iterations"][k], diag["match_cov"][k] = res.score, res.iterations, res.cov
-            if len(beams.points) >= p.min_beams and front.due(pose):
+            if len(beams.points) >= p.frontend.min_beams and front.due(pose):
                 self.maps.integrate(
                     beams.r[beams.mapped],
                     beams.a[beams.mapped],
                     pose,
                     scans.mount,
                     max_range=front.limit,
-                    clear_range=p.clear_range,
+                    clear_range=p.frontend.clear_range,
                 )
                 if front.matcher.kind == "points":
                     keyframes = (keyframes + [transform_points(pose, beams.points)])[-p.reference_scans :]

@@ -12,20 +12,29 @@ from __future__ import annotations
 import numpy as np
 from pydantic import PositiveFloat, PositiveInt
 
-from slamarena.params import Field
+from slamarena.params import Field, Params
 
 from .occupancy_grid import CellModelParams, OccupancyGrid
 
-__all__ = ["MapPyramid", "MapPyramidParams", "PyramidParams"]
+__all__ = ["MapPyramid", "MapPyramidParams", "PyramidParams", "initial_side"]
 
 
-class PyramidParams(CellModelParams):
-    """The levels and the cell model of a map pyramid (what GridSLAM configures; the extent comes from the data)."""
+def initial_side(reach: float) -> float:
+    """Side [m] of the initial square of a mapping method's maps: twice the reach of the scans that build them
+    (the laser's range, or how far a no-return clears, whichever is shorter), at most 100 m (the grids grow as
+    scans reach beyond)."""
+    return 2.0 * min(reach, 50.0)
+
+
+class PyramidParams(Params):
+    """The levels and the cell model of a map pyramid (the ``pyramid`` of the mapping methods' parameters; the
+    extent comes from the data)."""
 
     resolution: PositiveFloat = Field(
         0.05, description="cell side of the finest level, level 0 [m]; level k has resolution · 2^k"
     )
     levels: PositiveInt = Field(3, description="number of levels")
+    cells: CellModelParams = Field(CellModelParams(), description="the cell model of every level")
 
 
 class MapPyramidParams(PyramidParams):
@@ -45,7 +54,6 @@ class MapPyramid:
     def __init__(self, params: MapPyramidParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         p = self.params
-        cell_model = p.model_dump(include=set(CellModelParams.model_fields))
         self.levels: list[OccupancyGrid] = []
         for k in range(p.levels):
             res = p.resolution * 2**k
@@ -53,8 +61,14 @@ class MapPyramid:
             corner = (
                 np.round(np.asarray(p.centre) / res) * res - (n // 2 + 0.5) * res
             )  # half-cell shift: cell centres on multiples of res
-            self.levels.append(OccupancyGrid(cell_model, resolution=res, width=n, height=n, origin=tuple(corner)))
+            self.levels.append(OccupancyGrid(cells=p.cells, resolution=res, width=n, height=n, origin=tuple(corner)))
         self.version = 0
+
+    @classmethod
+    def around(cls, pyramid: PyramidParams, centre, reach: float) -> MapPyramid:
+        """The maps a mapping method starts with: ``pyramid``'s levels and cell model over the square of side
+        :func:`initial_side` (``reach``) centred on ``centre`` (x, y) [m]."""
+        return cls(**dict(pyramid), size=initial_side(reach), centre=(float(centre[0]), float(centre[1])))
 
     @property
     def finest(self) -> OccupancyGrid:

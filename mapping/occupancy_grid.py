@@ -96,8 +96,8 @@ OpenProbability = Annotated[float, Field(gt=0.0, lt=1.0)]
 
 
 class CellModelParams(Params):
-    """The cell model of a log-odds grid (inverse sensor model, thresholds, clamp, hit guard); shared by
-    :class:`OccupancyGridParams`, the map pyramid's and GridSLAM's parameters."""
+    """The cell model of a log-odds grid (inverse sensor model, thresholds, clamp, hit guard): the ``cells`` of
+    :class:`OccupancyGridParams` and of the map pyramid's :class:`~slamarena.mapping.map_pyramid.PyramidParams`."""
 
     p_hit: OpenProbability = Field(0.7, description="p(m | z) of the cell holding a beam end point")
     p_miss: OpenProbability = Field(0.4, description="p(m | z) of the cells a beam passes through")
@@ -124,8 +124,8 @@ class CellModelParams(Params):
         return self
 
 
-class OccupancyGridParams(CellModelParams):
-    """Parameters of :class:`OccupancyGrid`: its lattice and its cell model."""
+class OccupancyGridParams(Params):
+    """Parameters of :class:`OccupancyGrid`: its lattice and its cell model (``cells``)."""
 
     resolution: PositiveFloat = Field(0.05, description="cell side [m]")
     width: PositiveInt = Field(200, description="initial number of columns (x) [cells]")
@@ -137,6 +137,7 @@ class OccupancyGridParams(CellModelParams):
         True, description="grow in blocks of 64 cells when a scan reaches beyond the grid (else drop those cells)"
     )
     dtype: Literal["float32", "float64"] = Field("float32", description="storage type of the log-odds")
+    cells: CellModelParams = Field(CellModelParams(), description="the cell model")
 
 
 class OccupancyGrid:
@@ -147,13 +148,14 @@ class OccupancyGrid:
     def __init__(self, params: OccupancyGridParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         p = self.params
+        c = p.cells
         self.origin = np.array(
             p.origin if p.origin is not None else (-0.5 * p.width * p.resolution, -0.5 * p.height * p.resolution),
             dtype=float,
         )
-        self.l_hit, self.l_miss, self.l0 = float(logit(p.p_hit)), float(logit(p.p_miss)), float(logit(p.p_prior))
+        self.l_hit, self.l_miss, self.l0 = float(logit(c.p_hit)), float(logit(c.p_miss)), float(logit(c.p_prior))
         self.l_min, self.l_max = (
-            (float(logit(p.clamp[0])), float(logit(p.clamp[1]))) if p.clamp is not None else (-np.inf, np.inf)
+            (float(logit(c.clamp[0])), float(logit(c.clamp[1]))) if c.clamp is not None else (-np.inf, np.inf)
         )
         self.log_odds = np.full((p.height, p.width), self.l0, dtype=p.dtype)
         self.version = 0
@@ -270,8 +272,8 @@ class OccupancyGrid:
         scratch[flat] = position
         cells = flat[scratch[flat] == position]
         hits = flat[is_hit]
-        if self.params.hit_guard and hits.size:
-            g = np.arange(-self.params.hit_guard, self.params.hit_guard + 1)
+        if self.params.cells.hit_guard and hits.size:
+            g = np.arange(-self.params.cells.hit_guard, self.params.cells.hit_guard + 1)
             hx, hy = hits % self.shape[1], hits // self.shape[1]
             gx, gy = (
                 v.ravel()
@@ -332,8 +334,8 @@ class OccupancyGrid:
         """int8 grid (rows = y): 0 free (p < free), 100 occupied (p > occupied), −1 unknown."""
         p = self.probability()
         out = np.full(p.shape, ROS_UNKNOWN, dtype=np.int8)
-        out[p < self.params.free_threshold] = ROS_FREE
-        out[p > self.params.occupied_threshold] = ROS_OCCUPIED
+        out[p < self.params.cells.free_threshold] = ROS_FREE
+        out[p > self.params.cells.occupied_threshold] = ROS_OCCUPIED
         return out
 
     def nbytes(self) -> int:
@@ -378,7 +380,7 @@ class OccupancyGrid:
             "resolution": self.params.resolution,
             "origin": [float(self.origin[0]), float(self.origin[1]), 0.0],
             "negate": 0,
-            "occupied_thresh": self.params.occupied_threshold,
+            "occupied_thresh": self.params.cells.occupied_threshold,
             "free_thresh": 0.196,
         }
         yaml_path.write_text(yaml.safe_dump(meta, sort_keys=False))

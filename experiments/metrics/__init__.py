@@ -21,9 +21,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from pydantic import BaseModel
-
 from slamarena.datasets.estimate import Estimate
+from slamarena.params import Params
 
 from .consistency import NEES_OUTPUTS, NIS_OUTPUTS, NEESParams, NISParams, nees, nis
 from .cost import COST_OUTPUTS, CostParams, cost
@@ -56,9 +55,9 @@ class CellData:
 
 @dataclass(frozen=True)
 class Metric:
-    params: type[BaseModel]
+    params: type[Params]
     outputs: dict[str, tuple[str | None, str]]
-    evaluate: Callable[[CellData, BaseModel], tuple[dict, dict]]
+    evaluate: Callable[[CellData, Params], tuple[dict, dict]]
 
 
 METRICS: dict[str, Metric] = {
@@ -88,7 +87,7 @@ def output_columns() -> dict[str, tuple[str | None, str]]:
     return {f"{m}.{k}": v for m, metric in METRICS.items() for k, v in metric.outputs.items()}
 
 
-def evaluate(cell: CellData, selected: dict[str, BaseModel]) -> tuple[dict, dict, dict]:
+def evaluate(cell: CellData, selected: dict[str, Params]) -> tuple[dict, dict, dict]:
     """Evaluate the selected metrics: (scalars by metric, series by metric, skipped reasons)."""
     scalars, series, skipped = {}, {}, {}
     for name, params in selected.items():

@@ -31,10 +31,11 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, se2_log, wrap_angle
+from slamarena.params import Params
 
 from .reference import MetricUnavailable, Reference, associate
 
@@ -51,8 +52,7 @@ __all__ = [
 ]
 
 
-class NEESParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class NEESParams(Params):
     frame: Literal["world", "body"] = "world"
     max_gap: float = Field(0.1, ge=0)
     max_condition: float = Field(
@@ -61,8 +61,7 @@ class NEESParams(BaseModel):
     probability: float = Field(0.95, gt=0, lt=1)
 
 
-class NISParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class NISParams(Params):
     probability: float = Field(0.95, gt=0, lt=1)
 
 

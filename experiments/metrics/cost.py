@@ -15,15 +15,15 @@
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
 
 from slamarena.datasets.estimate import Estimate
+from slamarena.params import Params
 
 __all__ = ["CostParams", "cost", "COST_OUTPUTS", "peak_rss_mb"]
 
 
-class CostParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class CostParams(Params):
+    """The cost metric takes no parameters."""
 
 
 COST_OUTPUTS = {

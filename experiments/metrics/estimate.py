@@ -17,17 +17,17 @@ the estimate carries none of them.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
 
 from slamarena.datasets.estimate import Estimate
+from slamarena.params import Params
 
 from .reference import MetricUnavailable
 
 __all__ = ["EstimateParams", "estimate_counts", "ESTIMATE_OUTPUTS"]
 
 
-class EstimateParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class EstimateParams(Params):
+    """The estimate-count metric takes no parameters."""
 
 
 ESTIMATE_OUTPUTS = {

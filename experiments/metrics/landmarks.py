@@ -21,9 +21,10 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from slamarena.datasets.estimate import Estimate
+from slamarena.params import Params
 
 from .alignment import fit_alignment
 from .reference import MetricUnavailable, Reference, associate
@@ -31,8 +32,7 @@ from .reference import MetricUnavailable, Reference, associate
 __all__ = ["MapParams", "landmark_error", "MAP_OUTPUTS"]
 
 
-class MapParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class MapParams(Params):
     align: Literal["none", "se2", "sim2"] = "se2"
     by: Literal["id", "nearest"] = "id"
     max_distance: float = Field(2.0, gt=0, description="nearest-neighbour gate [m]")

@@ -25,10 +25,11 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import Field, field_validator
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, interpolate_poses
+from slamarena.params import Params
 
 from .reference import MetricUnavailable, Reference, associate
 
@@ -44,8 +45,7 @@ __all__ = [
 ]
 
 
-class RelationsParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class RelationsParams(Params):
     file: Path | None = Field(None, description="relations file (Kümmerle et al. format); default: the dataset's")
     match: Literal["nearest", "interpolate"] = "nearest"
     tolerance: float = Field(0.05, ge=0, description="seconds, for match: nearest")
@@ -150,10 +150,9 @@ def revisit_relations(
     return t[i], t[j], between(poses[i], poses[j])
 
 
-class LoopParams(BaseModel):
+class LoopParams(Params):
     """The loop metric: :func:`revisit_relations` of the ground truth at the estimate's times, scored by :func:`relation_error`."""
 
-    model_config = ConfigDict(extra="forbid")
     radius: float = Field(0.25, gt=0, description="a revisit pairs two poses at most this far apart [m]")
     min_travel: float = Field(20.0, gt=0, description="…and at least this much path apart [m]")
     stride: int = Field(5, ge=1, description="every stride-th estimate pose starts a pair")

@@ -25,10 +25,11 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between
+from slamarena.params import Params
 
 from .alignment import fit_alignment
 from .reference import MetricUnavailable, Reference, associate
@@ -36,16 +37,14 @@ from .reference import MetricUnavailable, Reference, associate
 __all__ = ["ATEParams", "RPEParams", "ate", "rpe", "rpe_pairs", "ATE_OUTPUTS", "RPE_OUTPUTS"]
 
 
-class ATEParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class ATEParams(Params):
     align: Literal["none", "se2", "sim2"] = "se2"
     max_gap: float = Field(
         0.1, ge=0, description="seconds between the estimate time and the ground-truth samples around it"
     )
 
 
-class RPEParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class RPEParams(Params):
     delta: float = Field(1.0, gt=0)
     unit: Literal["frames", "s", "m"] = "s"
     all_pairs: bool = True

@@ -15,20 +15,22 @@ Match. With c the submap's node nearest to node n in the current estimate, the g
 ± ``angular_window`` around it on pyramid level ``level`` of the submap, against the submap's likelihood grid and
 max-pyramid — computed once per submap for its whole extent and kept in a small least-recently-used cache —;
 Gauss-Newton on the submap's pyramid refines the lattice pose to M. The branch-and-bound search uses the end
-points within ``loop_max_range`` (the angular step is set by the farthest point), thinned to one per ``loop_voxel``
-cell (its cost is linear in the points; the refinement uses all), and prunes below ``loop_min_search_score`` (mean
+points within ``max_range`` (the angular step is set by the farthest point), thinned to one per ``voxel``
+cell (its cost is linear in the points; the refinement uses all), and prunes below ``min_search_score`` (mean
 log-likelihood per point, as Cartographer's min_score): a candidate with nothing above it is rejected unrefined. The match is accepted when the refined
 pose's score (the mean occupancy probability under the scan's end points on the finest level, 0 … 1) is at
-least ``loop_score_ratio`` times the score of the same scan against its own submap in the front end (a scan fits
+least ``score_ratio`` times the score of the same scan against its own submap in the front end (a scan fits
 an old map about as well as the one it was just matched to, or not at all: the ratio carries over between
 environments and sensors where an absolute score does not — FR-Clinic's scans score 0.48 in the front end where
 Intel's score 0.75), and at least ``min_score``. The loop constraint is z = L_c⁻¹ ⊕ M between node n and the submap's node c nearest to the
 matched pose M: a submap is consistent near each of its nodes, not across its whole extent (the front end drifts
 while it builds it), so a constraint to its first node would carry that drift over the lever arm between them. Its covariance is the spread of
-the exhaustive correlative response (Olson 2009) within ± ``loop_covariance_window`` and ± ``loop_covariance_angle``
+the exhaustive correlative response (Olson 2009) within ± ``covariance_window`` and ± ``covariance_angle``
 of the found pose — wide enough that a corridor, where a scan fits anywhere along the walls, shows up as a long
 axis the graph then hardly trusts — rotated into the frame of the matched pose M (z's end, where GTSAM's
-BetweenFactorPose2 measures its error), plus the floors ``loop_sigma_*``² on its diagonal.
+BetweenFactorPose2 measures its error), plus the floors ``sigma_*``² on its diagonal.
+
+The names are those of :class:`LoopClosureParams`, the ``loop`` of laser graph SLAM's parameters.
 """
 
 from __future__ import annotations
@@ -38,13 +40,69 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 
 from slamarena.datasets.geometry import between, compose
+from slamarena.params import Field, Params
 
 from ..scan_matching.correlative import BranchAndBoundMatcher, CorrelativeMatcher
 from ..scan_matching.gauss_newton import GaussNewtonMatcher
 
-__all__ = ["LoopCloser", "LoopRecord"]
+__all__ = ["LoopCloser", "LoopClosureParams", "LoopRecord"]
+
+
+class LoopClosureParams(Params):
+    """The loop-closure search (module docstring): when and where to search, the branch-and-bound match, the
+    acceptance test, the loop factor's covariance; and the robustness study's deliberately false loops
+    (:mod:`.slam`)."""
+
+    enabled: bool = Field(
+        True, description="search for loop closures (False: the graph holds the front end's chain only)"
+    )
+    search_every: PositiveInt = Field(3, description="search for loop closures at every this-many-th node")
+    search_radius: NonNegativeFloat = Field(5.0, description="candidate submaps within this distance of the node [m] …")
+    search_growth: NonNegativeFloat = Field(
+        0.05, description="… plus this fraction of the distance travelled since the submap [1]"
+    )
+    max_candidates: PositiveInt = Field(3, description="most submaps tried per search (the nearest)")
+    exclude_recent: NonNegativeInt = Field(
+        1, description="latest finished submaps not searched (the front end still overlaps them)"
+    )
+    linear_window: PositiveFloat = Field(5.0, description="half-width of the loop search in translation [m]")
+    angular_window: PositiveFloat = Field(0.5, description="half-width of the loop search in rotation [rad]")
+    level: NonNegativeInt = Field(1, description="pyramid level of the branch-and-bound loop search")
+    voxel: NonNegativeFloat = Field(
+        0.1, description="the loop search's end points thinned to one per cell of this side [m] (0: all)"
+    )
+    max_range: PositiveFloat = Field(15.0, description="the loop search uses the end points within this range [m]")
+    min_search_score: float = Field(
+        -2.5,
+        le=0.0,
+        description="branch-and-bound floor: mean log-likelihood per point below which a candidate is rejected unrefined",
+    )
+    min_score: float = Field(
+        0.3,
+        gt=0.0,
+        lt=1.0,
+        description="accept a loop only when the refined match's mean occupancy probability is at least this …",
+    )
+    score_ratio: float = Field(
+        0.9, gt=0.0, le=1.5, description="… and at least this times the node's own front-end match score"
+    )
+    covariance_window: PositiveFloat = Field(
+        1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]"
+    )
+    covariance_angle: PositiveFloat = Field(0.05, description="… and rotation [rad]")
+    sigma_translation: PositiveFloat = Field(0.05, description="added to a loop factor's translation σ [m]")
+    sigma_rotation: PositiveFloat = Field(0.01, description="added to a loop factor's rotation σ [rad]")
+    cache_submaps: PositiveInt = Field(8, description="submaps whose likelihood pyramids are kept for the loop search")
+    false_loops: NonNegativeInt = Field(
+        0,
+        description="robustness study only: add this many deliberately false loop closures, spread evenly over the log",
+    )
+    false_loop_distance: PositiveFloat = Field(
+        5.0, description="a false loop claims its node sits at the node about this far away [m]"
+    )
 
 
 @dataclass
@@ -110,21 +168,21 @@ class _SubmapResponse(_Precomputed, CorrelativeMatcher):
 
 
 class LoopCloser:
-    """Candidate selection and matching (module docstring) with the loop parameters of :class:`LaserSLAMParams`."""
+    """Candidate selection and matching (module docstring; :class:`LoopClosureParams`)."""
 
-    def __init__(self, params):
+    def __init__(self, params: LoopClosureParams):
         self.p = params
         self.bnb = _SubmapBranchAndBound(
-            linear_window=params.loop_linear_window,
-            angular_window=params.loop_angular_window,
-            level=params.loop_level,
+            linear_window=params.linear_window,
+            angular_window=params.angular_window,
+            level=params.level,
             refine=False,
-            min_score=params.loop_min_search_score,
+            min_score=params.min_search_score,
         )
         self.response = _SubmapResponse(
-            linear_window=params.loop_covariance_window,
-            angular_window=params.loop_covariance_angle,
-            level=params.loop_level,
+            linear_window=params.covariance_window,
+            angular_window=params.covariance_angle,
+            level=params.level,
         )
         self.gn = GaussNewtonMatcher()
         self._cache: OrderedDict[int, dict] = OrderedDict()
@@ -146,12 +204,12 @@ class LoopCloser:
         if submap.index in self._cache:
             self._cache.move_to_end(submap.index)
             return self._cache[submap.index]
-        grid = submap.maps.levels[min(self.p.loop_level, len(submap.maps.levels) - 1)]
+        grid = submap.maps.levels[min(self.p.level, len(submap.maps.levels) - 1)]
         w = self.bnb._w(grid)
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
         cache = dict(BranchAndBoundMatcher._grids(self.bnb, submap.maps, depth, np.zeros(3), 1e12))  # the whole submap
         self._cache[submap.index] = cache
-        while len(self._cache) > self.p.loop_cache_submaps:
+        while len(self._cache) > self.p.cache_submaps:
             self._cache.popitem(last=False)
         return cache
 
@@ -168,7 +226,7 @@ class LoopCloser:
         ]  # the submap's node nearest to node n, as estimated
         guess = compose(L[c], between(G[c], G[n]))
         self.bnb.active = self.response.active = self._precomputed(submap)
-        near = voxel_filter(points[np.hypot(points[:, 0], points[:, 1]) <= self.p.loop_max_range], self.p.loop_voxel)
+        near = voxel_filter(points[np.hypot(points[:, 0], points[:, 1]) <= self.p.max_range], self.p.voxel)
         coarse = self.bnb.match(submap.maps, near, guess)
         if not np.isfinite(coarse.score):  # nothing in the window is worth refining
             self.record.add(
@@ -185,7 +243,7 @@ class LoopCloser:
             return None
         fine = self.gn.match(submap.maps, points, coarse.pose)
         accepted = bool(
-            fine.score >= max(self.p.min_score, self.p.loop_score_ratio * own_score) and np.all(np.isfinite(fine.pose))
+            fine.score >= max(self.p.min_score, self.p.score_ratio * own_score) and np.all(np.isfinite(fine.pose))
         )
         c = nodes[
             np.argmin(np.hypot(*(L[nodes, :2] - fine.pose[:2]).T))
@@ -196,7 +254,7 @@ class LoopCloser:
         # world-aligned (the submap's frame) → node n's frame, z's end, where GTSAM's BetweenFactorPose2 measures its error
         R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])
         cov = R @ spread @ R.T + np.diag(
-            np.square([self.p.loop_sigma_translation, self.p.loop_sigma_translation, self.p.loop_sigma_rotation])
+            np.square([self.p.sigma_translation, self.p.sigma_translation, self.p.sigma_rotation])
         )
         self.record.add(
             n,

@@ -22,19 +22,43 @@ letting the pairwise chain move them bends the map: on the simulated loop of the
 0.066 m, on Intel the revisit relations (≥ 600 s apart) from 2.7 to 2.8 cm (3.5 cm with m = 2): the chain of ICP
 factors is stiffer than its true error, and the robust loop factors yield to it (research/mapping.md §8).
 Without pairwise factors the hanging factors have zero residual at G_k, which is then the optimum. A non-finite
-or increasing error is an :class:`~.backend.OptimizationError`.
+or increasing error is an :class:`~.backend.OptimizationError`. Parameters: :class:`RefineParams` (m =
+``neighbours``, ρ = ``sigma_*``), the ``refine`` of laser graph SLAM's parameters.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from pydantic import NonNegativeInt, PositiveFloat
 
 from slamarena.datasets.geometry import between, compose
+from slamarena.params import Field, Params
 from slamarena.robust import RobustKernelParams, noise_model
 
+from ..scan_matching.point_to_line import PointToLineICPMatcherParams
 from .backend import batch_optimise
 
-__all__ = ["refine_scans"]
+__all__ = ["RefineParams", "refine_scans"]
+
+
+class RefineParams(Params):
+    """The local refinement (module docstring): which scans are registered onto which, and the pairwise factors."""
+
+    neighbours: NonNegativeInt = Field(
+        2, description="register each scan onto this many preceding scans, m (0: no refinement)"
+    )
+    max_range: PositiveFloat = Field(20.0, description="the refinement's ICP uses the end points within this range [m]")
+    min_paired: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="a pairwise registration is used when at least this fraction of the scan's points is paired",
+    )
+    sigma_translation: PositiveFloat = Field(0.005, description="added to a pairwise factor's translation σ, ρ_t [m]")
+    sigma_rotation: PositiveFloat = Field(0.002, description="added to a pairwise factor's rotation σ, ρ_θ [rad]")
+    matcher: PointToLineICPMatcherParams = Field(
+        PointToLineICPMatcherParams(), description="the refinement's point-to-line ICP"
+    )
 
 
 def refine_scans(

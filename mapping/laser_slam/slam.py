@@ -14,19 +14,19 @@ Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L
 covariance R_iᵀ C_i R_i + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match in the
 front-end frame, R_i the rotation of node i's front-end pose L_i — the frame of z's end, in which GTSAM's
 BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
-covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``search_every`` nodes,
-robustified. A robustness study (``false_loops`` > 0) injects deliberately false loop closures: at the first
+covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
+robustified. A robustness study (``loop.false_loops`` > 0) injects deliberately false loop closures: at the first
 search after scan ⌊K·j/(F+1)⌋ (j = 1 … F) node n is claimed to sit at the position of the node c of a finished
-submap whose estimated distance to it is nearest to ``false_loop_distance`` (a wrong place that looks alike, e.g.
+submap whose estimated distance to it is nearest to ``loop.false_loop_distance`` (a wrong place that looks alike, e.g.
 the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest covariance a real loop can get
-(the floors ``loop_sigma_*``²); they are listed in ``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
+(the floors ``loop.sigma_*``²); they are listed in ``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
 iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
 G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
 
-Local refinement (:mod:`.refine`; ``refine_neighbours`` = m > 0): as each scan k is matched, its end points within
-``refine_max_range`` are registered onto those of the m scans before it by point-to-line ICP
+Local refinement (:mod:`.refine`; ``refine.neighbours`` = m > 0): as each scan k is matched, its end points within
+``refine.max_range`` are registered onto those of the m scans before it by point-to-line ICP
 (:mod:`~slamarena.mapping.scan_matching.point_to_line`) from the front end's relative pose; a registration pairing
-at least ``refine_min_paired`` of the points gives a pairwise factor. After the node graph's batch solve, every
+at least ``refine.min_paired`` of the points gives a pairwise factor. After the node graph's batch solve, every
 scan becomes a variable: the nodes held at their optimised poses, every other scan tied to its node by the front
 end's relative pose, and the pairwise factors place the scans between the nodes.
 
@@ -44,109 +44,51 @@ import time
 from typing import Literal
 
 import numpy as np
-from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
+from pydantic import PositiveFloat, PositiveInt
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, wrap_angle
 from slamarena.datasets.sequence import Sequence
-from slamarena.params import Field
+from slamarena.params import Field, Params
 from slamarena.robust import RobustKernelParams
 
-from ..frontend import FrontEnd
-from ..grid_slam import GridSLAMParams
+from ..frontend import FrontEnd, FrontEndParams
 from ..map_pyramid import MapPyramid, PyramidParams
 from ..occupancy_grid import OccupancyGrid
-from ..scan_matching.point_to_line import PointToLineICPMatcher, PointToLineICPMatcherParams
+from ..scan_matching.point_to_line import PointToLineICPMatcher
 from .backend import Backend
-from .loop_closure import LoopCloser
-from .refine import refine_scans
+from .loop_closure import LoopCloser, LoopClosureParams
+from .refine import RefineParams, refine_scans
 
 __all__ = ["LaserSLAM", "LaserSLAMParams", "Submap"]
 
 
-class LaserSLAMParams(GridSLAMParams):
-    """Parameters of :class:`LaserSLAM`: the front end's (:class:`~slamarena.mapping.grid_slam.GridSLAMParams`), the
-    submaps, the graph's noise, and the loop-closure search (:mod:`.loop_closure`)."""
+class LaserSLAMParams(Params):
+    """Parameters of :class:`LaserSLAM`: the front end (:class:`~slamarena.mapping.frontend.FrontEndParams`) and the
+    map pyramid of the tracking map and of every submap (:class:`~slamarena.mapping.map_pyramid.PyramidParams`), the
+    submaps, the graph's noise and robust kernel, the loop-closure search (:class:`.loop_closure.LoopClosureParams`)
+    and the local refinement (:class:`.refine.RefineParams`)."""
 
+    frontend: FrontEndParams = Field(FrontEndParams(), description="the scan-to-map front end")
+    pyramid: PyramidParams = Field(
+        PyramidParams(), description="the map pyramid (tracking map and submaps) and its cell model"
+    )
     submap_scans: PositiveInt = Field(
         45, description="insertions after which the next submap starts (a submap holds 2 · submap_scans)"
     )
     tracking: Literal["submap", "global"] = Field(
         "global",
-        description="what the front end matches each scan against: one map of every node (Hector), or the older active submap (Cartographer)",
+        description="what the front end matches each scan against: one map of every node (Hector), or the older "
+        "active submap (Cartographer)",
     )
     sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")
-    search_every: PositiveInt = Field(3, description="search for loop closures at every this-many-th node")
-    search_radius: NonNegativeFloat = Field(5.0, description="candidate submaps within this distance of the node [m] …")
-    search_growth: NonNegativeFloat = Field(
-        0.05, description="… plus this fraction of the distance travelled since the submap [1]"
-    )
-    max_candidates: PositiveInt = Field(3, description="most submaps tried per search (the nearest)")
-    exclude_recent: NonNegativeInt = Field(
-        1, description="latest finished submaps not searched (the front end still overlaps them)"
-    )
-    loop_linear_window: PositiveFloat = Field(5.0, description="half-width of the loop search in translation [m]")
-    loop_angular_window: PositiveFloat = Field(0.5, description="half-width of the loop search in rotation [rad]")
-    loop_level: NonNegativeInt = Field(1, description="pyramid level of the branch-and-bound loop search")
-    loop_voxel: NonNegativeFloat = Field(
-        0.1, description="the loop search's end points thinned to one per cell of this side [m] (0: all)"
-    )
-    loop_max_range: PositiveFloat = Field(15.0, description="the loop search uses the end points within this range [m]")
-    loop_min_search_score: float = Field(
-        -2.5,
-        le=0.0,
-        description="branch-and-bound floor: mean log-likelihood per point below which a candidate is rejected unrefined",
-    )
-    min_score: float = Field(
-        0.3,
-        gt=0.0,
-        lt=1.0,
-        description="accept a loop only when the refined match's mean occupancy probability is at least this …",
-    )
-    loop_score_ratio: float = Field(
-        0.9, gt=0.0, le=1.5, description="… and at least this times the node's own front-end match score"
-    )
-    loop_covariance_window: PositiveFloat = Field(
-        1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]"
-    )
-    loop_covariance_angle: PositiveFloat = Field(0.05, description="… and rotation [rad]")
-    loop_sigma_translation: PositiveFloat = Field(0.05, description="added to a loop factor's translation σ [m]")
-    loop_sigma_rotation: PositiveFloat = Field(0.01, description="added to a loop factor's rotation σ [rad]")
-    loop_cache_submaps: PositiveInt = Field(
-        8, description="submaps whose likelihood pyramids are kept for the loop search"
-    )
     robust_kernel: RobustKernelParams = Field(
-        RobustKernelParams(robust="cauchy", robust_k=1.0), description="m-estimator of the loop factors"
+        RobustKernelParams(robust="cauchy", robust_k=1.0),
+        description="m-estimator of the loop factors (and of the refinement's pairwise factors)",
     )
-    loop_closure: bool = Field(
-        True, description="search for loop closures (False: the graph holds the front end's chain only)"
-    )
-    false_loops: NonNegativeInt = Field(
-        0,
-        description="robustness study only: add this many deliberately false loop closures, spread evenly over the log",
-    )
-    false_loop_distance: PositiveFloat = Field(
-        5.0, description="a false loop claims its node sits at the node about this far away [m]"
-    )
-    refine_neighbours: NonNegativeInt = Field(
-        2,
-        description="local refinement (:mod:`.refine`): register each scan onto this many preceding scans (0: no refinement)",
-    )
-    refine_max_range: PositiveFloat = Field(
-        20.0, description="the refinement's ICP uses the end points within this range [m]"
-    )
-    refine_min_paired: float = Field(
-        0.5,
-        gt=0.0,
-        le=1.0,
-        description="a pairwise registration is used when at least this fraction of the scan's points is paired",
-    )
-    refine_sigma_translation: PositiveFloat = Field(0.005, description="added to a pairwise factor's translation σ [m]")
-    refine_sigma_rotation: PositiveFloat = Field(0.002, description="added to a pairwise factor's rotation σ [rad]")
-    refine_matcher: PointToLineICPMatcherParams = Field(
-        PointToLineICPMatcherParams(), description="the refinement's point-to-line ICP"
-    )
+    loop: LoopClosureParams = Field(LoopClosureParams(), description="the loop-closure search")
+    refine: RefineParams = Field(RefineParams(), description="the local refinement of the scans between the nodes")
 
 
 class Submap:
@@ -170,13 +112,12 @@ class LaserSLAM:
         self.pose_graph = None
         self.submaps: list[Submap] = []
 
+    def _reach(self, scans) -> float:
+        """How far a scan updates the maps [m]: the laser's range, or the no-returns' clearing range if shorter."""
+        return min(scans.max_range, self.params.frontend.clear_range)
+
     def _new_submap(self, centre, scans) -> Submap:
-        p = self.params
-        maps = MapPyramid(
-            p.model_dump(include=set(PyramidParams.model_fields)),
-            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
-            centre=tuple(centre[:2]),
-        )
+        maps = MapPyramid.around(self.params.pyramid, centre, self._reach(scans))
         submap = Submap(len(self.submaps), maps)
         self.submaps.append(submap)
         return submap
@@ -188,8 +129,8 @@ class LaserSLAM:
             raise ValueError(f"LaserSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         p = self.params
         K = len(scans)
-        front = FrontEnd(p, scans)
-        loops = LoopCloser(p)
+        front = FrontEnd(p.frontend, scans)
+        loops = LoopCloser(p.loop)
         backend = Backend(p.robust_kernel)
         self.submaps = []
         local = np.zeros((K, 3))  # L_k
@@ -200,14 +141,14 @@ class LaserSLAM:
         node_points: list[np.ndarray] = []
         travelled = [0.0]
         false_at = [
-            K * j // (p.false_loops + 1) for j in range(1, p.false_loops + 1)
+            K * j // (p.loop.false_loops + 1) for j in range(1, p.loop.false_loops + 1)
         ]  # scans after which a false loop is due
         false_loops: list[tuple[int, int]] = []
-        icp = PointToLineICPMatcher(p.refine_matcher)
-        recent: list[tuple[int, object]] = []  # the last refine_neighbours scans with their prepared ICP references
+        icp = PointToLineICPMatcher(p.refine.matcher)
+        recent: list[tuple[int, object]] = []  # the last refine.neighbours scans with their prepared ICP references
         pairs: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # pairwise registrations (a, k, z, Σ)
         pair_floor = np.diag(
-            np.square([p.refine_sigma_translation, p.refine_sigma_translation, p.refine_sigma_rotation])
+            np.square([p.refine.sigma_translation, p.refine.sigma_translation, p.refine.sigma_rotation])
         )
         match_cov = np.zeros((K, 3, 3))  # C_k, zero where scan k was not matched
         diag = {
@@ -221,11 +162,7 @@ class LaserSLAM:
         pose = front.start_pose(sequence.start_pose)
         tracking = None
         if p.tracking == "global":
-            tracking = MapPyramid(
-                p.model_dump(include=set(PyramidParams.model_fields)),
-                size=2.0 * min(scans.max_range, p.clear_range, 50.0),
-                centre=tuple(pose[:2]),
-            )
+            tracking = MapPyramid.around(p.pyramid, pose, self._reach(scans))
         for k in range(K):
             tic = time.process_time()
             beams = front.beams(k)
@@ -238,20 +175,20 @@ class LaserSLAM:
                     diag["matched"][k], diag["score"][k] = True, res.score
                     match_cov[k] = _finite(res.cov)
             local[k] = pose
-            if p.refine_neighbours:
+            if p.refine.neighbours:
                 seconds["front_end"] += time.process_time() - tic
                 tic = time.process_time()
-                pts = beams.points[np.hypot(*beams.points.T) < p.refine_max_range]
-                if len(pts) >= p.min_beams:
+                pts = beams.points[np.hypot(*beams.points.T) < p.refine.max_range]
+                if len(pts) >= p.frontend.min_beams:
                     for a, reference in recent:
                         r = icp.match(reference, pts, between(local[a], pose))
-                        if r.score >= p.refine_min_paired and np.all(np.isfinite(r.cov)):
+                        if r.score >= p.refine.min_paired and np.all(np.isfinite(r.cov)):
                             pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + pair_floor))
-                    recent = recent[-(p.refine_neighbours - 1) :] if p.refine_neighbours > 1 else []
+                    recent = recent[-(p.refine.neighbours - 1) :] if p.refine.neighbours > 1 else []
                     recent.append((k, icp.prepare(pts)))
                 seconds["pairwise"] += time.process_time() - tic
                 tic = time.process_time()
-            new_node = len(beams.points) >= p.min_beams and front.due(pose)
+            new_node = len(beams.points) >= p.frontend.min_beams and front.due(pose)
             if new_node:
                 i = len(L)
                 if not active or len(active[-1].nodes) >= p.submap_scans:
@@ -263,7 +200,7 @@ class LaserSLAM:
                     pose,
                     scans.mount,
                     max_range=front.limit,
-                    clear_range=p.clear_range,
+                    clear_range=p.frontend.clear_range,
                     also=rest,
                 )
                 for submap in active:
@@ -291,7 +228,7 @@ class LaserSLAM:
                     backend.add_node(i, G[i], z, cov)
                     travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
                 seconds["optimisation"] += time.process_time() - tic
-                if p.loop_closure and i % p.search_every == 0:
+                if p.loop.enabled and i % p.loop.search_every == 0:
                     tic = time.process_time()
                     found = []
                     Ln = np.asarray(L)
@@ -324,7 +261,7 @@ class LaserSLAM:
         i_k = np.maximum(node_of_scan, 0)
         poses = compose(G[i_k], between(Ln[i_k], local))
         refinement = None
-        if p.refine_neighbours and L:
+        if p.refine.neighbours and L:
             tic = time.process_time()
             nodes = np.asarray(node_scan)
             hanging = [
@@ -378,26 +315,23 @@ class LaserSLAM:
 
     def _false_loop(self, n: int, G: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
         """A deliberately false loop for node n (module docstring): (node c, z, Σ), or None while no finished
-        submap's node lies farther than half ``false_loop_distance``."""
-        p = self.params
+        submap's node lies farther than half ``loop.false_loop_distance``."""
+        p = self.params.loop
         nodes = np.array([c for s in self.submaps if s.finished for c in s.nodes], dtype=np.int64)
         d = np.hypot(*(G[nodes, :2] - G[n, :2]).T) if nodes.size else np.zeros(0)
         if not np.any(d > p.false_loop_distance / 2):
             return None
         c = int(nodes[np.argmin(np.where(d > p.false_loop_distance / 2, np.abs(d - p.false_loop_distance), np.inf))])
         z = np.array([0.0, 0.0, float(wrap_angle(G[n, 2] - G[c, 2]))])
-        return c, z, np.diag(np.square([p.loop_sigma_translation, p.loop_sigma_translation, p.loop_sigma_rotation]))
+        return c, z, np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
 
     def _render(self, G, node_scan, scans, limit) -> OccupancyGrid:
         """The finest grid re-rendered from every node's scan at its optimised pose."""
         p = self.params
         grid = OccupancyGrid(
-            p.model_dump(include=set(PyramidParams.model_fields) - {"levels"}),
-            width=1,
-            height=1,
-            origin=tuple(G[0, :2]),
+            resolution=p.pyramid.resolution, cells=p.pyramid.cells, width=1, height=1, origin=tuple(G[0, :2])
         )
-        front = FrontEnd(p, scans)
+        front = FrontEnd(p.frontend, scans)
         for i, k in enumerate(node_scan):
             beams = front.beams(k)
             grid.integrate(
@@ -406,7 +340,7 @@ class LaserSLAM:
                 G[i],
                 scans.mount,
                 max_range=limit,
-                clear_range=p.clear_range,
+                clear_range=p.frontend.clear_range,
             )
         return grid
 

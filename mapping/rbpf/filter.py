@@ -44,27 +44,44 @@ from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveIn
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
 from slamarena.datasets.sequence import Sequence
-from slamarena.params import Field
+from slamarena.params import Field, Params
 
 from ..beams import classify, scan_counts
-from ..map_pyramid import PyramidParams
+from ..map_pyramid import PyramidParams, initial_side
 from ..occupancy_grid import CellModelParams, OccupancyGrid
 from ..odometry import fresh_readings
 from .proposal import gauss_newton, quadrature, residuals
 from .tiled_grid import TiledPyramid
 
-__all__ = ["RBPF", "RBPFParams", "systematic_resampling"]
+__all__ = ["RBPF", "RBPFParams", "MotionNoiseParams", "systematic_resampling"]
 
 
-class RBPFParams(PyramidParams):
+class MotionNoiseParams(Params):
+    """The odometry motion model's noise: Σ_u = diag(σ_t², σ_t², σ_r²) with
+    ``σ_t = sigma_t_min + sigma_t_per_m·d + sigma_t_per_rad·|Δθ|`` and
+    ``σ_r = sigma_r_min + sigma_r_per_rad·|Δθ| + sigma_r_per_m·d`` for an odometry motion of d metres and
+    Δθ radians (isotropic in translation, hence the same in every frame)."""
+
+    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
+    sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
+    sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
+    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
+    sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
+    sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
+
+    def cov(self, motion: np.ndarray) -> np.ndarray:
+        """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)``."""
+        d, a = float(np.hypot(motion[0], motion[1])), abs(float(wrap_angle(motion[2])))
+        st = self.sigma_t_min + self.sigma_t_per_m * d + self.sigma_t_per_rad * a
+        sr = self.sigma_r_min + self.sigma_r_per_rad * a + self.sigma_r_per_m * d
+        return np.diag([st**2, st**2, sr**2])
+
+
+class RBPFParams(Params):
     """Parameters of :class:`RBPF` (module docstring): particles and resampling, the scan likelihood, the
-    odometry motion model, when filter steps happen, the matcher's iterations, the maps (the pyramid and cell
-    model of :class:`~slamarena.mapping.map_pyramid.PyramidParams`, tile size) and the beams used.
-
-    Motion model: Σ_u = diag(σ_t², σ_t², σ_r²) with ``σ_t = sigma_t_min + sigma_t_per_m·d + sigma_t_per_rad·|Δθ|``
-    and ``σ_r = sigma_r_min + sigma_r_per_rad·|Δθ| + sigma_r_per_m·d`` for an odometry motion of d metres and
-    Δθ radians (isotropic in translation, hence the same in every frame).
-    """
+    odometry motion model (``motion``, :class:`MotionNoiseParams`), when filter steps happen, the matcher's
+    iterations, the maps (``pyramid``: levels and cell model, :class:`~slamarena.mapping.map_pyramid.PyramidParams`;
+    tile size) and the beams used."""
 
     particles: PositiveInt = Field(30, description="number of particles P")
     proposal: Literal["gaussian", "mode"] = Field(
@@ -84,12 +101,7 @@ class RBPFParams(PyramidParams):
         le=1.0,
         description="γ: each filter step multiplies the weights by η^γ (γ < 1: flatter weights, fewer resamplings)",
     )
-    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
-    sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
-    sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
-    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
-    sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
-    sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
+    motion: MotionNoiseParams = Field(MotionNoiseParams(), description="the odometry motion model's noise")
     update_distance: NonNegativeFloat = Field(
         0.5, description="a filter step after the odometry moved this far since the last one [m]"
     )
@@ -114,13 +126,14 @@ class RBPFParams(PyramidParams):
         4,
         description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does (a descent: research/mapping.md §6, rounds 4–6); 0: every step is taken",
     )
+    pyramid: PyramidParams = Field(
+        PyramidParams(cells=CellModelParams(hit_guard=1)),
+        description="every particle's map pyramid and its cell model (hit_guard 1: cells around a hit are not cleared)",
+    )
     tile: PositiveInt = Field(64, description="side of the copy-on-write map tiles [cells]")
     clear_range: PositiveFloat = Field(5.0, description="how far a no-return reading clears space [m]")
     max_usable_range: PositiveFloat | None = Field(
         15.0, description="longer returns are neither matched nor mapped [m]; None: all returns"
-    )
-    hit_guard: NonNegativeInt = Field(
-        1, description="cells (Chebyshev) around a hit that the same scan does not clear [cells]; 0: off"
     )
     min_beams: int = Field(10, ge=3, description="fewest usable beams (and end points on observed cells) for a match")
 
@@ -165,14 +178,6 @@ class RBPF:
             i = hist_parent[k, i]
         return trajectory
 
-    def motion_cov(self, motion: np.ndarray) -> np.ndarray:
-        """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)`` (:class:`RBPFParams`)."""
-        p = self.params
-        d, a = float(np.hypot(motion[0], motion[1])), abs(float(wrap_angle(motion[2])))
-        st = p.sigma_t_min + p.sigma_t_per_m * d + p.sigma_t_per_rad * a
-        sr = p.sigma_r_min + p.sigma_r_per_rad * a + p.sigma_r_per_m * d
-        return np.diag([st**2, st**2, sr**2])
-
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Filter ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
         scans = sequence.scans
@@ -191,13 +196,7 @@ class RBPF:
         limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
         start = odom[0] if fresh[0] else np.asarray(sequence.start_pose, dtype=float)
         self.maps = TiledPyramid(
-            P,
-            p.model_dump(include=set(CellModelParams.model_fields)),
-            p.resolution,
-            p.levels,
-            p.tile,
-            size=2.0 * min(scans.max_range, p.clear_range, 50.0),
-            centre=tuple(start[:2]),
+            P, p.pyramid, p.tile, size=initial_side(min(scans.max_range, p.clear_range)), centre=tuple(start[:2])
         )
         gn = dict(
             sigma=p.sigma_likelihood,
@@ -258,13 +257,13 @@ class RBPF:
                 )
                 if updates > 0 and not step:
                     poses, diag["iterations"][k] = gauss_newton(
-                        self.maps, pts, poses, np.linalg.inv(self.motion_cov(motion)), **gn
+                        self.maps, pts, poses, np.linalg.inv(p.motion.cov(motion)), **gn
                     )
                     diag["matched"][k] = True
                 elif step:
                     if updates > 0:
                         poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(
-                            pts, poses, self.motion_cov(since), rng
+                            pts, poses, p.motion.cov(since), rng
                         )
                         logw += p.weight_tempering * log_eta
                         evidence += log_eta

@@ -40,6 +40,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..map_pyramid import PyramidParams
 from ..occupancy_grid import CellModelParams, OccupancyGrid, logit
 
 __all__ = ["TiledGrid", "TiledPyramid"]
@@ -195,13 +196,13 @@ def _integrate(
 class TiledGrid:
     """One level of the maps of ``particles`` particles in copy-on-write tiles (module docstring).
 
-    ``cell_model``: the :class:`~slamarena.mapping.occupancy_grid.CellModelParams` fields; ``resolution`` [m];
+    ``cell_model``: a :class:`~slamarena.mapping.occupancy_grid.CellModelParams` (or its fields); ``resolution`` [m];
     ``tile`` cells per tile side; the table initially covers ``size`` [m] around ``centre`` with cell centres on
     multiples of the resolution (as :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and grows in whole tiles.
     """
 
     def __init__(
-        self, particles: int, cell_model: dict, resolution: float, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)
+        self, particles: int, cell_model, resolution: float, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)
     ):
         self.model = CellModelParams.of(cell_model)
         m = self.model
@@ -340,7 +341,7 @@ class TiledGrid:
         """Particle ``particle``'s map as an :class:`OccupancyGrid` (a copy; same lattice and cell model)."""
         h, w = self.shape
         grid = OccupancyGrid(
-            self.model.model_dump(),
+            cells=self.model,
             resolution=self.resolution,
             width=w,
             height=h,
@@ -370,20 +371,15 @@ class TiledGrid:
 
 
 class TiledPyramid:
-    """The levels ``k = 0 … levels − 1`` (resolution ``resolution · 2^k``) of every particle's map, each a
-    :class:`TiledGrid` updated from the same scans (as :class:`~slamarena.mapping.map_pyramid.MapPyramid`)."""
+    """The levels ``k = 0 … levels − 1`` (resolution ``resolution · 2^k``, cell model ``cells`` of ``pyramid``, a
+    :class:`~slamarena.mapping.map_pyramid.PyramidParams`) of every particle's map, each a :class:`TiledGrid`
+    updated from the same scans (as :class:`~slamarena.mapping.map_pyramid.MapPyramid`)."""
 
-    def __init__(
-        self,
-        particles: int,
-        cell_model: dict,
-        resolution: float,
-        levels: int,
-        tile: int = 64,
-        size: float = 20.0,
-        centre=(0.0, 0.0),
-    ):
-        self.levels = [TiledGrid(particles, cell_model, resolution * 2**k, tile, size, centre) for k in range(levels)]
+    def __init__(self, particles: int, pyramid: PyramidParams, tile: int = 64, size: float = 20.0, centre=(0.0, 0.0)):
+        self.levels = [
+            TiledGrid(particles, pyramid.cells, pyramid.resolution * 2**k, tile, size, centre)
+            for k in range(pyramid.levels)
+        ]
 
     @property
     def finest(self) -> TiledGrid:

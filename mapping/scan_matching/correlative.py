@@ -68,7 +68,7 @@ def likelihood_grid(grid, sigma: float, p_floor: float, box: tuple[int, int, int
     ix0, iy0, ix1, iy1 = box if box is not None else (0, 0, w, h)
     m = int(np.ceil(4 * sigma / grid.params.resolution))
     x0, y0, x1, y1 = max(ix0 - m, 0), max(iy0 - m, 0), min(ix1 + m, w), min(iy1 + m, h)
-    occupied = _probability(grid.log_odds[y0:y1, x0:x1]) > grid.params.occupied_threshold
+    occupied = _probability(grid.log_odds[y0:y1, x0:x1]) > grid.params.cells.occupied_threshold
     if occupied.any():
         d = distance_transform_edt(~occupied) * grid.params.resolution
         G = np.log(p_floor + (1.0 - p_floor) * np.exp(-0.5 * (d / sigma) ** 2))

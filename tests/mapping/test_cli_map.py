@@ -45,7 +45,10 @@ def test_map_command_writes_trajectory_map_and_summary(carmen_log, tmp_path):
     relations_format.write(tmp_path / "room.relations", rel)
     out = tmp_path / "out"
     assert (
-        map_command(str(path), params={"matcher": "gauss_newton"}, out=out, relations=tmp_path / "room.relations") == 0
+        map_command(
+            str(path), params={"frontend": {"matcher": "gauss_newton"}}, out=out, relations=tmp_path / "room.relations"
+        )
+        == 0
     )
     for name in ("trajectory.tum", "estimate.npz", "map.png", "map.pgm", "map.yaml", "summary.json"):
         assert (out / name).stat().st_size > 0, name
@@ -66,7 +69,11 @@ def test_map_command_rejects_bad_input_before_work(carmen_log, tmp_path):
     bad = tmp_path / "bad.clf"
     bad.write_text("FLASER 3 1.0 1.0\n")
     cases = [
-        (dict(params={"matcher": "ndt"}), "params.matcher"),
+        (dict(params={"frontend": {"matcher": "ndt"}}), "params.frontend.matcher"),
+        (
+            dict(params={"matcher": "ndt"}),
+            "params.matcher: not a parameter of GridSLAMParams; did you mean params.frontend.matcher",
+        ),
         (dict(method="ndt_slam"), "unknown mapping method 'ndt_slam'"),
         (dict(method="laser_slam", params={"submap_scans": 0}), "params.submap_scans"),
         (dict(relations=tmp_path / "missing.relations"), "missing.relations does not exist"),
@@ -86,7 +93,7 @@ def test_map_command_with_laser_slam_writes_the_pose_graph_and_loop_list(carmen_
 
     path, seq, _ = carmen_log
     out = tmp_path / "graph"
-    assert map_command(str(path), method="laser_slam", params={"search_every": 1}, out=out) == 0
+    assert map_command(str(path), method="laser_slam", params={"loop": {"search_every": 1}}, out=out) == 0
     graph = g2o.read(out / "pose_graph.g2o")
     summary = json.loads((out / "summary.json").read_text())
     assert graph.n_nodes == summary["nodes"] and summary["method"] == "laser_slam"
@@ -124,3 +131,17 @@ def test_map_command_on_an_interlaced_robotlaser_log(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scans"] == 60 and summary["beam_layouts"] == 4 and summary["bad_beams"] == 0
     assert summary["relations"]["trans_mean"] < 0.02 and summary["relations"]["rot_mean"] < 0.004
+
+
+def test_param_pairs_nest_by_their_dotted_paths():
+    from slamarena.errors import UserError
+    from slamarena.experiments.cli_map import parse_params
+
+    assert parse_params(["loop.level=2", "loop.voxel=0.2", "pyramid.cells.hit_guard=1", "submap_scans=30"]) == {
+        "loop": {"level": 2, "voxel": 0.2},
+        "pyramid": {"cells": {"hit_guard": 1}},
+        "submap_scans": 30,
+    }
+    for bad in (["loop=1", "loop.level=2"], ["loop.level=2", "loop=1"], ["loop..level=2"], ["level"]):
+        with pytest.raises(UserError, match="--param"):
+            parse_params(bad)

@@ -39,7 +39,7 @@ def aligned_ate(est, seq):
 )
 def test_room_drive_beats_odometry(room_sequence, matcher, params, tol):
     truth = room_sequence.ground_truth.poses
-    est = GridSLAM(matcher=matcher, matcher_params=params).run(room_sequence)
+    est = GridSLAM(frontend={"matcher": matcher, "matcher_params": params}).run(room_sequence)
     odometry = aligned_ate(Estimate("odometry", room_sequence.scans.t, room_sequence.scans.pose), room_sequence)
     assert odometry > 0.05
     assert aligned_ate(est, room_sequence) < tol, matcher
@@ -105,56 +105,73 @@ def test_bad_scans_are_handled_and_counted(room_sequence):
 
 
 def test_estimate_round_trip_and_map_export(room_sequence, tmp_path):
-    slam = GridSLAM(resolution=0.1, levels=2)
+    slam = GridSLAM(pyramid={"resolution": 0.1, "levels": 2})
     est = slam.run(room_sequence)
     est.save(tmp_path / "e.npz")
     back = Estimate.load(tmp_path / "e.npz")
-    assert np.allclose(back.poses, est.poses) and back.meta["params"]["resolution"] == 0.1
+    assert np.allclose(back.poses, est.poses) and back.meta["params"]["pyramid"]["resolution"] == 0.1
     assert slam.map.params.resolution == 0.1 and len(slam.maps.levels) == 2
     pgm, yml = slam.map.save_map_server(tmp_path / "map")
     assert pgm.exists() and yml.exists()
 
 
 def test_configuration_errors_before_work():
-    with pytest.raises(ValidationError, match="matcher"):
-        GridSLAM(matcher="ndt")
-    with pytest.raises(ValidationError, match="resolution"):
-        GridSLAM(resolution=0)
-    with pytest.raises(ValidationError, match="min_beams"):
-        GridSLAM(min_beams=1)
-    with pytest.raises(ValidationError, match=r"matcher_params\.no_such_parameter"):
-        GridSLAM(matcher_params={"no_such_parameter": 1})
+    with pytest.raises(ValidationError, match="frontend.matcher"):
+        GridSLAM(frontend={"matcher": "ndt"})
+    with pytest.raises(ValidationError, match="pyramid.resolution"):
+        GridSLAM(pyramid={"resolution": 0})
+    with pytest.raises(ValidationError, match="frontend.min_beams"):
+        GridSLAM(frontend={"min_beams": 1})
+    with pytest.raises(
+        ValidationError, match=r"matcher_params\.no_such_parameter\s+no_such_parameter: not a parameter"
+    ):
+        GridSLAM(frontend={"matcher_params": {"no_such_parameter": 1}})
     with pytest.raises(ValueError, match="laser scans"):
         GridSLAM().run(Sequence(name="empty"))
 
 
 def test_parameters_bad_values_unknown_keys_and_the_model_form():
-    with pytest.raises(ValidationError, match="update_angle"):
-        GridSLAM(update_angle=-0.1)
-    with pytest.raises(ValidationError, match="max_usable_range"):
-        GridSLAM(max_usable_range=0.0)
-    with pytest.raises(ValidationError, match="no_such_parameter"):
+    with pytest.raises(ValidationError, match="frontend.update_angle"):
+        GridSLAM(frontend={"update_angle": -0.1})
+    with pytest.raises(ValidationError, match="frontend.max_usable_range"):
+        GridSLAM(frontend={"max_usable_range": 0.0})
+    with pytest.raises(ValidationError, match="no_such_parameter: not a parameter of GridSLAMParams"):
         GridSLAM(no_such_parameter=1)
     with pytest.raises(ValidationError, match="p_miss < p_prior < p_hit"):  # the cell model's rule
-        GridSLAM(p_miss=0.6)
+        GridSLAM(pyramid={"cells": {"p_miss": 0.6}})
     with pytest.raises(ValidationError, match=r"clamp \(p_min, p_max\)"):
-        GridSLAM(clamp=(0.55, 0.97))
+        GridSLAM(pyramid={"cells": {"clamp": (0.55, 0.97)}})
     with pytest.raises(ValidationError, match=r"matcher_params\.sigma"):  # validated by the chosen matcher's model
-        GridSLAM(matcher="correlative", matcher_params={"sigma": 0.0})
+        GridSLAM(frontend={"matcher": "correlative", "matcher_params": {"sigma": 0.0}})
     with pytest.raises(
-        ValidationError, match=r"matcher_params\.sigma"
+        ValidationError, match=r"matcher_params\.sigma\s+sigma: not a parameter of GaussNewtonMatcherParams"
     ):  # a correlative parameter is not a Gauss-Newton one
-        GridSLAM(matcher_params={"sigma": 0.1})
+        GridSLAM(frontend={"matcher_params": {"sigma": 0.1}})
     assert (
-        GridSLAM(GridSLAM.Params(update_distance=1.0, matcher="kiss_icp")).params
-        == GridSLAM(update_distance=1.0, matcher="kiss_icp").params
+        GridSLAM(GridSLAM.Params(frontend={"update_distance": 1.0, "matcher": "kiss_icp"})).params
+        == GridSLAM(frontend={"update_distance": 1.0, "matcher": "kiss_icp"}).params
     )
-    slam = GridSLAM(matcher="branch_and_bound", matcher_params={"linear_window": 0.2}, p_hit=0.8)
-    assert slam.params.update_distance == 0.4 and slam.params.p_hit == 0.8
+    slam = GridSLAM(
+        frontend={"matcher": "branch_and_bound", "matcher_params": {"linear_window": 0.2}},
+        pyramid={"cells": {"p_hit": 0.8}},
+    )
+    assert slam.params.frontend.update_distance == 0.4 and slam.params.pyramid.cells.p_hit == 0.8
     assert slam.matcher.params.linear_window == 0.2
     # the canonical form holds every matcher parameter, defaults included (cache keys and Estimate.meta)
-    assert slam.params.canonical()["matcher_params"] == slam.matcher.params.canonical()
-    assert slam.params.canonical()["matcher_params"]["covariance_cells"] == 2
+    assert slam.params.canonical()["frontend"]["matcher_params"] == slam.matcher.params.canonical()
+    assert slam.params.canonical()["frontend"]["matcher_params"]["covariance_cells"] == 2
+
+
+def test_a_flat_name_of_earlier_versions_is_refused_naming_its_new_path():
+    for flat, value, path in (
+        ("p_hit", 0.8, "pyramid.cells.p_hit"),
+        ("matcher", "correlative", "frontend.matcher"),
+        ("levels", 2, "pyramid.levels"),
+    ):
+        with pytest.raises(
+            ValidationError, match=re.escape(f"{flat}: not a parameter of GridSLAMParams; did you mean {path}?")
+        ):
+            GridSLAM(**{flat: value})
 
 
 def test_experiment_config_rejects_a_wrong_matcher_parameter_before_any_cell(tmp_path):
@@ -167,19 +184,27 @@ datasets:
   - name: sim:laser
 estimators:
   - name: grid_slam
-    params: {matcher: correlative, matcher_params: PARAMS}
+    params: {frontend: {matcher: correlative, matcher_params: PARAMS}}
 metrics: [ate]
 """
     path = tmp_path / "exp.yaml"
     path.write_text(config.replace("PARAMS", "{linear_window: 0.2}"))
     (method,) = load_config(path).estimators
     assert (
-        method.resolved_params()["matcher_params"]
-        == GridSLAM(matcher="correlative", matcher_params={"linear_window": 0.2}).params.canonical()["matcher_params"]
+        method.resolved_params()["frontend"]["matcher_params"]
+        == GridSLAM(frontend={"matcher": "correlative", "matcher_params": {"linear_window": 0.2}}).params.canonical()[
+            "frontend"
+        ]["matcher_params"]
     )
     for bad, message in (
-        ("{linear_window: -1}", "params.matcher_params.linear_window: Input should be greater than or equal to 0"),
-        ("{iterations: 3}", "params.matcher_params.iterations: Extra inputs are not permitted"),
+        (
+            "{linear_window: -1}",
+            "params.frontend.matcher_params.linear_window: Input should be greater than or equal to 0",
+        ),
+        (
+            "{iterations: 3}",
+            "params.frontend.matcher_params.iterations: not a parameter of CorrelativeMatcherParams",
+        ),
     ):
         path.write_text(config.replace("PARAMS", bad))
         with pytest.raises(ConfigError, match=re.escape(message)):
@@ -206,7 +231,7 @@ def test_without_odometry_and_with_a_mounted_sensor():
     )
     mounted = dataclasses.replace(seq, scans=scans)
     assert aligned_ate(GridSLAM().run(mounted), seq) < 0.03
-    assert aligned_ate(GridSLAM(use_odometry=False).run(seq), seq) < 0.03
+    assert aligned_ate(GridSLAM(frontend={"use_odometry": False}).run(seq), seq) < 0.03
     ignoring_mount = Scans(t=scans.t, ranges=ranges, angles=scans.angles, max_range=scans.max_range, pose=scans.pose)
     assert aligned_ate(GridSLAM().run(dataclasses.replace(seq, scans=ignoring_mount)), seq) > 0.05
 

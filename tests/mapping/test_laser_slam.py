@@ -25,7 +25,7 @@ from slamarena.robust import RobustKernelParams
 #: loop closure, 0.04 m with)
 HARD = dict(laps=2, k_r=0.1, k_rt=0.03, n_beams=181, seed=3)
 FRONT = dict(
-    max_usable_range=6.0, search_every=2, tracking="submap"
+    frontend={"max_usable_range": 6.0}, loop={"search_every": 2}, tracking="submap"
 )  # the front end drifts; the graph must close the loop
 
 
@@ -33,7 +33,7 @@ FRONT = dict(
 def hard_loop():
     seq = simulate(**HARD)
     closed = LaserSLAM(**FRONT).run(seq)
-    open_ = LaserSLAM(**FRONT, loop_closure=False, refine_neighbours=0).run(seq)
+    open_ = LaserSLAM(**{**FRONT, "loop": {**FRONT["loop"], "enabled": False}, "refine": {"neighbours": 0}}).run(seq)
     return seq, closed, open_
 
 
@@ -66,7 +66,7 @@ def test_pairwise_refinement_cuts_the_short_range_error(hard_loop):
     0.0073 m and 0.0180 → 0.0111 m), the loops are the same, and the ATE does not grow (0.0362 → 0.0343 m: the nodes
     are held)."""
     seq, closed, _ = hard_loop
-    plain = LaserSLAM(**FRONT, refine_neighbours=0).run(seq)
+    plain = LaserSLAM(**FRONT, refine={"neighbours": 0}).run(seq)
     gt = seq.ground_truth
     truth = gt.poses[np.searchsorted(gt.t, seq.scans.t)]
 
@@ -153,7 +153,7 @@ def test_injected_false_loops_do_not_bend_the_map(hard_loop):
     """Two false loops (each claims a node sits 5 m from where it is, as tight as the tightest real loop) on the
     simulated loop: the Cauchy kernel leaves the ATE where it was and the final poses ignore the false claims."""
     seq, closed, _ = hard_loop
-    est = LaserSLAM(**FRONT, false_loops=2).run(seq)
+    est = LaserSLAM(**{**FRONT, "loop": {**FRONT["loop"], "false_loops": 2}}).run(seq)
     ref = reference_of(seq)
     e_closed = ate(closed, ref, ATEParams(align="se2"))[0]["rmse"]
     e_false = ate(est, ref, ATEParams(align="se2"))[0]["rmse"]
@@ -191,9 +191,26 @@ def test_parameters_are_typed():
         LaserSLAM(submap_scans=0)
     with pytest.raises(ValidationError, match="robust_kernel.robust"):
         LaserSLAM(robust_kernel={"robust": "tukey"})
-    with pytest.raises(ValidationError, match="loop_sigma"):
+    with pytest.raises(ValidationError, match="loop_sigma: not a parameter of LaserSLAMParams; did you mean"):
         LaserSLAM(loop_sigma=0.1)
+    with pytest.raises(
+        ValidationError, match=r"loop_level: not a parameter of LaserSLAMParams; did you mean loop\.level\?"
+    ):
+        LaserSLAM(loop_level=2)
+    with pytest.raises(ValidationError, match=r"refine_neighbours: .*; did you mean refine\.neighbours\?"):
+        LaserSLAM(refine_neighbours=0)
+    with pytest.raises(
+        ValidationError, match=r"loop\.levl\s+levl: not a parameter of LoopClosureParams; did you mean level\?"
+    ):
+        LaserSLAM(loop={"levl": 2})
     assert LaserSLAM(LaserSLAM.Params(submap_scans=20)).params == LaserSLAM(submap_scans=20).params
+    # a section laid over the method's defaults: the kernel keeps laser SLAM's width 1 when only its type is given
+    assert LaserSLAM(robust_kernel={"robust": "huber"}).params.robust_kernel.robust_k == 1.0
+    base = LaserSLAM.Params(loop={"level": 2})
+    assert LaserSLAM(base, loop={"voxel": 0.2}).params.loop.model_dump(include={"level", "voxel"}) == {
+        "level": 2,
+        "voxel": 0.2,
+    }
 
 
 @pytest.mark.realdata

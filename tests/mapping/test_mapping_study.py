@@ -59,7 +59,7 @@ def test_sim_laser_study():
         rows = []
         for seed in range(5):
             seq = simulate(seed=seed)
-            slam = GridSLAM(**kw)
+            slam = GridSLAM(frontend=kw)
             est = slam.run(seq)
             stats, truth_in_map = _aligned(est, seq)
             agreement = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))

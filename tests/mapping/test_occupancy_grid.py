@@ -9,15 +9,15 @@ import pytest
 from pydantic import ValidationError
 
 from slamarena.mapping.map_pyramid import MapPyramid
-from slamarena.mapping.occupancy_grid import OccupancyGrid, load_map_server, logit, probability
+from slamarena.mapping.occupancy_grid import CellModelParams, OccupancyGrid, load_map_server, logit, probability
 
 RES = 0.1
 
 
-def grid(**kw):
-    kw.setdefault("clamp", None)
+def grid(grow=True, **cells):
+    cells.setdefault("clamp", None)
     return OccupancyGrid(
-        resolution=RES, width=41, height=41, origin=(-2.05, -2.05), **kw
+        resolution=RES, width=41, height=41, origin=(-2.05, -2.05), grow=grow, cells=cells
     )  # cell centres on multiples of 0.1 m
 
 
@@ -122,7 +122,7 @@ def test_world_to_grid_rounds_with_the_half_cell_shift():
 
 
 def test_growing_keeps_cells_at_their_world_position():
-    g = OccupancyGrid(resolution=RES, width=10, height=10, origin=(-0.05, -0.05), clamp=None)
+    g = OccupancyGrid(resolution=RES, width=10, height=10, origin=(-0.05, -0.05), cells={"clamp": None})
     g.integrate([0.3], [0.0], [0.5, 0.5, 0.0], max_range=10.0)
     before = g.world_to_grid([0.8, 0.5])
     assert g.probability()[before[1], before[0]] == pytest.approx(0.7)
@@ -157,29 +157,33 @@ def test_map_server_round_trip(tmp_path):
 
 def test_bad_parameters_rejected():
     with pytest.raises(ValueError):
-        OccupancyGrid(p_hit=0.4, p_miss=0.7)
+        OccupancyGrid(cells={"p_hit": 0.4, "p_miss": 0.7})
     with pytest.raises(ValueError):
-        OccupancyGrid(free_threshold=0.7, occupied_threshold=0.6)
+        OccupancyGrid(cells={"free_threshold": 0.7, "occupied_threshold": 0.6})
     with pytest.raises(ValueError):
         OccupancyGrid(resolution=0)
 
 
 def test_parameters_bad_values_unknown_keys_and_the_model_form():
     for bad, message in (
-        ({"p_hit": 1.0}, "p_hit"),
-        ({"p_miss": 0.5}, "p_miss < p_prior < p_hit"),
-        ({"clamp": (0.6, 0.97)}, "clamp"),
-        ({"clamp": (0.0, 0.97)}, "clamp.0"),
-        ({"hit_guard": -1}, "hit_guard"),
+        ({"cells": {"p_hit": 1.0}}, "cells.p_hit"),
+        ({"cells": {"p_miss": 0.5}}, "p_miss < p_prior < p_hit"),
+        ({"cells": {"clamp": (0.6, 0.97)}}, "clamp"),
+        ({"cells": {"clamp": (0.0, 0.97)}}, "cells.clamp.0"),
+        ({"cells": {"hit_guard": -1}}, "cells.hit_guard"),
         ({"width": 0}, "width"),
         ({"dtype": "int8"}, "dtype"),
-        ({"free_threshold": 0.7}, "free_threshold < occupied_threshold"),
+        ({"cells": {"free_threshold": 0.7}}, "free_threshold < occupied_threshold"),
         ({"no_such_parameter": 1}, "no_such_parameter"),
+        ({"p_hit": 0.8}, "p_hit: not a parameter of OccupancyGridParams; did you mean cells.p_hit?"),
     ):
         with pytest.raises(ValidationError, match=re.escape(message)):
             OccupancyGrid(**bad)
-    assert OccupancyGrid(OccupancyGrid.Params(p_hit=0.8, width=10)).params == OccupancyGrid(p_hit=0.8, width=10).params
-    g = OccupancyGrid(p_hit=0.8, p_prior=0.45, width=10, height=4, resolution=0.2, dtype="float64")
+    assert (
+        OccupancyGrid(OccupancyGrid.Params(cells={"p_hit": 0.8}, width=10)).params
+        == OccupancyGrid(cells={"p_hit": 0.8}, width=10).params
+    )
+    g = OccupancyGrid(cells={"p_hit": 0.8, "p_prior": 0.45}, width=10, height=4, resolution=0.2, dtype="float64")
     assert (
         g.l_hit == pytest.approx(logit(0.8)) and g.l0 == pytest.approx(logit(0.45)) and g.log_odds.dtype == np.float64
     )
@@ -192,11 +196,12 @@ def test_map_pyramid_parameters_reach_every_level():
     with pytest.raises(ValidationError, match="no_such_parameter"):
         MapPyramid(no_such_parameter=1)
     with pytest.raises(ValidationError, match="p_miss < p_prior < p_hit"):
-        MapPyramid(p_hit=0.45)
+        MapPyramid(cells={"p_hit": 0.45})
     assert MapPyramid(MapPyramid.Params(levels=2, size=4.0)).params == MapPyramid(levels=2, size=4.0).params
-    maps = MapPyramid(resolution=0.1, levels=3, size=4.0, centre=(0.8, -1.6), p_hit=0.8, clamp=None, hit_guard=1)
+    cells = {"p_hit": 0.8, "clamp": None, "hit_guard": 1}
+    maps = MapPyramid(resolution=0.1, levels=3, size=4.0, centre=(0.8, -1.6), cells=cells)
     assert [g.params.resolution for g in maps.levels] == pytest.approx([0.1, 0.2, 0.4])
-    assert all(g.params.p_hit == 0.8 and g.params.clamp is None and g.params.hit_guard == 1 for g in maps.levels)
+    assert all(g.params.cells == maps.params.cells == CellModelParams(**cells) for g in maps.levels)
     assert all(
         np.allclose(g.grid_to_world(np.array(g.shape)[::-1] // 2), [0.8, -1.6]) for g in maps.levels
     )  # the middle cell on the centre
@@ -240,7 +245,7 @@ def test_a_scan_traced_once_updates_pyramids_on_one_lattice_as_integrating_into_
     growth) give every level exactly the grid that integrating into each separately gives."""
     rng = np.random.default_rng(11)
     angles = np.linspace(-2.0, 2.0, 120)
-    kw = dict(resolution=0.1, levels=3, clamp=(0.12, 0.97), hit_guard=1)
+    kw = dict(resolution=0.1, levels=3, cells={"clamp": (0.12, 0.97), "hit_guard": 1})
     shared = [
         MapPyramid(**kw, size=4.0, centre=(0.3, -0.7)),
         MapPyramid(**kw, size=2.0, centre=(-1.9, 2.4)),
@@ -288,3 +293,15 @@ def test_bad_scans_raise_a_clear_error_and_leave_the_grid_unchanged(ranges, angl
     np.testing.assert_array_equal(g.log_odds, before[0])
     np.testing.assert_array_equal(g.origin, before[1])
     assert (g.version, g.cell_updates) == before[2:]
+
+
+def test_the_mapping_methods_maps_start_on_a_square_twice_the_scans_reach_at_most_100_m():
+    from slamarena.mapping.map_pyramid import PyramidParams
+
+    pyramid = PyramidParams(resolution=0.1, levels=2, cells={"hit_guard": 1})
+    for reach, side in ((4.0, 8.0), (80.0, 100.0)):
+        maps = MapPyramid.around(pyramid, np.array([1.23, -4.5, 0.7]), reach)
+        assert maps.params == MapPyramid.Params(
+            resolution=0.1, levels=2, cells={"hit_guard": 1}, size=side, centre=(1.23, -4.5)
+        )
+        assert [g.params.cells for g in maps.levels] == [pyramid.cells] * 2

@@ -10,7 +10,7 @@ import pytest
 from conftest import make_sequence
 from pydantic import ValidationError
 
-from slamarena.mapping.occupancy_grid import OccupancyGrid
+from slamarena.mapping.occupancy_grid import CellModelParams, OccupancyGrid
 from slamarena.mapping.odometry import fresh_readings
 from slamarena.mapping.rbpf import RBPF
 from slamarena.mapping.rbpf.filter import systematic_resampling
@@ -44,7 +44,7 @@ def test_every_particle_map_equals_its_own_occupancy_grid_through_writes_and_res
     rng = np.random.default_rng(1)
     grid = TiledGrid(P, {"hit_guard": hit_guard}, 0.05, tile=16, size=2.0)
     refs = [
-        OccupancyGrid(hit_guard=hit_guard, resolution=0.05, width=40, height=40, origin=tuple(grid.origin))
+        OccupancyGrid(cells={"hit_guard": hit_guard}, resolution=0.05, width=40, height=40, origin=tuple(grid.origin))
         for _ in range(P)
     ]
     for k in range(0, 80, 3):
@@ -139,7 +139,8 @@ def _target_state(k=150, particles=1):
     )
     scans, p = seq.scans, RBPF.Params()
     truth = seq.ground_truth.poses[np.searchsorted(seq.ground_truth.t, scans.t)]
-    maps = TiledPyramid(particles, {}, p.resolution, p.levels, p.tile, size=8.0, centre=tuple(truth[0, :2]))
+    pyramid = p.pyramid.model_copy(update={"cells": CellModelParams()})  # the plain cell model: no hit guard
+    maps = TiledPyramid(particles, pyramid, p.tile, size=8.0, centre=tuple(truth[0, :2]))
     for i in range(0, k, 3):
         r, a = scans.beams(i)
         hit = r < scans.max_range
@@ -400,9 +401,22 @@ def test_parameters_bad_values_unknown_keys_and_the_model_form():
     for bad in ({"particles": 0}, {"resample_threshold": 1.5}, {"weight_tempering": 0.0}, {"sigma_likelihood": -1.0}):
         with pytest.raises(ValidationError, match=next(iter(bad))):
             RBPF(**bad)
-    with pytest.raises(ValidationError, match="particels"):
+    with pytest.raises(ValidationError, match="particels: not a parameter of RBPFParams; did you mean particles?"):
         RBPF(particels=30)
+    with pytest.raises(
+        ValidationError, match="sigma_t_min: not a parameter of RBPFParams; did you mean motion.sigma_t_min?"
+    ):
+        RBPF(sigma_t_min=0.2)
     assert RBPF(RBPF.Params(particles=7)).params == RBPF(particles=7).params
+
+
+def test_a_partial_section_keeps_the_methods_other_defaults_in_it():
+    """``pyramid: {resolution: 0.1}`` changes the resolution and keeps the RBPF's own cell model (hit guard 1, where
+    the cell model's default is 0); ``motion`` likewise keeps the other five noise terms."""
+    p = RBPF(pyramid={"resolution": 0.1}, motion={"sigma_r_min": 0.2}).params
+    assert p.pyramid.resolution == 0.1 and p.pyramid.cells.hit_guard == 1 and CellModelParams().hit_guard == 0
+    assert p.motion == RBPF.Params().motion.model_copy(update={"sigma_r_min": 0.2})
+    assert RBPF(pyramid={"cells": {"p_hit": 0.8}}).params.pyramid.cells.hit_guard == 1
 
 
 def test_rbpf_is_a_registered_method_taking_particles_and_seed():
