@@ -38,7 +38,7 @@ def test_map_on_a_bag_writes_an_mcap_with_every_pose_and_the_grid(tmp_path):
     written = robot_bag(tmp_path / "run.bag")
     out = tmp_path / "out"
     # a .bag path is short for bag:<path>; the 8-beam scans have 6 usable beams
-    assert map_command(str(tmp_path / "run.bag"), params={"min_beams": 3}, out=out, mcap=True) == 0
+    assert map_command(str(tmp_path / "run.bag"), params={"frontend": {"min_beams": 3}}, out=out, mcap=True) == 0
     traj = tum.read_trajectory(out / "trajectory.tum")
     np.testing.assert_allclose(traj.t, written["t_scan"])
     topics = _topics(out / "result.mcap")
