@@ -20,7 +20,8 @@ Each table is introduced by the command that regenerates it and by its run's man
 machine, duration, cells and failures. A run whose configuration differs from the shipped one of its name (e.g. run
 with ``--seeds 3`` for a quick look) is not quoted: it counts as missing, unless ``--reduced`` is given, and then its
 tables say so in that line (marked †, with what differs) and its values carry a †. A source that is missing leaves
-the page's current text in place and is reported; ``--strict`` makes that an error.
+the page's current text in place and is reported; ``--strict`` makes that an error. A marker written as inline code
+(after a backtick, as a page documenting the syntax writes it) is text, not a marker.
 
 Without a page, every page a reader opens is done: the README and each ``research/**/*.md`` holding a marker
 (:func:`reader_pages`). ``--check`` changes nothing and compares marker by marker (:func:`changes`): a table whose only
@@ -53,8 +54,8 @@ __all__ = [
 
 KEY_COLUMNS = ("dataset", "estimator", "statistic")
 REDUCED = "†"  # marks what comes from a run that is not the shipped config's (quoted only with reduced=True)
-_TABLE = re.compile(r"(<!-- table: (?P<spec>[^>]*?) -->\n)(?P<body>(?:(?!<!--).)*?)(<!-- /table -->)", re.S)
-_VALUE = re.compile(r"(<!-- value: (?P<spec>[^>]*?) -->)(?P<body>(?:(?!<!--).)*?)(<!-- /value -->)", re.S)
+_TABLE = re.compile(r"(?<!`)(<!-- table: (?P<spec>[^>]*?) -->\n)(?P<body>(?:(?!<!--).)*?)(<!-- /table -->)", re.S)
+_VALUE = re.compile(r"(?<!`)(<!-- value: (?P<spec>[^>]*?) -->)(?P<body>(?:(?!<!--).)*?)(<!-- /value -->)", re.S)
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$", re.I)
 
 

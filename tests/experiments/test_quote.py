@@ -113,6 +113,10 @@ def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
     assert new == page and len(missing) == 1 and "slamarena run absent" in missing[0]
     with pytest.raises(MissingSource):
         update_page(page, tmp_path, strict=True)
+    documented = (
+        "Write `<!-- value: EXPERIMENT/TABLE ROW COLUMN -->…<!-- /value -->` or `<!-- table: X/Y -->\n<!-- /table -->`."
+    )
+    assert markers(documented) == [] and update_page(documented, tmp_path, strict=True) == (documented, [])
 
 
 def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked_and_flagged(tmp_path):
