@@ -293,7 +293,8 @@ def _value(root: Path, spec: str, reduced: bool) -> str:
         return lo if lo == hi else f"{lo}–{hi}"
     if len(rows) != 1:
         raise QuoteError(
-            f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); use 'range' or a narrower pattern"
+            f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); "
+            "use 'range' or a narrower pattern"
         )
     return _plain(rows[0][k]).split(" ± ")[0] if mode == "mean" else _plain(rows[0][k])
 

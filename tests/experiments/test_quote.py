@@ -66,16 +66,20 @@ def _run(root: Path, name: str = "plaza", config: dict | None = None, failed: bo
 
 def test_a_table_marker_is_replaced_by_the_runs_table_with_its_command_provenance_and_legend(tmp_path):
     _run(tmp_path, failed=True)
-    page = "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
+    page = (
+        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n"
+        "<!-- /table -->\n\nMore prose.\n"
+    )
     new, missing = update_page(page, tmp_path)
     assert not missing
     assert new.startswith(
-        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)"
+        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n"
+        "`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)"
     )
     assert "old text" not in new and new.endswith("<!-- /table -->\n\nMore prose.\n")
     assert (
-        "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |"
-        in new
+        "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n"
+        "| world | ekf_slam | 3 | **0.054 ± 0.013** |" in new
     )  # the best mark kept
     assert (
         "| other |" not in new and "map.rmse" not in new
@@ -122,7 +126,10 @@ def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
 def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked_and_flagged(tmp_path):
     shipped = load_config("plaza").model_dump(mode="json")
     _run(tmp_path, "plaza", config={**shipped, "seeds": 3})
-    page = "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\nATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    page = (
+        "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\n"
+        "ATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    )
     new, missing = update_page(page, tmp_path)
     assert new == page and "not a run of the shipped config (seeds: 3 (shipped: 1))" in missing[0]
     new, missing = update_page(page, tmp_path, reduced=True)
