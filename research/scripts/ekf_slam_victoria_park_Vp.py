@@ -1,6 +1,6 @@
 """notebook/2026-11-23-ekf-slam-victoria-park.md, script V (V′ (and `- jcbb`))
 
-Run from the repository root: ``python research/scripts/ekf_slam_victoria_park_V_2.py nn``.
+Run from the repository root: ``python research/scripts/ekf_slam_victoria_park_Vp.py nn``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
 (imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
 """
