@@ -39,3 +39,29 @@ def test_every_script_a_page_names_exists():
         - {(p.relative_to(ROOT).as_posix(), s.name) for p in PAGES for s in SCRIPTS}
     )
     assert not missing, missing
+
+
+QUICK = [s for s in SCRIPTS if "\nQUICK = " in s.read_text()]
+
+
+def test_the_scripts_that_take_their_sizes_as_arguments_have_a_quick_run():
+    assert {s.stem for s in QUICK} >= {
+        "ekf_slam_cost_benchmark_K",
+        "ekf_slam_cost_benchmark_KR",
+        "fastslam_consistency_1",
+    }
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", QUICK, ids=lambda p: p.stem)
+def test_a_quick_run_finishes(script):
+    """``python SCRIPT --quick`` runs the script through at its smallest size (slow: a simulation each, minutes on a
+    loaded machine); it catches what an import cannot, a private attribute or a changed signature the body uses."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, str(script), "--quick"], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip(), "printed nothing"

@@ -1,8 +1,9 @@
 """notebook/2026-11-23-ekf-slam-cost-benchmark.md, script K
 
-Run from the repository root: ``for n in 25 800; do OPENBLAS_NUM_THREADS=1 python research/scripts/ekf_slam_cost_benchmark_K.py $n``.
+Run from the repository root: ``for n in 25 800; do OPENBLAS_NUM_THREADS=1 python research/scripts/ekf_slam_cost_benchmark_K.py $n; done``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 
 import sys
@@ -59,5 +60,10 @@ def main() -> None:
     )
 
 
+#: ``--quick``: the smallest run through every line, n = 25 landmarks (the page runs 25 and 800).
+QUICK = ["25"]
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--quick"]:
+        sys.argv[1:] = QUICK
     main()

@@ -2,7 +2,8 @@
 
 Run from the repository root: ``OPENBLAS_NUM_THREADS=1 python research/scripts/ekf_slam_cost_benchmark_KR.py 800``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 
 import sys
@@ -69,5 +70,10 @@ def main() -> None:
         print(name, f"{1e6 * np.min(ts):.0f} us (median {1e6 * np.median(ts):.0f})", out[0], s._x[:3])
 
 
+#: ``--quick``: the smallest run through every line, n = 25 landmarks (the page runs 800).
+QUICK = ["25"]
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--quick"]:
+        sys.argv[1:] = QUICK
     main()

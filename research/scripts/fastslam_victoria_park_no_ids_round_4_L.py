@@ -2,7 +2,8 @@
 
 Run from the repository root: ``python research/scripts/fastslam_victoria_park_no_ids_round_4_L.py '{"laps": 2}' 50 0 1 2 3 4``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 
 import sys
@@ -36,5 +37,10 @@ def main() -> None:
         )
 
 
+#: ``--quick``: the smallest run through every line, one lap, 5 particles, seed 0 (the page runs two laps, 50 particles, five seeds).
+QUICK = ['{"laps": 1}', "5", "0"]
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--quick"]:
+        sys.argv[1:] = QUICK
     main()
