@@ -65,3 +65,16 @@ def test_a_quick_run_finishes(script):
     done = subprocess.run([sys.executable, str(script), "--quick"], cwd=ROOT, env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip(), "printed nothing"
+
+
+def test_every_relative_link_of_a_research_page_and_the_readme_resolves():
+    """After the restructure of research/ (issue 34) every ``[text](path)`` of the README and of a research page names
+    a file that exists (anchors are not checked)."""
+    pages = {**PAGES, ROOT / "README.md": (ROOT / "README.md").read_text()}
+    broken = [
+        (p.relative_to(ROOT).as_posix(), target)
+        for p, text in pages.items()
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text)
+        if "://" not in target and not (p.parent / target).exists()
+    ]
+    assert not broken, broken
