@@ -2,7 +2,7 @@
 
 Run from the repository root: ``for n in 25 800; do OPENBLAS_NUM_THREADS=1 python research/scripts/ekf_slam_cost_benchmark_K.py $n; done``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py);
 ``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 

@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python research/scripts/ekf_slam_victoria_park_T.py ekf_slam_nn ekf_slam_jcbb ekf_slam_nn_managed ekf_slam_jcbb_managed``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py).
 """
 
 import sys

@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python research/scripts/fastslam_victoria_park_no_ids_1.py``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py).
 """
 
 import numpy as np

@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python research/scripts/fastslam_victoria_park_no_ids_round_4_L.py '{"laps": 2}' 50 0 1 2 3 4``.
 Moved from a heredoc of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py).
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py).
 It runs at commit b70c26a only (``git checkout b70c26a``, as the page says): the ``loop_gate`` option it compares was
 measured, not shipped, and removed from the code after it.
 """

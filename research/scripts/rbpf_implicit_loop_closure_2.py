@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python research/scripts/rbpf_implicit_loop_closure_2.py default,g1/2,g1/3,thr0.25,g1/90,calib,calib-g1/90,sz0.5,sz2,sz0.5-g1/4,sz0.5-g1/12 0 1 2 3 4 5 6 7 8 9``.
 Moved from a one-line ``python -c`` of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py);
 ``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 

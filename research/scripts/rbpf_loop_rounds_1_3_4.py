@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python research/scripts/rbpf_loop_rounds_1_3_4.py 100 0 1 2 3 4 5 6 7 8 9``.
 Moved from a one-line ``python -c`` of the research page, unchanged but for the wrapping
-(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research_scripts.py);
+(imports at the top, the rest in ``main``) so that the test suite can import it (tests/test_research.py);
 ``--quick`` runs it at the smallest size (``QUICK``), which the slow tests do.
 """
 

@@ -1,6 +1,6 @@
-"""The notebook's scripts (research/scripts/): each imports (its imports resolve against today's code, so a renamed
-function or module fails here), has a ``main``, and is named by the research page whose numbers it made; every script a
-page names exists."""
+"""The research pages and the notebook's scripts: the method pages stay short; every relative link resolves; each
+script of research/scripts/ imports (its imports resolve against today's code, so a renamed function or module fails
+here), has a ``main`` and is named by the research page whose numbers it made; every script a page names exists."""
 
 from __future__ import annotations
 
@@ -78,3 +78,12 @@ def test_every_relative_link_of_a_research_page_and_the_readme_resolves():
         if "://" not in target and not (p.parent / target).exists()
     ]
     assert not broken, broken
+
+
+def test_a_method_page_stays_short():
+    """research/method/<topic>.md holds a method's model, equations and parameters in at most ~200 lines; what was
+    measured goes to a dated notebook page (research/README.md)."""
+    long = {
+        p.name: n for p in (ROOT / "research" / "method").glob("*.md") if (n := len(p.read_text().splitlines())) > 220
+    }
+    assert not long, long
