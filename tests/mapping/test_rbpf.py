@@ -464,7 +464,8 @@ def _closure(seed: int) -> tuple[tuple[float, float], tuple[float, float]]:
 def test_sim_loop_closed_implicitly_by_the_best_particle():
     """The issue's test, on a loop with metres to close: two laps of ``long_loop`` (a 165 m corridor loop, 4 m laser,
     odometry erring by 6 cm along the track per 0.5 m filter step; chosen by a rule on GridSLAM alone,
-    research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). GridSLAM, which closes no loop, ends the first lap off
+    research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). GridSLAM, which closes no
+    loop, ends the first lap off
     and maps the second lap beside it; the best of 30 particles selects a lineage that meets its own first lap:
     its loop-relation error is a fraction of GridSLAM's, and its ATE is below GridSLAM's (world seed 0: 1.12
     against 1.27 m)."""
@@ -474,7 +475,8 @@ def test_sim_loop_closed_implicitly_by_the_best_particle():
 
 @pytest.mark.slow
 def test_sim_loop_closed_implicitly_over_five_seeds():
-    """The pre-registered rule (research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, round 6: met on fresh world seeds 40–59, 18 of 20) on world
+    """The pre-registered rule (research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, round 6: met on fresh world seeds
+    40–59, 18 of 20) on world
     seeds 0–4: the best of 30 particles' loop-relation error below GridSLAM's on at least 4 of the 5 drives, and its
     median below GridSLAM's median."""
     runs = [_closure(seed) for seed in range(5)]
