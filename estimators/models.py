@@ -9,7 +9,7 @@ Euler model (the EKF-SLAM matrix-dimensions reference, the technical notes, the 
     θ' = θ + ω dt                         [0, 0,  1        ]]                   [0,      dt]]
 
 Exact arc model (the lecture notes' "with rotation", sign of the y row corrected — see
-``research/ekf_slam.md``). With φ = ω dt, a = φ/2 and s(a) = sin(a)/a (s(0) = 1)::
+``research/method/ekf_slam.md``). With φ = ω dt, a = φ/2 and s(a) = sin(a)/a (s(0) = 1)::
 
     x' = x + v dt s(a) cos(θ + a)       ( = x − (v/ω) sinθ + (v/ω) sin(θ + φ) for ω ≠ 0 )
     y' = y + v dt s(a) sin(θ + a)       ( = y + (v/ω) cosθ − (v/ω) cos(θ + φ) for ω ≠ 0 )

@@ -6,7 +6,7 @@ Commands delegate to the modules that own the work, imported inside each command
     slamarena run [CONFIG]            slamarena.experiments.runner
     slamarena figures RESULTS_DIR     slamarena.paper_figures.make
     slamarena report RESULTS_DIR [B]  slamarena.experiments.report
-    slamarena results [PAGE]          slamarena.experiments.quote (research/results.md's tables from the runs)
+    slamarena results [PAGE…]         slamarena.experiments.quote (the quoted tables and numbers of README and research/)
     slamarena data list|info|fetch    slamarena.experiments.cli_data
     slamarena bench NAME              slamarena.experiments.benchmarks (the BENCHMARKS table)
     slamarena map LOG                 slamarena.experiments.cli_map
@@ -170,14 +170,20 @@ def report(
 
 @app.command()
 def results(
-    page: Path = typer.Argument(
-        Path("research/results.md"), help="The page whose quoted tables and values to regenerate."
+    pages: list[Path] | None = typer.Argument(
+        None,
+        help="The pages whose quoted tables and values to regenerate (default: README.md and every research page with a marker).",
     ),
     root: Path = typer.Option(Path("results"), "--results", help="Where the runs are: ROOT/<experiment>/tables/."),
     strict: bool = typer.Option(
         False, "--strict", help="A quoted run that is missing is an error (default: its text is kept, and listed)."
     ),
-    check: bool = typer.Option(False, "--check", help="Change nothing; exit 1 if the page is not what the runs say."),
+    check: bool = typer.Option(
+        False,
+        "--check",
+        help="Change nothing; list the tables with only a new provenance line (same numbers) and the changed numbers; "
+        "exit 1 if a number changed.",
+    ),
     reduced: bool = typer.Option(
         False,
         "--reduced",
@@ -187,7 +193,7 @@ def results(
     """Regenerate the tables and numbers a page quotes (between its <!-- table: … --> / <!-- value: … --> markers) from the runs."""
     from .quote import quote_main
 
-    raise typer.Exit(quote_main(page, root, strict=strict, check=check, reduced=reduced))
+    raise typer.Exit(quote_main(pages or None, root, strict=strict, check=check, reduced=reduced))
 
 
 @app.command()

@@ -20,7 +20,13 @@ Each table is introduced by the command that regenerates it and by its run's man
 machine, duration, cells and failures. A run whose configuration differs from the shipped one of its name (e.g. run
 with ``--seeds 3`` for a quick look) is not quoted: it counts as missing, unless ``--reduced`` is given, and then its
 tables say so in that line (marked †, with what differs) and its values carry a †. A source that is missing leaves
-the page's current text in place and is reported; ``--strict`` makes that an error.
+the page's current text in place and is reported; ``--strict`` makes that an error. A marker written as inline code
+(after a backtick, as a page documenting the syntax writes it) is text, not a marker.
+
+Without a page, every page a reader opens is done: the README and each ``research/**/*.md`` holding a marker
+(:func:`reader_pages`). ``--check`` changes nothing and compares marker by marker (:func:`changes`): a table whose only
+difference is its provenance line is the same numbers from another run (reported, exit 0); a changed cell or value is
+a changed number (each listed with its old and new text, exit 1).
 """
 
 from __future__ import annotations
@@ -34,12 +40,22 @@ from slamarena.errors import UserError
 
 from .results import MANIFEST, SUMMARY, atomic_write_text, read_json
 
-__all__ = ["QuoteError", "Table", "read_table", "markers", "update_page", "quote_main"]
+__all__ = [
+    "QuoteError",
+    "Table",
+    "Change",
+    "read_table",
+    "markers",
+    "update_page",
+    "changes",
+    "reader_pages",
+    "quote_main",
+]
 
 KEY_COLUMNS = ("dataset", "estimator", "statistic")
 REDUCED = "†"  # marks what comes from a run that is not the shipped config's (quoted only with reduced=True)
-_TABLE = re.compile(r"(<!-- table: (?P<spec>[^>]*?) -->\n)(?P<body>(?:(?!<!--).)*?)(<!-- /table -->)", re.S)
-_VALUE = re.compile(r"(<!-- value: (?P<spec>[^>]*?) -->)(?P<body>(?:(?!<!--).)*?)(<!-- /value -->)", re.S)
+_TABLE = re.compile(r"(?<!`)(<!-- table: (?P<spec>[^>]*?) -->\n)(?P<body>(?:(?!<!--).)*?)(<!-- /table -->)", re.S)
+_VALUE = re.compile(r"(?<!`)(<!-- value: (?P<spec>[^>]*?) -->)(?P<body>(?:(?!<!--).)*?)(<!-- /value -->)", re.S)
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$", re.I)
 
 
@@ -277,7 +293,8 @@ def _value(root: Path, spec: str, reduced: bool) -> str:
         return lo if lo == hi else f"{lo}–{hi}"
     if len(rows) != 1:
         raise QuoteError(
-            f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); use 'range' or a narrower pattern"
+            f"value {spec!r}: {pattern} matches {len(rows)} rows ({', '.join(table.key(r) for r in rows)}); "
+            "use 'range' or a narrower pattern"
         )
     return _plain(rows[0][k]).split(" ± ")[0] if mode == "mean" else _plain(rows[0][k])
 
@@ -309,21 +326,111 @@ def update_page(text: str, root: Path, strict: bool = False, reduced: bool = Fal
     return text, sorted(set(missing))
 
 
-def quote_main(page: Path, root: Path, strict: bool = False, check: bool = False, reduced: bool = False) -> int:
-    """``slamarena results``: rewrite ``page`` in place (``check``: only say whether it is up to date; exit 1 if not)."""
-    page = Path(page)
-    if not page.is_file():
-        raise QuoteError(f"{page}: no such page")
-    old = page.read_text()
-    new, missing = update_page(old, Path(root), strict, reduced)
-    for m in missing:
-        print(f"kept as it was (no results): {m}")
-    if check:
-        print(f"{page}: {'up to date' if new == old else 'out of date'} with {root}")
-        return int(new != old)
-    if new != old:
-        atomic_write_text(page, new)
-    print(
-        f"{page}: {'regenerated' if new != old else 'unchanged'} from {root} ({len(_TABLE.findall(new))} tables, {len(_VALUE.findall(new))} values; {len(missing)} sources missing)"
-    )
-    return 0
+@dataclass(frozen=True)
+class Change:
+    """One marker whose regenerated content differs from the page's: ``numbers`` (a cell or a value changed) or
+    ``provenance`` (a table whose numbers are the same, from another run: only its first line differs)."""
+
+    kind: str  # "table" | "value"
+    spec: str
+    what: str  # "numbers" | "provenance"
+    old: str
+    new: str
+
+
+def _bodies(text: str) -> list[tuple[str, str, str]]:
+    """(kind, spec, body) of every marker in page order (tables, then values, as :func:`markers`)."""
+    return [("table", m.group("spec").strip(), m.group("body")) for m in _TABLE.finditer(text)] + [
+        ("value", m.group("spec").strip(), m.group("body")) for m in _VALUE.finditer(text)
+    ]
+
+
+def _provenance_and_rest(body: str) -> tuple[str, str]:
+    head, _, rest = body.partition("\n")
+    return (head, rest) if head.startswith("`slamarena run ") else ("", body)
+
+
+def changes(old: str, new: str) -> list[Change]:
+    """The markers whose content differs between a page and its regenerated text (same prose, same markers)."""
+    before, after = _bodies(old), _bodies(new)
+    if [b[:2] for b in before] != [a[:2] for a in after]:
+        raise QuoteError("the two texts do not hold the same markers")
+    out = []
+    for (kind, spec, a), (_, _, b) in zip(before, after):
+        if a == b:
+            continue
+        if kind == "table":
+            (pa, ra), (pb, rb) = _provenance_and_rest(a), _provenance_and_rest(b)
+            if ra == rb and pa != pb:
+                out.append(Change(kind, spec, "provenance", pa, pb))
+                continue
+        out.append(Change(kind, spec, "numbers", a, b))
+    return out
+
+
+def reader_pages(repo: Path) -> list[Path]:
+    """The pages a reader opens that quote results: ``README.md`` and every ``research/**/*.md`` holding a marker."""
+    pages = [repo / "README.md"] if (repo / "README.md").is_file() else []
+    for path in sorted((repo / "research").rglob("*.md")):
+        text = path.read_text()
+        if _TABLE.search(text) or _VALUE.search(text):
+            pages.append(path)
+    return pages
+
+
+def _check(page: Path, old: str, new: str) -> bool:
+    """Print what regenerating ``page`` would change; True if a number would."""
+    found = changes(old, new)
+    numbers = [c for c in found if c.what == "numbers"]
+    moved = [c for c in found if c.what == "provenance"]
+    if not found:
+        print(f"{page}: up to date")
+    if moved:
+        print(
+            f"{page}: {len(moved)} table(s) with the same numbers from another run (only the provenance line differs):"
+        )
+        for c in moved:
+            print(f"  {c.spec}: {c.old} → {c.new}")
+    if numbers:
+        print(f"{page}: {len(numbers)} quoted number(s) changed:")
+        for c in numbers:
+            if c.kind == "value":
+                print(f"  value {c.spec}: {c.old!r} → {c.new!r}")
+            else:
+                gone = [ln for ln in c.old.splitlines() if ln not in c.new.splitlines()]
+                came = [ln for ln in c.new.splitlines() if ln not in c.old.splitlines()]
+                print(f"  table {c.spec}:")
+                print("\n".join([*(f"    - {ln}" for ln in gone), *(f"    + {ln}" for ln in came)]))
+    return bool(numbers)
+
+
+def quote_main(
+    page: Path | list[Path] | None,
+    root: Path,
+    strict: bool = False,
+    check: bool = False,
+    reduced: bool = False,
+    repo: Path = Path("."),
+) -> int:
+    """``slamarena results``: rewrite the pages in place (none given: :func:`reader_pages` of ``repo``). ``check``: change
+    nothing, say per page whether it is up to date, whose tables only have a new provenance line, and which numbers
+    changed; exit 1 if a number changed."""
+    pages = reader_pages(Path(repo)) if page is None else [page] if isinstance(page, (str, Path)) else list(page)
+    if not pages:
+        raise QuoteError(f"no page with markers under {Path(repo).resolve()} (README.md, research/)")
+    status = 0
+    for page in map(Path, pages):
+        if not page.is_file():
+            raise QuoteError(f"{page}: no such page")
+        old = page.read_text()
+        new, missing = update_page(old, Path(root), strict, reduced)
+        for m in missing:
+            print(f"kept as it was (no results): {m}")
+        if check:
+            status |= int(_check(page, old, new))
+            continue
+        if new != old:
+            atomic_write_text(page, new)
+        counts = f"{len(_TABLE.findall(new))} tables, {len(_VALUE.findall(new))} values; {len(missing)} sources missing"
+        print(f"{page}: {'regenerated' if new != old else 'unchanged'} from {root} ({counts})")
+    return status

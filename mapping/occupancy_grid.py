@@ -31,7 +31,7 @@ corner of cell ``(0, 0)`` (as in a map_server YAML), so the centre of cell ``(ix
     i = round((w − origin − ½·res) / res) = ⌊(w − origin) / res⌋,
 
 the half-cell origin shift the notes mention (their formula ``(w − origin) / res`` leaves out
-both the rounding and the shift; see research/mapping.md). The grid grows in whole blocks of
+both the rounding and the shift; see research/method/grid_mapping.md). The grid grows in whole blocks of
 cells when a scan reaches beyond it, keeping every existing cell at its world position.
 
 Bad input raises ``ValueError`` before anything changes: ranges and angles of different shapes, a

@@ -3,7 +3,7 @@
 Everything is imported under this one name: :mod:`slamarena.datasets`, :mod:`slamarena.estimators`,
 :mod:`slamarena.mapping`, :mod:`slamarena.experiments`, :mod:`slamarena.paper_figures`. In the
 repository those packages are the folders at the root (the layout the design fixes); the install maps
-them here (``package-dir`` in pyproject.toml, research/experiments.md "The slamarena namespace").
+them here (``package-dir`` in pyproject.toml, research/design.md "The slamarena namespace").
 
 For a notebook, the few names most scripts need::
 

@@ -33,7 +33,7 @@ What the reader does about the files' quirks (each counted in ``meta``):
   exactly (correlation 1.0), so its heading is not independent of the ground truth.
 - The ranges carry a bias: measured minus true distance has median +2.8 m (both runs, every
   beacon) and a spread of ≈ 1.1–1.6 m. The files state no noise, so :class:`Noise` stays empty;
-  the numbers are in research/data.md.
+  the numbers are in research/method/readers.md.
 
 ``initial_pose`` is the first ground-truth pose (at the stamp before the first odometry row:
 ``GT[k+1].t == DR[k].t`` exactly); ``landmarks`` holds the beacons under their ids.

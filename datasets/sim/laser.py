@@ -10,7 +10,7 @@ featureless. ``"long_loop"``: the same kind at 56 m × 36 m outside (:func:`corr
 outer walls the rectangle [0, 56] × [0, 36], a 48 m × 28 m block [4, 52] × [4, 32], the route the
 corridor's centre line, 165 m a lap, from (28, 2) heading +x; an alcove, pillar or block recess
 every 8 m on average), a loop long enough that scan matching drifts by metres before it closes
-(research/mapping.md §6 "A loop with something to close"). ``"rooms"``: an office floor
+(research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). ``"rooms"``: an office floor
 (32 m × 22 m) — a ring corridor around a central block, with ten rooms off the corridor behind
 1 m doors and some furniture in the rooms.
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;

@@ -2,7 +2,7 @@
 
 It writes the notes' equations as they stand (matrix-dimensions reference, lecture notes,
 technical notes), with every matrix full-size, but with the errata corrected
-(``research/ekf_slam.md``): covariance propagated as ``G P Gᵀ`` (not ``Gᵀ P G``), the
+(``research/method/ekf_slam.md``): covariance propagated as ``G P Gᵀ`` (not ``Gᵀ P G``), the
 observation noise R (not the motion-noise block ``Cx[0:2, 0:2]``) in S, the predicted
 covariance (not its inverse) in the gain, the bearing innovation and the yaw wrapped, the
 exact arc model with the corrected sign of its y row. Known data association only. Cost

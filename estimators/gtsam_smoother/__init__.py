@@ -19,7 +19,7 @@ Bad measurements are rejected and counted before they reach a graph (:mod:`.prob
 that reaches no optimum raises :class:`OptimizationError` (:mod:`.graph`), never returns a guess.
 
 The model, the noise mapping from the filters and the frame conventions are in the module
-docstrings of :mod:`.landmark`, :mod:`.noise` and in ``research/graph_slam.md``.
+docstrings of :mod:`.landmark`, :mod:`.noise` and in ``research/method/graph_slam.md``.
 """
 
 from .batch import BatchSmoother, BatchSmootherParams

@@ -8,7 +8,7 @@ trilaterated from the initial poses (:meth:`~.problem.LandmarkProblem.trilaterat
 ``diagnostics["beacons_anchored"]``). Levenberg-Marquardt is a local method: from dead reckoning the heading drift of
 the whole run has placed the landmarks where it stops in a local minimum (MRCLAM Dataset 6 robot 3: ½χ² 24 978
 against 2 899) or gives up (Victoria Park); from iSAM2's estimate, whose initial values come step by step from the
-current estimate, it reaches the optimum (research/graph_slam.md §1 has the measurements and the alternatives tried).
+current estimate, it reaches the optimum (research/method/graph_slam.md has the measurements and the alternatives tried).
 iSAM2 is incremental Gauss-Newton without damping: a gross outlier it cannot down-weight can make it diverge where
 Levenberg-Marquardt from dead reckoning copes (§1b); its failure is the batch smoother's OptimizationError, naming the start.
 Optimiser: Levenberg-Marquardt (default), Gauss-Newton or Dogleg. Covariances from ``gtsam.Marginals`` (body frame →

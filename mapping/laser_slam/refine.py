@@ -4,7 +4,7 @@ pose graph put them.
 The node graph (:mod:`.backend`) holds the front end's poses L_i of the nodes only; every other scan k hangs off its
 node i(k) rigidly, G_k = G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k). Each L_k comes from matching scan k against the map, so two
 neighbouring scans carry two independent map-match errors (≈ 1 cm on the real logs), while registering the raw
-scans onto each other is several millimetres closer to the logs' relations (research/mapping.md §8). The refinement
+scans onto each other is several millimetres closer to the logs' relations (research/notebook/2026-11-23-kummerle2009.md). The refinement
 solves, by batch Levenberg-Marquardt from G_k, for X_k (world pose of every scan k from the first node's scan k_0
 on, Pose2):
 
@@ -20,7 +20,7 @@ With the nodes fixed the problem splits into the runs of scans between consecuti
 before it (hanging) and, through the pairwise chain, to the nodes on either side. The nodes are held because
 letting the pairwise chain move them bends the map: on the simulated loop of the tests the ATE rose from 0.036 to
 0.066 m, on Intel the revisit relations (≥ 600 s apart) from 2.7 to 2.8 cm (3.5 cm with m = 2): the chain of ICP
-factors is stiffer than its true error, and the robust loop factors yield to it (research/mapping.md §8).
+factors is stiffer than its true error, and the robust loop factors yield to it (research/notebook/2026-11-23-kummerle2009.md).
 Without pairwise factors the hanging factors have zero residual at G_k, which is then the optimum. A non-finite
 or increasing error is an :class:`~.backend.OptimizationError`. Parameters: :class:`RefineParams` (m =
 ``neighbours``, ρ = ``sigma_*``), the ``refine`` of laser graph SLAM's parameters.

@@ -3,7 +3,8 @@
 Front end (:mod:`slamarena.mapping.frontend`). Every scan k is matched against one map of every node so far
 (``tracking="global"``, as grid SLAM) or against the older of the (at most two) active submaps (``"submap"``, as
 Cartographer), giving its front-end ("local") pose L_k. The global map keeps the heading along the long corridors
-of FR-Clinic, where the submap front end drifts by ~10° over 300 m and no loop closes it (research/mapping.md). A scan the motion filter passes becomes node i
+of FR-Clinic, where the submap front end drifts by ~10° over 300 m and no loop closes it
+(research/notebook/2026-11-21-grid-slam-results.md). A scan the motion filter passes becomes node i
 (scan k_i, pose L_i) and is inserted into every active submap. Submaps (as Cartographer): a new submap is
 started when the newest has ``submap_scans`` insertions, and the older is finished at 2·``submap_scans``, so
 consecutive submaps overlap by half and the one matched against is never nearly empty. A submap is an

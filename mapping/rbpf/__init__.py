@@ -9,7 +9,7 @@ exactly given the poses). Modules:
   around the match from K points, the weight from its normaliser;
 * :mod:`.filter` — :class:`RBPF`, the filter over a laser log (registered as ``rbpf`` in ``slamarena.mapping.REGISTRY``).
 
-research/mapping.md §6 has the derivation, the sharing design and the results.
+research/method/rbpf.md has the derivation, the sharing design and the results.
 """
 
 from __future__ import annotations

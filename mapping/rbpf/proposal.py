@@ -18,7 +18,7 @@ Target of particle i at a filter step (pose ξ ∈ ℝ³, scan end points s_n (N
 (the matcher's step with the motion model as its prior), giving the mode ξ*_i and ``A_i`` at ξ*_i on the
 finest level. With ``halvings`` > 0 (``RBPFParams.step_halvings``) a step that does not lower −log τ is halved up to
 that many times and a level stops where none does (a descent; the undamped step settles into a millimetre two-cycle on
-the bilinear map's kinks: research/mapping.md §6).
+the bilinear map's kinks: research/method/rbpf.md).
 
 **K points.** With ``L_i L_iᵀ = A_i⁻¹`` (Laplace covariance) the K = 27 points ``ξ_ij = ξ*_i + L_i u_j`` on the
 tensor 3-point Gauss–Hermite rule (``u_j ∈ {−√3, 0, √3}³``, weights ``w_j = Π (1/6, 2/3, 1/6)``, exact for
@@ -32,7 +32,7 @@ polynomials of degree ≤ 5 under the standard normal density φ) are evaluated 
 when τ_i is Gaussian the sums are exact — μ_i = ξ*_i, Σ_i = A_i⁻¹, η_i its integral — and where τ_i is not,
 the points measure how it departs — within ±√3 Laplace σ only: at σ_z = 1 the target is a narrow peak on a base as
 wide as Σ_u, and μ_i, Σ_i, η_i are the peak's, Σ_i several times narrower than the target's covariance and η_i short
-of its integral by the base's mass; research/mapping.md §6, checked against the brute-force target in
+of its integral by the base's mass; research/notebook/2026-11-23-rbpf-proposal-vs-target.md, checked against the brute-force target in
 tests/mapping/test_rbpf.py.) The new pose is drawn from ``N(μ_i, Σ_i)`` and the weight multiplied by
 η_i. When the match fails (too few end points on observed cells) the pose is drawn from the motion model and
 the weight multiplied by ``p(z | m_i, ξ)`` at the drawn pose (the standard proposal's weight, the one-sample
@@ -51,7 +51,7 @@ from ξ*), so ``ξ ~ N(ξ*, A⁻¹ΛA⁻¹)``, ``A⁻¹ΛA⁻¹ = A⁻¹ − A�
 information h to the motion model's λ the variance is the fraction λ/(h + λ) of the target's — all of it where the scan
 says nothing, almost none where it pins the pose. The weight is the target's η_i, as for the Gaussian proposal (the
 exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
-research/mapping.md §6 "The mode proposal" has the derivation and what it costs.
+research/method/rbpf_mode_proposal.md "The mode proposal" has the derivation and what it costs.
 
 The per-particle loops over end points are numba kernels over all particles at once.
 """

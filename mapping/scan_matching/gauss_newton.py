@@ -28,7 +28,7 @@ centres; f_x, f_y the fractions within the 2 × 2 neighbourhood m00, m10, m01, m
 Hector's published code (GridMapUtil::interpMapValueWithDerivatives) weights the x
 differences with the x fractions and the y differences with the y fractions,
 ``(1−f_x)(m10 − m00) + f_x (m11 − m01)`` and ``(1−f_y)(m01 − m00) + f_y (m11 − m10)``; the flag
-``hector_gradient_bug=True`` reproduces it (research/mapping.md shows the difference).
+``hector_gradient_bug=True`` reproduces it (research/method/grid_mapping.md shows the difference).
 
 Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.map_pyramid.MapPyramid`
 from coarse to fine, each level starting from the previous result. Each level iterates
@@ -218,7 +218,7 @@ class GaussNewtonMatcherParams(Params):
     The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as
     Cartographer's Ceres matcher does: directions the map does not constrain (along a corridor) then follow
     the guess instead of drifting on the coarse levels (on sim:laser, pure Hector jumps 0.2–0.3 m along the
-    first corridor; research/mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
+    first corridor; research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
     constrained directions); 0 gives Hector's objective exactly.
     """
 

@@ -110,7 +110,7 @@ def test_text_and_mat_copies_agree_and_ranges_are_biased(plaza1):
     truth = interpolate_poses(plaza1.ground_truth.t, plaza1.ground_truth.poses, r.t)
     beacons = np.array([plaza1.landmarks.position(b) for b in r.beacon_id])
     residual = r.range - np.hypot(*(beacons - truth[:, :2]).T)
-    assert 2.5 < np.median(residual) < 3.1 and 0.9 < residual.std() < 1.4  # research/data.md quotes these
+    assert 2.5 < np.median(residual) < 3.1 and 0.9 < residual.std() < 1.4  # research/method/readers.md quotes these
 
 
 def test_malformed_files_name_file_and_line(tmp_path):

@@ -683,7 +683,7 @@ def test_input_older_than_the_history_is_rejected_and_counted():
 @pytest.mark.realdata
 def test_mrclam_segment_localizes_against_the_surveyed_landmarks():
     """First 120 s of MRCLAM Dataset 6 robot 1: odometry + range-bearing to the surveyed map beats
-    dead reckoning against Vicon (the whole-dataset numbers: research/ekf_localizer.md)."""
+    dead reckoning against Vicon (the whole-dataset numbers: research/notebook/2026-11-21-ekf-localizer-real-data.md)."""
     from checks import load_staged
 
     from slamarena.experiments.metrics.reference import reference_of
@@ -732,7 +732,7 @@ def test_gate_lockout_is_detected_and_recovered():
 def test_plaza2_range_only_localization_needs_the_range_offset():
     """CMU Plaza2 (1.35 km): ranges to the four surveyed beacons bring dead reckoning's 31.6 m ATE
     below 1 m once the +2.8 m range offset is modelled; without it the gate refuses many ranges and
-    the error is several metres (the numbers of research/ekf_localizer.md, `slamarena run plaza`)."""
+    the error is several metres (the numbers of research/notebook/2026-11-21-ekf-localizer-real-data.md, `slamarena run plaza`)."""
     from checks import load_staged
 
     from slamarena.experiments.metrics.reference import reference_of

@@ -2,7 +2,7 @@
 
 Consistency needs a filter whose model is the simulator's: wheel odometry as the input (its
 error is white encoder noise; cmd_vel errors are time-correlated actuator lag, see
-research/ekf_localizer.md), the exact ARC step, the simulator's stated noise
+research/method/ekf_localizer.md), the exact ARC step, the simulator's stated noise
 (``use_sequence_noise``) and no extra Q, and initial estimates drawn from the initial
 covariance they claim.
 """

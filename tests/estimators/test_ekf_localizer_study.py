@@ -1,4 +1,4 @@
-"""Studies behind research/ekf_localizer.md: the design notes' decisions tested as claims.
+"""Studies behind research/notebook/2026-11-21-ekf-localizer-studies.md: the design notes' decisions tested as claims.
 
 Slow (minutes); excluded from the default run. Each study prints its table (run with ``-s``)
 and asserts the direction of the finding, so a change that overturns it fails::
@@ -236,7 +236,7 @@ def test_study_gps_sweep(tmp_path):
 def test_study_mrclam():
     """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
     against dead reckoning of the same odometry (the filter with no measurements). The dataset states
-    no noise; ``MRCLAM_FILTER`` and its derivation are in research/ekf_localizer.md."""
+    no noise; ``MRCLAM_FILTER`` and its derivation are in research/notebook/2026-11-21-ekf-localizer-real-data.md."""
     from checks import load_staged
 
     rows, out = [], {}
@@ -303,7 +303,7 @@ def _error_by_time_since_update(est, seq) -> tuple[float, float]:
     return rmse(since <= 1.0), rmse(since > 10.0)
 
 
-#: the MRCLAM configuration (research/ekf_localizer.md explains the choice)
+#: the MRCLAM configuration (research/notebook/2026-11-21-ekf-localizer-real-data.md explains the choice)
 MRCLAM_FILTER = dict(
     motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999
 )

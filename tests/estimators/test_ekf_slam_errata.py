@@ -1,4 +1,4 @@
-"""Errata of the EKF-SLAM notes (research/ekf_slam.md): each test passes on the corrected form
+"""Errata of the EKF-SLAM notes (research/method/ekf_slam_errata_tests.md): each test passes on the corrected form
 used by the code and fails on the form printed in the notes."""
 
 from __future__ import annotations

@@ -113,7 +113,8 @@ def test_oc_linearisation_points_stay_closer_to_the_estimates_than_fej():
 @pytest.mark.slow
 @pytest.mark.parametrize("jacobians", ["oc"])
 def test_oc_is_consistent_over_a_monte_carlo(jacobians):
-    """Regime 2 of research/ekf_slam.md, 8 seeds, one lap: the OC-EKF's average NEES inside the 95 % band at ≥ 90 % of stamps."""
+    """Regime 2 of research/notebook/2026-11-21-ekf-slam-consistency.md, 8 seeds, one lap: the OC-EKF's average NEES
+    inside the 95 % band at ≥ 90 % of stamps."""
     from slamarena import datasets
 
     runs = []

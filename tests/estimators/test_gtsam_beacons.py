@@ -110,7 +110,8 @@ def test_bad_beacon_config_is_rejected_before_work(params):
 
 @pytest.mark.realdata
 def test_plaza2_smoothing_against_surveyed_and_free_beacons():
-    """CMU Plaza2: research/graph_slam.md's numbers (ATE 0.42 m anchored; free beacons 0.35 m after SE(2) alignment)."""
+    """CMU Plaza2: research/notebook/2026-11-23-graph-slam-results.md's numbers (ATE 0.42 m anchored; free beacons 0.35
+    m after SE(2) alignment)."""
     from checks import load_staged
 
     from slamarena.experiments.metrics.reference import reference_of

@@ -223,7 +223,7 @@ def test_a_gross_outlier_without_a_kernel_is_an_error_and_a_huber_kernel_absorbs
     """One range ×100: finite and positive, so no input check rejects it. Plain least squares (robust='none', the
     default) stopped at ½χ² ≈ 10⁷ and returned that as the result; now, from dead reckoning, Levenberg-Marquardt giving up
     (row 40) or running out of iterations (row 8, a first sighting: the landmark starts 100× too far) is an
-    OptimizationError. A Huber kernel 3σ wide down-weights the outlier and gives the clean answer (research/graph_slam.md,
+    OptimizationError. A Huber kernel 3σ wide down-weights the outlier and gives the clean answer (research/method/graph_slam_robust.md,
     robust kernels). From iSAM2's estimate (the default start) the error is iSAM2's: undamped, it diverges on the outlier."""
     bad = _with_ranges(seq, [row], [100 * seq.range_bearing.range[row]])
     from_dead_reckoning = dict(covariances=False, initial="dead_reckoning")
@@ -249,7 +249,7 @@ def test_a_diverging_isam2_is_an_error_before_the_stiffness_rule_uses_its_margin
 
 
 def test_a_diverging_optimisation_is_an_error(seq):
-    """Gauss-Newton on a stiff graph (regularisation 1e-6, research/graph_slam.md §2) from dead reckoning multiplies the
+    """Gauss-Newton on a stiff graph (regularisation 1e-6, research/method/graph_slam.md) from dead reckoning multiplies the
     error by 50 in its first step and stops there (GTSAM: 'error increased'); that was returned as the result."""
     with pytest.raises(OptimizationError, match="Gauss-Newton, 1 iterations, .*: diverging"):
         BatchSmoother(optimizer="gauss_newton", regularisation=1e-6, initial="dead_reckoning", covariances=False).run(
@@ -287,7 +287,7 @@ def test_isam2_finishes_where_cholesky_called_the_newest_pose_indeterminate():
     """sim:landmarks with 200 landmarks, seed 0: at update 754 the pose is 0.4 m = 2¹² σ_min of a 0.1 s step uncertain
     sideways, GTSAM's Cholesky finds x_k's lateral pivot below 2⁻²⁴ of its diagonal and raised 'indeterminate linear
     system near l10' (the clique's first key). The stiffness rule (uncertainty_floor) lifts such between factors to 2⁻²² of
-    the pose's uncertainty, and the run finishes (research/graph_slam.md §2)."""
+    the pose's uncertainty, and the run finishes (research/method/graph_slam.md)."""
     seq = simulate(seed=0, n_landmarks=200)
     est = ISAM2Smoother(covariances=False).run(seq)
     assert est.diagnostics["lifted_between"] > 0 and est.diagnostics["final_change"] < 1e-6

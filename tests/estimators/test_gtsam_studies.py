@@ -5,7 +5,7 @@ Run (each writes a Markdown table under ``results/gtsam_studies/`` and prints it
     pytest -m slow tests/estimators/test_gtsam_studies.py -s
 
 Metrics come from ``slamarena.experiments.metrics`` (ATE, landmark-map error, NEES bands). The numbers are
-quoted in ``research/graph_slam.md``.
+quoted in ``research/notebook/2026-11-23-graph-slam-results.md``.
 """
 
 from __future__ import annotations

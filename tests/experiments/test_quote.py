@@ -8,7 +8,17 @@ from pathlib import Path
 import pytest
 
 from slamarena.experiments.config import load_config, shipped_configs
-from slamarena.experiments.quote import MissingSource, QuoteError, markers, read_table, render_value, update_page
+from slamarena.experiments.quote import (
+    MissingSource,
+    QuoteError,
+    changes,
+    markers,
+    quote_main,
+    read_table,
+    reader_pages,
+    render_value,
+    update_page,
+)
 from slamarena.experiments.results import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -56,16 +66,20 @@ def _run(root: Path, name: str = "plaza", config: dict | None = None, failed: bo
 
 def test_a_table_marker_is_replaced_by_the_runs_table_with_its_command_provenance_and_legend(tmp_path):
     _run(tmp_path, failed=True)
-    page = "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n<!-- /table -->\n\nMore prose.\n"
+    page = (
+        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\nold text\n"
+        "<!-- /table -->\n\nMore prose.\n"
+    )
     new, missing = update_page(page, tmp_path)
     assert not missing
     assert new.startswith(
-        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)"
+        "# Page\n\nProse stays.\n\n<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n"
+        "`slamarena run plaza`: git 0123456789ab, 2025-01-02, box (2 CPUs)"
     )
     assert "old text" not in new and new.endswith("<!-- /table -->\n\nMore prose.\n")
     assert (
-        "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n| world | ekf_slam | 3 | **0.054 ± 0.013** |"
-        in new
+        "| dataset | estimator | n | ate.rmse |\n|---|---|---:|---:|\n| world | dead_reckoning | 3 | 1.11 ± 0.36 |\n"
+        "| world | ekf_slam | 3 | **0.054 ± 0.013** |" in new
     )  # the best mark kept
     assert (
         "| other |" not in new and "map.rmse" not in new
@@ -103,12 +117,19 @@ def test_a_missing_run_keeps_the_text_and_is_reported_or_refused(tmp_path):
     assert new == page and len(missing) == 1 and "slamarena run absent" in missing[0]
     with pytest.raises(MissingSource):
         update_page(page, tmp_path, strict=True)
+    documented = (
+        "Write `<!-- value: EXPERIMENT/TABLE ROW COLUMN -->…<!-- /value -->` or `<!-- table: X/Y -->\n<!-- /table -->`."
+    )
+    assert markers(documented) == [] and update_page(documented, tmp_path, strict=True) == (documented, [])
 
 
 def test_a_run_of_a_config_that_is_not_the_shipped_one_is_quoted_only_when_asked_and_flagged(tmp_path):
     shipped = load_config("plaza").model_dump(mode="json")
     _run(tmp_path, "plaza", config={**shipped, "seeds": 3})
-    page = "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\nATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    page = (
+        "<!-- table: plaza/accuracy -->\nkept\n<!-- /table -->\n"
+        "ATE <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value -->\n"
+    )
     new, missing = update_page(page, tmp_path)
     assert new == page and "not a run of the shipped config (seeds: 3 (shipped: 1))" in missing[0]
     new, missing = update_page(page, tmp_path, reduced=True)
@@ -131,13 +152,82 @@ def test_read_table_keeps_the_cells_and_the_legend(tmp_path):
     assert table.legend[0].startswith("n: seeds")
 
 
-@pytest.mark.parametrize("page", ["research/results.md", "README.md"])
+def test_check_tells_a_new_provenance_line_from_a_changed_number(tmp_path, capsys):
+    """`slamarena results --check`: the same numbers from another run (only the table's provenance line differs) is
+    reported and passes; a changed cell or value is listed, old and new, and fails."""
+    run = _run(tmp_path / "results")
+    page = tmp_path / "page.md"
+    source = (
+        "<!-- table: plaza/accuracy rows=world/* columns=ate.rmse -->\n<!-- /table -->\n"
+        "EKF <!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->?<!-- /value --> m\n"
+    )
+    page.write_text(update_page(source, tmp_path / "results")[0])
+    assert quote_main(page, tmp_path / "results", check=True) == 0
+    assert "page.md: up to date" in capsys.readouterr().out
+
+    manifest = (run / "manifest.json").read_text()
+    (run / "manifest.json").write_text(manifest.replace("0123456789abcdef", "fedcba9876543210"))
+    assert quote_main(page, tmp_path / "results", check=True) == 0  # same numbers, new run
+    out = capsys.readouterr().out
+    assert "1 table(s) with the same numbers from another run" in out and "git fedcba987654" in out
+    assert "changed" not in out
+    old, new = page.read_text(), update_page(page.read_text(), tmp_path / "results")[0]
+    assert [(c.kind, c.what) for c in changes(old, new)] == [("table", "provenance")]
+
+    (run / "tables" / "accuracy.md").write_text(ACCURACY.replace("0.054 ± 0.013", "0.061 ± 0.013"))
+    assert quote_main(page, tmp_path / "results", check=True) == 1
+    out = capsys.readouterr().out
+    assert (
+        "2 quoted number(s) changed" in out
+        and "value plaza/accuracy world/ekf_slam ate.rmse mean: '0.054' → '0.061'" in out
+    )
+    assert (
+        "    - | world | ekf_slam | 3 | **0.054 ± 0.013** |" in out
+        and "    + | world | ekf_slam | 3 | **0.061 ± 0.013** |" in out
+    )
+    new = update_page(page.read_text(), tmp_path / "results")[0]
+    assert {(c.kind, c.what) for c in changes(page.read_text(), new)} == {("table", "numbers"), ("value", "numbers")}
+    assert page.read_text() == old  # --check writes nothing
+
+
+def test_without_a_page_every_page_a_reader_opens_is_done(tmp_path, capsys):
+    """No page given: README.md and every research page holding a marker, at any depth; pages without markers are left
+    out; a number changed on any of them fails the check."""
+    _run(tmp_path / "results")
+    marker = "<!-- value: plaza/accuracy world/ekf_slam ate.rmse mean -->0.054<!-- /value -->\n"
+    (tmp_path / "research" / "method").mkdir(parents=True)
+    (tmp_path / "README.md").write_text("ATE " + marker)
+    (tmp_path / "research" / "results.md").write_text(marker)
+    (tmp_path / "research" / "method" / "ekf.md").write_text(marker.replace("0.054", "0.05"))
+    (tmp_path / "research" / "prose.md").write_text("no markers\n")
+    assert reader_pages(tmp_path) == [
+        tmp_path / "README.md",
+        tmp_path / "research" / "method" / "ekf.md",
+        tmp_path / "research" / "results.md",
+    ]
+    assert quote_main(None, tmp_path / "results", check=True, repo=tmp_path) == 1
+    out = capsys.readouterr().out
+    assert "README.md: up to date" in out and "ekf.md: 1 quoted number(s) changed" in out
+    assert quote_main(None, tmp_path / "results", repo=tmp_path) == 0
+    assert "0.054<!--" in (tmp_path / "research" / "method" / "ekf.md").read_text()
+    assert quote_main(None, tmp_path / "results", check=True, repo=tmp_path) == 0
+
+
+def test_the_shipped_reader_pages_are_every_page_with_a_marker():
+    """The pages `slamarena results` regenerates by default: the README, the results page, and each research page
+    that quotes a number (the method pages and the discussion quote the five configs they discuss)."""
+    pages = {p.relative_to(ROOT).as_posix() for p in reader_pages(ROOT)}
+    assert {"README.md", "research/results.md", "research/README.md"} <= pages
+    assert len(pages) >= 6, pages
+
+
+@pytest.mark.parametrize("page", [p.relative_to(ROOT).as_posix() for p in reader_pages(ROOT)])
 def test_the_pages_quote_only_tables_of_shipped_configs(page):
-    """Every marker of research/results.md and of the README names a shipped config and a table (or the Monte Carlo
-    table) it writes, and every column it asks for is one of that table's."""
+    """Every marker of every page a reader opens names a shipped config and a table (or the Monte Carlo table) it
+    writes, and every column it asks for is one of that table's."""
     text = (ROOT / page).read_text()
     found = markers(text)
-    assert len(found) >= 10 and len(found) == text.count("<!-- table: ") + text.count("<!-- value: ")
+    assert found and len(found) == text.count("<!-- table: ") + text.count("<!-- value: ")
     configs = shipped_configs()
     for kind, spec in found:
         words = spec.split()

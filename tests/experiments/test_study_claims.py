@@ -1,4 +1,5 @@
-"""The claims research/results.md, research/graph_slam.md §8 and research/mapping.md §6 (loop_closure) make in prose,
+"""The claims research/results.md, research/notebook/2026-11-23-graph-slam-results.md and
+research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md (loop_closure) make in prose,
 asserted on the shipped configs that regenerate their tables, run at reduced size (slow; `pytest -m slow`). The Monte
 Carlo consistency claims: tests/estimators/test_ekf_slam_consistency.py; the pose graphs:
 tests/estimators/test_gtsam_studies.py::test_pose_graph_study."""
@@ -56,7 +57,8 @@ def test_plaza_the_range_offset_matters_more_than_the_estimator(tmp_path):
 
 
 def test_smoothers_the_final_answer_beats_the_filter_and_the_online_estimates_match_it(tmp_path):
-    """graph_slam.md §8, sim:landmarks: the smoothed answer (batch = iSAM2 final) is more accurate than EKF-SLAM, and iSAM2's
+    """notebook/2026-11-23-graph-slam-results.md, sim:landmarks: the smoothed answer (batch = iSAM2 final) is more
+    accurate than EKF-SLAM, and iSAM2's
     online estimates — the information a filter has — are in the filter's class, not the smoother's."""
     config = load_config("smoothers").reduced(datasets=["landmarks"], seeds=3)
     m = _means(config, tmp_path).loc["landmarks"]
@@ -67,7 +69,8 @@ def test_smoothers_the_final_answer_beats_the_filter_and_the_online_estimates_ma
 
 
 def test_smoothers_a_lag_beats_the_online_fixed_lag_output_which_is_the_ekf(tmp_path):
-    """graph_slam.md §8, sim:localization: online, the fixed-lag smoother is the EKF localizer (ATE within 5 %); smoothed with
+    """notebook/2026-11-23-graph-slam-results.md, sim:localization: online, the fixed-lag smoother is the EKF localizer
+    (ATE within 5 %); smoothed with
     a lag it is better, the more so the longer the lag."""
     config = load_config("smoothers").reduced(datasets=["localization"], seeds=3)
     m = _means(config, tmp_path).loc["localization"]
@@ -80,7 +83,8 @@ def test_smoothers_a_lag_beats_the_online_fixed_lag_output_which_is_the_ekf(tmp_
 
 
 def test_smoother_consistency_the_batch_smoother_is_in_the_band(tmp_path):
-    """graph_slam.md §8: the batch smoother's seed-averaged pose NEES is inside the χ² band of the average at most stamps."""
+    """notebook/2026-11-23-graph-slam-results.md: the batch smoother's seed-averaged pose NEES is inside the χ² band of
+    the average at most stamps."""
     config = load_config("smoother_consistency").reduced(seeds=20)
     assert run_experiment(config, tmp_path, jobs=2) == 0
     mc = pd.read_csv(tmp_path / "tables" / "monte_carlo.csv")
@@ -116,7 +120,8 @@ def test_victoria_park_batch_reaches_isam2s_optimum_and_association_without_ids_
 
 @pytest.mark.realdata
 def test_victoria_park_without_ids_ends_where_the_runs_with_ids_end_under_the_identified_sensor_model():
-    """research/ekf_slam.md, Victoria Park without ids: with the identified sensor model and the look-ahead association, NN
+    """research/notebook/2026-11-23-ekf-slam-victoria-park.md, Victoria Park without ids: with the identified sensor
+    model and the look-ahead association, NN
     and JCBB map 136–166 landmarks (151 ids) and end within 5 m of the EKF with ids (same model) and of iSAM2 with ids;
     with the file's model and no management NN ends more than 100 m away."""
     import numpy as np
@@ -151,7 +156,8 @@ def test_kummerle2009_on_intel_laser_slam_beats_graph_mapping_and_grid_slam_beat
 
 
 def test_loop_closure_the_rbpf_and_laser_slam_close_the_loop_that_scan_matching_leaves_open(tmp_path):
-    """research/mapping.md §6 (the loop_closure config): on the corridor loop's drives, seeds 0–3, the RBPF's and laser
+    """research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md (the loop_closure config): on the corridor loop's drives,
+    seeds 0–3, the RBPF's and laser
     graph SLAM's loop-relation errors are a fraction of grid SLAM's (which closes no loop), and laser graph SLAM, which
     also straightens the first lap, has the lowest ATE."""
     config = load_config("loop_closure").reduced(seeds=4, estimators=["grid_slam", "laser_slam", "rbpf"])

@@ -223,7 +223,7 @@ def test_relations_on_mit_csail():
     est = LaserSLAM().run(seq)
     scores, _ = relation_error_from_file(est, seq, RelationsParams(file=relations))
     assert scores["used"] == 1172
-    # measured 0.0313 ± 0.0364 with the pairwise refinement, 0.0322 ± 0.0364 without (research/mapping.md §8): far
+    # measured 0.0313 ± 0.0364 with the pairwise refinement, 0.0322 ± 0.0364 without (research/notebook/2026-11-23-kummerle2009.md): far
     # below the published scan matching (0.106 ± 0.325), below Cartographer's 0.0319 ± 0.0363 (the goal), and above
     # graph mapping's 0.004 ± 0.009
     assert scores["trans_mean"] < 0.0319 and scores["trans_std"] < 0.04
@@ -233,7 +233,7 @@ def test_relations_on_mit_csail():
 
 @pytest.mark.realdata
 def test_mit_csail_short_relations_are_the_flaser_increments_moved_by_whole_5cm_cells():
-    """Why MIT-CSAIL's relation error stops near 2.5 cm (research/mapping.md §8): each short relation's translation is
+    """Why MIT-CSAIL's relation error stops near 2.5 cm (research/notebook/2026-11-23-kummerle2009.md): each short relation's translation is
     the log's FLASER pose increment plus a whole number of 5 cm cells (|difference| = 5 cm · √(a² + b²): 0, 5, 7.07,
     10 … cm), never anything between — the reference positions are quantised to a 5 cm lattice, and a pose that is
     right to the millimetre is still half a cell off the reference on average."""

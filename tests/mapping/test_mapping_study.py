@@ -1,4 +1,5 @@
-"""The accuracy study of research/mapping.md (slow; ``pytest -m slow tests/mapping/test_mapping_study.py -s``).
+"""The accuracy study of research/notebook/2026-11-21-grid-slam-results.md (slow; ``pytest -m slow
+tests/mapping/test_mapping_study.py -s``).
 
 * ``sim:laser`` (seeds 0–4): ATE after SE(2) alignment against the ground truth, and the map
   against the true walls moved by the same alignment (IoU, precision/recall within one cell),

@@ -237,7 +237,7 @@ def test_proposal_is_the_brute_force_target_where_the_likelihood_is_sharp():
     gives its mean, standard deviations and integral (target on a 41³ lattice of ±(8 cm, 3 cm, 20 mrad) around
     the mode): mean within 2 mm / 0.5 mrad, standard deviations within 30 %, log η within 0.3. (The 27 points sit at
     ±√3 Laplace σ of the converged mode, on a kink of the bilinear map where the curvature is above the peak's
-    average: standard deviations 0.72–0.80 of the target's, log η +0.22; research/mapping.md §6.)"""
+    average: standard deviations 0.72–0.80 of the target's, log η +0.22; research/method/rbpf.md)"""
     (mu, cov, log_eta), (mean, bcov, blog_eta, face) = _proposal_and_brute_force(0.25, (0.08, 0.03, 0.02))
     assert face < 1e-3
     d = mu - mean
@@ -249,7 +249,7 @@ def test_proposal_is_the_brute_force_target_where_the_likelihood_is_sharp():
 
 @pytest.mark.xfail(
     strict=True,
-    reason="research/mapping.md §6 'Is the proposal the target?': at the shipped σ_z = 1 the "
+    reason="research/notebook/2026-11-23-rbpf-proposal-vs-target.md 'Is the proposal the target?': at the shipped σ_z = 1 the "
     "target is a narrow peak on a wide base; the 27 points, placed by the peak's curvature, give a heading "
     "standard deviation 4–5× smaller than the target's and log η 1.4–1.5 too small",
 )
@@ -267,7 +267,7 @@ def test_proposal_is_the_brute_force_target_at_the_shipped_likelihood():
 def test_mode_proposal_draws_narrowly_and_weights_by_the_target():
     """``proposal="mode"`` on the state above at the shipped σ_z = 1, 400 particles sharing one map and one guess.
     Each pose is the optimum of p(z | m, ξ) N(ξ; x, Σ_u) from the mode ξ* of the target, x ~ N(ĝ, Σ_u); for a
-    Gaussian target that is ξ* + A⁻¹Λ(x − ĝ) ~ N(ξ*, A⁻¹ΛA⁻¹) (research/mapping.md §6 "The mode proposal").
+    Gaussian target that is ξ* + A⁻¹Λ(x − ĝ) ~ N(ξ*, A⁻¹ΛA⁻¹) (research/method/rbpf_mode_proposal.md "The mode proposal").
     The poses spread less than half as much as the Gaussian proposal's draws N(μ, Σ) in every direction (lateral 1.8
     against 23 mm, heading 1.1 against 17 mrad; the draw x itself: 150 mm, 130 mrad), yet along the track, where the
     scan pins least, at least as much as A⁻¹ΛA⁻¹ (the draw's offset is there: the optimum alone would not). Across
@@ -478,7 +478,8 @@ def _closure(seed: int) -> tuple[tuple[float, float], tuple[float, float]]:
 def test_sim_loop_closed_implicitly_by_the_best_particle():
     """The issue's test, on a loop with metres to close: two laps of ``long_loop`` (a 165 m corridor loop, 4 m laser,
     odometry erring by 6 cm along the track per 0.5 m filter step; chosen by a rule on GridSLAM alone,
-    research/mapping.md §6 "A loop with something to close"). GridSLAM, which closes no loop, ends the first lap off
+    research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). GridSLAM, which closes no
+    loop, ends the first lap off
     and maps the second lap beside it; the best of 30 particles selects a lineage that meets its own first lap:
     its loop-relation error is a fraction of GridSLAM's, and its ATE is below GridSLAM's (world seed 0: 1.12
     against 1.27 m)."""
@@ -488,7 +489,8 @@ def test_sim_loop_closed_implicitly_by_the_best_particle():
 
 @pytest.mark.slow
 def test_sim_loop_closed_implicitly_over_five_seeds():
-    """The pre-registered rule (research/mapping.md §6, round 6: met on fresh world seeds 40–59, 18 of 20) on world
+    """The pre-registered rule (research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, round 6: met on fresh world seeds
+    40–59, 18 of 20) on world
     seeds 0–4: the best of 30 particles' loop-relation error below GridSLAM's on at least 4 of the 5 drives, and its
     median below GridSLAM's median."""
     runs = [_closure(seed) for seed in range(5)]
@@ -500,7 +502,7 @@ def test_sim_loop_closed_implicitly_over_five_seeds():
 def test_step_halving_makes_the_proposals_gauss_newton_a_descent_that_converges(halvings):
     """With ``step_halvings`` a step that does not lower −log τ is halved, so the mode search is a descent: restarted at
     its own result it stays there (tolerances 10⁻⁶), and −log τ never rises. Without it the bilinear map's kinks make the
-    undamped step cycle by millimetres (research/mapping.md §6 "The mode proposal"), which the case 0 asserts."""
+    undamped step cycle by millimetres (research/method/rbpf_mode_proposal.md "The mode proposal"), which the case 0 asserts."""
     from slamarena.mapping.rbpf.proposal import gauss_newton, residuals
 
     maps, pts, guess, motion_cov = _target_state()
