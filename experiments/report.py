@@ -226,7 +226,7 @@ KNOWN_INCONSISTENCY = {
         "FastSLAM's known over-confidence, expected and not a defect: resampling depletes the path hypotheses, so the "
         "particle cloud forgets the uncertainty of the past and its covariance shrinks below the error; more particles "
         "delay it, none prevent it (Bailey, Nieto & Nebot 2006, reproduced here)",
-        "research/fastslam.md",
+        "research/notebook/2026-11-23-fastslam-consistency.md",
         "5.2 Consistency and cost against accuracy on sim:landmarks",
     ),
 }

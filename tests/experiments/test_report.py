@@ -359,10 +359,10 @@ def test_fastslam_over_confidence_is_named_and_linked_to_its_explanation(tmp_pat
     assert notes[0].startswith("fastslam on sim_landmarks: NEES / dof = 50 ") and "expected" in notes[0]
     assert "7.1× the standard deviation it reports" in notes[0]
     ((where, href),) = caption.links.items()
-    assert where in notes[0] and where.startswith("research/fastslam.md § ")
+    assert where in notes[0] and where.startswith("research/notebook/2026-11-23-fastslam-consistency.md § ")
     page, anchor = href.split("#")
-    headings = (ROOT / "research" / "fastslam.md").read_text().splitlines()
-    assert page == (ROOT / "research" / "fastslam.md").as_uri()
+    headings = (ROOT / "research" / "notebook" / "2026-11-23-fastslam-consistency.md").read_text().splitlines()
+    assert page == (ROOT / "research" / "notebook" / "2026-11-23-fastslam-consistency.md").as_uri()
     assert anchor in {_anchor(h.lstrip("#").strip()) for h in headings if h.startswith("#")}  # the link lands
     html_text = to_html("t", [Table("table-monte_carlo", ["a"], [[Cell("1")]], caption)])
     assert f'<a href="{href}">{html.escape(where)}</a>' in html_text
