@@ -53,6 +53,8 @@ FORMATS: dict[str, Format] = {
     "toro": Format("slamarena.datasets.formats.toro:load", "toro:/data/graph.graph"),
     "isam": Format("slamarena.datasets.formats.isam:load", "isam:/data/graph.txt"),
     "carmen": Format("slamarena.datasets.formats.carmen:load", "carmen:/data/log.clf"),
+    "kitti": Format("slamarena.datasets.formats.kitti_odometry:read", "kitti:/data/kitti/sequences/05"),
+    "vamr": Format("slamarena.datasets.formats.vamr:read", "vamr:/data/vamr/ex01"),
     "carmen-corrected": Format(
         "slamarena.datasets.formats.carmen:load", "carmen-corrected:/data/log-corrected.log", {"corrected": True}
     ),
@@ -350,4 +352,22 @@ CATALOGUE: dict[str, CatalogueEntry] = {
     **_plaza(),
     **_graphs(),
     **_carmen(),
+    "kitti:00": CatalogueEntry(
+        "kitti:00",
+        "kitti",
+        "camera (rectified stereo, grey), real driving: the first 200 frames of sequence 00 (100 with a right image)",
+        "KITTI poses (GPS/INS)",
+        {"path": "kitti_odometry/sequences/00"},
+        'A. Geiger, P. Lenz, R. Urtasun, "Are we ready for autonomous driving? The KITTI vision benchmark suite", '
+        "CVPR 2012 (CC BY-NC-SA 3.0)",
+        need={"poses": True},
+    ),
+    "vamr:checkerboard": CatalogueEntry(
+        "vamr:checkerboard",
+        "vamr",
+        "camera (monocular, radial distortion), real hand-held around a planar checkerboard, 300 frames",
+        "poses from the board (the course's calibration)",
+        {"path": "vamr_checkerboard"},
+        'D. Scaramuzza, "Vision Algorithms for Mobile Robotics", UZH Robotics and Perception Group (exercise data)',
+    ),
 }
