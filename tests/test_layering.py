@@ -25,7 +25,9 @@ DATASETS_MAY_IMPORT = {
     "pydantic",
     "pooch",
     "gtsam",
-}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example data
+    "cv2",
+}  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example
+# data, cv2 (imported on first use) only to decode a camera image when one is asked for
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:

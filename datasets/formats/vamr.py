@@ -20,7 +20,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import ClassVar
 
-import cv2
 import numpy as np
 
 from slamarena.params import Field, Params, with_params
@@ -101,6 +100,8 @@ def read(files: dict, name: str, /, *, params: VamrSource) -> Sequence:
     truth = np.tile(np.eye(4), (n, 1, 1))
     truth[:, :3, :3] = R.transpose(0, 2, 1)
     truth[:, :3, 3] = -np.einsum("nji,nj->ni", R, poses[:n, 3:])
+    import cv2  # imported on first use: the CLI starts fast
+
     first = cv2.imread(str(images[0]), cv2.IMREAD_GRAYSCALE)
     if first is None:
         raise DataFormatError(images[0], None, "an image OpenCV can read", "unreadable")
