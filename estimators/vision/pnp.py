@@ -152,7 +152,7 @@ def epnp(X: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     M = np.zeros((2 * len(X), 12))
     M[0::2, 0::3], M[0::2, 2::3] = alphas, -alphas * x[:, :1]
     M[1::2, 1::3], M[1::2, 2::3] = alphas, -alphas * x[:, 1:]
-    V = np.linalg.svd(M)[2][-1:-5:-1]  # (4, 12): v_1 of the smallest singular value first
+    V = np.linalg.eigh(M.T @ M)[1][:, :4].T  # (4, 12): right singular vectors of M, the smallest first
     rho = np.array([np.sum((cw[i] - cw[j]) ** 2) for i, j in _PAIRS])
     D = np.stack([V[:, 3 * i : 3 * i + 3] - V[:, 3 * j : 3 * j + 3] for i, j in _PAIRS])  # (6, 4, 3)
     best, best_error = None, np.inf

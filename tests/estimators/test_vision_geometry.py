@@ -238,6 +238,8 @@ def test_hamming_matching_is_opencvs_brute_force_matcher(rng):
     D = hamming_table(a, b)
     ref = np.array([[cv2.norm(p, q, cv2.NORM_HAMMING) for q in b] for p in a[:20]])
     np.testing.assert_array_equal(D[:20], ref)
+    literal = np.bitwise_count(a[:, None, :] ^ b[None, :, :]).sum(axis=2)  # the vectorised form
+    np.testing.assert_array_equal(D, literal)
     i, j = match(a, b, ratio=None, mutual=True)
     cross = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True).match(a, b)
     assert sorted(zip(i.tolist(), j.tolist())) == sorted((m.queryIdx, m.trainIdx) for m in cross)
