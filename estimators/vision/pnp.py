@@ -27,7 +27,8 @@ Gauss-Newton on the same six equations); the pose is the absolute orientation of
 the smallest reprojection error is returned.
 
 **RANSAC** (:func:`pnp_ransac`): minimal samples of 3 (P3P, each of its solutions scored) or 6 (EPnP), inliers by
-reprojection error in pixels, adaptive number of samples (:mod:`.ransac`), then :func:`refine_pose` on the inliers.
+reprojection error in pixels, adaptive number of samples (:mod:`.ransac`), EPnP on all inliers (non-planar points),
+then :func:`refine_pose` on the inliers and re-classification, repeated until the inlier set is stable (≤ 5 rounds).
 
 **Refinement** (:func:`refine_pose`): Levenberg-Marquardt on SE(3), residuals and Jacobians of :mod:`.projection`,
 ``(JᵀJ + λ diag(JᵀJ)) δ = −Jᵀ r``, ``T ← exp(δ^) T``, λ × 10 on a rejected step, ÷ 10 on an accepted one.
@@ -38,7 +39,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.polynomial import polynomial as P
 
 from .lie import se3_exp
 from .projection import jacobians, normalise, residuals
@@ -82,21 +82,24 @@ def p3p(X: np.ndarray, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     ca, cb, cg = f[1] @ f[2], f[0] @ f[2], f[0] @ f[1]
     if b2 <= 0 or a2 <= 0 or c2 <= 0:
         return []
-    w = np.array([1.0, -2.0 * cb, 1.0])  # 1 + v² − 2v cos β, coefficients low → high in v
-    p2, p1, p0 = np.array([b2]), np.array([0.0, -2.0 * b2 * ca]), P.polysub([0.0, 0.0, b2], a2 * w)
-    q2, q1, q0 = np.array([b2]), np.array([-2.0 * b2 * cg]), P.polysub([b2], c2 * w)
-    d20 = P.polysub(P.polymul(p2, q0), P.polymul(p0, q2))
-    d21 = P.polysub(P.polymul(p2, q1), P.polymul(p1, q2))
-    d10 = P.polysub(P.polymul(p1, q0), P.polymul(p0, q1))
-    quartic = P.polysub(P.polymul(d20, d20), P.polymul(d21, d10))
-    roots = P.polyroots(quartic)
+    # polynomials in v as coefficient arrays, low → high (np.convolve multiplies them)
+    w = np.array([1.0, -2.0 * cb, 1.0])  # 1 + v² − 2v cos β
+    p2, p1, p0 = np.array([b2, 0.0, 0.0]), np.array([0.0, -2.0 * b2 * ca, 0.0]), np.array([0.0, 0.0, b2]) - a2 * w
+    q2, q1, q0 = np.array([b2, 0.0, 0.0]), np.array([-2.0 * b2 * cg, 0.0, 0.0]), np.array([b2, 0.0, 0.0]) - c2 * w
+    d20 = np.convolve(p2, q0) - np.convolve(p0, q2)
+    d21 = np.convolve(p2, q1) - np.convolve(p1, q2)
+    d10 = np.convolve(p1, q0) - np.convolve(p0, q1)
+    quartic = (np.convolve(d20, d20) - np.convolve(d21, d10))[:5]  # degree 4: the higher terms cancel
+    roots = np.roots(quartic[::-1])
     out = []
+    powers = np.array([1.0, 0.0, 0.0])
     for v in roots[np.abs(roots.imag) <= 1e-6 * np.maximum(1.0, np.abs(roots.real))].real:
-        denominator = P.polyval(v, P.polysub(p1, q1))
+        powers[1], powers[2] = v, v * v
+        denominator = (p1 - q1) @ powers
         if v <= 0 or abs(denominator) < 1e-12:
             continue
-        u = P.polyval(v, P.polysub(q0, p0)) / denominator
-        s1_squared = b2 / P.polyval(v, w)
+        u = (q0 - p0) @ powers / denominator
+        s1_squared = b2 / (w @ powers)
         if u <= 0 or not s1_squared > 0:
             continue
         s1 = np.sqrt(s1_squared)
@@ -145,8 +148,10 @@ def _refine_betas(betas: np.ndarray, V: np.ndarray, rho: np.ndarray, iterations:
 def epnp(X: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The pose (R, t) of n ≥ 4 (non-planar: 6 or more is well posed) world points X (n, 3) seen at normalised x (n, 2)."""
     X, x = np.asarray(X, float), np.asarray(x, float)
-    if len(X) < 4 or planar(X):
-        raise ValueError(f"EPnP needs at least 4 non-coplanar points, got {len(X)} (planar: {planar(X)})")
+    if len(X) < 4:
+        raise ValueError(f"EPnP needs at least 4 non-coplanar points, got {len(X)}")
+    if planar(X):
+        raise ValueError(f"EPnP needs at least 4 non-coplanar points, got {len(X)} on a plane")
     cw = _control_points(X)
     alphas = np.column_stack([np.ones(len(X)), X]) @ np.linalg.inv(np.column_stack([np.ones(4), cw]))  # (n, 4)
     M = np.zeros((2 * len(X), 12))
@@ -269,8 +274,12 @@ def pnp_ransac(
         ):
             R, t = R_all, t_all
     rms = float(np.sqrt(np.mean(np.sum(residuals(K, R, t, X[best_inliers], u[best_inliers]) ** 2, axis=1))))
-    if refine:
+    for _ in range(5 if refine else 0):  # refine on the inliers, re-classify, until the inlier set is stable
         R, t, rms = refine_pose(K, R, t, X[best_inliers], u[best_inliers])
-        error = np.sum(residuals(K, R, t, X, u) ** 2, axis=1)
-        best_inliers = ((X @ R[2] + t[2]) > 0) & (error <= threshold**2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            error = np.sum(residuals(K, R, t, X, u) ** 2, axis=1)
+        inliers = ((X @ R[2] + t[2]) > 0) & (error <= threshold**2)
+        if np.array_equal(inliers, best_inliers) or inliers.sum() < size + 1:
+            break
+        best_inliers = inliers
     return PnPResult(R, t, best_inliers, rms, drawn)

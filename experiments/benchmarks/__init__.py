@@ -26,6 +26,7 @@ BENCHMARKS: dict[str, str] = {
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
+    "vision": "slamarena.experiments.benchmarks.vision:main",
 }
 
 
