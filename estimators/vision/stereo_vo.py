@@ -16,23 +16,23 @@ A frame becomes a keyframe when its PnP inliers fall below ``keyframe_inliers`` 
 tracked against the current keyframe, or below ``min_inliers`` × 2; then its own stereo points join the map.
 A frame whose PnP fails (fewer than ``min_inliers`` inliers) takes the previous pose (counted in ``lost``).
 
-Every frame of the sequence must have a right image (a rectified pair).
+Every frame of the sequence must have a right image (a rectified pair). ``geometry`` picks whose matching,
+triangulation and PnP run (:mod:`.backends`: ``ours`` or ``opencv``, the OpenCV-only baseline).
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from slamarena.datasets.sequence import Camera
 from slamarena.params import Field, Params
 
+from .backends import BACKENDS
 from .features import orb
-from .matching import hamming_table, match, match_table
-from .pnp import pnp_ransac
-from .triangulation import triangulate_dlt
 
 __all__ = ["StereoVOParams", "VOResult", "stereo_points", "stereo_vo", "pose_matrix"]
 
@@ -50,6 +50,7 @@ class StereoVOParams(Params):
     keyframe_inliers: float = Field(0.6, gt=0, lt=1, description="new keyframe below this × the first inliers")
     map_keyframes: int = Field(2, ge=1, description="the keyframes whose points form the local map")
     seed: int = Field(0, ge=0, description="RANSAC's random seed")
+    geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
 
 
 @dataclass
@@ -77,17 +78,16 @@ def pose_matrix(R: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def stereo_points(camera: Camera, k: int, params: StereoVOParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame k's stereo points: left pixels (n, 2), camera-frame points (n, 3), left descriptors (n, 32)."""
+    backend = BACKENDS[params.geometry]
     ul, dl = orb(camera.image(k), params.n_features)
     ur, dr = orb(camera.image(k, "right"), params.n_features)
-    D = hamming_table(dl, dr)
     disparity = ul[:, None, 0] - ur[None, :, 0]
     allowed = (np.abs(ul[:, None, 1] - ur[None, :, 1]) <= params.row_tolerance) & (disparity >= params.min_disparity)
-    D = np.where(allowed, D, np.iinfo(D.dtype).max)
-    i, j = match_table(D, params.ratio, True, params.max_distance)
+    i, j = backend.match(dl, dr, params.ratio, params.max_distance, allowed)
     K, b = camera.K, camera.baseline
     x_left = (ul[i] - K[:2, 2]) / np.diag(K)[:2]
     x_right = (ur[j] - K[:2, 2]) / np.diag(K)[:2]
-    X = triangulate_dlt(x_left, x_right, (np.eye(3), np.zeros(3)), (np.eye(3), np.array([-b, 0.0, 0.0])))
+    X = backend.triangulate(x_left, x_right, (np.eye(3), np.zeros(3)), (np.eye(3), np.array([-b, 0.0, 0.0])))
     good = np.isfinite(X).all(axis=1) & (X[:, 2] > 0)
     return ul[i][good], X[good], dl[i][good]
 
@@ -97,6 +97,7 @@ def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:
     params = StereoVOParams.of(params)
     if camera.right is None or not camera.stereo.all():
         raise ValueError(f"stereo VO needs a right image for every frame; {int((~camera.stereo).sum())} lack one")
+    backend = BACKENDS[params.geometry]
     n = len(camera)
     poses = np.tile(np.eye(4), (n, 1, 1))
     inliers = np.full(n, -1, np.int64)
@@ -123,12 +124,9 @@ def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:
         u, d = orb(camera.image(k), params.n_features)
         X_map = np.concatenate([m[0] for m in maps])
         d_map = np.concatenate([m[1] for m in maps])
-        i, j = match(d, d_map, params.ratio, True, params.max_distance)
-        try:
-            result = pnp_ransac(camera.K, X_map[j], u[i], params.pnp_threshold, seed=params.seed + k)
-            count = int(result.inliers.sum())
-        except ValueError:
-            result, count = None, 0
+        i, j = backend.match(d, d_map, params.ratio, params.max_distance)
+        result = backend.pnp(camera.K, X_map[j], u[i], params.pnp_threshold, params.seed + k)
+        count = 0 if result is None else int(result.inliers.sum())
         if result is None or count < params.min_inliers:
             poses[k] = poses[k - 1]
             lost += 1

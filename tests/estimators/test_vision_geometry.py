@@ -248,3 +248,28 @@ def test_hamming_matching_is_opencvs_brute_force_matcher(rng):
     expected = sorted((m.queryIdx, m.trainIdx) for m, n in knn if m.distance < 0.8 * n.distance)
     assert sorted(zip(i.tolist(), j.tolist())) == expected
     assert set(zip(i.tolist(), j.tolist())) >= {(k, k) for k in range(150)}
+
+
+def test_the_two_backends_match_triangulate_and_solve_alike(rng):
+    from slamarena.estimators.vision.backends import OPENCV, OURS
+
+    a = rng.integers(0, 256, size=(200, 32), dtype=np.uint8)
+    b = np.concatenate([a[:120] ^ (rng.random((120, 32)) < 0.03) * np.uint8(1), rng.integers(0, 256, (80, 32))])
+    b = b.astype(np.uint8)
+    allowed = rng.random((200, 200)) < 0.7
+    allowed[np.arange(120), np.arange(120)] = True
+    for mask in (None, allowed):
+        assert sorted(zip(*map(list, OURS.match(a, b, 0.8, 64, mask)))) == sorted(
+            zip(*map(list, OPENCV.match(a, b, 0.8, 64, mask)))
+        )
+    R, t, X, x1, x2 = scene(rng)
+    pose1, pose2 = (np.eye(3), np.zeros(3)), (R, t)
+    np.testing.assert_allclose(
+        OPENCV.triangulate(x1, x2, pose1, pose2), OURS.triangulate(x1, x2, pose1, pose2), atol=1e-6
+    )
+    u = project(K, R, t, X)
+    for backend in (OURS, OPENCV):
+        pose = backend.pnp(K, X, u, 2.0, 0)
+        assert rotation_angle(pose.R.T @ R) < 1e-6 and pose.inliers.all()
+        two_view = backend.essential(x1, x2, 1e-3, 0)
+        assert rotation_angle(two_view.R.T @ R) < 1e-6 and two_view.t @ t > 1 - 1e-9
