@@ -125,7 +125,7 @@ def pnp_rows(camera, frames, repeats: int) -> list[dict]:
     rows = []
     for i in frames:
         j = i + 3
-        _, X, d = stereo_points(camera, i, StereoVOParams())
+        _, _, X, d = stereo_points(camera, i, StereoVOParams())
         u, e = orb(camera.image(j))
         a, b = match(d, e)
         X, u = X[a], u[b]

@@ -21,7 +21,9 @@ pytestmark = pytest.mark.realdata
 
 def test_stereo_points_have_kitti_depths_and_reproject_to_the_left_pixels():
     camera = load_staged("kitti:00", frames=2).camera
-    u, X, d = stereo_points(camera, 0, StereoVOParams())
+    u, u_right, X, d = stereo_points(camera, 0, StereoVOParams())
+    # z = fx b / d, up to the DLT spreading a row difference (≤ 1 px) between the two rays
+    np.testing.assert_allclose(camera.K[0, 0] * camera.baseline / (u[:, 0] - u_right), X[:, 2], rtol=1e-4)
     assert len(u) > 300 and d.shape == (len(u), 32)
     np.testing.assert_allclose(X[:, :2] / X[:, 2:] * np.diag(camera.K)[:2] + camera.K[:2, 2], u, atol=1.0)
     assert np.median(X[:, 2]) > 5 and X[:, 2].max() < camera.K[0, 0] * camera.baseline / 2.0 + 1e-6
@@ -48,6 +50,13 @@ def test_mono_vo_tracks_the_first_60_frames_up_to_scale():
     result = mono_vo(camera)
     assert result.lost == 0 and len(result.keyframes) > 5
     assert ate_3d(result.poses, camera.ground_truth, "sim3")["rmse_percent_of_path"] < 5.0
+
+
+def test_stereo_vo_with_windowed_bundle_adjustment_runs_its_windows():
+    camera = load_staged("kitti:00", frames=20).camera
+    result = stereo_vo(camera, StereoVOParams(window=5))
+    assert result.meta["ba_failures"] == [] and result.meta["ba_runs"] == len(result.keyframes) - 1
+    assert ate_3d(result.poses, camera.ground_truth, "se3")["rmse_percent_of_path"] < 3.0
 
 
 @pytest.mark.slow
