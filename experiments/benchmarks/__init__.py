@@ -27,6 +27,7 @@ BENCHMARKS: dict[str, str] = {
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
     "vision": "slamarena.experiments.benchmarks.vision:main",
+    "vision-vo": "slamarena.experiments.benchmarks.vision_vo:main",
 }
 
 
