@@ -39,7 +39,9 @@ __all__ = ["MonoVOParams", "mono_vo", "triangulate_pair"]
 
 
 class MonoVOParams(Params):
-    """Monocular VO parameters (set a priori, not fitted to the scored frames)."""
+    """Monocular VO parameters. init_parallax, min_parallax_deg and map_keyframes were changed (from 20 px, 1°, 2)
+    after the first run failed on frames 0–60 of KITTI 00, part of the scored frames
+    (research/notebook/2026-11-28-vision.md)."""
 
     n_features: int = Field(2000, ge=50, description="ORB features per image")
     ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")

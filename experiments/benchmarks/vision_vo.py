@@ -10,7 +10,8 @@ frame (the devkit's 100–800 m do not fit in 84 m; monocular: at the Sim(3) ali
 [% of the path]; and the same from frame 10 on (on frames 0–9 the stereo depths are ≈ 22 % shorter than the
 ground-truth motion implies: research/notebook/2026-11-28-vision.md). Speed: frames per CPU second (one process,
 one BLAS/numba/OpenCV thread) and its ratio to KITTI's 10 Hz (> 1: faster than real time). Parameters are the
-pipelines' defaults, set before any scoring.
+pipelines' defaults: the stereo ones set before any scoring, three monocular ones changed after a failed first run
+on frames 0–60 (:class:`~slamarena.estimators.vision.mono_vo.MonoVOParams`).
 """
 
 from __future__ import annotations

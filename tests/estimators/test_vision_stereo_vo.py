@@ -2,7 +2,8 @@
 
 Measured on frames 0–99 (84 m; research/notebook/2026-11-28-vision.md): ATE 0.56 m after SE(3) alignment (0.66 % of
 the path), KITTI t_rel 2.68 % and r_rel 2.47 deg/100 m over segments of 10, 20, 40, 80 m, end-point drift 3.5 %,
-8.4 frames/s of CPU time; the OpenCV-only baseline in the same pipeline 0.44 m, 2.21 %, 3.0 %. The default tests run
+11–12 frames per CPU second; the OpenCV-only baseline in the same pipeline 0.44 m, 2.21 %, 3.0 %
+(`slamarena bench vision-vo`). The default tests run
 the first 30 frames; the slow one all 100.
 """
 
