@@ -9,8 +9,9 @@ as % of the path length; KITTI's t_rel [%] and r_rel [deg/100 m] over segments o
 frame (the devkit's 100–800 m do not fit in 84 m; monocular: at the Sim(3) alignment's scale); end-point drift
 [% of the path]; and the same from frame 10 on (on frames 0–9 the stereo depths are ≈ 22 % shorter than the
 ground-truth motion implies: research/notebook/2026-11-28-vision.md). Speed: frames per CPU second (one process,
-one BLAS/numba/OpenCV thread) and its ratio to KITTI's 10 Hz (> 1: faster than real time). Parameters are the
-pipelines' defaults: the stereo ones set before any scoring, three monocular ones changed after a failed first run
+one BLAS/numba/OpenCV thread) and its ratio to KITTI's 10 Hz (> 1: faster than real time). With ``--out``, the
+trajectories go to ``vision_vo_tracks.json`` (figures: ``python -m slamarena.paper_figures.vision OUT``). Parameters
+are the pipelines' defaults: the stereo ones set before any scoring, three monocular ones changed after a failed first run
 on frames 0–60 (:class:`~slamarena.estimators.vision.mono_vo.MonoVOParams`).
 """
 
@@ -47,7 +48,7 @@ def _scores(poses: np.ndarray, truth: np.ndarray, align: str, lo: int = 0) -> di
     return out
 
 
-def measure(quick: bool = False) -> list[dict]:
+def measure(quick: bool = False) -> dict:
     import cv2
 
     from slamarena.datasets import load
@@ -66,9 +67,16 @@ def measure(quick: bool = False) -> list[dict]:
         ("mono VO (ours)", "sim3", mono, lambda c: mono_vo(c)),
         ("mono VO (OpenCV geometry)", "sim3", mono, lambda c: mono_vo(c, MonoVOParams(geometry="opencv"))),
     ]
-    rows = []
+    rows, tracks = [], {}
     for name, align, cam, run in runs:
         result = run(cam)
+        tracks[name] = {
+            "align": align,
+            "estimate": result.poses[:, :3, 3].tolist(),
+            "truth": cam.ground_truth[:, :3, 3].tolist(),
+            "inliers": result.inliers.tolist(),
+            "keyframes": list(result.keyframes),
+        }
         fps = len(cam) / float(result.cpu_time.sum())
         rows.append(
             {
@@ -84,14 +92,15 @@ def measure(quick: bool = False) -> list[dict]:
                 "real_time_ratio": fps / 10.0,
             }
         )
-    return rows
+    return {"rows": rows, "tracks": tracks}
 
 
 def main(out: Path | None = None, quick: bool = False) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    rows = measure_single_threaded("slamarena.experiments.benchmarks.vision_vo", quick=quick)
+    measured = measure_single_threaded("slamarena.experiments.benchmarks.vision_vo", quick=quick)
+    rows = measured["rows"]
     columns = ["pipeline", "frames", "ate_percent", "t_rel_percent", "r_rel_deg_per_100m", "drift_percent",
                "t_rel_percent_from_10", "drift_percent_from_10", "lost", "fps_cpu", "real_time_ratio"]  # fmt: skip
     table = Table(title="VO on KITTI 00 (stereo: SE(3) alignment; mono: Sim(3))")
@@ -101,6 +110,9 @@ def main(out: Path | None = None, quick: bool = False) -> int:
         table.add_row(*[f"{row[c]:.3g}" if isinstance(row.get(c), float) else str(row.get(c, "")) for c in columns])
     Console(width=240).print(table)
     write_rows(rows, out, "vision_vo.csv")
+    if out is not None:  # figures from it: python -m slamarena.paper_figures.vision OUT
+        (Path(out) / "vision_vo_tracks.json").write_text(json.dumps(measured["tracks"]))
+        print(f"wrote {Path(out) / 'vision_vo_tracks.json'}")
     return 0
 
 
