@@ -111,3 +111,27 @@ def test_camera_stream_rejects_bad_fields():
         Camera(t=[0], left=["a"], K=np.eye(3), ground_truth=np.full((1, 4, 4), np.nan))
     with pytest.raises(DataFormatError, match="missing.png: expected an image OpenCV can read"):
         Camera(t=[0], left=["missing.png"], K=np.eye(3)).image(0)
+
+
+def test_checkerboard_bad_files_name_file_and_line(tmp_path):
+    source = staged("vamr_checkerboard/K.txt").parent
+    (tmp_path / "images").mkdir()
+    for k in (1, 2):
+        shutil.copy(source / "images" / f"img_{k:04d}.jpg", tmp_path / "images")
+    for name in ("K.txt", "D.txt", "poses.txt"):
+        shutil.copy(source / name, tmp_path)
+    files = {"first_image": tmp_path / "images/img_0001.jpg", **{n[0]: tmp_path / f"{n}.txt" for n in ("K", "D")}}
+    files["poses"] = tmp_path / "poses.txt"
+    params = vamr.VamrSource(path=str(tmp_path))
+    assert len(vamr.read(files, "v", params=params).camera) == 2
+    lines = (source / "poses.txt").read_text().splitlines()
+    (tmp_path / "poses.txt").write_text(lines[0] + "\n" + lines[1].rsplit(" ", 1)[0] + "\n")
+    with pytest.raises(DataFormatError, match=r"poses.txt:2: expected 6 numeric fields"):
+        vamr.read(files, "v", params=params)
+    (tmp_path / "poses.txt").write_text(lines[0] + "\n")
+    with pytest.raises(DataFormatError, match=r"poses.txt:1: expected 2 poses"):
+        vamr.read(files, "v", params=params)
+    (tmp_path / "poses.txt").write_text("\n".join(lines[:2]) + "\n")
+    (tmp_path / "K.txt").write_text("420 0 355\n0 420 250\n0 1 1\n")
+    with pytest.raises(DataFormatError, match=r"K.txt:3: expected 3 rows of an upper-triangular K"):
+        vamr.read(files, "v", params=params)
