@@ -108,7 +108,8 @@ def five_point(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
     correspondences x1, x2 (n, 2), n ≥ 5."""
     if len(x1) < 5:
         raise ValueError(f"the 5-point algorithm needs at least 5 correspondences, got {len(x1)}")
-    N = np.linalg.svd(_epipolar_rows(x1, x2))[2][-4:]  # rows X, Y, Z, W: E = xX + yY + zZ + W
+    A = _epipolar_rows(x1, x2)
+    N = np.linalg.svd(A, full_matrices=len(A) < 9)[2][-4:]  # rows X, Y, Z, W: E = xX + yY + zZ + W
     C = np.tensordot(_T, N, axes=([3], [1]))  # (10, 9, 9, 4)
     C = np.tensordot(C, N, axes=([2], [1]))  # (10, 9, 4, 4)
     C = np.tensordot(C, N, axes=([1], [1]))  # (10, 4, 4, 4): the factors' order is immaterial to the monomial
@@ -144,7 +145,8 @@ def eight_point(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
         raise ValueError(f"the 8-point algorithm needs at least 8 correspondences, got {len(x1)}")
     T1, T2 = _hartley(x1), _hartley(x2)
     y1, y2 = (_homogeneous(x1) @ T1.T)[:, :2], (_homogeneous(x2) @ T2.T)[:, :2]
-    F = np.linalg.svd(_epipolar_rows(y1, y2))[2][-1].reshape(3, 3)
+    A = _epipolar_rows(y1, y2)
+    F = np.linalg.svd(A, full_matrices=len(A) < 9)[2][-1].reshape(3, 3)
     E = T2.T @ F @ T1
     U, s, Vt = np.linalg.svd(E)
     E = U @ np.diag([1.0, 1.0, 0.0]) @ Vt
