@@ -187,9 +187,13 @@ def sampson_distance(E: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarra
 
     d² = (x̂_2ᵀ E x̂_1)² / ((E x̂_1)₁² + (E x̂_1)₂² + (Eᵀ x̂_2)₁² + (Eᵀ x̂_2)₂²)
     """
-    h1, h2 = _homogeneous(x1), _homogeneous(x2)
+    return _sampson(E, _homogeneous(x1), _homogeneous(x2))
+
+
+def _sampson(E: np.ndarray, h1: np.ndarray, h2: np.ndarray) -> np.ndarray:
+    """:func:`sampson_distance` of homogeneous points h1, h2 (n, 3)."""
     Ex1, Etx2 = h1 @ E.T, h2 @ E
-    num = np.sum(h2 * Ex1, axis=1) ** 2
+    num = np.einsum("ij,ij->i", h2, Ex1) ** 2
     return num / (Ex1[:, 0] ** 2 + Ex1[:, 1] ** 2 + Etx2[:, 0] ** 2 + Etx2[:, 1] ** 2)
 
 
@@ -220,12 +224,13 @@ def essential_ransac(
     if n < 5:
         raise ValueError(f"essential_ransac needs at least 5 correspondences, got {n}")
     rng = np.random.default_rng(seed)
+    h1, h2 = _homogeneous(x1), _homogeneous(x2)
     best_E, best_inliers, needed, drawn = None, np.zeros(n, bool), max_iterations, 0
     while drawn < needed:
         drawn += 1
         sample = rng.choice(n, 5, replace=False)
         for E in five_point(x1[sample], x2[sample]):
-            inliers = sampson_distance(E, x1, x2) <= threshold**2
+            inliers = _sampson(E, h1, h2) <= threshold**2
             if inliers.sum() > best_inliers.sum():
                 best_E, best_inliers = E, inliers
                 needed = iterations_needed(inliers.mean(), 5, confidence, max_iterations)
@@ -233,9 +238,9 @@ def essential_ransac(
         raise ValueError("essential_ransac found no essential matrix")
     refined = five_point(x1[best_inliers], x2[best_inliers])
     if len(refined):
-        scores = [np.sum(sampson_distance(E, x1, x2) <= threshold**2) for E in refined]
+        scores = [np.sum(_sampson(E, h1, h2) <= threshold**2) for E in refined]
         E = refined[int(np.argmax(scores))]
         if max(scores) >= best_inliers.sum():
-            best_E, best_inliers = E, sampson_distance(E, x1, x2) <= threshold**2
+            best_E, best_inliers = E, _sampson(E, h1, h2) <= threshold**2
     R, t, _ = relative_pose(best_E, x1[best_inliers], x2[best_inliers])
     return EssentialResult(best_E, R, t, best_inliers, drawn)
