@@ -9,7 +9,8 @@ a :class:`~slamarena.datasets.source.SourceParams` model: location fields (``pat
 :data:`CATALOGUE` maps a registry name to a :class:`CatalogueEntry`: its family and ``arguments`` — the
 location, relative to a data root, and preset options — and what it is (kind, ground truth, citation).
 An entry may require a role its family's layout leaves optional (``need``: Dataset 6's Vicon files) and
-add optional files (``extra``: a CARMEN log's staged relations, read when present). The files of an entry
+add optional files (``extra``: a CARMEN log's staged relations, read when present); a camera sequence (a folder of
+images) is staged only (``fetchable=False``: no pinned download covers its images). The files of an entry
 are all read from one data root (:func:`slamarena.datasets.dataroot.one_root`);
 :func:`slamarena.datasets.registry.resolve` turns a name (catalogued, or ``<family>:<path>``) into them.
 """
@@ -71,6 +72,8 @@ class CatalogueEntry:
     citation: str = ""
     need: dict[str, bool] = field(default_factory=dict)
     extra: dict[str, str] = field(default_factory=dict)
+    #: False: staged only — a folder of images that no pinned download covers (``slamarena data fetch`` refuses)
+    fetchable: bool = True
 
     @property
     def reader(self) -> str:
@@ -361,6 +364,7 @@ CATALOGUE: dict[str, CatalogueEntry] = {
         'A. Geiger, P. Lenz, R. Urtasun, "Are we ready for autonomous driving? The KITTI vision benchmark suite", '
         "CVPR 2012 (CC BY-NC-SA 3.0)",
         need={"poses": True},
+        fetchable=False,
     ),
     "vamr:checkerboard": CatalogueEntry(
         "vamr:checkerboard",
@@ -369,5 +373,6 @@ CATALOGUE: dict[str, CatalogueEntry] = {
         "poses from the board (the course's calibration)",
         {"path": "vamr_checkerboard"},
         'D. Scaramuzza, "Vision Algorithms for Mobile Robotics", UZH Robotics and Perception Group (exercise data)',
+        fetchable=False,
     ),
 }
