@@ -65,8 +65,8 @@ class StereoVOParams(Params):
 @dataclass
 class VOResult:
     """frames (K,) the frame indices, t (K,) [s], poses (K, 4, 4) ``T_world←cam``, inliers (K,) PnP inliers
-    (−1 at keyframes' own start), keyframes (list of frame indices), cpu_time (K,) [s] per frame, lost count, and
-    the keyframes' map points/descriptors/observations for a back end."""
+    (−1 where no PnP ran: the first frame, monocular keyframe 1), keyframes (list of frame indices), cpu_time (K,)
+    [s] per frame, lost (frames whose PnP failed), meta (parameters; back-end runs and failures)."""
 
     frames: np.ndarray
     t: np.ndarray
