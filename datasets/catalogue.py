@@ -9,7 +9,8 @@ a :class:`~slamarena.datasets.source.SourceParams` model: location fields (``pat
 :data:`CATALOGUE` maps a registry name to a :class:`CatalogueEntry`: its family and ``arguments`` — the
 location, relative to a data root, and preset options — and what it is (kind, ground truth, citation).
 An entry may require a role its family's layout leaves optional (``need``: Dataset 6's Vicon files) and
-add optional files (``extra``: a CARMEN log's staged relations, read when present). The files of an entry
+add optional files (``extra``: a CARMEN log's staged relations, read when present); a camera sequence (a folder of
+images) is staged only (``fetchable=False``: no pinned download covers its images). The files of an entry
 are all read from one data root (:func:`slamarena.datasets.dataroot.one_root`);
 :func:`slamarena.datasets.registry.resolve` turns a name (catalogued, or ``<family>:<path>``) into them.
 """
@@ -53,6 +54,8 @@ FORMATS: dict[str, Format] = {
     "toro": Format("slamarena.datasets.formats.toro:load", "toro:/data/graph.graph"),
     "isam": Format("slamarena.datasets.formats.isam:load", "isam:/data/graph.txt"),
     "carmen": Format("slamarena.datasets.formats.carmen:load", "carmen:/data/log.clf"),
+    "kitti": Format("slamarena.datasets.formats.kitti_odometry:read", "kitti:/data/kitti/sequences/05"),
+    "vamr": Format("slamarena.datasets.formats.vamr:read", "vamr:/data/vamr/ex01"),
     "carmen-corrected": Format(
         "slamarena.datasets.formats.carmen:load", "carmen-corrected:/data/log-corrected.log", {"corrected": True}
     ),
@@ -70,6 +73,8 @@ class CatalogueEntry:
     citation: str = ""
     need: dict[str, bool] = field(default_factory=dict)
     extra: dict[str, str] = field(default_factory=dict)
+    #: False: staged only — a folder of images that no pinned download covers (``slamarena data fetch`` refuses)
+    fetchable: bool = True
 
     @property
     def reader(self) -> str:
@@ -358,5 +363,25 @@ CATALOGUE: dict[str, CatalogueEntry] = {
         "none",
         {"path": "ros_bags/aces.clf2bag.bag"},
         f"P. Beeson (UT Austin); {_RADISH}; bag made by INESCTEC/ricoslam's clf2bag.py",
+    ),
+    "kitti:00": CatalogueEntry(
+        "kitti:00",
+        "kitti",
+        "camera (rectified stereo, grey), real driving: the first 200 frames of sequence 00 (100 with a right image)",
+        "KITTI poses (GPS/INS)",
+        {"path": "kitti_odometry/sequences/00"},
+        'A. Geiger, P. Lenz, R. Urtasun, "Are we ready for autonomous driving? The KITTI vision benchmark suite", '
+        "CVPR 2012 (CC BY-NC-SA 3.0)",
+        need={"poses": True},
+        fetchable=False,
+    ),
+    "vamr:checkerboard": CatalogueEntry(
+        "vamr:checkerboard",
+        "vamr",
+        "camera (monocular, radial distortion), real hand-held around a planar checkerboard, 300 frames",
+        "poses from the board (the course's calibration)",
+        {"path": "vamr_checkerboard"},
+        'D. Scaramuzza, "Vision Algorithms for Mobile Robotics", UZH Robotics and Perception Group (exercise data)',
+        fetchable=False,
     ),
 }

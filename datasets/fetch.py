@@ -495,6 +495,8 @@ def fetch(name: str, force: bool = False) -> list[Path]:
     dataset = resolve(name)
     if name not in CATALOGUE:
         raise FetchError(f"{name}: only a catalogued dataset can be fetched (slamarena data list)")
+    if not CATALOGUE[name].fetchable:
+        raise FetchError(f"{name}: staged only (a folder of images with no pinned download); see its SOURCE.md")
     if not force and dataset.present():
         return list(dataset.files().values())
     pinned = {role: [c for c in candidates if c in FILES] for role, candidates in dataset.layout.files.items()}

@@ -105,7 +105,9 @@ def _catalogued(entry: CatalogueEntry, params: dict) -> Dataset:
         family_format.params({**entry.arguments, **params}),
         entry.layout(),
         (),
-        f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {entry.name}",
+        f"Set --data-root or SLAMARENA_DATA, or download it with: slamarena data fetch {entry.name}"
+        if entry.fetchable
+        else "Set --data-root or SLAMARENA_DATA to a root holding it (staged only: no download).",
     )
 
 

@@ -18,6 +18,9 @@ Streams
 ``Scans``         2D laser scans ``ranges[S, B]`` with beam angles, max range, mounting pose
                   and the pose the log attached to each scan (odometry or corrected);
                   interlaced scanners: per-scan ``angle_offset`` and ``beam_count``.
+``Camera``        camera frames (image files read on demand, never all at once), intrinsics ``K``,
+                  lens distortion, an optional rectified right image per frame with its baseline,
+                  and the camera poses ``T_world←cam`` the dataset gives as ground truth.
 ``Trajectory``    time-stamped poses ``(x, y, theta)`` (ground truth, reference).
 ``LandmarkMap``   landmark ids and positions, optional std-devs (ground truth).
 ``Noise``         the dataset's stated noise, each field optional.
@@ -31,6 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .errors import DataFormatError
 from .geometry import wrap_angle
 
 __all__ = [
@@ -41,6 +45,7 @@ __all__ = [
     "Gps",
     "Heading",
     "Scans",
+    "Camera",
     "Trajectory",
     "LandmarkMap",
     "Noise",
@@ -365,6 +370,76 @@ class Scans(_Stream):
 
 
 @dataclass(frozen=True)
+class Camera(_Stream):
+    """Camera frames of a pinhole camera, the images read from their files on demand (:meth:`image`).
+
+    t (N,) [s]; left (N,) image file per frame (str); K (3, 3) intrinsics ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``
+    [px]; distortion (D,) the coefficients of ``distortion_model`` (empty: none):
+
+    - ``"none"``: an ideal (or rectified) pinhole;
+    - ``"radial_pixels"``: ``p_d = c + (p_u − c)(1 + k1 r² + k2 r⁴)``, ``r² = ||p_u − c||²`` in pixels on the
+      undistorted image, ``c = (cx, cy)``, D = (k1 [px⁻²], k2 [px⁻⁴]) (the UZH course's model).
+
+    right (N,), optional: the rectified right image of each frame ("" where the dataset has none); its camera is the
+    left one translated by ``baseline`` [m] along +x (``P1 = K [I | −(b, 0, 0)ᵀ]``).
+    ground_truth (N, 4, 4), optional: the pose ``T_world←cam`` of each frame's (left) camera; camera axes x right,
+    y down, z forward. All values finite.
+    """
+
+    t: np.ndarray
+    left: np.ndarray
+    K: np.ndarray = field(metadata={"per_row": False})
+    distortion: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata={"per_row": False})
+    distortion_model: str = "none"
+    width: int = 0
+    height: int = 0
+    right: np.ndarray | None = None
+    baseline: float | None = None
+    ground_truth: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "t", _f64(self.t))
+        object.__setattr__(self, "left", np.asarray(self.left, dtype=str))
+        object.__setattr__(self, "K", _f64(self.K).reshape(3, 3))
+        object.__setattr__(self, "distortion", _f64(self.distortion).reshape(-1))
+        _check_time("Camera", self.t)
+        _check_len("Camera", self.t, left=self.left)
+        _check_finite("Camera", K=self.K, distortion=self.distortion)
+        if self.distortion_model not in ("none", "radial_pixels"):
+            raise ValueError(
+                f"Camera.distortion_model must be 'none' or 'radial_pixels', got {self.distortion_model!r}"
+            )
+        if self.distortion_model == "radial_pixels" and self.distortion.shape != (2,):
+            raise ValueError(f"Camera.distortion of the radial_pixels model is (k1, k2), got {self.distortion.shape}")
+        if self.right is not None:
+            object.__setattr__(self, "right", np.asarray(self.right, dtype=str))
+            _check_len("Camera", self.t, right=self.right)
+            if self.baseline is None or not np.isfinite(self.baseline) or self.baseline <= 0:
+                raise ValueError(f"Camera.right needs a positive finite baseline, got {self.baseline!r}")
+        if self.ground_truth is not None:
+            object.__setattr__(self, "ground_truth", _f64(self.ground_truth).reshape(-1, 4, 4))
+            _check_len("Camera", self.t, ground_truth=self.ground_truth)
+            _check_finite("Camera", ground_truth=self.ground_truth)
+
+    @property
+    def stereo(self) -> np.ndarray:
+        """(N,) bool: the frames that have a right image."""
+        return np.zeros(len(self), bool) if self.right is None else self.right != ""
+
+    def image(self, k: int, side: str = "left") -> np.ndarray:
+        """Frame ``k``'s image (``side`` left or right) as an (H, W) uint8 grey image, read from its file now."""
+        import cv2  # imported on first use: the CLI starts fast
+
+        files = self.left if side == "left" else self.right
+        if side not in ("left", "right") or files is None or files[k] == "":
+            raise KeyError(f"frame {k} has no {side} image")
+        image = cv2.imread(str(files[k]), cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise DataFormatError(files[k], None, "an image OpenCV can read", "unreadable or missing")
+        return image
+
+
+@dataclass(frozen=True)
 class Trajectory(_Stream):
     """Time-stamped poses (K, 3) ``(x, y, theta)``; all values finite."""
 
@@ -433,7 +508,7 @@ class Noise:
                 object.__setattr__(self, f.name, _f64(value))
 
 
-STREAMS = ("motion", "range_bearing", "beacon_ranges", "gps", "heading", "scans")
+STREAMS = ("motion", "range_bearing", "beacon_ranges", "gps", "heading", "scans", "camera")
 
 
 class Event(NamedTuple):
@@ -461,6 +536,7 @@ class Sequence:
     gps: Gps | None = None
     heading: Heading | None = None
     scans: Scans | None = None
+    camera: Camera | None = None
     ground_truth: Trajectory | None = None
     landmarks: LandmarkMap | None = None
     initial_pose: np.ndarray | None = None
@@ -476,6 +552,7 @@ class Sequence:
             ("gps", Gps),
             ("heading", Heading),
             ("scans", Scans),
+            ("camera", Camera),
         ):
             value = getattr(self, stream)
             if value is not None and not isinstance(value, cls):
@@ -571,6 +648,14 @@ class Sequence:
                 if stream.angle_offset is not None:
                     entry["interlaced_offsets"] = int(np.unique(stream.angle_offset).size)
                 entry["max_range"] = stream.max_range
+            if name == "camera":
+                entry["image_size"] = [stream.width, stream.height]
+                entry["K"] = stream.K.tolist()
+                entry["distortion_model"] = stream.distortion_model
+                entry["distortion"] = stream.distortion.tolist()
+                entry["stereo_frames"] = int(stream.stereo.sum())
+                entry["baseline_m"] = stream.baseline
+                entry["ground_truth_poses"] = 0 if stream.ground_truth is None else len(stream)
             out[name] = entry
         out["ground_truth"] = (
             None

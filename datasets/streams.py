@@ -1,6 +1,6 @@
 """Which input streams a dataset provides, known without loading it: the run-time inputs of a
 :class:`~slamarena.datasets.sequence.Sequence` (``motion``, ``range_bearing``, ``beacon_ranges``, ``gps``,
-``heading``, ``scans``) or ``graph`` for a :class:`~slamarena.datasets.posegraph.PoseGraph`.
+``heading``, ``scans``, ``camera``) or ``graph`` for a :class:`~slamarena.datasets.posegraph.PoseGraph`.
 
 A dataset's streams follow from its format (the catalogue entry's reader) or its simulator. The experiment config
 checks them against what each method needs (``REQUIRES`` of the estimator and mapping registries) before any cell
@@ -22,6 +22,8 @@ STREAMS: dict[str, frozenset[str]] = {
     "slamarena.datasets.formats.victoria_park:load": frozenset({"motion", "range_bearing"}),
     "slamarena.datasets.formats.plaza:read": frozenset({"motion", "beacon_ranges"}),
     "slamarena.datasets.formats.carmen:load": frozenset({"motion", "scans"}),
+    "slamarena.datasets.formats.kitti_odometry:read": frozenset({"camera"}),
+    "slamarena.datasets.formats.vamr:read": frozenset({"camera"}),
     "slamarena.datasets.formats.g2o:load": frozenset({"graph"}),
     "slamarena.datasets.formats.toro:load": frozenset({"graph"}),
     "slamarena.datasets.formats.isam:load": frozenset({"graph"}),

@@ -39,6 +39,8 @@ BENCHMARKS: dict[str, str] = {
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
     "gtsam": "slamarena.experiments.benchmarks.gtsam:main",
+    "vision": "slamarena.experiments.benchmarks.vision:main",
+    "vision-vo": "slamarena.experiments.benchmarks.vision_vo:main",
 }
 
 

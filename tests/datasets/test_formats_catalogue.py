@@ -85,6 +85,8 @@ READERS = {
     "slamarena.datasets.formats.isam:load": ("isam:w20000", "isam:/nowhere.txt", ("noise", "cov")),
     "slamarena.datasets.formats.carmen:load": ("carmen:intel", "carmen:/nowhere.clf", ("max_range", -1.0)),
     "slamarena.datasets.formats.bag:load": ("bag:aces", "bag:/nowhere.bag", ("stamps", "sometimes")),
+    "slamarena.datasets.formats.kitti_odometry:read": ("kitti:00", "kitti:/nowhere/sequences/00", ("frames", 1)),
+    "slamarena.datasets.formats.vamr:read": ("vamr:checkerboard", "vamr:/nowhere", ("frames", 0)),
 }
 
 

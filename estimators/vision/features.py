@@ -1,0 +1,49 @@
+"""ORB features (OpenCV's detector and descriptor: not the object of study) and their repeatability under a warp.
+
+:func:`orb` returns keypoint pixels (n, 2) and descriptors (n, 32) uint8. :func:`warp_match_rate` measures how well
+ORB + :func:`~.matching.match` survive an image rotation by ``angle`` and scaling by ``scale`` about the centre:
+the image is warped by the similarity A (2, 3), features are detected in both, matched (ratio test, mutual check),
+and a match (i, j) is correct when ``||A u_i − u'_j|| ≤ tolerance`` px. The rate is correct matches over the
+keypoints of the original whose warped position lies inside the warped image.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .matching import match
+
+__all__ = ["orb", "warp_match_rate"]
+
+
+def orb(image: np.ndarray, n_features: int = 2000, **options) -> tuple[np.ndarray, np.ndarray]:
+    """ORB keypoints (n, 2) [px] and descriptors (n, 32) uint8 of a grey image (options: cv2.ORB_create's)."""
+    keypoints, descriptors = cv2.ORB_create(nfeatures=n_features, **options).detectAndCompute(image, None)
+    if descriptors is None:
+        return np.zeros((0, 2)), np.zeros((0, 32), np.uint8)
+    return np.array([k.pt for k in keypoints], dtype=float), descriptors
+
+
+def warp_match_rate(
+    image: np.ndarray, angle_deg: float, scale: float, n_features: int = 2000, tolerance: float = 3.0
+) -> dict:
+    """Correct matches / visible keypoints after rotating by ``angle_deg`` and scaling by ``scale``."""
+    h, w = image.shape
+    A = cv2.getRotationMatrix2D((w / 2, h / 2), angle_deg, scale)
+    warped = cv2.warpAffine(image, A, (w, h))
+    u, d = orb(image, n_features)
+    v, e = orb(warped, n_features)
+    moved = u @ A[:, :2].T + A[:, 2]
+    visible = (moved[:, 0] >= 0) & (moved[:, 0] < w) & (moved[:, 1] >= 0) & (moved[:, 1] < h)
+    i, j = match(d, e)
+    correct = np.linalg.norm(moved[i] - v[j], axis=1) <= tolerance
+    return {
+        "angle_deg": angle_deg,
+        "scale": scale,
+        "visible": int(visible.sum()),
+        "matches": int(len(i)),
+        "correct": int(correct.sum()),
+        "rate": float(correct.sum() / max(visible.sum(), 1)),
+        "precision": float(correct.mean()) if len(i) else 0.0,
+    }
