@@ -91,7 +91,6 @@ from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import NonNegativeInt, TypeAdapter
 from scipy.stats import chi2
 
-from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Sequence, Twist
 from slamarena.estimators.models import MOTION_MODELS, compose_jacobians, observation_jacobians, observe
@@ -575,12 +574,8 @@ class EKFLocalizer:
         """The snapshots still held: times (H,), states (H, 3), covariances (H, 3, 3)."""
         return self._history.arrays()
 
-    # ------------------------------------------------------------------ whole sequences
-    def run(self, sequence: Sequence) -> Estimate:
-        """Localize along ``sequence``: one pose and covariance per event (:mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
+    # ``run(sequence) -> Estimate`` (one pose and covariance per event) is :func:`.run.run_sequence`, bound by the
+    # package (this module does not import its runner)
 
 
 def _chi2_gate(confidence: float, dim: int) -> float:

@@ -956,9 +956,5 @@ class EKFSLAM:
             raise error
         self.rejected["indefinite"] += count
 
-    # ------------------------------------------------------------------ runner
-    def run(self, sequence):
-        """Walk ``sequence.events()`` and return an :class:`~slamarena.datasets.estimate.Estimate` (see :mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
+    # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
+    # runner: the runner imports it)

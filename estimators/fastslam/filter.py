@@ -470,11 +470,8 @@ class FastSLAM:
         """Live landmarks of every particle (M,), tentative ones included, kept by the update (O(M))."""
         return self.n_live.copy()
 
-    def run(self, sequence):
-        """Run over a sequence (:mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
+    # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
+    # runner)
 
 
 def _sqrt_batch(P: np.ndarray) -> np.ndarray:
