@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit
 from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
 
+from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Field, Params
 
 from . import MatchResult
@@ -280,7 +281,7 @@ class GaussNewtonMatcher:
                 p.prior_rotation_weight,
             )
             total += it
-        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        pose[2] = wrap_angle(pose[2])
         cov = _laplace_covariance(H, ssr, n)
         return MatchResult(
             pose=pose, cov=cov, score=msum / n if n else 0.0, iterations=total, info={"points_on_map": n}
