@@ -89,11 +89,10 @@ from typing import Literal
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import NonNegativeInt, TypeAdapter
-from scipy.stats import chi2
 
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Sequence, Twist
-from slamarena.estimators.models import MOTION_MODELS, compose_jacobians, observation_jacobians, observe
+from slamarena.estimators.models import MOTION_MODELS, chi2_gate, compose_jacobians, observation_jacobians, observe
 from slamarena.estimators.stepping import twist_pieces
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability, covariance
 
@@ -308,7 +307,7 @@ class EKFLocalizer:
         if not isinstance(confidence, dict):
             confidence = dict.fromkeys(SENSORS, confidence)
         self.gate = {
-            sensor: _chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()
+            sensor: chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()
         }
         self._use_noise(self.params)
         self.reset()
@@ -576,8 +575,3 @@ class EKFLocalizer:
 
     # ``run(sequence) -> Estimate`` (one pose and covariance per event) is :func:`.run.run_sequence`, bound by the
     # package (this module does not import its runner)
-
-
-def _chi2_gate(confidence: float, dim: int) -> float:
-    """The NIS above which a measurement of dimension ``dim`` is refused (∞: no gate)."""
-    return np.inf if confidence == 1.0 else float(chi2.ppf(confidence, dim))

@@ -134,8 +134,10 @@ from ..models import (
     DEFAULT_TWIST_COV,
     MOTION_MODELS,
     RangeBearingNoise,
+    chi2_gate,
     inverse_observation_jacobians,
     inverse_observe,
+    noise_in_force,
     observation_covariances,
     observe,
 )
@@ -419,26 +421,17 @@ class EKFSLAM:
         self._range_bearing_cov = _matrix(p.range_bearing_cov)
         self._initial_pose = _matrix(p.initial_pose)
         self._initial_cov = _matrix(p.initial_cov)
-        self.gate_match = assoc.chi2_gate(p.match_confidence, 2)
-        self.gate_new = assoc.chi2_gate(p.new_confidence, 2)
-        self.gate_known = np.inf if p.known_confidence is None else assoc.chi2_gate(p.known_confidence, 2)
+        self.gate_match = chi2_gate(p.match_confidence, 2)
+        self.gate_new = chi2_gate(p.new_confidence, 2)
+        self.gate_known = chi2_gate(p.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
-        noise = getattr(sequence, "noise", None)
-        self.M = self._twist_cov if self._twist_cov is not None else getattr(noise, "twist_cov", None)
-        self.M = DEFAULT_TWIST_COV if self.M is None else np.asarray(self.M, dtype=float)
-        self.R = (
-            self._range_bearing_cov
-            if self._range_bearing_cov is not None
-            else getattr(noise, "range_bearing_cov", None)
-        )
-        self.R = DEFAULT_RANGE_BEARING_COV if self.R is None else np.asarray(self.R, dtype=float)
-        self.increment_cov = (
-            self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
-        )
+        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.R = noise_in_force(self._range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
+        self.increment_cov = noise_in_force(self._increment_cov, sequence, "increment_cov")
         pose = (
             self._initial_pose
             if self._initial_pose is not None
