@@ -29,7 +29,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from . import isam
-from ._text import check_unique, record_values, records, upper_triangle
+from ._text import check_unique, record_values, records, symmetric_from_upper
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
@@ -87,7 +87,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             vrows,
             _ids(lines.path, e, erows, [0, 1]),
             e[:, 2:9],
-            upper_triangle(e[:, 9:30], 6),
+            symmetric_from_upper(e[:, 9:30], 6),
             erows,
             meta,
         )
@@ -102,7 +102,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
             landmark_pose=lm[:, 0],
             landmark_id=lm[:, 1],
             landmark_z=le[:, 2:4],
-            landmark_information=upper_triangle(le[:, 4:7], 2),
+            landmark_information=symmetric_from_upper(le[:, 4:7], 2),
             landmark_kind="xy",
         )
     if lv.shape[0]:
@@ -117,7 +117,7 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
         vrows,
         _ids(lines.path, e, erows, [0, 1]),
         e[:, 2:5],
-        upper_triangle(e[:, 5:11], 3),
+        symmetric_from_upper(e[:, 5:11], 3),
         erows,
         meta,
         **extra,

@@ -85,6 +85,12 @@ Linearisation points (``jacobians=``):
   ``x̂_{k|k−1}`` and at the landmark's FIRST estimate (its value when initialised). The noise
   Jacobian V, the landmark-initialisation Jacobians and the predicted measurement ``h(x̂)``
   use the current estimate.
+* ``"oc"`` (observability-constrained, Huang, Mourikis & Roumeliotis 2010): linearisation points (anchors) under the
+  constraint that keeps the unobservable directions of the true system (global translation and rotation) unobservable
+  in the linearised one: every landmark's anchor is fixed at initialisation (``m̆ = x̆ + (m̂ − x̂)``, so the
+  initialisation Jacobian maps the robot's nullspace directions onto the landmark's), the robot's anchor x̆ moves with
+  the propagation Jacobians, and before each update set it is shifted by the offset closest to the current estimates
+  (least squares over the set's landmarks, :meth:`EKFSLAM._reanchor`).
 * ``"ideal"``: every Jacobian (G and V with the measured control, H, G_x, G_z) at the TRUE
   robot pose and TRUE landmark positions, given through :meth:`EKFSLAM.set_truth` (``run``
   supplies them from the sequence's ground truth). A diagnostic device of consistency
@@ -165,7 +171,6 @@ __all__ = [
     "NEW_ID_BASE",
 ]
 
-#: fall-back noise when neither the parameters nor the sequence state it
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
 
