@@ -185,7 +185,7 @@ def _motion(motion, chain: list[Event], t0: float, t1: float, row_cov: bool) -> 
         rows = np.arange(chain[0].start, chain[-1].stop) if chain else empty
         delta = motion.delta[rows]
         ok = np.all(np.isfinite(delta), axis=1) & np.all(np.abs(delta) <= LIMITS.step, axis=1)
-        if motion.cov is not None:
+        if row_cov and motion.cov is not None:  # a row's own covariance, when it is used, must be finite too
             ok &= np.all(np.isfinite(motion.cov[rows]), axis=(1, 2))
         rows = rows[ok]
         cov = motion.cov[rows] if row_cov and motion.cov is not None else None

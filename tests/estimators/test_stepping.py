@@ -62,6 +62,14 @@ def test_blocks_cut_the_events_at_the_observation_sets_increments():
     assert (walk[2].t0, walk[2].t1) == (2.5, 3.0)  # the motion after the last set, to its last stamp
 
 
+def test_an_increment_with_a_non_finite_covariance_is_skipped_only_when_its_covariance_is_used():
+    cov = np.tile(np.eye(3), (2, 1, 1))
+    cov[0, 0, 0] = np.nan
+    seq = _sequence(Increments(t=np.array([0.5, 1.0]), delta=np.full((2, 3), 0.1), cov=cov))
+    assert blocks(seq)[0].motion.rows.tolist() == [1] and blocks(seq)[0].motion.rejected == 1
+    assert blocks(seq, row_cov=False)[0].motion.rows.tolist() == [0, 1]  # the filter's own covariance is used
+
+
 def test_observation_rows_leave_out_ranges_beyond_the_physical_range_only():
     ranges = np.array([1.0, np.nan, -1.0, LIMITS.range, 2 * LIMITS.range, 5.0])
     rows, far = observation_rows(datasets.sequence.Event(0.0, "range_bearing", 0, 6), ranges)
