@@ -40,6 +40,7 @@ _OBSERVED = ("range_bearing", "beacon_ranges", "gps", "heading")
 
 
 def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
+    """``EKFLocalizer.run(sequence) -> Estimate`` (bound by the package): one timed step per event (module docstring)."""
     localizer.use_noise_of(sequence)
     localizer.reset(sequence.start_pose, t=sequence.t0)
     if isinstance(sequence.motion, Twist):

@@ -74,6 +74,7 @@ Truth = Callable[[np.ndarray], np.ndarray | None]
 
 
 def run_sequence(ekf, sequence: Sequence) -> Estimate:
+    """``EKFSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring)."""
     ekf.reset(sequence)
     truth = _truth(ekf, sequence)
     z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))

@@ -102,6 +102,7 @@ class _History:
 
 
 def run_sequence(slam, sequence: Sequence) -> Estimate:
+    """``FastSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring)."""
     slam.reset(sequence)
     z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))
     record = _Record(slam, CLOCKS[slam.params.step_clock], sequence.t0)
