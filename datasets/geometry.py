@@ -10,15 +10,20 @@ single poses ``(3,)`` or stacks ``(K, 3)`` and broadcasts like numpy.
     transform_points(a, p)      : points p (given in frame a) expressed in a's reference frame
     range_bearing(a, p)         : range and bearing of world points p seen from pose a
 
-Angles are wrapped to (−π, π] by :func:`wrap_angle`.
+Angles are wrapped to (−π, π] by :func:`wrap_angle`, the project's one convention; :func:`wrap_scalar` is the same
+formula for one float, which compiled kernels compile (``numba.njit(wrap_scalar)``), so compiled and numpy code agree
+bit for bit.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 __all__ = [
     "wrap_angle",
+    "wrap_scalar",
     "compose",
     "inverse",
     "between",
@@ -33,12 +38,21 @@ __all__ = [
 
 
 def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap angles to the half-open interval (−π, π]."""
+    """Wrap angles to the half-open interval (−π, π]: π − ((π − a) mod 2π), and π where that rounds to −π (just above
+    π + 2πk, where (π − a) mod 2π rounds up to 2π)."""
     a = np.asarray(angle, dtype=float)
     wrapped = np.pi - np.mod(np.pi - a, 2.0 * np.pi)
     if np.ndim(wrapped) == 0:
-        return float(wrapped)
+        return math.pi if wrapped == -math.pi else float(wrapped)
+    np.copyto(wrapped, np.pi, where=wrapped == -np.pi)
     return wrapped
+
+
+def wrap_scalar(a: float) -> float:
+    """One angle wrapped to (−π, π], :func:`wrap_angle` on a float (Python's ``%`` is numpy's ``mod``, bit for bit);
+    compiled kernels use ``numba.njit(wrap_scalar)``."""
+    w = math.pi - (math.pi - a) % (2.0 * math.pi)
+    return math.pi if w == -math.pi else w
 
 
 def rotation(theta: np.ndarray | float) -> np.ndarray:

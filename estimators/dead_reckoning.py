@@ -47,7 +47,7 @@ from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
 from slamarena.params import Field, Params
 
-from .models import MOTION_MODELS, compose_chain, propagate_covariance
+from .models import MOTION_MODELS, compose_chain, noise_in_force, propagate_covariance
 from .stepping import twist_pieces
 
 __all__ = ["DeadReckoning", "DeadReckoningParams"]
@@ -123,7 +123,7 @@ class DeadReckoning:
         bad = ~np.isfinite(delta).all(axis=1)
         delta[bad] = 0.0
         pose_cov = None
-        C = inc.cov if inc.cov is not None else sequence.noise.increment_cov
+        C = noise_in_force(inc.cov, sequence, "increment_cov")  # the rows' own, else the stated
         if self.params.propagate_covariance and C is not None:
             C = np.broadcast_to(C, (len(inc), 3, 3)).copy()
             C[bad] = 0.0

@@ -8,8 +8,8 @@ observation and its Jacobians (the model of :mod:`slamarena.estimators.models`, 
     H_m = [[δ_x/r, δ_y/r], [−δ_y/q, δ_x/q]]                    (2, 2)
     H_x = [[−δ_x/r, −δ_y/r, 0], [δ_y/q, −δ_x/q, −1]]           (2, 3)
 
-``wrap(a)`` maps an angle to [−π, π) (the numpy :func:`~slamarena.datasets.geometry.wrap_angle` maps to (−π, π];
-the two differ only at ±π).
+``wrap(a)`` maps an angle to (−π, π], the project's one convention: the compiled
+:func:`~slamarena.datasets.geometry.wrap_scalar`, the formula of the numpy ``wrap_angle``, so the two agree bit for bit.
 
 ``twist_motion(v, ω, dt, arc, M)`` is the velocity motion model of :mod:`slamarena.estimators.models` (``EULER`` or
 ``ARC``), written out the same way for a prediction's compiled path: for K rows (v_k, ω_k, dt_k) the body-frame
@@ -32,12 +32,13 @@ import math
 import numpy as np
 from numba import njit
 
+from slamarena.datasets.geometry import wrap_scalar
+
 __all__ = ["wrap", "range_bearing", "twist_motion"]
 
 
-@njit(cache=True)
-def wrap(a):
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
+#: the angle a wrapped to (−π, π], compiled: :func:`~slamarena.datasets.geometry.wrap_scalar`
+wrap = njit(cache=True)(wrap_scalar)
 
 
 @njit(cache=True)
@@ -75,7 +76,7 @@ def twist_motion(v, omega, dt, arc, M):
                 sx, sy = 1.0 - phi * phi / 6.0, 0.5 * phi
             else:
                 sx, sy = math.sin(phi) / phi, (1.0 - math.cos(phi)) / phi
-            delta[k, 0], delta[k, 1], delta[k, 2] = sx * vdt, sy * vdt, -wrap(-phi)
+            delta[k, 0], delta[k, 1], delta[k, 2] = sx * vdt, sy * vdt, wrap(phi)
             a = 0.5 * phi
             if a == 0.0:
                 sa = 1.0

@@ -34,6 +34,10 @@ Inverse observation (landmark initialisation) from z = (r, b)::
 Observation noise (:func:`observation_covariances`): the stated R (2, 2) for every observation (polar), or, for a sensor
 whose noise is isotropic σ² I in the plane (cartesian, σ² = R[0, 0]), ``R_j = diag(σ², σ²/r_j²)`` at range r_j.
 
+The noise in force (:func:`noise_in_force`): the method's parameter if given, else the noise the sequence states
+(``Sequence.noise``), else the method's default. A χ² gate (:func:`chi2_gate`): the d² below which a dof-dimensional
+innovation is accepted with probability ``confidence``.
+
 Odometry-increment motion x' = x ⊕ δ has ∂x'/∂x = [[1, 0, −s δx − c δy], [0, 1, c δx − s δy], [0, 0, 1]]
 and ∂x'/∂δ = blockdiag(R(θ), 1) (:func:`compose_jacobians`).
 
@@ -42,10 +46,12 @@ All functions broadcast over leading axes.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
+from scipy.special import gammaincinv
 
 from slamarena.datasets import kinematics
 from slamarena.datasets.geometry import accumulate, compose, wrap_angle
@@ -66,12 +72,35 @@ __all__ = [
     "DEFAULT_RANGE_BEARING_COV",
     "RangeBearingNoise",
     "observation_covariances",
+    "noise_in_force",
+    "chi2_gate",
 ]
 
 #: noise of the landmark-SLAM filters when neither the method's parameters nor the sequence state one:
 #: σ_v = 0.1 m/s, σ_ω = 0.05 rad/s per (v, ω) row; σ_r = 0.1 m, σ_b = 1°
 DEFAULT_TWIST_COV = np.diag([0.1**2, 0.05**2])
 DEFAULT_RANGE_BEARING_COV = np.diag([0.1**2, np.radians(1.0) ** 2])
+
+
+def noise_in_force(parameter, sequence, name: str, default=None, required: bool = False) -> np.ndarray | None:
+    """The noise ``name`` (a :class:`~slamarena.datasets.sequence.Noise` field) a method uses on ``sequence``: the
+    method's ``parameter`` if given, else the noise the sequence states, else ``default`` (as a float array; None if
+    none of them). ``required``: ValueError naming the sequence and the parameter to pass instead of None."""
+    value = parameter if parameter is not None else getattr(getattr(sequence, "noise", None), name, None)
+    value = default if value is None else value
+    if value is None:
+        if required:
+            raise ValueError(f"{getattr(sequence, 'name', 'the sequence')}: no {name} stated; pass {name}=...")
+        return None
+    return np.asarray(value, dtype=float)
+
+
+def chi2_gate(confidence: float | None, dof: int) -> float:
+    """The χ² quantile P(χ²_dof < gate) = confidence: the gate of a d² (NIS, Mahalanobis) of dimension ``dof``;
+    ∞ (no gate) for ``confidence`` None or 1."""
+    if confidence is None or confidence == 1.0:
+        return math.inf
+    return float(2.0 * gammaincinv(0.5 * dof, confidence))
 
 
 def _sinc(a: np.ndarray) -> np.ndarray:

@@ -32,6 +32,9 @@ gradient (derivative of a Gaussian, σ = 2 cells) of magnitude ``w`` and directi
 walls lie along two perpendicular directions, whatever the map's rotation; two equal walls 22.5°
 apart give cos 45° = 0.71). Heading drift bends corridors and lowers R; it is blind to
 translation. Numbers compare maps of the same building, not buildings.
+
+The three are the experiment metric ``occupancy`` (:mod:`slamarena.experiments.metrics.occupancy`), on the map a
+cell's trajectory implies.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The layering of ARCHITECTURE.md, checked on the source: datasets → (estimators, mapping) → experiments → paper_figures,
+"""The layering the README states ("Layout"), checked on the source: datasets → (estimators, mapping) → experiments → paper_figures,
 all under the one ``slamarena`` namespace (no module imports a top-level ``datasets``, ``estimators``, …)."""
 
 from __future__ import annotations

@@ -67,7 +67,7 @@ __all__ = [
     "fixed",
     "check_monotonic",
     "bodies_of",
-    "upper_triangle",
+    "symmetric_from_upper",
     "upper_triangular",
     "Lines",
 ]
@@ -442,7 +442,7 @@ def record_values(lines: Lines, rows: np.ndarray, ncols: int, what: str) -> np.n
     return values
 
 
-def upper_triangle(values: np.ndarray, n: int) -> np.ndarray:
+def symmetric_from_upper(values: np.ndarray, n: int) -> np.ndarray:
     """Symmetric ``(K, n, n)`` matrices from row-major upper triangles ``(K, n(n+1)/2)``."""
     rows, cols = np.triu_indices(n)
     out = np.zeros((values.shape[0], n, n))
@@ -452,7 +452,8 @@ def upper_triangle(values: np.ndarray, n: int) -> np.ndarray:
 
 
 def upper_triangular(values: np.ndarray, n: int) -> np.ndarray:
-    """Upper-triangular ``(K, n, n)`` matrices (zero below the diagonal) from row-major triangles."""
+    """Upper-triangular ``(K, n, n)`` matrices (zero below the diagonal) from row-major upper triangles ``(K, n(n+1)/2)``
+    (:func:`symmetric_from_upper` mirrors them instead)."""
     rows, cols = np.triu_indices(n)
     out = np.zeros((values.shape[0], n, n))
     out[:, rows, cols] = values

@@ -29,7 +29,7 @@ from slamarena.params import Field, with_params
 from ..errors import DataFormatError
 from ..posegraph import PoseGraph
 from . import isam
-from ._text import check_unique, integer_ids, record_values, records, upper_triangle
+from ._text import check_unique, integer_ids, record_values, records, symmetric_from_upper
 
 __all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
@@ -44,7 +44,7 @@ def _ids(path: str, values: np.ndarray, rows: np.ndarray, cols) -> np.ndarray:
 
 def _information(path: str, noise: np.ndarray, n: int, rows: np.ndarray, what: str) -> np.ndarray:
     """The information matrices (K, n, n) of the records on ``rows`` (0-based), each positive definite (iSAM's check)."""
-    info = upper_triangle(noise, n)
+    info = symmetric_from_upper(noise, n)
     isam.check_positive_definite(path, info, rows + 1, what)
     return info
 

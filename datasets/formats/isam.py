@@ -31,7 +31,7 @@ from ..geometry import accumulate, transform_points
 from ..posegraph import PoseGraph
 from ..sequence import LandmarkMap
 from ..source import Layout, SourceParams
-from ._text import integer_ids, record_values, records, upper_triangle, upper_triangular
+from ._text import integer_ids, record_values, records, symmetric_from_upper, upper_triangular
 
 __all__ = [
     "IsamRecords",
@@ -111,9 +111,9 @@ def information(noise: np.ndarray, n: int, convention: str) -> np.ndarray:
         R = upper_triangular(noise, n)
         return np.einsum("kji,kjl->kil", R, R)
     if convention == "covariance":
-        return np.linalg.inv(upper_triangle(noise, n))
+        return np.linalg.inv(symmetric_from_upper(noise, n))
     if convention == "information":
-        return upper_triangle(noise, n)
+        return symmetric_from_upper(noise, n)
     raise ValueError(f"noise convention must be one of {NOISE_CONVENTIONS}, got {convention!r}")
 
 
@@ -146,7 +146,7 @@ def noise_information(rec: IsamRecords, convention: str) -> tuple[np.ndarray, np
         (rec.lm_noise, 2, rec.lm_line, "landmark"),
     ):
         if convention == "covariance":
-            check_positive_definite(rec.path, upper_triangle(noise, n), lines, what)
+            check_positive_definite(rec.path, symmetric_from_upper(noise, n), lines, what)
         info = information(noise, n, convention)
         check_positive_definite(rec.path, info, lines, what)
         out.append(info)

@@ -15,5 +15,8 @@ Modules:
 
 from .diagnostics import SENSORS, Diagnostics
 from .filter import KINDS, EKFLocalizer, EKFLocalizerParams, compass_to_yaw
+from .run import run_sequence
+
+EKFLocalizer.run = run_sequence  # bound here, so that filter.py does not import its runner (run.py imports filter.py)
 
 __all__ = ["EKFLocalizer", "EKFLocalizerParams", "compass_to_yaw", "Diagnostics", "KINDS", "SENSORS"]

@@ -89,12 +89,10 @@ from typing import Literal
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import NonNegativeInt, TypeAdapter
-from scipy.stats import chi2
 
-from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.datasets.sequence import Sequence, Twist
-from slamarena.estimators.models import MOTION_MODELS, compose_jacobians, observation_jacobians, observe
+from slamarena.estimators.models import MOTION_MODELS, chi2_gate, compose_jacobians, observation_jacobians, observe
 from slamarena.estimators.stepping import twist_pieces
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability, covariance
 
@@ -309,7 +307,7 @@ class EKFLocalizer:
         if not isinstance(confidence, dict):
             confidence = dict.fromkeys(SENSORS, confidence)
         self.gate = {
-            sensor: _chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()
+            sensor: chi2_gate(confidence.get(sensor, DEFAULT_GATE_CONFIDENCE), dim) for sensor, dim in SENSORS.items()
         }
         self._use_noise(self.params)
         self.reset()
@@ -575,14 +573,5 @@ class EKFLocalizer:
         """The snapshots still held: times (H,), states (H, 3), covariances (H, 3, 3)."""
         return self._history.arrays()
 
-    # ------------------------------------------------------------------ whole sequences
-    def run(self, sequence: Sequence) -> Estimate:
-        """Localize along ``sequence``: one pose and covariance per event (:mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
-
-
-def _chi2_gate(confidence: float, dim: int) -> float:
-    """The NIS above which a measurement of dimension ``dim`` is refused (∞: no gate)."""
-    return np.inf if confidence == 1.0 else float(chi2.ppf(confidence, dim))
+    # ``run(sequence) -> Estimate`` (one pose and covariance per event) is :func:`.run.run_sequence`, bound by the
+    # package (this module does not import its runner)

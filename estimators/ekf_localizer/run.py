@@ -6,7 +6,9 @@ force for the sequence (``use_sequence_noise``: the noise it states). Used strea
 stamps with the row's, the sequence's or ``increment_cov`` covariance), GPS, heading, and the
 range-bearing and beacon-range rows whose id is in ``sequence.landmarks`` (the others are counted as
 ``unknown_landmark`` / ``unknown_beacon``); scans are ignored. Events come in time order, so no
-input is replayed.
+input is replayed. The events are walked as the landmark filters walk them
+(:func:`slamarena.estimators.stepping.blocks`: each block's motion events, then its observation event), one
+:meth:`EKFLocalizer._step` each; the filter itself rejects and counts the bad rows (``rejected``).
 
 One pose and covariance are recorded per stamp — the posterior after every event at that stamp
 (:func:`slamarena.estimators.stepping.last_per_stamp`) — with the wall time of its steps. ``Estimate.meta``
@@ -25,7 +27,7 @@ import numpy as np
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.sequence import Event, Increments, Sequence, Twist
 
-from ..stepping import last_per_stamp
+from ..stepping import blocks, last_per_stamp
 from .filter import SEQUENCE_NOISE
 
 if TYPE_CHECKING:
@@ -33,8 +35,12 @@ if TYPE_CHECKING:
 
 __all__ = ["run_sequence"]
 
+#: the observation streams the localizer uses (scans are not)
+_OBSERVED = ("range_bearing", "beacon_ranges", "gps", "heading")
+
 
 def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
+    """``EKFLocalizer.run(sequence) -> Estimate`` (bound by the package): one timed step per event (module docstring)."""
     localizer.use_noise_of(sequence)
     localizer.reset(sequence.start_pose, t=sequence.t0)
     if isinstance(sequence.motion, Twist):
@@ -42,15 +48,14 @@ def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
     n = sequence.event_table()[0].size
     times, poses, covs, step_time = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3)), np.empty(n)
     k = 0
-    for event in sequence.events():
-        if event.stream == "scans":
-            continue
-        tic = time.perf_counter()
-        kind, value = _input(localizer, sequence, event)
-        localizer._step(event.t, kind, value)  # in time order: a step, never a replay
-        step_time[k] = time.perf_counter() - tic
-        times[k], poses[k], covs[k] = event.t, localizer.x, localizer.P
-        k += 1
+    for block in blocks(sequence, observe=_OBSERVED):
+        for event in block.chain if block.observation is None else [*block.chain, block.observation]:
+            tic = time.perf_counter()
+            kind, value = _input(localizer, sequence, event)
+            localizer._step(event.t, kind, value)  # in time order: a step, never a replay
+            step_time[k] = time.perf_counter() - tic
+            times[k], poses[k], covs[k] = event.t, localizer.x, localizer.P
+            k += 1
     record = localizer.record()
     t, steps, poses, covs = last_per_stamp(times[:k], step_time[:k], poses[:k], covs[:k])
     return Estimate(

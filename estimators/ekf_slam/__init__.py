@@ -13,6 +13,10 @@ __all__ = ["EKFSLAM", "EKFSLAMParams", "CovarianceError"]
 def __getattr__(name: str):
     if name in ("EKFSLAM", "EKFSLAMParams"):
         from . import filter as module
+        from .run import run_sequence
 
+        module.EKFSLAM.run = (
+            run_sequence  # bound here, so that filter.py does not import its runner (run.py imports it)
+        )
         return getattr(module, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

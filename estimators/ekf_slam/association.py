@@ -66,17 +66,15 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 from scipy.linalg import block_diag
-from scipy.special import gammaincinv
 
 from slamarena.datasets.geometry import wrap_angle
 
 from ..kernels import range_bearing, wrap
-from ..models import observation_jacobians, observe
+from ..models import chi2_gate, observation_jacobians, observe
 from .checks import CovarianceError
 
 __all__ = [
     "Decision",
-    "chi2_gate",
     "Association",
     "LandmarkBook",
     "compatibility",
@@ -95,11 +93,6 @@ class Decision(IntEnum):
     MATCHED = 0  # applied as an observation of a mapped landmark
     NEW = 1  # starts a landmark
     REJECTED = 2  # ambiguous (between the gates) or an outlier of a labelled landmark
-
-
-def chi2_gate(confidence: float, dof: int) -> float:
-    """The χ² quantile: P(χ²_dof < gate) = confidence."""
-    return float(2.0 * gammaincinv(0.5 * dof, confidence))
 
 
 @dataclass

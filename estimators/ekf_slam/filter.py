@@ -85,6 +85,12 @@ Linearisation points (``jacobians=``):
   ``x̂_{k|k−1}`` and at the landmark's FIRST estimate (its value when initialised). The noise
   Jacobian V, the landmark-initialisation Jacobians and the predicted measurement ``h(x̂)``
   use the current estimate.
+* ``"oc"`` (observability-constrained, Huang, Mourikis & Roumeliotis 2010): linearisation points (anchors) under the
+  constraint that keeps the unobservable directions of the true system (global translation and rotation) unobservable
+  in the linearised one: every landmark's anchor is fixed at initialisation (``m̆ = x̆ + (m̂ − x̂)``, so the
+  initialisation Jacobian maps the robot's nullspace directions onto the landmark's), the robot's anchor x̆ moves with
+  the propagation Jacobians, and before each update set it is shifted by the offset closest to the current estimates
+  (least squares over the set's landmarks, :meth:`EKFSLAM._reanchor`).
 * ``"ideal"``: every Jacobian (G and V with the measured control, H, G_x, G_z) at the TRUE
   robot pose and TRUE landmark positions, given through :meth:`EKFSLAM.set_truth` (``run``
   supplies them from the sequence's ground truth). A diagnostic device of consistency
@@ -136,8 +142,10 @@ from ..models import (
     DEFAULT_TWIST_COV,
     MOTION_MODELS,
     RangeBearingNoise,
+    chi2_gate,
     inverse_observation_jacobians,
     inverse_observe,
+    noise_in_force,
     observation_covariances,
     observe,
 )
@@ -165,7 +173,6 @@ __all__ = [
     "NEW_ID_BASE",
 ]
 
-#: fall-back noise when neither the parameters nor the sequence state it
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
 
@@ -410,26 +417,17 @@ class EKFSLAM:
         self._range_bearing_cov = _matrix(p.range_bearing_cov)
         self._initial_pose = _matrix(p.initial_pose)
         self._initial_cov = _matrix(p.initial_cov)
-        self.gate_match = assoc.chi2_gate(p.match_confidence, 2)
-        self.gate_new = assoc.chi2_gate(p.new_confidence, 2)
-        self.gate_known = np.inf if p.known_confidence is None else assoc.chi2_gate(p.known_confidence, 2)
+        self.gate_match = chi2_gate(p.match_confidence, 2)
+        self.gate_new = chi2_gate(p.new_confidence, 2)
+        self.gate_known = chi2_gate(p.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
-        noise = getattr(sequence, "noise", None)
-        self.M = self._twist_cov if self._twist_cov is not None else getattr(noise, "twist_cov", None)
-        self.M = DEFAULT_TWIST_COV if self.M is None else np.asarray(self.M, dtype=float)
-        self.R = (
-            self._range_bearing_cov
-            if self._range_bearing_cov is not None
-            else getattr(noise, "range_bearing_cov", None)
-        )
-        self.R = DEFAULT_RANGE_BEARING_COV if self.R is None else np.asarray(self.R, dtype=float)
-        self.increment_cov = (
-            self._increment_cov if self._increment_cov is not None else getattr(noise, "increment_cov", None)
-        )
+        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.R = noise_in_force(self._range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
+        self.increment_cov = noise_in_force(self._increment_cov, sequence, "increment_cov")
         pose = (
             self._initial_pose
             if self._initial_pose is not None
@@ -948,9 +946,5 @@ class EKFSLAM:
             raise error
         self.rejected["indefinite"] += count
 
-    # ------------------------------------------------------------------ runner
-    def run(self, sequence):
-        """Walk ``sequence.events()`` and return an :class:`~slamarena.datasets.estimate.Estimate` (see :mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
+    # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
+    # runner: the runner imports it)

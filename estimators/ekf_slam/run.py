@@ -1,14 +1,16 @@
 """``EKFSLAM.run(sequence) -> Estimate``: walk the time-ordered events of a sequence.
 
-Motion and range-bearing events are processed (other streams are not used by EKF-SLAM):
+Motion and range-bearing events are processed (other streams are not used by EKF-SLAM), block by block
+(:func:`slamarena.estimators.stepping.blocks`: the motion events up to an observation set, then the set):
 
 * before every event the filter is propagated from its current time to the event time —
   :class:`Twist` input piecewise with :func:`slamarena.estimators.stepping.twist_pieces`; rows with a
-  non-finite velocity are skipped and counted (``rejected_motion``);
+  non-finite value or one beyond the physical range (``stepping.LIMITS``) are skipped and counted (``rejected_motion``);
 * an :class:`Increments` event applies its row (the motion since the previous stamp;
   covariance: the ``increment_cov`` parameter if given, else ``Increments.cov``, else
   ``Noise.increment_cov``);
-* a range-bearing event applies its whole observation set with :meth:`EKFSLAM.update`.
+* a range-bearing event applies its whole observation set with :meth:`EKFSLAM.update`; rows whose range is beyond
+  the physical range are left out and counted (``rejected_out_of_range``), so a corrupt row never aborts the run.
 
 The motion between two observation sets is applied as one chain
 (:meth:`EKFSLAM.predict_twists` / :meth:`EKFSLAM.predict_increments`: vectorised poses, the
@@ -41,7 +43,7 @@ Diagnostics (arrays):
     assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
     looked_ahead_t              the stamp of every row decided by the look-ahead (``window`` > 0)
-    rejected_nonfinite, rejected_negative_range, rejected_motion, rejected_indefinite   counts
+    rejected_nonfinite, rejected_negative_range, rejected_out_of_range, rejected_motion, rejected_indefinite   counts
     lockout_rows, lockout_s, lockout_t0
                                 the longest run of consecutive observations that were not new landmarks and were ALL rejected
                                 (a gated filter whose covariance no longer admits its observations: it has stopped
@@ -52,148 +54,148 @@ Diagnostics (arrays):
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 
 import numpy as np
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import interpolate_poses
-from slamarena.datasets.sequence import Increments, Sequence, Twist
+from slamarena.datasets.sequence import Sequence
 
-from ..stepping import CLOCKS, last_per_stamp, twist_pieces
+from ..stepping import CLOCKS, Block, blocks, last_per_stamp, observation_rows
 from .association import Decision
 from .checks import CovarianceError
 from .filter import Linearisation
 
 __all__ = ["run_sequence"]
 
+#: the true poses at some times (jacobians="ideal"), else None
+Truth = Callable[[np.ndarray], np.ndarray | None]
+
 
 def run_sequence(ekf, sequence: Sequence) -> Estimate:
+    """``EKFSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring)."""
     ekf.reset(sequence)
-    ideal = ekf.params.jacobians == Linearisation.IDEAL
-    if ideal:
-        if sequence.ground_truth is None or sequence.landmarks is None:
-            raise ValueError("jacobians='ideal' needs ground truth poses and landmarks")
-        gt = sequence.ground_truth
-        ekf.set_truth(landmarks=sequence.landmarks)
-
-    def truth(times: np.ndarray) -> np.ndarray | None:
-        """The true poses at ``times`` (jacobians="ideal"), else None."""
-        return interpolate_poses(gt.t, gt.poses, np.clip(times, gt.t[0], gt.t[-1])) if ideal and len(times) else None
-
-    motion, rb = sequence.motion, sequence.range_bearing
-    table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
-    times, poses, covs, steps, nis_t, assoc_t = [], [], [], [], [], []
-    rejected_motion = 0
-    looked_ahead: list[
-        tuple[float, bool]
-    ] = []  # per row decided by the look-ahead: its stamp, whether it was matched (else new)
-
-    def predict(filt, chain, t_now: float, t_end: float):
-        """Propagate ``filt`` over the motion events ``chain`` from t_now to t_end; (rows used, (poses, covs), where each
-        event's stamp falls among the pieces, rows skipped)."""
-        if isinstance(motion, Twist):
-            v, w, dts, rows = twist_pieces(motion, t_now, t_end, with_rows=True)
-            ok = np.isfinite(v) & np.isfinite(w)
-            v, w, dts, rows = v[ok], w[ok], dts[ok], rows[ok]
-            done = filt.predict_twists(v, w, dts, true_poses=truth(np.maximum(motion.t[rows], t_now)))
-            return (
-                rows,
-                done,
-                [event.start for event in chain],
-                int((~ok).sum()),
-            )  # a Twist row moves the robot from its stamp on
-        if isinstance(motion, Increments):
-            rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
-            ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
-            rows = rows[ok]
-            cov = None if motion.cov is None or filt.params.increment_cov is not None else motion.cov[rows]
-            starts = np.r_[-np.inf, motion.t][
-                rows
-            ]  # an increment starts at the previous stamp, the first at the truth's start
-            done = filt.predict_increments(motion.delta[rows], cov, true_poses=truth(starts))
-            return (
-                rows,
-                done,
-                [event.stop for event in chain],
-                int((~ok).sum()),
-            )  # an increment has moved the robot by its stamp
-        return (
-            np.zeros(0, dtype=int),
-            (np.zeros((0, 3)), np.zeros((0, 3, 3))),
-            [],
-            0,
-        )  # no motion input: the robot stands still
-
-    # the table as (motion events, the observation set after them or None, the propagation's end)
-    blocks, i, t_now = [], 0, sequence.t0
-    while i < len(table):
-        j = i
-        while j < len(table) and table[j].stream == "motion":
-            j += 1
-        t_end = table[j].t if j < len(table) else (table[j - 1].t if j > i else t_now)
-        blocks.append((table[i:j], table[j] if j < len(table) else None, t_now, t_end))
-        t_now, i = t_end, j + 1
-
-    def look_ahead(b: int) -> dict[int, int]:
-        """The look-ahead (``window`` > 0, association.hypotheses): for each ambiguous row of block b's set in turn, the
-        hypothesis whose copy of the filter has the largest log-likelihood over this set and the next ``window`` sets
-        (if the filter can carry none of a row's hypotheses through the window, that row and the rest of the set are left to the
-        plain association)."""
-        decided: dict[int, int] = {}
-        z, t = rb.z[blocks[b][1].start : blocks[b][1].stop], blocks[b][1].t
-        while (found := ekf.ambiguity(z, decided)) is not None:
-            row, options = found
-            score = np.full(len(options), -np.inf)
-            for k, option in enumerate(options.tolist()):
-                trial = copy.deepcopy(ekf)
-                start = trial.log_likelihood
-                try:
-                    trial.update(z, t, {**decided, row: option})
-                    for chain, event, t0, t1 in blocks[b + 1 : b + 1 + ekf.params.window]:
-                        predict(trial, chain, t0, t1)
-                        if event is not None:
-                            trial.update(rb.z[event.start : event.stop], event.t)
-                except (CovarianceError, ValueError):  # a hypothesis the filter cannot carry through the window
-                    continue
-                score[k] = trial.log_likelihood - start
-            if not np.isfinite(score).any():
-                break
-            decided[row] = int(options[np.argmax(score)])
-            looked_ahead.append((t, decided[row] >= 0))
-        return decided
-
-    timer = CLOCKS[ekf.params.step_clock]
-    clock = timer()
-    for b, (chain, event, t_now, t_end) in enumerate(blocks):
+    truth = _truth(ekf, sequence)
+    z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))
+    walk = blocks(sequence, row_cov=ekf.params.increment_cov is None)
+    record = _Record(CLOCKS[ekf.params.step_clock])
+    looked_ahead: list[tuple[float, bool]] = []  # per row decided by the look-ahead: its stamp, whether it was matched
+    rejected = {"motion": 0, "out_of_range": 0}
+    for b, block in enumerate(walk):
         start = ekf.x[:3].copy(), ekf.robot_cov
-        rows, done, upto, skipped = predict(ekf, chain, t_now, t_end)
-        rejected_motion += skipped
-        # the pose at a motion event's stamp: after the pieces of the rows before it (the start pose if none)
-        chain_poses, chain_covs = np.concatenate([start[0][None], done[0]]), np.concatenate([start[1][None], done[1]])
-        now = timer()
-        for stamp, k in zip(chain, np.searchsorted(rows, upto)):
-            times.append(stamp.t)
-            poses.append(chain_poses[k])
-            covs.append(chain_covs[k])
-            steps.append((now - clock) / len(chain))
-        clock = now if chain else clock
-        if event is not None:
-            if ideal:
-                ekf.set_truth(pose=truth([event.t])[0])
+        done = _predict(ekf, block, truth)
+        rejected["motion"] += block.motion.rejected
+        record.chain(block, start, done)
+        if block.observation is not None:
+            z, t, far = _observations(block, z_all)
+            rejected["out_of_range"] += far
+            if truth is not None:
+                ekf.set_truth(pose=truth([t])[0])
+            decided = _look_ahead(ekf, walk, b, z_all, truth, looked_ahead) if ekf.params.window else None
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
-            ekf.update(rb.z[event.start : event.stop], event.t, look_ahead(b) if ekf.params.window else None)
-            nis_t += [event.t] * (len(ekf.nis_log) - n_nis)
-            assoc_t += [event.t] * (len(ekf.assoc_log) - n_assoc)
-            times.append(event.t)
-            poses.append(ekf.x[:3].copy())
-            covs.append(ekf.robot_cov)
-            now = timer()
-            steps.append(now - clock)
-            clock = now
-    t, steps, poses, covs = last_per_stamp(
-        np.asarray(times), np.asarray(steps), np.asarray(poses).reshape(-1, 3), np.asarray(covs).reshape(-1, 3, 3)
-    )
+            ekf.update(z, t, decided)
+            record.observation(ekf, t, len(ekf.nis_log) - n_nis, len(ekf.assoc_log) - n_assoc)
+    return _estimate(ekf, sequence, record, looked_ahead, rejected)
 
+
+def _truth(ekf, sequence: Sequence) -> Truth | None:
+    """With ``jacobians="ideal"``: hand the true landmarks to the filter and return the true pose at given times
+    (SE(2)-interpolated ground truth, clipped to its span); else None."""
+    if ekf.params.jacobians != Linearisation.IDEAL:
+        return None
+    if sequence.ground_truth is None or sequence.landmarks is None:
+        raise ValueError("jacobians='ideal' needs ground truth poses and landmarks")
+    gt = sequence.ground_truth
+    ekf.set_truth(landmarks=sequence.landmarks)
+    return lambda times: interpolate_poses(gt.t, gt.poses, np.clip(times, gt.t[0], gt.t[-1])) if len(times) else None
+
+
+def _predict(filt, block: Block, truth: Truth | None) -> tuple[np.ndarray, np.ndarray]:
+    """Propagate ``filt`` over the block's motion as one chain; the (poses, covariances) after each piece (the true
+    pose at each piece's start given with jacobians="ideal")."""
+    motion = block.motion
+    if motion.kind == "none":
+        return motion.predict(filt)
+    return motion.predict(filt, true_poses=truth(motion.start) if truth is not None else None)
+
+
+def _observations(block: Block, z_all: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """The block's observation set (M, 3) without the rows beyond the physical range, its stamp, and how many were left
+    out."""
+    rows, far = observation_rows(block.observation, z_all[:, 0])
+    return z_all[rows], block.observation.t, far
+
+
+def _look_ahead(ekf, walk: list[Block], b: int, z_all: np.ndarray, truth: Truth | None, looked_ahead: list) -> dict:
+    """The look-ahead (``window`` > 0, association.hypotheses): for each ambiguous row of block b's set in turn, the
+    hypothesis whose copy of the filter has the largest log-likelihood over this set and the next ``window`` sets
+    (if the filter can carry none of a row's hypotheses through the window, that row and the rest of the set are left
+    to the plain association). Appends (stamp, matched) of every decided row to ``looked_ahead``."""
+    decided: dict[int, int] = {}
+    z, t, _ = _observations(walk[b], z_all)
+    while (found := ekf.ambiguity(z, decided)) is not None:
+        row, options = found
+        score = np.full(len(options), -np.inf)
+        for k, option in enumerate(options.tolist()):
+            trial = copy.deepcopy(ekf)
+            start = trial.log_likelihood
+            try:
+                trial.update(z, t, {**decided, row: option})
+                for block in walk[b + 1 : b + 1 + ekf.params.window]:
+                    _predict(trial, block, truth)
+                    if block.observation is not None:
+                        trial.update(*_observations(block, z_all)[:2])
+            except (CovarianceError, ValueError):  # a hypothesis the filter cannot carry through the window
+                continue
+            score[k] = trial.log_likelihood - start
+        if not np.isfinite(score).any():
+            break
+        decided[row] = int(options[np.argmax(score)])
+        looked_ahead.append((t, decided[row] >= 0))
+    return decided
+
+
+class _Record:
+    """The recorded trajectory: a pose, covariance and step time per event, and the stamps of the NIS and association
+    logs' entries."""
+
+    def __init__(self, timer):
+        self.timer, self.clock = timer, timer()
+        self.times, self.poses, self.covs, self.steps, self.nis_t, self.assoc_t = [], [], [], [], [], []
+
+    def chain(self, block: Block, start: tuple[np.ndarray, np.ndarray], done: tuple[np.ndarray, np.ndarray]) -> None:
+        """The pose at each motion event's stamp: after the pieces before it (the chain's start pose if none); the
+        chain's time is shared evenly by its events."""
+        poses, covs = np.concatenate([start[0][None], done[0]]), np.concatenate([start[1][None], done[1]])
+        now = self.timer()
+        for event, k in zip(block.chain, block.motion.at_event):
+            self.times.append(event.t)
+            self.poses.append(poses[k])
+            self.covs.append(covs[k])
+            self.steps.append((now - self.clock) / len(block.chain))
+        self.clock = now if block.chain else self.clock
+
+    def observation(self, ekf, t: float, n_nis: int, n_assoc: int) -> None:
+        """The posterior after an observation set at t, which added n_nis NIS values and n_assoc decisions."""
+        self.nis_t += [t] * n_nis
+        self.assoc_t += [t] * n_assoc
+        self.times.append(t)
+        self.poses.append(ekf.x[:3].copy())
+        self.covs.append(ekf.robot_cov)
+        now = self.timer()
+        self.steps.append(now - self.clock)
+        self.clock = now
+
+
+def _estimate(ekf, sequence: Sequence, record: _Record, looked_ahead: list, rejected: dict) -> Estimate:
+    """The :class:`Estimate`: one pose per stamp, the confirmed landmarks, the diagnostics and meta."""
+    t, steps, poses, covs = last_per_stamp(
+        np.asarray(record.times),
+        np.asarray(record.steps),
+        np.asarray(record.poses).reshape(-1, 3),
+        np.asarray(record.covs).reshape(-1, 3, 3),
+    )
     confirmed = np.flatnonzero(ekf.confirmed)  # tentative landmarks (association.LandmarkBook) are not part of the map
     n = confirmed.size
     P = ekf.P
@@ -204,15 +206,16 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     diagnostics = {
         "nis": nis[:, 0],
         "nis_dof": nis[:, 1].astype(np.int64),
-        "nis_t": np.asarray(nis_t, dtype=float),
-        "assoc_t": np.asarray(assoc_t, dtype=float),
+        "nis_t": np.asarray(record.nis_t, dtype=float),
+        "assoc_t": np.asarray(record.assoc_t, dtype=float),
         "assoc_decision": log[:, 0].astype(np.int8),
         "assoc_landmark": log[:, 1].astype(np.int64),
         "assoc_d2": log[:, 2],
         "assoc_given_id": log[:, 3].astype(np.int64),
         "rejected_nonfinite": np.array(ekf.rejected["nonfinite"]),
         "rejected_negative_range": np.array(ekf.rejected["negative_range"]),
-        "rejected_motion": np.array(rejected_motion),
+        "rejected_out_of_range": np.array(rejected["out_of_range"]),
+        "rejected_motion": np.array(rejected["motion"]),
         "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
     }
     decisions = log[:, 0]

@@ -3,5 +3,8 @@ copy-on-write landmark storage (:mod:`.storage`), the per-particle update (:mod:
 sequence runner (:mod:`.run`)."""
 
 from .filter import FastSLAM, FastSLAMParams
+from .run import run_sequence
+
+FastSLAM.run = run_sequence  # bound here, so that filter.py does not import its runner
 
 __all__ = ["FastSLAM", "FastSLAMParams"]

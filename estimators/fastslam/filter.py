@@ -89,7 +89,6 @@ from typing import Literal
 
 import numpy as np
 from pydantic import NonNegativeInt, PositiveFloat, PositiveInt, model_validator
-from scipy.stats import chi2
 
 from slamarena.datasets.geometry import compose, wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params, Probability
@@ -100,10 +99,12 @@ from ..models import (
     DEFAULT_TWIST_COV,
     MOTION_MODELS,
     RangeBearingNoise,
+    chi2_gate,
     compose_chain,
     compose_jacobians,
     inverse_observation_jacobians,
     inverse_observe,
+    noise_in_force,
     observation_covariances,
 )
 from ..stepping import StepClock
@@ -196,40 +197,17 @@ class FastSLAM:
     def __init__(self, params: FastSLAMParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         self.model = MOTION_MODELS[self.params.motion_model]
-        self.gate = float(chi2.ppf(self.params.association_confidence, 2))
-        self.gate_known = (
-            np.inf if self.params.known_confidence is None else float(chi2.ppf(self.params.known_confidence, 2))
-        )
+        self.gate = chi2_gate(self.params.association_confidence, 2)
+        self.gate_known = chi2_gate(self.params.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over: every particle at the start pose (of ``sequence``, else the origin), noise resolved."""
         p = self.params
-        noise = getattr(sequence, "noise", None)
-        self.M_twist = (
-            np.asarray(p.twist_cov)
-            if p.twist_cov is not None
-            else np.asarray(
-                getattr(noise, "twist_cov", None)
-                if getattr(noise, "twist_cov", None) is not None
-                else DEFAULT_TWIST_COV,
-                dtype=float,
-            )
-        )
-        self.R = (
-            np.asarray(p.range_bearing_cov)
-            if p.range_bearing_cov is not None
-            else np.asarray(
-                getattr(noise, "range_bearing_cov", None)
-                if getattr(noise, "range_bearing_cov", None) is not None
-                else DEFAULT_RANGE_BEARING_COV,
-                dtype=float,
-            )
-        )
-        self.increment_cov = (
-            np.asarray(p.increment_cov) if p.increment_cov is not None else getattr(noise, "increment_cov", None)
-        )
+        self.M_twist = noise_in_force(p.twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.R = noise_in_force(p.range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
+        self.increment_cov = noise_in_force(p.increment_cov, sequence, "increment_cov")
         self.rng = np.random.default_rng(p.seed)
         start = sequence.start_pose if sequence is not None else np.zeros(3)
         M = p.particles
@@ -534,11 +512,8 @@ class FastSLAM:
         """Live landmarks of every particle (M,), tentative ones included, kept by the update (O(M))."""
         return self.n_live.copy()
 
-    def run(self, sequence):
-        """Run over a sequence (:mod:`.run`)."""
-        from .run import run_sequence
-
-        return run_sequence(self, sequence)
+    # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
+    # runner)
 
 
 def _sqrt_batch(P: np.ndarray) -> np.ndarray:

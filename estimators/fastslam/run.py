@@ -1,9 +1,11 @@
 """``FastSLAM.run(sequence) -> Estimate``: walk the motion and range-bearing events of a sequence.
 
-Between two observation sets the motion is one chain (:meth:`FastSLAM.predict_twists` /
-:meth:`FastSLAM.predict_increments`), cut where ``max_chain`` seconds have passed since the last
-sampling (the particles are then drawn from the motion model). Every observation set is one
-:meth:`FastSLAM.update` at its stamp (the clock of the tentative landmarks).
+The events are walked block by block (:func:`slamarena.estimators.stepping.blocks`): between two observation sets the
+motion is one chain (:meth:`FastSLAM.predict_twists` / :meth:`FastSLAM.predict_increments`), cut where ``max_chain``
+seconds have passed since the last sampling (the particles are then drawn from the motion model). Every observation set
+is one :meth:`FastSLAM.update` at its stamp (the clock of the tentative landmarks). Motion rows with a non-finite value
+or one beyond the physical range (``stepping.LIMITS``) are skipped and counted (``rejected_motion``), and so are
+observation rows whose range is beyond it (``rejected_out_of_range``), so a corrupt row never aborts the run.
 
 One pose per stamp (every motion and observation event; where several share a stamp, the last — the
 posterior — :func:`slamarena.estimators.stepping.last_per_stamp`):
@@ -23,8 +25,8 @@ Diagnostics (arrays):
                             (:attr:`FastSLAM.common_ancestor_t`): the map is one path's before it
     landmarks_min/mean/max  live landmarks per particle after every update
     best_poses | mean_poses the trajectory not chosen as the estimate's poses
-    rejected_nonfinite, rejected_negative_range, rejected_gate, rejected_motion   counts (rejected_gate: labelled rows
-                            beyond the known-landmark gate, ``known_confidence``)
+    rejected_nonfinite, rejected_negative_range, rejected_out_of_range, rejected_gate, rejected_motion
+                            counts (rejected_gate: labelled rows beyond the known-landmark gate, ``known_confidence``)
 """
 
 from __future__ import annotations
@@ -33,10 +35,10 @@ import numpy as np
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose, wrap_angle
-from slamarena.datasets.sequence import Increments, Sequence, Twist
+from slamarena.datasets.sequence import Sequence
 
 from ..models import compose_jacobians
-from ..stepping import CLOCKS, last_per_stamp, twist_pieces
+from ..stepping import CLOCKS, Block, blocks, last_per_stamp, observation_rows
 
 __all__ = ["run_sequence", "mixture_moments"]
 
@@ -100,125 +102,125 @@ class _History:
 
 
 def run_sequence(slam, sequence: Sequence) -> Estimate:
+    """``FastSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring)."""
     slam.reset(sequence)
-    p = slam.params
-    motion, rb = sequence.motion, sequence.range_bearing
-    table = [e for e in sequence.events() if e.stream in ("motion", "range_bearing")]
-    history = _History(slam.x0)
-    times, means, covs, steps = [], [], [], []
-    neff, neff_t, resampled, counts, ancestor_t = [], [], [], [], []
-    rejected_motion = 0
-    t_now = t_sampled = sequence.t0
-    timer = CLOCKS[p.step_clock]
-    clock = timer()
-    i = 0
-    while i < len(table):
-        j = i
-        while j < len(table) and table[j].stream == "motion":
-            j += 1
-        chain = table[i:j]
-        t_end = table[j].t if j < len(table) else (chain[-1].t if chain else t_now)
-        if isinstance(motion, Twist):
-            v, w, dts = twist_pieces(motion, t_now, t_end)
-            ok = np.isfinite(v) & np.isfinite(w)
-            rejected_motion += int((~ok).sum())
-            ends = (t_now + np.cumsum(dts))[ok]
-            v, w, dts = v[ok], w[ok], dts[ok]
-            advance = lambda a, b: slam.predict_twists(v[a:b], w[a:b], dts[a:b])  # noqa: E731
-        elif isinstance(motion, Increments):
-            rows = np.arange(chain[0].start, chain[-1].stop) if chain else np.zeros(0, dtype=int)
-            ok = np.all(np.isfinite(motion.delta[rows]), axis=1)
-            rejected_motion += int((~ok).sum())
-            rows = rows[ok]
-            ends = motion.t[rows]
-            C = motion.cov[rows] if (motion.cov is not None and p.increment_cov is None) else None
-            advance = lambda a, b: slam.predict_increments(motion.delta[rows[a:b]], None if C is None else C[a:b])  # noqa: E731
-        else:
-            ends = np.zeros(0)
-            advance = None
-        # the chain, cut every max_chain seconds since the last sampling
-        event_piece = np.array([np.searchsorted(ends, e.t + 1e-9, side="right") - 1 for e in chain], dtype=np.int64)
-        start, e0 = 0, 0
-        while True:
-            cut = int(np.searchsorted(ends, t_sampled + p.max_chain, side="left"))
-            stop = min(max(cut, start) + 1, ends.size)
-            before = (slam.delta.copy(), slam.Sigma_delta.copy())
-            deltas, Sigmas = advance(start, stop) if stop > start else (np.zeros((0, 3)), np.zeros((0, 3, 3)))
-            e1 = e0
-            while e1 < len(chain) and event_piece[e1] < stop:
-                e1 += 1
-            if e1 > e0:  # the motion events in this part of the chain
-                k = event_piece[e0:e1] - start
-                D = (
-                    np.where(k[:, None] >= 0, deltas[np.maximum(k, 0)], before[0])
-                    if deltas.size
-                    else np.tile(before[0], (e1 - e0, 1))
-                )
-                S = (
-                    np.where(k[:, None, None] >= 0, Sigmas[np.maximum(k, 0)], before[1])
-                    if deltas.size
-                    else np.tile(before[1], (e1 - e0, 1, 1))
-                )
-                mean, cov = mixture_moments(slam.x0, slam.weights, D, S)
-                now = timer()
-                for q in range(e1 - e0):
-                    times.append(chain[e0 + q].t)
-                    history.chain_event(D[q])
-                    steps.append((now - clock) / (e1 - e0))
-                means += list(mean)
-                covs += list(cov)
-                clock = now
-            e0 = e1
-            if stop >= ends.size or cut >= ends.size:
-                break
-            slam.sample_motion()  # max_chain seconds without an observation
-            history.sampling(slam.x0, None, stamped=False)
-            t_sampled = ends[stop - 1]
-            start = stop
-        t_now = t_end
-        if j < len(table):
-            event = table[j]
-            slam.update(rb.z[event.start : event.stop], event.t)
-            weights = np.exp(slam.last_log_w - slam.last_log_w.max())
-            weights /= weights.sum()
-            mean, cov = mixture_moments(slam.last_sampled, weights, np.zeros((1, 3)), np.zeros((1, 3, 3)))
-            history.sampling(slam.last_sampled, slam.last_ancestors, stamped=True)
-            t_sampled = event.t
-            times.append(event.t)
-            means.append(mean[0])
-            covs.append(cov[0])
-            neff.append(1.0 / np.sum(weights**2))
-            neff_t.append(event.t)
-            resampled.append(slam.last_ancestors is not None)
-            ancestor_t.append(slam.common_ancestor_t)
-            live = slam.landmark_counts()
-            counts.append((live.min(), live.mean(), live.max()))
-            now = timer()
-            steps.append(now - clock)
-            clock = now
-        i = j + 1
+    z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))
+    record = _Record(slam, CLOCKS[slam.params.step_clock], sequence.t0)
+    rejected = {"motion": 0, "out_of_range": 0}
+    for block in blocks(sequence, row_cov=slam.params.increment_cov is None):
+        rejected["motion"] += block.motion.rejected
+        _predict(slam, block, record)
+        if block.observation is not None:
+            rows, far = observation_rows(block.observation, z_all[:, 0])
+            rejected["out_of_range"] += far
+            slam.update(z_all[rows], block.observation.t)
+            record.update(slam, block.observation.t)
+    return _estimate(slam, sequence, record, rejected)
 
+
+def _predict(slam, block: Block, record: _Record) -> None:
+    """Propagate the particles over the block's motion chain, cut every ``max_chain`` seconds since the last sampling
+    (the particles are then drawn from the motion model); record the mixture at each motion event's stamp."""
+    motion, chain, p = block.motion, block.chain, slam.params
+    ends = motion.end
+    event_piece = motion.at_event - 1  # the last piece applied by each event's stamp (−1: none)
+    start, e0 = 0, 0
+    while True:
+        cut = int(np.searchsorted(ends, record.t_sampled + p.max_chain, side="left"))
+        stop = min(max(cut, start) + 1, ends.size)
+        before = (slam.delta.copy(), slam.Sigma_delta.copy())
+        deltas, Sigmas = motion.predict(slam, start, stop) if stop > start else (np.zeros((0, 3)), np.zeros((0, 3, 3)))
+        e1 = e0
+        while e1 < len(chain) and event_piece[e1] < stop:
+            e1 += 1
+        if e1 > e0:  # the motion events in this part of the chain: the chain's composed motion at each stamp
+            k = event_piece[e0:e1] - start
+            if deltas.size:
+                D = np.where(k[:, None] >= 0, deltas[np.maximum(k, 0)], before[0])
+                S = np.where(k[:, None, None] >= 0, Sigmas[np.maximum(k, 0)], before[1])
+            else:
+                D, S = np.tile(before[0], (e1 - e0, 1)), np.tile(before[1], (e1 - e0, 1, 1))
+            record.chain(slam, chain[e0:e1], D, S)
+        e0 = e1
+        if stop >= ends.size or cut >= ends.size:
+            break
+        slam.sample_motion()  # max_chain seconds without an observation
+        record.history.sampling(slam.x0, None, stamped=False)
+        record.t_sampled = ends[stop - 1]
+        start = stop
+
+
+class _Record:
+    """The recorded trajectory (the particle mixture's mean and covariance and the step time per event), the history
+    for the best path, and the per-update diagnostics."""
+
+    def __init__(self, slam, timer, t0: float):
+        self.history = _History(slam.x0)
+        self.t_sampled = t0  # the time of the last sampling of the particles
+        self.timer, self.clock = timer, timer()
+        self.times, self.means, self.covs, self.steps = [], [], [], []
+        self.neff, self.neff_t, self.resampled, self.counts, self.ancestor_t = [], [], [], [], []
+
+    def chain(self, slam, events: list, D: np.ndarray, S: np.ndarray) -> None:
+        """The mixture at the stamps of motion ``events``: the chain's composed motion D (E, 3), S (E, 3, 3) at each;
+        the time since the last record is shared evenly by them."""
+        mean, cov = mixture_moments(slam.x0, slam.weights, D, S)
+        now = self.timer()
+        for q, event in enumerate(events):
+            self.times.append(event.t)
+            self.history.chain_event(D[q])
+            self.steps.append((now - self.clock) / len(events))
+        self.means += list(mean)
+        self.covs += list(cov)
+        self.clock = now
+
+    def update(self, slam, t: float) -> None:
+        """The mixture after the update at t (the particles as sampled, weighted by the update) and its diagnostics."""
+        weights = np.exp(slam.last_log_w - slam.last_log_w.max())
+        weights /= weights.sum()
+        mean, cov = mixture_moments(slam.last_sampled, weights, np.zeros((1, 3)), np.zeros((1, 3, 3)))
+        self.history.sampling(slam.last_sampled, slam.last_ancestors, stamped=True)
+        self.t_sampled = t
+        self.times.append(t)
+        self.means.append(mean[0])
+        self.covs.append(cov[0])
+        self.neff.append(1.0 / np.sum(weights**2))
+        self.neff_t.append(t)
+        self.resampled.append(slam.last_ancestors is not None)
+        self.ancestor_t.append(slam.common_ancestor_t)
+        live = slam.landmark_counts()
+        self.counts.append((live.min(), live.mean(), live.max()))
+        now = self.timer()
+        self.steps.append(now - self.clock)
+        self.clock = now
+
+
+def _estimate(slam, sequence: Sequence, record: _Record, rejected: dict) -> Estimate:
+    """The :class:`Estimate`: one pose per stamp (the mean or the best path), the heaviest particle's landmarks, the
+    diagnostics and meta."""
+    p = slam.params
     t, steps, mean_poses, covs, best = last_per_stamp(
-        np.asarray(times),
-        np.asarray(steps),
-        np.asarray(means).reshape(-1, 3),
-        np.asarray(covs).reshape(-1, 3, 3),
-        history.best_path(int(np.argmax(slam.log_w))),
+        np.asarray(record.times),
+        np.asarray(record.steps),
+        np.asarray(record.means).reshape(-1, 3),
+        np.asarray(record.covs).reshape(-1, 3, 3),
+        record.history.best_path(int(np.argmax(slam.log_w))),
     )
     ids, xy, lcov = slam.landmarks()
-    counts = np.asarray(counts, dtype=float).reshape(-1, 3)
+    counts = np.asarray(record.counts, dtype=float).reshape(-1, 3)
     diagnostics = {
-        "neff": np.asarray(neff),
-        "neff_t": np.asarray(neff_t),
-        "resampled": np.asarray(resampled, dtype=bool),
-        "common_ancestor_t": np.asarray(ancestor_t, dtype=float),
+        "neff": np.asarray(record.neff),
+        "neff_t": np.asarray(record.neff_t),
+        "resampled": np.asarray(record.resampled, dtype=bool),
+        "common_ancestor_t": np.asarray(record.ancestor_t, dtype=float),
         "landmarks_min": counts[:, 0],
         "landmarks_mean": counts[:, 1],
         "landmarks_max": counts[:, 2],
         "rejected_nonfinite": np.array(slam.rejected["nonfinite"]),
         "rejected_negative_range": np.array(slam.rejected["negative_range"]),
+        "rejected_out_of_range": np.array(rejected["out_of_range"]),
         "rejected_gate": np.array(slam.rejected["gate"]),
-        "rejected_motion": np.array(rejected_motion),
+        "rejected_motion": np.array(rejected["motion"]),
     }
     if p.trajectory == "mean":
         poses, diagnostics["best_poses"] = mean_poses, best

@@ -46,6 +46,7 @@ from pydantic import NonNegativeFloat, PositiveFloat
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import compose
 from slamarena.datasets.sequence import Sequence
+from slamarena.estimators.models import noise_in_force
 from slamarena.params import Covariance2, Field
 
 from .graph import (
@@ -99,7 +100,9 @@ class FixedLagLocalizer:
         gps, heading = sequence.gps, sequence.heading
         stamps = []
         if gps is not None and len(gps):
-            R_gps = check_covariance("gps_cov", _noise(self.params.gps_cov, sequence.noise.gps_cov, "gps_cov"), (2, 2))
+            R_gps = check_covariance(
+                "gps_cov", noise_in_force(self.params.gps_cov, sequence, "gps_cov", required=True), (2, 2)
+            )
             ok = summable(gps.xy)
             counts["rejected_nonfinite_gps"] = int((~ok).sum())
             gps = gps.select(ok)
@@ -108,7 +111,9 @@ class FixedLagLocalizer:
             gps = None
         if heading is not None and len(heading):
             R_imu = check_covariance(
-                "yaw_var", np.atleast_2d(float(_noise(self.params.yaw_var, sequence.noise.yaw_var, "yaw_var"))), (1, 1)
+                "yaw_var",
+                np.atleast_2d(float(noise_in_force(self.params.yaw_var, sequence, "yaw_var", required=True))),
+                (1, 1),
             )
             ok = summable(heading.yaw)
             counts["rejected_nonfinite_heading"] = int((~ok).sum())
@@ -177,15 +182,6 @@ class FixedLagLocalizer:
             diagnostics={**other, **counts},
             meta={"params": self.params.canonical(), "poses": K},
         )
-
-
-def _noise(override, stated, name: str):
-    """The parameter ``override`` when given, else the sequence's stated noise (ValueError naming ``name`` if neither)."""
-    if override is not None:
-        return override
-    if stated is None:
-        raise ValueError(f"the sequence states no {name}; pass {name}=...")
-    return stated
 
 
 def _rows_per_pose(chain, t: np.ndarray, K: int, counts: dict, name: str) -> list[np.ndarray]:

@@ -41,7 +41,13 @@ import numpy as np
 
 from slamarena.datasets.geometry import accumulate
 from slamarena.datasets.sequence import Increments, Sequence, Twist
-from slamarena.estimators.models import MOTION_MODELS, RangeBearingNoise, inverse_observe, observation_covariances
+from slamarena.estimators.models import (
+    MOTION_MODELS,
+    RangeBearingNoise,
+    inverse_observe,
+    noise_in_force,
+    observation_covariances,
+)
 from slamarena.estimators.stepping import twist_pieces
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
@@ -287,10 +293,9 @@ def motion_chain(
         raise ValueError(f"{sequence.name}: the smoother needs a motion input (Twist or Increments)")
     counts: dict = {}
     if isinstance(motion, Twist):
-        M = params.twist_cov if params.twist_cov is not None else sequence.noise.twist_cov
-        if M is None:
-            raise ValueError(f"{sequence.name}: no twist noise stated; pass twist_cov")
-        M = check_covariance("twist_cov", M, (2, 2))
+        M = check_covariance(
+            "twist_cov", noise_in_force(params.twist_cov, sequence, "twist_cov", required=True), (2, 2)
+        )
         finite = summable(motion.v, motion.omega)
         counts["rejected_nonfinite_motion"] = int((~finite).sum())
         motion = motion.select(finite)
@@ -301,9 +306,7 @@ def motion_chain(
         if increment_cov is None and motion.cov is not None:
             inc_cov = motion.cov  # the stream's own, row by row: a bad row is rejected below
         else:
-            C = increment_cov if increment_cov is not None else sequence.noise.increment_cov
-            if C is None:
-                raise ValueError(f"{sequence.name}: no odometry-increment noise stated; pass increment_cov")
+            C = noise_in_force(increment_cov, sequence, "increment_cov", required=True)
             inc_cov = np.broadcast_to(check_covariance("increment_cov", C, (3, 3)), (len(motion), 3, 3))
         valid = finite & valid_covariances(inc_cov)
         counts["rejected_invalid_cov_motion"] = int((finite & ~valid).sum())
@@ -372,11 +375,9 @@ def build_problem(sequence: Sequence, params: LandmarkProblemParams = LandmarkPr
     dataset states them).
     """
     counts: dict = {}
-    R = params.range_bearing_cov if params.range_bearing_cov is not None else sequence.noise.range_bearing_cov
     rb = sequence.range_bearing
+    R = noise_in_force(params.range_bearing_cov, sequence, "range_bearing_cov", required=rb is not None and len(rb) > 0)
     if rb is not None and len(rb):
-        if R is None:
-            raise ValueError(f"{sequence.name}: no range-bearing noise stated; pass range_bearing_cov")
         R = check_covariance("range_bearing_cov", R, (2, 2))
         finite = summable(rb.range, rb.bearing)
         positive = finite & (rb.range >= 0)

@@ -12,7 +12,8 @@ Modules: :mod:`.alignment` (Umeyama in 2D), :mod:`.reference` (ground truth at e
 times), :mod:`.trajectory` (ATE, RPE), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
 :mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.; ``loop``: their error on the ground truth's
 revisits, a measure of loop closure), :mod:`.cost`, :mod:`.estimate` (what the
-estimate reports of itself: landmark count, rejected rows, an optimiser's final error).
+estimate reports of itself: landmark count, rejected rows, an optimiser's final error), :mod:`.occupancy` (the quality
+of the occupancy map a laser trajectory implies, without ground truth: :mod:`slamarena.mapping.evaluation`).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from .consistency import NEES_OUTPUTS, NIS_OUTPUTS, NEESParams, NISParams, nees,
 from .cost import COST_OUTPUTS, CostParams, cost
 from .estimate import ESTIMATE_OUTPUTS, EstimateParams, estimate_counts
 from .landmarks import MAP_OUTPUTS, MapParams, landmark_error
+from .occupancy import OCCUPANCY_OUTPUTS, OccupancyParams, occupancy_quality
 from .reference import MetricUnavailable, Reference, reference_of
 from .relations import (
     LOOP_OUTPUTS,
@@ -74,6 +76,7 @@ METRICS: dict[str, Metric] = {
         CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p, duration=_duration(c.data))
     ),
     "estimate": Metric(EstimateParams, ESTIMATE_OUTPUTS, lambda c, p: estimate_counts(c.estimate, p)),
+    "occupancy": Metric(OccupancyParams, OCCUPANCY_OUTPUTS, lambda c, p: occupancy_quality(c.estimate, c.data, p)),
 }
 
 

@@ -61,7 +61,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.geometry import wrap_angle, wrap_scalar
 
 from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, take_step
 from .tiled_grid import TiledPyramid
@@ -128,13 +128,17 @@ def _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th):
     return H, g, ssr, known
 
 
+#: the angle wrapped to (−π, π], compiled (:func:`~slamarena.datasets.geometry.wrap_scalar`)
+_wrap = njit(cache=True)(wrap_scalar)
+
+
 @njit(cache=True)
 def _objective(H, g, ssr, info, inv_var, guess, x, y, th):
     """−log τ at ξ = (x, y, th) up to a constant, and A (3, 3), b (3,) of the Gauss-Newton step there (module docstring)."""
     e = np.empty(3)
     e[0] = guess[0] - x
     e[1] = guess[1] - y
-    e[2] = (guess[2] - th + np.pi) % (2.0 * np.pi) - np.pi
+    e[2] = _wrap(guess[2] - th)
     A = H * inv_var + info
     b = np.empty(3)
     f = 0.5 * ssr * inv_var

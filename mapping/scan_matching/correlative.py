@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 
+from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Field, Params
 
 from ..occupancy_grid import probability as _probability
@@ -274,7 +275,7 @@ class _Correlative:
 
             info["lattice_pose"] = pose.copy()
             pose = GaussNewtonMatcher().match(maps, pts, pose).pose
-        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        pose[2] = wrap_angle(pose[2])
         return MatchResult(pose=pose, cov=cov, score=float(S_best / max(n, 1)), iterations=int(evaluated), info=info)
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
 
+from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Field, Params
 
 from . import MatchResult
@@ -251,7 +252,7 @@ class PointToLineICPMatcher:
             p.tol_translation,
             p.tol_rotation,
         )
-        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        pose[2] = wrap_angle(pose[2])
         eig = np.linalg.eigvalsh(H) if n > 3 else np.zeros(3)
         cov = ssr / (n - 3) * np.linalg.inv(H) if eig[0] * 1e12 >= eig[-1] > 0 else np.diag([np.inf] * 3)
         return MatchResult(pose=pose, cov=cov, score=n / max(len(pts), 1), iterations=it, info={"paired": n})

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from slamarena.datasets import DataFormatError
-from slamarena.datasets.formats import carmen, g2o, isam, kitti, mrclam, plaza, ply, relations, toro, tum, victoria_park
+from slamarena.datasets.formats import carmen, g2o, isam, kitti, mrclam, plaza, relations, toro, tum, victoria_park
 
 #: a file with nothing in it but comments and blank lines, in each text format's comment syntax
 COMMENTS = "# written by hand\n\n   \n\t\n# nothing else\n"
@@ -50,13 +50,9 @@ READERS = {
     "relations": relations.read,
     "tum": tum.read,
     "kitti": kitti.read,
-    "ply": ply.read,
 }
-#: what "only comments" means for the binary formats: a PLY header declaring no vertex (KITTI has no comments)
-NO_DATA = {
-    **{name: COMMENTS for name in READERS},
-    "ply": "ply\nformat ascii 1.0\ncomment no points\nelement vertex 0\nproperty float x\nend_header\n",
-}
+#: a file of comments only, for every format that has comments (not the binary KITTI .bin and Plaza .mat)
+NO_DATA = {name: COMMENTS for name in READERS}
 del NO_DATA["kitti"], NO_DATA["plaza mat"]
 
 

@@ -1,4 +1,4 @@
-"""Relations, TUM, KITTI .bin and PLY: staged files, round trips, malformed input."""
+"""Relations, TUM and KITTI .bin: staged files, round trips, malformed input."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from checks import staged
 
 from slamarena.datasets import DataFormatError
-from slamarena.datasets.formats import kitti, ply, relations, tum
+from slamarena.datasets.formats import kitti, relations, tum
 
 
 def test_relations_round_trip_and_tagged_lines(tmp_path, rng):
@@ -70,42 +70,3 @@ def test_kitti_round_trip_and_truncated(tmp_path, rng):
         (tmp_path / "b.bin").write_bytes(pts.tobytes()[:-cut])
         with pytest.raises(DataFormatError, match="multiple of 16 bytes"):
             kitti.read(tmp_path / "b.bin")
-
-
-@pytest.mark.realdata
-def test_ply_staged_pair():
-    src = ply.read(staged("lidar3d_smoke/gicp_pair/source.ply"))
-    assert list(k for k in src if not k.startswith("_")) == ["x", "y", "z", "scalar_intensity"]
-    assert src["x"].shape == (69792,) and src["x"].dtype == np.float32
-    assert ply.points(staged("lidar3d_smoke/gicp_pair/target.ply")).shape == (69088, 3)
-
-
-@pytest.mark.parametrize("binary", [True, False])
-def test_ply_round_trip(tmp_path, rng, binary):
-    props = {
-        "x": rng.normal(size=30).astype(np.float32),
-        "y": rng.normal(size=30).astype(np.float32),
-        "z": rng.normal(size=30).astype(np.float32),
-        "ring": rng.integers(0, 64, 30).astype(np.uint8),
-    }
-    ply.write(tmp_path / "a.ply", props, binary=binary)
-    back = ply.read(tmp_path / "a.ply")
-    for k, v in props.items():
-        assert back[k].dtype == v.dtype and np.array_equal(back[k], v)
-
-
-def test_ply_malformed(tmp_path):
-    (tmp_path / "a.ply").write_bytes(
-        b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3\n"
-    )
-    with pytest.raises(DataFormatError) as err:
-        ply.read(tmp_path / "a.ply")
-    assert err.value.line == 8
-    (tmp_path / "b.ply").write_bytes(b"ply\nformat binary_big_endian 1.0\nelement vertex 2\nend_header\n")
-    with pytest.raises(DataFormatError, match="binary_little_endian"):
-        ply.read(tmp_path / "b.ply")
-    (tmp_path / "c.ply").write_bytes(
-        b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nend_header\n\0\0\0\0"
-    )
-    with pytest.raises(DataFormatError, match="2 vertices"):
-        ply.read(tmp_path / "c.ply")

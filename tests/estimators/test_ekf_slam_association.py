@@ -9,7 +9,7 @@ from slamarena import datasets
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam import association as assoc
 from slamarena.estimators.ekf_slam.association import Decision
-from slamarena.estimators.models import observation_jacobians, observe
+from slamarena.estimators.models import chi2_gate, observation_jacobians, observe
 
 
 def test_vectorised_compatibility_and_pair_d2_match_dense_per_pair_computation():
@@ -86,7 +86,7 @@ def test_jcbb_associates_the_row_scene_correctly():
 
 def test_decisions_new_and_rejected_follow_the_two_gates():
     d2 = np.array([[1.0, 50.0], [8.0, 40.0], [30.0, 45.0]])
-    g_match, g_new = assoc.chi2_gate(0.95, 2), assoc.chi2_gate(0.99999, 2)
+    g_match, g_new = chi2_gate(0.95, 2), chi2_gate(0.99999, 2)
     a = assoc.nearest_neighbour(d2, g_match, g_new)
     np.testing.assert_array_equal(a.decision, [Decision.MATCHED, Decision.REJECTED, Decision.NEW])
     np.testing.assert_array_equal(a.slot, [0, -1, -1])
@@ -236,7 +236,7 @@ def test_hypotheses_are_the_compatible_landmarks_by_posterior_then_not_in_the_ma
     S = np.broadcast_to(np.eye(2), (2, 3, 2, 2))
     d2 = np.array([[0.2, 1.0, 9.0], [0.1, 60.0, 70.0]])  # row 0: two landmarks inside the match gate
     R = np.broadcast_to(0.01 * np.eye(2), (2, 2, 2))
-    g_match, g_new = assoc.chi2_gate(0.95, 2), assoc.chi2_gate(0.99999, 2)
+    g_match, g_new = chi2_gate(0.95, 2), chi2_gate(0.99999, 2)
     log_lam, log_new = assoc.log_densities(S, d2, R, g_new)
     np.testing.assert_allclose(log_lam, -0.5 * d2 - np.log(2 * np.pi))
     np.testing.assert_allclose(log_new, -0.5 * g_new - 0.5 * np.log(1e-4) - np.log(2 * np.pi))
