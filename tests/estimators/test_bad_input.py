@@ -156,5 +156,6 @@ def test_a_run_counts_bad_rows_of_a_sequence_and_stays_finite(subject, kw):
         noise=seq.noise,
     )
     est = subject.cls(**kw).run(bad)
-    assert int(est.diagnostics["rejected_nonfinite"]) == int((~np.isfinite(r) | (r == 1e300)).sum())
+    assert int(est.diagnostics["rejected_nonfinite"]) == int((~np.isfinite(r)).sum())
+    assert int(est.diagnostics["rejected_out_of_range"]) == int((r == 1e300).sum())  # beyond stepping.LIMITS.range
     assert np.all(np.isfinite(est.poses)) and np.all(np.isfinite(est.pose_cov))
