@@ -10,20 +10,28 @@
 3. Each cell has a cache key: the SHA-256 of the dataset spec (name, parameters, the seed of
    a simulator), the SHA-256 of every file of a real dataset (``slamarena.datasets.catalogue``), the
    method spec, the seed and the slamarena version. A cell whose ``metrics.json`` carries its
-   key (and the key of the metric settings) is finished and skipped, so an interrupted run
-   resumes where it stopped; ``--force`` recomputes every cell, ``--recompute LABEL`` the cells of one method (the key
+   key (and the key of the metric settings) and the SHA-256 of the ``estimate.npz`` and ``series.npz`` still there
+   is finished and skipped, so an interrupted run resumes where it stopped (an edited or damaged file is recomputed);
+   ``--force`` recomputes every cell, ``--recompute LABEL`` the cells of one method (the key
    does not change with the code, so after a change to a method its cells are recomputed this way).
-4. Pending cells run in their own processes (:func:`slamarena.experiments.cell.run_cell`): locally on
-   ``--jobs`` joblib worker threads, each supervising one cell process (the threads only
-   wait; the work, the timeout kill and the memory peak belong to the cell's own process),
-   or on a Dask distributed cluster with ``--scheduler``. A failing or timed-out cell does
+   The run holds ``<out>/.lock`` (``flock``): a second run into the same directory says which run holds it and
+   waits, then skips what that run finished.
+4. Pending cells run in processes of their own. Locally, ``--jobs`` threads each feed one long-lived
+   worker (:class:`slamarena.experiments.cell.Worker`: it imports the libraries once and forks a child per cell;
+   the work, the timeout kill and the memory peak belong to the child); the first cell of each method runs before
+   that method's others (:class:`CellQueue`), so its numba kernels are compiled once, into numba's cache, not by
+   several cells at once. On a Dask distributed cluster (``--scheduler``) each cell is a fresh process
+   (:func:`slamarena.experiments.cell.run_cell`). A failing or timed-out cell does
    not stop the others; its error and traceback go to ``summary.csv`` and the console, and
-   the exit code is 1. Ctrl-C kills the running cells, records the interruption in the manifest
-   and says how to resume (exit code 130); a SIGKILL of the runner takes its cells with it.
+   the exit code is 1 (a timeout's message says how much of it went to compiling numba kernels). Progress: a bar
+   on a terminal, otherwise one line per finished cell with counts and an ETA. Ctrl-C kills the running cells,
+   records the interruption in the manifest and says how to resume (exit code 130); a SIGKILL of the runner takes
+   its cells with it. A full disk stops the run with one line naming the directory, the space free and about how
+   much the cells left need (exit code 1); no temporary file is left, and the same command resumes.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
    (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
    and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`); with ``--report``, then
-   the report (:mod:`slamarena.experiments.report`).
+   the report (:mod:`slamarena.experiments.report`); without it, the last line names that next step.
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ BENCHMARKS: dict[str, str] = {
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
+    "first-run": "slamarena.experiments.benchmarks.first_run:main",
 }
 
 
