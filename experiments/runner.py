@@ -716,7 +716,8 @@ def run_experiment(
 ) -> int:
     """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
-    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
+    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C); raises
+    :class:`DiskFull` (one line: the directory, the space free and needed) when the disk is full.
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
     CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
     they are handed in rather than imported). ``report`` writes ``report.html`` and ``report.md`` at the end
@@ -736,9 +737,25 @@ def run_experiment(
     except KeyboardInterrupt:  # while waiting for the lock: nothing ran
         console.print("[yellow]interrupted before any cell ran[/yellow]")
         return 130
+    except OSError as exc:  # no space even for the lock file's line (a full disk inside a run is handled there)
+        if exc.errno not in DISK_FULL_ERRNOS:
+            raise
+        cells = plan(config, out)
+        raise DiskFull(disk_full_message(out, cells, sum(not c.finished() for c in cells))) from None
 
 
-def _run_locked(config, out, jobs, scheduler, force, console, make_figures, report, recompute, t_start) -> int:
+def _run_locked(
+    config: ExperimentConfig,
+    out: Path,
+    jobs: int,
+    scheduler: str | None,
+    force: bool,
+    console,
+    make_figures: FigureMaker | None,
+    report: bool,
+    recompute: frozenset[str],
+    t_start: float,
+) -> int:
     """:func:`run_experiment` once ``out`` is locked: which cells are finished is read only now (another run may have
     finished some while this one waited)."""
     cells = plan(config, out)
