@@ -585,7 +585,8 @@ def check_recompute(config: ExperimentConfig, recompute: frozenset[str]) -> None
 def run_cells(
     config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, forced: set[str], console
 ) -> dict[str, dict]:
-    """Execute the pending cells (those in ``forced`` recomputed even if cached); returns the failed ones by id.
+    """Execute the pending cells (those in ``forced`` recomputed even if cached); returns their results by id (a cell
+    not started, after a full disk stopped the run, has none).
 
     On a terminal, a progress bar; otherwise (stderr to a file: nohup, tee, CI) one line per finished cell with the
     counts done/total and failed, the elapsed time and an ETA (:class:`ProgressLines`)."""
@@ -599,7 +600,7 @@ def run_cells(
     )
 
     env = _cell_env(config)
-    failures: dict[str, dict] = {}
+    ended: dict[str, dict] = {}
     if console.is_terminal:
         progress = Progress(
             TextColumn("[bold]{task.description}"),
@@ -618,15 +619,14 @@ def run_cells(
         task = progress.add_task(escape(config.name), total=len(pending))
 
         def on_done(result):
-            if result["status"] != "ok":
-                failures[result["id"]] = result
+            ended[result["id"]] = result
             if isinstance(progress, ProgressLines):
-                progress.finished(result, len(failures))
+                progress.finished(result, sum(r["status"] != "ok" for r in ended.values()))
             else:
                 progress.advance(task)
 
         execute([_spec(config, c, env, c.id in forced) for c in pending], config.timeout, jobs, scheduler, on_done)
-    return failures
+    return ended
 
 
 class ProgressLines:
@@ -761,13 +761,16 @@ def _run_locked(
     cells = plan(config, out)
     forced = forced_cells(config, cells, force, recompute)
     pending = [c for c in cells if c.id in forced or not c.finished()]
+    left = len(pending)
     try:
         manifest = start_manifest(config, out, cells, pending, jobs, scheduler)
         try:
-            failures = run_cells(config, pending, jobs, scheduler, forced, console)
+            ended = run_cells(config, pending, jobs, scheduler, forced, console)
         except KeyboardInterrupt:
             record_interruption(manifest, out, cells, console)
             return 130
+        failures = {i: r for i, r in ended.items() if r["status"] != "ok"}
+        left = len(pending) - (len(ended) - len(failures))
         if any(f["status"] == "disk_full" for f in failures.values()):
             raise OSError(errno.ENOSPC, "no space left on device")
         frame = collect(config, cells, failures)
@@ -786,7 +789,7 @@ def _run_locked(
     except OSError as exc:
         if exc.errno not in DISK_FULL_ERRNOS:
             raise
-        raise DiskFull(disk_full_message(out, cells)) from None
+        raise DiskFull(disk_full_message(out, cells, left)) from None
     _console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
     for name, err in figure_errors.items():
         console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
@@ -808,9 +811,9 @@ class DiskFull(UserError, OSError):
     """The disk holding the results directory is full (the message names it and the space the run still needs)."""
 
 
-def disk_full_message(out: Path, cells: list[Cell]) -> str:
-    """One line: where, how much is free, and about how much the cells left need (the mean size of the finished
-    cells' directories times the cells left)."""
+def disk_full_message(out: Path, cells: list[Cell], left: int) -> str:
+    """One line: where, how much is free, and about how much the ``left`` cells not finished by this run need (the
+    mean size of the directories of the cells with a ``metrics.json`` times that count)."""
     import shutil
 
     def mb(n: float) -> str:
@@ -818,12 +821,11 @@ def disk_full_message(out: Path, cells: list[Cell]) -> str:
 
     finished = [c for c in cells if (c.dir / "metrics.json").is_file()]
     sizes = [sum(f.stat().st_size for f in c.dir.iterdir() if f.is_file()) for c in finished]
-    left = len(cells) - len(finished)
     free = shutil.disk_usage(out).free
     if sizes and left:
         per = sum(sizes) / len(sizes)
         need = f"the {left} cells left need about {mb(per * left)} ({mb(per)} each) plus the tables and figures"
-    elif sizes:
+    elif not left:
         need = "every cell is finished; the tables and figures need a few MB"
     else:
         need = f"no cell finished to measure a cell's size ({left} cells left)"
@@ -976,5 +978,5 @@ def run_from_cli(
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2
     except DiskFull as exc:
-        console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
+        console.print(f"[red]{escape(str(exc))}[/red]", highlight=False, soft_wrap=True)
         return 1
