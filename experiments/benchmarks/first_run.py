@@ -40,7 +40,7 @@ def timed_run(out: Path, numba_cache: Path, seeds: int | None) -> dict:
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return {
         "code": done.returncode,
-        "stderr_tail": "\n".join(done.stderr.strip().splitlines()[-5:]),
+        "stderr_tail": "\n".join(done.stderr.strip().splitlines()[-5:]) if done.returncode else "",
         "wall_s": wall,
         "cpu_s": cpu,
         "load_before": load_before,
