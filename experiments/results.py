@@ -4,6 +4,7 @@
 
     <out>/                                   e.g. results/default
       manifest.json                          config, package versions, git revision, machine, times
+      .lock                                  held (flock) by the run writing here: a second run waits for it
       runs/<dataset>/<method>/<seed>/
         estimate.npz                         datasets.Estimate (save/load)
         trajectory.tum                       the estimated trajectory, TUM format (evo reads it)
@@ -22,7 +23,8 @@
       report.html report.md                  the report (slamarena report; run --report)
 
 Every file is written to a temporary name in the same directory and renamed over the target
-(``os.replace`` is atomic on POSIX), so a killed run never leaves a half-written file behind.
+(``os.replace`` is atomic on POSIX), so a killed run never leaves a half-written file behind; a write that fails
+(a full disk) removes its temporary.
 """
 
 from __future__ import annotations
@@ -45,10 +47,12 @@ __all__ = [
     "cell_dir",
     "MANIFEST",
     "SUMMARY",
+    "LOCK",
     "CAPTION_SUFFIX",
 ]
 
 MANIFEST = "manifest.json"
+LOCK = ".lock"  # held (flock) by the run writing into the directory
 CAPTION_SUFFIX = ".caption"  # figures/<stem>.caption beside figures/<stem>.png
 SUMMARY = "summary.csv"
 
@@ -57,11 +61,15 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:  # a full disk, a kill: no temporary is left behind
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:

@@ -10,24 +10,33 @@
 3. Each cell has a cache key: the SHA-256 of the dataset spec (name, parameters, the seed of
    a simulator), the SHA-256 of every file of a real dataset (``slamarena.datasets.catalogue``), the
    method spec, the seed and the slamarena version. A cell whose ``metrics.json`` carries its
-   key (and the key of the metric settings) is finished and skipped, so an interrupted run
-   resumes where it stopped; ``--force`` recomputes every cell, ``--recompute LABEL`` the cells of one method (the key
+   key (and the key of the metric settings) and the SHA-256 of the ``estimate.npz`` and ``series.npz`` still there
+   is finished and skipped, so an interrupted run resumes where it stopped (an edited or damaged file is recomputed);
+   ``--force`` recomputes every cell, ``--recompute LABEL`` the cells of one method (the key
    does not change with the code, so after a change to a method its cells are recomputed this way).
-4. Pending cells run in their own processes (:func:`slamarena.experiments.cell.run_cell`): locally on
-   ``--jobs`` joblib worker threads, each supervising one cell process (the threads only
-   wait; the work, the timeout kill and the memory peak belong to the cell's own process),
-   or on a Dask distributed cluster with ``--scheduler``. A failing or timed-out cell does
+   The run holds ``<out>/.lock`` (``flock``): a second run into the same directory says which run holds it and
+   waits, then skips what that run finished.
+4. Pending cells run in processes of their own. Locally, ``--jobs`` threads each feed one long-lived
+   worker (:class:`slamarena.experiments.cell.Worker`: it imports the libraries once and forks a child per cell;
+   the work, the timeout kill and the memory peak belong to the child); the first cell of each method runs before
+   that method's others (:class:`CellQueue`), so its numba kernels are compiled once, into numba's cache, not by
+   several cells at once. On a Dask distributed cluster (``--scheduler``) each cell is a fresh process
+   (:func:`slamarena.experiments.cell.run_cell`). A failing or timed-out cell does
    not stop the others; its error and traceback go to ``summary.csv`` and the console, and
-   the exit code is 1. Ctrl-C kills the running cells, records the interruption in the manifest
-   and says how to resume (exit code 130); a SIGKILL of the runner takes its cells with it.
+   the exit code is 1 (a timeout's message says how much of it went to compiling numba kernels). Progress: a bar
+   on a terminal, otherwise one line per finished cell with counts and an ETA. Ctrl-C kills the running cells,
+   records the interruption in the manifest and says how to resume (exit code 130); a SIGKILL of the runner takes
+   its cells with it. A full disk stops the run with one line naming the directory, the space free and about how
+   much the cells left need (exit code 1); no temporary file is left, and the same command resumes.
 5. ``summary.csv`` (one row per cell), the tables, the Monte Carlo NEES table, the figures
    (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
    and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`); with ``--report``, then
-   the report (:mod:`slamarena.experiments.report`).
+   the report (:mod:`slamarena.experiments.report`); without it, the last line names that next step.
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
@@ -36,8 +45,10 @@ import shlex
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -46,8 +57,9 @@ from rich.markup import escape
 
 from slamarena.errors import UserError
 
+from .cell import CACHED_FILES, DISK_FULL_ERRNOS, file_digest
 from .config import ConfigError, ExperimentConfig, load_config
-from .results import MANIFEST, SUMMARY, atomic_write_text, cell_dir, read_json, write_json
+from .results import LOCK, MANIFEST, SUMMARY, atomic_write_text, cell_dir, read_json, write_json
 
 __all__ = ["Cell", "plan", "run_experiment", "run_from_cli", "package_version"]
 
@@ -71,6 +83,9 @@ class Cell:
     seed_to_estimator: bool
 
     def finished(self) -> bool:
+        """Whether the cell's ``metrics.json`` says ok for this cell's keys and the files its numbers were computed
+        from are still those files (their SHA-256 as recorded): an edited or damaged cached file is recomputed, never
+        reused."""
         path = self.dir / "metrics.json"
         if not path.exists():
             return False
@@ -82,18 +97,8 @@ class Cell:
             info.get("status") == "ok" and info.get("key") == self.key and info.get("metrics_key") == self.metrics_key
         ):
             return False
-        return all(readable_npz(self.dir / name) for name in ("estimate.npz", "series.npz"))
-
-
-def readable_npz(path: Path) -> bool:
-    """Whether ``path`` is a whole ``.npz`` (every member's CRC checks): a damaged cached file is recomputed, never reused."""
-    import zipfile
-
-    try:
-        with zipfile.ZipFile(path) as archive:
-            return archive.testzip() is None
-    except (OSError, zipfile.BadZipFile):
-        return False
+        recorded = info.get("files") or {}
+        return all(recorded.get(name) and recorded[name] == file_digest(self.dir / name) for name in CACHED_FILES)
 
 
 def package_version() -> str:
@@ -210,29 +215,97 @@ def _cell_env(config: ExperimentConfig) -> dict:
 
 # ---------------------------------------------------------------------------- execution
 def execute(specs: list[dict], timeout: float | None, jobs: int, scheduler: str | None, on_done) -> list[dict]:
-    """Run the pending cells, each in its own process: ``jobs`` local worker threads, or a Dask cluster.
+    """Run the pending cells, each in its own process: on ``jobs`` local workers, or on a Dask cluster.
 
-    ``on_done(result)`` is called as each cell ends. On Ctrl-C the cells still running are killed and
+    ``on_done(result)`` is called as each cell ends; a cell that found the disk full stops the run (the cells
+    not started yet are left for the next run). On Ctrl-C the cells still running are killed and
     ``KeyboardInterrupt`` propagates to the caller, which records the interruption.
     """
-    from .cell import run_cell, terminate_all
+    from .cell import terminate_all
 
-    results = []
     if not specs:
-        return results
+        return []
     try:
         if scheduler:
-            results = _execute_dask(specs, timeout, scheduler, on_done)
-        else:
-            from joblib import Parallel, delayed
-
-            parallel = Parallel(n_jobs=jobs, backend="threading", return_as="generator_unordered")
-            for result in parallel(delayed(run_cell)(spec, timeout) for spec in specs):
-                results.append(result)
-                on_done(result)
+            return _execute_dask(specs, timeout, scheduler, on_done)
+        return _execute_local(specs, timeout, jobs, on_done)
     except KeyboardInterrupt:
         terminate_all()
         raise
+
+
+class CellQueue:
+    """The pending cells in plan order, handed to the job slots one at a time. The first cell of each method runs
+    before that method's other cells: it compiles the method's numba kernels (into numba's on-disk cache) while the
+    other slots run other methods, and the method's later cells load them instead of compiling them again at once."""
+
+    def __init__(self, specs: list[dict]):
+        self._pending = list(specs)
+        self._started: set[str] = set()  # methods whose first cell was handed out
+        self._released: set[str] = set()  # methods whose first cell has ended
+        self._closed = False
+        self._cond = threading.Condition()
+
+    def take(self) -> dict | None:
+        """The next cell that may start (waiting while only held-back cells are left); None when none is left."""
+        with self._cond:
+            while not self._closed and self._pending:
+                for i, spec in enumerate(self._pending):
+                    method = spec["estimator"]["name"]
+                    if method in self._released or method not in self._started:
+                        self._started.add(method)
+                        return self._pending.pop(i)
+                self._cond.wait()
+            return None
+
+    def done(self, spec: dict) -> None:
+        with self._cond:
+            self._released.add(spec["estimator"]["name"])
+            self._cond.notify_all()
+
+    def close(self) -> None:
+        """Hand out nothing more (the cells running finish)."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+
+
+def _execute_local(specs: list[dict], timeout: float | None, jobs: int, on_done) -> list[dict]:
+    """``jobs`` threads, each feeding cells from a :class:`CellQueue` to its own
+    :class:`~slamarena.experiments.cell.Worker` (a process that has imported everything once and forks a child per
+    cell); the main thread reports each result as it comes."""
+    import queue
+
+    from .cell import Worker
+
+    cells, ended = CellQueue(specs), queue.Queue()
+
+    def slot() -> None:
+        worker = Worker(specs[0].get("env", {}))
+        try:
+            while (spec := cells.take()) is not None:
+                result = worker.run(spec, timeout)
+                cells.done(spec)
+                ended.put(result)
+        finally:
+            worker.close()
+
+    threads = [threading.Thread(target=slot, daemon=True) for _ in range(min(jobs, len(specs)))]
+    for thread in threads:
+        thread.start()
+    results = []
+    try:
+        while any(t.is_alive() for t in threads) or not ended.empty():
+            try:
+                result = ended.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            results.append(result)
+            on_done(result)
+            if result["status"] == "disk_full":
+                cells.close()
+    finally:
+        cells.close()
     return results
 
 
@@ -460,7 +533,8 @@ def _console_summary(console, frame, cells_run: int, cached: int, elapsed: float
     failed = frame[frame["status"] != "ok"]
     for _, row in failed.head(8).iterrows():
         console.print(
-            f"[red]✗ {escape(str(row['dataset']))}/{escape(str(row['estimator']))}/{row['seed']}[/red] {escape(str(row['status']))}: {escape(str(row['error']))}"
+            f"[red]✗ {escape(str(row['dataset']))}/{escape(str(row['estimator']))}/{row['seed']}[/red] "
+            f"{escape(str(row['status']))}: {escape(str(row['error']))}"
         )
     if len(failed) > 8:
         console.print(f"[red]… and {len(failed) - 8} more failed cells (see summary.csv)[/red]")
@@ -512,7 +586,11 @@ def check_recompute(config: ExperimentConfig, recompute: frozenset[str]) -> None
 def run_cells(
     config: ExperimentConfig, pending: list[Cell], jobs: int, scheduler: str | None, forced: set[str], console
 ) -> dict[str, dict]:
-    """Execute the pending cells (those in ``forced`` recomputed even if cached) with a progress bar; returns the failed ones by id."""
+    """Execute the pending cells (those in ``forced`` recomputed even if cached); returns their results by id (a cell
+    not started, after a full disk stopped the run, has none).
+
+    On a terminal, a progress bar; otherwise (stderr to a file: nohup, tee, CI) one line per finished cell with the
+    counts done/total and failed, the elapsed time and an ETA (:class:`ProgressLines`)."""
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -523,27 +601,74 @@ def run_cells(
     )
 
     env = _cell_env(config)
-    failures: dict[str, dict] = {}
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("elapsed"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-        console=console,
-        transient=False,
-    ) as progress:
+    ended: dict[str, dict] = {}
+    if console.is_terminal:
+        progress = Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("elapsed"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=console,
+            transient=False,
+        )
+    else:
+        progress = ProgressLines(console)
+    with progress:
         task = progress.add_task(escape(config.name), total=len(pending))
 
         def on_done(result):
-            if result["status"] != "ok":
-                failures[result["id"]] = result
-            progress.advance(task)
+            ended[result["id"]] = result
+            if isinstance(progress, ProgressLines):
+                progress.finished(result, sum(r["status"] != "ok" for r in ended.values()))
+            else:
+                progress.advance(task)
 
         execute([_spec(config, c, env, c.id in forced) for c in pending], config.timeout, jobs, scheduler, on_done)
-    return failures
+    return ended
+
+
+class ProgressLines:
+    """Progress without a terminal: ``[12/70] sim_landmarks/ekf_slam/3 ok 4.2 s · 0 failed · 1:02 elapsed, ETA 4:10``,
+    one line per finished cell (the ETA: the mean time per finished cell so far times the cells left)."""
+
+    def __init__(self, console):
+        self.console = console
+        self.total = 0
+        self.done = 0
+        self.start = time.perf_counter()
+
+    def __enter__(self) -> ProgressLines:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def add_task(self, description: str, total: int) -> int:
+        self.total = total
+        self.console.print(f"{description}: {total} cells to run", highlight=False)
+        return 0
+
+    def finished(self, result: dict, failed: int) -> None:
+        self.done += 1
+        elapsed = time.perf_counter() - self.start
+        eta = elapsed / self.done * (self.total - self.done)
+        status = result["status"] + ("" if result["status"] == "ok" else f" ({result['error']})")
+        self.console.print(
+            escape(
+                f"[{self.done}/{self.total}] {result['id']} {status} {result['elapsed']:.1f} s · {failed} failed · "
+                f"{_clock(elapsed)} elapsed, ETA {_clock(eta)}"
+            ),
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
+def _clock(seconds: float) -> str:
+    minutes, secs = divmod(int(round(seconds)), 60)
+    return f"{minutes}:{secs:02d}" if minutes < 60 else f"{minutes // 60}:{minutes % 60:02d}:{secs:02d}"
 
 
 def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path) -> list[Path]:
@@ -592,7 +717,8 @@ def run_experiment(
 ) -> int:
     """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
-    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C).
+    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C); raises
+    :class:`DiskFull` (one line: the directory, the space free and needed) when the disk is full.
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
     CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
     they are handed in rather than imported). ``report`` writes ``report.html`` and ``report.md`` at the end
@@ -606,28 +732,65 @@ def run_experiment(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
+    try:
+        with results_lock(out, console):
+            return _run_locked(config, out, jobs, scheduler, force, console, make_figures, report, recompute, t_start)
+    except KeyboardInterrupt:  # while waiting for the lock: nothing ran
+        console.print("[yellow]interrupted before any cell ran[/yellow]")
+        return 130
+    except OSError as exc:  # no space even for the lock file's line (a full disk inside a run is handled there)
+        if exc.errno not in DISK_FULL_ERRNOS:
+            raise
+        cells = plan(config, out)
+        raise DiskFull(disk_full_message(out, cells, sum(not c.finished() for c in cells))) from None
+
+
+def _run_locked(
+    config: ExperimentConfig,
+    out: Path,
+    jobs: int,
+    scheduler: str | None,
+    force: bool,
+    console,
+    make_figures: FigureMaker | None,
+    report: bool,
+    recompute: frozenset[str],
+    t_start: float,
+) -> int:
+    """:func:`run_experiment` once ``out`` is locked: which cells are finished is read only now (another run may have
+    finished some while this one waited)."""
     cells = plan(config, out)
     forced = forced_cells(config, cells, force, recompute)
     pending = [c for c in cells if c.id in forced or not c.finished()]
-    manifest = start_manifest(config, out, cells, pending, jobs, scheduler)
+    left = len(pending)
     try:
-        failures = run_cells(config, pending, jobs, scheduler, forced, console)
-    except KeyboardInterrupt:
-        record_interruption(manifest, out, cells, console)
-        return 130
-    frame = collect(config, cells, failures)
-    tables = write_outputs(config, cells, frame, out)
-    figure_files, figure_errors = draw_figures(config, out, make_figures)
-    elapsed = time.perf_counter() - t_start
-    manifest.update(
-        finished=_now(),
-        duration_s=elapsed,
-        failed=sorted(failures),
-        tables=[str(p.relative_to(out)) for p in tables],
-        figures=[str(Path(p).relative_to(out)) for p in figure_files],
-        figure_errors=figure_errors,
-    )
-    write_json(out / MANIFEST, manifest)
+        manifest = start_manifest(config, out, cells, pending, jobs, scheduler)
+        try:
+            ended = run_cells(config, pending, jobs, scheduler, forced, console)
+        except KeyboardInterrupt:
+            record_interruption(manifest, out, cells, console)
+            return 130
+        failures = {i: r for i, r in ended.items() if r["status"] != "ok"}
+        left = len(pending) - (len(ended) - len(failures))
+        if any(f["status"] == "disk_full" for f in failures.values()):
+            raise OSError(errno.ENOSPC, "no space left on device")
+        frame = collect(config, cells, failures)
+        tables = write_outputs(config, cells, frame, out)
+        figure_files, figure_errors = draw_figures(config, out, make_figures)
+        elapsed = time.perf_counter() - t_start
+        manifest.update(
+            finished=_now(),
+            duration_s=elapsed,
+            failed=sorted(failures),
+            tables=[str(p.relative_to(out)) for p in tables],
+            figures=[str(Path(p).relative_to(out)) for p in figure_files],
+            figure_errors=figure_errors,
+        )
+        write_json(out / MANIFEST, manifest)
+    except OSError as exc:
+        if exc.errno not in DISK_FULL_ERRNOS:
+            raise
+        raise DiskFull(disk_full_message(out, cells, left)) from None
     _console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
     for name, err in figure_errors.items():
         console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
@@ -637,7 +800,66 @@ def run_experiment(
 
         html, _ = write_report(out)
         console.print(f"report: {escape(str(html))} (open it in a browser)", highlight=False)
+    else:
+        console.print(
+            f"next: slamarena report {escape(shlex.quote(str(out)))}  (every table and figure on one page, report.html)",
+            highlight=False,
+        )
     return 0 if (frame["status"] == "ok").all() else 1
+
+
+class DiskFull(UserError, OSError):
+    """The disk holding the results directory is full (the message names it and the space the run still needs)."""
+
+
+def disk_full_message(out: Path, cells: list[Cell], left: int) -> str:
+    """One line: where, how much is free, and about how much the ``left`` cells not finished by this run need (the
+    mean size of the directories of the cells with a ``metrics.json`` times that count)."""
+    import shutil
+
+    def mb(n: float) -> str:
+        return f"{n / 2**20:.0f} MB" if n >= 2**20 else f"{n / 2**10:.0f} kB"
+
+    finished = [c for c in cells if (c.dir / "metrics.json").is_file()]
+    sizes = [sum(f.stat().st_size for f in c.dir.iterdir() if f.is_file()) for c in finished]
+    free = shutil.disk_usage(out).free
+    if sizes and left:
+        per = sum(sizes) / len(sizes)
+        need = f"the {left} cells left need about {mb(per * left)} ({mb(per)} each) plus the tables and figures"
+    elif not left:
+        need = "every cell is finished; the tables and figures need a few MB"
+    else:
+        need = f"no cell finished to measure a cell's size ({left} cells left)"
+    return (
+        f"disk full: no space left writing to {out} ({mb(free)} free; {need}); "
+        f"free some space and run the same command again (finished cells are kept)"
+    )
+
+
+@contextmanager
+def results_lock(out: Path, console):
+    """Hold ``out/.lock`` (``flock``, released by the kernel if this process dies) while a run writes into ``out``. A
+    second run into the same directory says which run holds it (pid, host, since when) and waits for it; then it
+    skips the cells that run finished."""
+    import fcntl
+
+    with open(out / LOCK, "a+") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another run"
+            console.print(
+                f"[yellow]{escape(str(out))} is in use by {escape(holder)}; waiting for it to end "
+                f"(Ctrl-C to stop)[/yellow]",
+                highlight=False,
+            )
+            fcntl.flock(fh, fcntl.LOCK_EX)
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"slamarena run pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
+        fh.flush()
+        yield
 
 
 def print_grid(
@@ -722,7 +944,7 @@ def run_from_cli(
 ) -> int:
     """``slamarena run``: validate, then run (or list) the grid; ``seeds`` replaces the config's seeds by 0 … seeds − 1.
 
-    Exit codes: 0 every cell ok, 1 some cell failed or timed out, 2 invalid config, option or unreachable
+    Exit codes: 0 every cell ok, 1 some cell failed or timed out or the disk is full, 2 invalid config, option or unreachable
     scheduler, 130 interrupted.
     """
     from rich.console import Console
@@ -756,3 +978,6 @@ def run_from_cli(
     except SchedulerUnreachable as exc:
         console.print(f"[red]{escape(str(exc))}[/red]", highlight=False)
         return 2
+    except DiskFull as exc:
+        console.print(f"[red]{escape(str(exc))}[/red]", highlight=False, soft_wrap=True)
+        return 1

@@ -41,6 +41,7 @@ BENCHMARKS: dict[str, str] = {
     "gtsam": "slamarena.experiments.benchmarks.gtsam:main",
     "vision": "slamarena.experiments.benchmarks.vision:main",
     "vision-vo": "slamarena.experiments.benchmarks.vision_vo:main",
+    "first-run": "slamarena.experiments.benchmarks.first_run:main",
 }
 
 

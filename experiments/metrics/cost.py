@@ -7,9 +7,11 @@
   times faster than real time the method ran (datasets without time, pose graphs, have none).
 * ``peak_rss_mb``: the peak resident set of the cell's process, read when the cell finishes
   [MiB] — Linux ``VmHWM`` (``/proc/self/status``), elsewhere ``getrusage().ru_maxrss`` (see
-  :func:`peak_rss_mb`). Every cell runs in a fresh process, so this is the peak of that cell:
+  :func:`peak_rss_mb`). Every cell runs in a process of its own, so this is the peak of that cell:
   interpreter, imported libraries, the dataset and the estimator (native allocations of
-  GTSAM/Open3D included, which tracemalloc would miss).
+  GTSAM/Open3D included, which tracemalloc would miss). Locally that process is forked from a
+  worker that imported the libraries already (:mod:`slamarena.experiments.cell`): their pages count
+  as far as the cell touches them, as in a fresh process that imports them.
 """
 
 from __future__ import annotations

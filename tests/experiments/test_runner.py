@@ -194,9 +194,13 @@ def test_failing_cell_does_not_stop_the_others_and_timeout(tmp_path):
     assert "route" in summary.at["broken", "error"] and "Traceback" in summary.at["broken", "traceback"]
     assert "broken" in json.loads((out / "manifest.json").read_text())["failed"][0]
     # a timeout kills the cell's process and is reported like a failure
-    cfg, _ = _config(
-        tmp_path, TINY.replace("timeout: 120", "timeout: 0.05").replace("seeds: 2", "seeds: 1"), "timeout.yaml"
+    slow = (
+        TINY.replace("timeout: 120", "timeout: 0.5")
+        .replace("seeds: 2", "seeds: 1")
+        .replace("n_landmarks: 8, laps: 1", "n_landmarks: 50, laps: 400")
+        .replace("name: dead_reckoning", "name: ekf_slam")
     )
+    cfg, _ = _config(tmp_path, slow, "timeout.yaml")  # EKF-SLAM over 400 laps: far more than 0.5 s anywhere
     assert run_experiment(cfg, tmp_path / "slow", jobs=1, console=_quiet()) == 1
     summary = pd.read_csv(tmp_path / "slow" / "summary.csv")
     assert summary.at[0, "status"] == "timeout" and "timed out" in summary.at[0, "error"]
@@ -255,7 +259,8 @@ def test_killed_run_resumes_without_redoing_finished_cells(tmp_path):
 def test_methods_restricted_to_datasets(tmp_path):
     text = TINY.replace("datasets:\n", "datasets:\n  - name: sim:localization\n    params: {duration: 5.0}\n").replace(
         "  - name: dead_reckoning\n",
-        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: dr_euler\n    params: {motion_model: euler}\n    datasets: [sim_landmarks]\n",
+        "  - name: dead_reckoning\n  - name: dead_reckoning\n    label: dr_euler\n    params: {motion_model: euler}\n"
+        "    datasets: [sim_landmarks]\n",
     )
     cfg, _ = _config(tmp_path, text)
     grid = {c.id for c in plan(cfg, tmp_path / "o")}
