@@ -104,7 +104,9 @@ def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray, dat
     At the log's own stamps where ``data``'s reader changed them (:func:`slamarena.datasets.log_stamps.log_stamps`),
     so that evo and relations files find every pose: the rows then sorted by stamp (TUM readers want increasing
     stamps; the original stamps step back in places, by < 0.9 s on Intel) and a header comment says how many stamps
-    the reader adjusted and that its times are the ``t`` saved beside (estimate.npz, truth.npz)."""
+    the reader adjusted and that its times are the ``t`` saved beside (estimate.npz, truth.npz). Where the reader
+    adjusted stamps that cannot be written so (the log's stamps repeat; ``t`` not at scans), the comment says the file
+    carries the reader's times."""
     from slamarena.datasets.formats import tum
     from slamarena.datasets.log_stamps import log_stamps
 
@@ -119,6 +121,11 @@ def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray, dat
             "in the log's order."
         )
         t, poses = stamps[order], np.asarray(poses)[order]
+    elif adjusted := (getattr(data, "meta", None) or {}).get("time_adjusted_messages"):
+        comment = (
+            f"stamps: the reader's times, which differ from the log's own stamps in {adjusted} messages (the log's "
+            "stamps repeat, or these times are not scan times); the originals are meta['scan_ipc_timestamp']."
+        )
     buffer = io.StringIO()
     tum.write(buffer, t, poses, comment)
     atomic_write_text(path, buffer.getvalue())

@@ -4,6 +4,8 @@ reads it, a relations file finds every pose by its stamps, and ``slamarena eval`
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from checks import load_staged
@@ -67,6 +69,16 @@ def test_a_log_whose_stamps_the_reader_kept_is_written_unchanged(tmp_path):
     assert s.meta["time_adjusted_messages"] == 0 and log_stamps(s, s.scans.t) is None
     write_trajectory_tum(tmp_path / "trajectory.tum", s.scans.t, s.scans.pose, s)
     assert "adjusted" not in (tmp_path / "trajectory.tum").read_text()
+    np.testing.assert_array_equal(tum.read(tmp_path / "trajectory.tum").t, s.scans.t)
+
+
+def test_repeating_original_stamps_are_not_written_and_the_file_says_so(tmp_path):
+    s = carmen.read(_log(tmp_path, back=0.05))
+    ipc = s.meta["scan_ipc_timestamp"].copy()
+    ipc[6] = ipc[7]  # two scans share a stamp: no strictly increasing order of the originals
+    s = dataclasses.replace(s, meta={**s.meta, "scan_ipc_timestamp": ipc})
+    write_trajectory_tum(tmp_path / "trajectory.tum", s.scans.t, s.scans.pose, s)
+    assert "the reader's times" in (tmp_path / "trajectory.tum").read_text()
     np.testing.assert_array_equal(tum.read(tmp_path / "trajectory.tum").t, s.scans.t)
 
 
