@@ -368,7 +368,7 @@ def execute(spec: dict, clock=None) -> dict:
         estimate = method.run(data)
         wall = time.perf_counter() - t1
         estimate.save(estimate_file)
-        write_trajectory_tum(cell / "trajectory.tum", estimate.t, estimate.poses)
+        write_trajectory_tum(cell / "trajectory.tum", estimate.t, estimate.poses, data)
         if spec.get("mcap"):
             from .mcap_output import MCAP_NAME, write_result_mcap
 
@@ -379,7 +379,7 @@ def execute(spec: dict, clock=None) -> dict:
 
     ref = reference_of(data)
     if ref.t is not None:  # beside trajectory.tum, same stamps convention: `evo_ape tum groundtruth.tum trajectory.tum`
-        write_trajectory_tum(cell / "groundtruth.tum", ref.t, ref.poses)
+        write_trajectory_tum(cell / "groundtruth.tum", ref.t, ref.poses, data)
     selected = {name: METRICS[name].params(**p) for name, p in spec["metrics"].items()}
     cell_data = CellData(estimate, data, ref, wall=wall, peak_rss=peak_rss_mb())
     scalars, series, skipped = evaluate(cell_data, selected)

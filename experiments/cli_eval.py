@@ -7,7 +7,8 @@ or a dataset name (``slamarena data list``, ``bag:<path>``, …; ``--ref-param k
 options, such as a bag's ``truth_topic``): its ground truth, and for ``relations`` its relations file. Metrics are
 names of :data:`slamarena.experiments.metrics.METRICS` with the parameters a config gives them: ``--align`` and
 ``--max-gap`` for ``ate`` (and ``max_gap`` for ``rpe``), ``--rpe-delta``/``--rpe-unit`` for ``rpe``. A metric that
-does not apply (a file reference has no relations) is listed with the reason.
+does not apply (a file reference has no relations) is listed with the reason. TRAJ's stamps that are a log's own scan
+stamps (as ``trajectory.tum`` carries them where the reader adjusted some) are read as the scans' times.
 """
 
 from __future__ import annotations
@@ -45,8 +46,11 @@ def evaluate_file(
     max_tilt: float = 1e-6,
 ) -> dict:
     """Scalars, skipped reasons and the counts of one trajectory file against a reference (module docstring)."""
+    import numpy as np
+
     from slamarena.datasets.estimate import Estimate
     from slamarena.datasets.formats import trajectories
+    from slamarena.datasets.log_stamps import sequence_times
     from slamarena.errors import UnknownNameError, UserError
     from slamarena.experiments.metrics import METRICS, CellData, evaluate
 
@@ -66,7 +70,12 @@ def evaluate_file(
             raise UserError(f"{option} {value!r}: one of {', '.join(known)}")
     estimated = trajectories.read(traj, traj_format, times, kitti_frame=kitti_frame, max_tilt=max_tilt)
     data, reference = _reference(ref, ref_format, ref_params or {}, kitti_frame, max_tilt)
-    estimate = Estimate(method=Path(traj).name, t=estimated.t, poses=estimated.poses)
+    t, poses = estimated.t, estimated.poses
+    if data is not None:  # a file at the log's own stamps (as trajectory.tum): the Sequence's times, in their order
+        t = np.where(np.isnan(back := sequence_times(data, t, 0.0)), t, back)
+        order = np.argsort(t, kind="stable")
+        t, poses = t[order], poses[order]
+    estimate = Estimate(method=Path(traj).name, t=t, poses=poses)
     scalars, _, skipped = evaluate(CellData(estimate, data, reference), selected)
     return {"trajectory": str(traj), "reference": ref, "poses": len(estimated), "metrics": scalars, "skipped": skipped}
 

@@ -7,7 +7,7 @@ bag folder; short for ``bag:<path>``, which takes the one LaserScan and Odometry
 ``slamarena.mapping.REGISTRY`` (``grid_slam``, the front end alone, by default; ``laser_slam`` with loop closure;
 ``rbpf``), built with the ``--param`` values (its ``Params`` model validates them). Writes into ``--out``:
 
-    trajectory.tum      the estimated robot poses at the scan stamps (TUM, z = 0)
+    trajectory.tum      the estimated robot poses at the log's own scan stamps (TUM, z = 0; results.write_trajectory_tum)
     estimate.npz        the full :class:`~slamarena.datasets.estimate.Estimate` (diagnostics included)
     map.png             the finest grid, 1 − p in grey (white free, black occupied)
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
@@ -118,7 +118,9 @@ def map_command(
 
     import numpy as np
 
-    from slamarena.datasets.formats import g2o, tum
+    from slamarena.datasets.formats import g2o
+
+    from .results import write_trajectory_tum
 
     K = len(sequence.scans)
     t0 = time.perf_counter()
@@ -141,7 +143,7 @@ def map_command(
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    tum.write(out / "trajectory.tum", estimate.t, estimate.poses)
+    write_trajectory_tum(out / "trajectory.tum", estimate.t, estimate.poses, sequence)
     estimate.save(out / "estimate.npz")
     slam.map.save_png(out / "map.png")
     slam.map.save_map_server(out / "map")

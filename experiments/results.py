@@ -7,7 +7,8 @@
       .lock                                  held (flock) by the run writing here: a second run waits for it
       runs/<dataset>/<method>/<seed>/
         estimate.npz                         datasets.Estimate (save/load)
-        trajectory.tum                       the estimated trajectory, TUM format (evo reads it)
+        trajectory.tum                       the estimated trajectory, TUM format (evo reads it), at the log's own
+                                             stamps (write_trajectory_tum)
         groundtruth.tum                      the dataset's ground-truth trajectory, same stamps convention
                                              (where it has one): evo_ape tum groundtruth.tum trajectory.tum
         result.mcap                          with the config's ``mcap: true``: the estimate (and grid) as ROS
@@ -105,12 +106,36 @@ def load_npz(path: str | Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
-def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
-    """The estimate as a TUM trajectory (``t x y z qx qy qz qw``, planar: z = 0, yaw quaternion)."""
-    from slamarena.datasets.formats import tum
+def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray, data=None) -> None:
+    """Poses at times ``t`` as a TUM trajectory (``t x y z qx qy qz qw``, planar: z = 0, yaw quaternion).
 
+    At the log's own stamps where ``data``'s reader changed them (:func:`slamarena.datasets.log_stamps.log_stamps`),
+    so that evo and relations files find every pose: the rows then sorted by stamp (TUM readers want increasing
+    stamps; the original stamps step back in places, by < 0.9 s on Intel) and a header comment says how many stamps
+    the reader adjusted and that its times are the ``t`` saved beside (estimate.npz, truth.npz). Where the reader
+    adjusted stamps that cannot be written so (the log's stamps repeat; ``t`` not at scans), the comment says the file
+    carries the reader's times."""
+    from slamarena.datasets.formats import tum
+    from slamarena.datasets.log_stamps import log_stamps
+
+    stamps = None if data is None else log_stamps(data, np.asarray(t, dtype=float))
+    comment = ""
+    if stamps is not None:
+        order = np.argsort(stamps, kind="stable")
+        comment = (
+            "stamps: the log's own scan stamps. The reader adjusted "
+            f"{int((stamps != t).sum())} of {len(stamps)} to make time increase; its adjusted times are 't' in "
+            f"the .npz beside this file. Rows sorted by stamp: {int((np.diff(stamps) < 0).sum())} scans step back "
+            "in the log's order."
+        )
+        t, poses = stamps[order], np.asarray(poses)[order]
+    elif adjusted := (getattr(data, "meta", None) or {}).get("time_adjusted_messages"):
+        comment = (
+            f"stamps: the reader's times, which differ from the log's own stamps in {adjusted} messages (the log's "
+            "stamps repeat, or these times are not scan times); the originals are meta['scan_ipc_timestamp']."
+        )
     buffer = io.StringIO()
-    tum.write(buffer, t, poses)
+    tum.write(buffer, t, poses, comment)
     atomic_write_text(path, buffer.getvalue())
 
 

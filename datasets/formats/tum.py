@@ -63,10 +63,11 @@ def read_trajectory(path: str | Path) -> Trajectory:
     return read(path).to_se2()
 
 
-def write(path: str | Path, t: np.ndarray, poses: np.ndarray) -> None:
-    """Write planar poses ``(N, 3)`` at times ``t`` as TUM lines (17 significant digits)."""
+def write(path: str | Path, t: np.ndarray, poses: np.ndarray, comment: str = "") -> None:
+    """Write planar poses ``(N, 3)`` at times ``t`` as TUM lines (17 significant digits), after the column names and
+    ``comment`` (its lines as ``#`` comments)."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     table = np.column_stack(
         [np.asarray(t, dtype=float), poses[:, :2], np.zeros(len(poses)), yaw_to_quaternion(poses[:, 2])]
     )
-    np.savetxt(path, table, fmt="%.17g", header="timestamp x y z qx qy qz qw")
+    np.savetxt(path, table, fmt="%.17g", header="\n".join(filter(None, ["timestamp x y z qx qy qz qw", comment])))

@@ -29,6 +29,7 @@ from pydantic import Field, field_validator
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, interpolate_poses
+from slamarena.datasets.log_stamps import sequence_times
 from slamarena.params import Params
 
 from .reference import MetricUnavailable, Reference, associate
@@ -185,23 +186,6 @@ def loop_relation_error(estimate: Estimate, ref: Reference, params: LoopParams =
     return {k: scores[k] for k in LOOP_OUTPUTS}, series
 
 
-def _to_sequence_time(data, stamps: np.ndarray, tolerance: float) -> np.ndarray:
-    """Relation stamps are the log's original scan stamps; map them to the Sequence's scan times.
-
-    A CARMEN Sequence keeps the original stamps in ``meta["scan_ipc_timestamp"]``, aligned with
-    ``scans.t``. Stamps without a scan within ``tolerance`` become NaN (dropped, counted).
-    """
-    ipc = np.asarray((getattr(data, "meta", {}) or {}).get("scan_ipc_timestamp", []), dtype=float)
-    scans = getattr(data, "scans", None)
-    if ipc.size == 0 or scans is None or ipc.size != len(scans):
-        return stamps
-    order = np.argsort(ipc)
-    k = np.clip(np.searchsorted(ipc[order], stamps), 1, ipc.size - 1)
-    k = np.where(np.abs(ipc[order][k - 1] - stamps) <= np.abs(ipc[order][k] - stamps), k - 1, k)
-    idx = order[k]
-    return np.where(np.abs(ipc[idx] - stamps) <= tolerance, scans.t[idx], np.nan)
-
-
 def relation_error_from_file(estimate: Estimate, data, params: RelationsParams) -> tuple[dict, dict]:
     """Read the relations (``params.file`` or the dataset's ``meta['relations']``) and score them."""
     from slamarena.datasets.formats import relations as relations_format
@@ -210,6 +194,6 @@ def relation_error_from_file(estimate: Estimate, data, params: RelationsParams) 
     if path is None:
         raise MetricUnavailable("no relations file for this dataset (set metrics.relations.file)")
     rel = relations_format.read(path)
-    t1 = _to_sequence_time(data, rel.t1, params.tolerance)
-    t2 = _to_sequence_time(data, rel.t2, params.tolerance)
+    t1 = sequence_times(data, rel.t1, params.tolerance)
+    t2 = sequence_times(data, rel.t2, params.tolerance)
     return relation_error(estimate, t1, t2, rel.se2, params)

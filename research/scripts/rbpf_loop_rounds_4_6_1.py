@@ -9,8 +9,8 @@ import numpy as np
 
 from slamarena.datasets.formats import relations as R
 from slamarena.datasets.geometry import between
+from slamarena.datasets.log_stamps import sequence_times as _to_sequence_time
 from slamarena.datasets.registry import load
-from slamarena.experiments.metrics.relations import _to_sequence_time
 
 
 def main() -> None:
