@@ -48,7 +48,8 @@ class Estimate:
         if self.t.size > 1 and not np.all(np.diff(self.t) > 0):
             k = int(np.flatnonzero(np.diff(self.t) <= 0)[0])
             raise ValueError(
-                f"Estimate ({self.method}): times must increase strictly — one pose per stamp — but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}"
+                f"Estimate ({self.method}): times must increase strictly — one pose per stamp — "
+                f"but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}"
             )
         if self.pose_cov is not None:
             self.pose_cov = np.asarray(self.pose_cov, dtype=float).reshape(-1, 3, 3)

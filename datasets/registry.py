@@ -96,7 +96,8 @@ def _catalogued(entry: CatalogueEntry, params: dict) -> Dataset:
     if fixed:
         preset = family_format.params(entry.arguments)
         raise DatasetNameError(
-            f"dataset {entry.name!r} is catalogued, which fixes its files ({', '.join(f'{k}={getattr(preset, k)!r}' for k in model.location)}): "
+            f"dataset {entry.name!r} is catalogued, which fixes its files "
+            f"({', '.join(f'{k}={getattr(preset, k)!r}' for k in model.location)}): "
             f"{', '.join(fixed)} cannot be given. {_elsewhere(entry.family)}"
         )
     return Dataset(
@@ -118,7 +119,8 @@ def _elsewhere(family: str) -> str:
     fields = ", ".join(f"{k}: …" for k in model.location if model.model_fields[k].is_required())
     catalogued = sorted(n for n, e in CATALOGUE.items() if e.family == family)
     return (
-        f"Any {family} recording: {family}:{model.form} (e.g. {family_format.example}), or in a config {{name: {family}, params: {{{fields}}}}}, "
+        f"Any {family} recording: {family}:{model.form} (e.g. {family_format.example}), "
+        f"or in a config {{name: {family}, params: {{{fields}}}}}, "
         f"where <path> is {model.model_fields['path'].description}; a relative path is looked for in the working directory, "
         f"then under the data roots." + (f" Catalogued: {', '.join(catalogued)}." if catalogued else "")
     )

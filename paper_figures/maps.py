@@ -166,7 +166,8 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
             ax.set_ylabel("y [m]")
         caption = (
             f"{dataset}, seed {seed}: the laser scans' end points placed at each trajectory (moved into the ground-truth frame "
-            f"by the cell's ATE alignment), {'every scan' if stride == 1 else f'one scan in {stride}'}, hit counts per {size:.2g} m cell on a log "
+            f"by the cell's ATE alignment), {'every scan' if stride == 1 else f'one scan in {stride}'}, "
+            f"hit counts per {size:.2g} m cell on a log "
             f"grey scale, the trajectory drawn over them"
             + (
                 f"; {loops_drawn} accepted loop closures as red segments between the nodes they join"

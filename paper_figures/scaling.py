@@ -172,7 +172,8 @@ def plot(results_dir: str | Path, out_dir: str | Path) -> list[Path]:
                     notes.append(f"{label.split(' [')[0]}: {slower} passes {faster} at {param} ≈ {x_star:.3g}")
                 elif lo / EXTRAPOLATE <= x_star <= hi * EXTRAPOLATE:
                     notes.append(
-                        f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, outside the sweep (extrapolated)"
+                        f"{label.split(' [')[0]}: the fits of {slower} and {faster} would cross at {param} ≈ {x_star:.3g}, "
+                        "outside the sweep (extrapolated)"
                     )
             ticks = sorted(set(values.values()))
             ax.set_xticks(

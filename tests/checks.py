@@ -1,6 +1,7 @@
 """Helpers shared by the tests: locating staged datasets, statistical assertions and covariance comparisons.
 
-Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
+Import as ``from checks import ...`` (pyproject's pytest ``pythonpath`` puts ``tests/`` on the path, after the
+repository root so that ``datasets`` is the package, not ``tests/datasets``)."""
 
 from __future__ import annotations
 

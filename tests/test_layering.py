@@ -103,7 +103,8 @@ def test_datasets_depends_on_numpy_scipy_pydantic_rosbags_and_the_standard_libra
 def test_cli_help_loads_no_heavy_library():
     code = (
         "import sys; from slamarena.experiments import cli; "
-        "heavy = [m for m in ('gtsam', 'open3d', 'kiss_icp', 'filterpy', 'numba', 'matplotlib', 'pandas', 'scipy', 'dask') if m in sys.modules]; "
+        "heavy = [m for m in ('gtsam', 'open3d', 'kiss_icp', 'filterpy', 'numba', 'matplotlib', 'pandas', 'scipy', 'dask') "
+        "if m in sys.modules]; "
         "print(','.join(heavy))"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -258,7 +258,8 @@ class CarmenParams(Params):
 
     max_range: PositiveFloat | None = Field(
         None,
-        description="readings >= max_range are no return [m] (the log's sentinel); None: ROBOTLASER1's stated max range, else the largest reading",
+        description="readings >= max_range are no return [m] (the log's sentinel); "
+        "None: ROBOTLASER1's stated max range, else the largest reading",
     )
     corrected: bool = Field(
         False, description="a SLAM-corrected log: its scan poses are the ground truth, echo ODOM lines are skipped"

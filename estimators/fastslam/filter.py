@@ -135,7 +135,8 @@ class FastSLAMParams(Params):
     )
     range_bearing_noise: RangeBearingNoise = Field(
         RangeBearingNoise.POLAR,
-        description="polar: R for every observation; cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)",
+        description="polar: R for every observation; "
+        "cartesian: isotropic σ² = R[0,0] in the plane, R_j = diag(σ², σ²/r_j²) (Victoria Park)",
     )
     use_ids: bool = Field(True, description="associate by the ids in the data; False: per-particle maximum likelihood")
     known_confidence: Probability | None = Field(
@@ -150,7 +151,8 @@ class FastSLAMParams(Params):
     )
     confirm_sightings: PositiveInt = Field(
         1,
-        description="unknown association: a landmark a particle starts is tentative (its sightings weigh as new landmarks and do not condition "
+        description="unknown association: a landmark a particle starts is tentative "
+        "(its sightings weigh as new landmarks and do not condition "
         "the proposal) until seen this many times (the first included) within confirm_window, and removed if not; 1: confirmed at once",
     )
     confirm_window: PositiveFloat = Field(
@@ -168,7 +170,8 @@ class FastSLAMParams(Params):
     )
     trajectory: Literal["mean", "best"] = Field(
         "mean",
-        description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), or the ancestral path of the particle of largest final weight",
+        description="the Estimate's poses: the weighted mean at each stamp (a filter's estimate), "
+        "or the ancestral path of the particle of largest final weight",
     )
     initial_cov: Covariance3 = Field(
         0.0, description="covariance of the start pose the particles are drawn from [m², m², rad²]"

@@ -46,7 +46,8 @@ step k), the landmarks still the final ones; ``step_time[k]`` = wall time
 (``step_clock="cpu"``: CPU time) of update k plus reading x̂_k, like the filters' per-event time. ``diagnostics``:
 ``online_poses`` (K, 3) — the estimate of x_k right after step k (what a filter would have had),
 ``relinearized`` (K,) variables relinearised per step, ``final_updates_used``, ``final_change``,
-``final_error``, ``lifted_between``, ``between_cov`` (K − 1, 3, 3) and the rejected-input counts; ``meta["params"]`` the canonical parameters.
+``final_error``, ``lifted_between``, ``between_cov`` (K − 1, 3, 3) and the rejected-input counts;
+``meta["params"]`` the canonical parameters.
 """
 
 from __future__ import annotations

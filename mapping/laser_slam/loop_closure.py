@@ -17,14 +17,16 @@ max-pyramid — computed once per submap for its whole extent and kept in a smal
 Gauss-Newton on the submap's pyramid refines the lattice pose to M. The branch-and-bound search uses the end
 points within ``max_range`` (the angular step is set by the farthest point), thinned to one per ``voxel``
 cell (its cost is linear in the points; the refinement uses all), and prunes below ``min_search_score`` (mean
-log-likelihood per point, as Cartographer's min_score): a candidate with nothing above it is rejected unrefined. The match is accepted when the refined
+log-likelihood per point, as Cartographer's min_score): a candidate with nothing above it is rejected unrefined.
+The match is accepted when the refined
 pose's score (the mean occupancy probability under the scan's end points on the finest level, 0 … 1) is at
 least ``score_ratio`` times the score of the same scan against its own submap in the front end (a scan fits
 an old map about as well as the one it was just matched to, or not at all: the ratio carries over between
 environments and sensors where an absolute score does not — FR-Clinic's scans score 0.48 in the front end where
 Intel's score 0.75), and at least ``min_score``. The loop constraint is z = L_c⁻¹ ⊕ M between node n and the submap's node c nearest to the
 matched pose M: a submap is consistent near each of its nodes, not across its whole extent (the front end drifts
-while it builds it), so a constraint to its first node would carry that drift over the lever arm between them. Its covariance is the spread of
+while it builds it), so a constraint to its first node would carry that drift over the lever arm between them.
+Its covariance is the spread of
 the exhaustive correlative response (Olson 2009) within ± ``covariance_window`` and ± ``covariance_angle``
 of the found pose — wide enough that a corridor, where a scan fits anywhere along the walls, shows up as a long
 axis the graph then hardly trusts — rotated into the frame of the matched pose M (z's end, where GTSAM's

@@ -124,7 +124,9 @@ class RBPFParams(Params):
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
     step_halvings: NonNegativeInt = Field(
         4,
-        description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops where none does (a descent: research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, rounds 4–6); 0: every step is taken",
+        description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops "
+        "where none does (a descent: research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, rounds 4–6); "
+        "0: every step is taken",
     )
     pyramid: PyramidParams = Field(
         PyramidParams(cells=CellModelParams(hit_guard=1)),

@@ -505,7 +505,8 @@ def test_loss_of_positive_definiteness_is_detected():
 
 @pytest.mark.parametrize("on_indefinite", ["raise", "record"])
 def test_an_update_that_would_make_P_indefinite_changes_nothing(on_indefinite):
-    """Landmark 1's block is indefinite (positive diagonal): an update of landmark 0 (S positive definite) is checked before it is applied."""
+    """Landmark 1's block is indefinite (positive diagonal): an update of landmark 0 (S positive definite) is checked
+    before it is applied."""
     ekf = _mapped(known_confidence=None, on_indefinite=on_indefinite)
     ekf._s.P[5, 6] = ekf._s.P[6, 5] = 2.0 * np.sqrt(ekf.P[5, 5] * ekf.P[6, 6])
     before = ekf.x.copy(), ekf.P.copy(), ekf.landmark_ids

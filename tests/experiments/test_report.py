@@ -29,7 +29,9 @@ ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()"]
 CONFIG = """
 name: tiny_report
-description: Dead reckoning and EKF-SLAM on a small landmark world; a batch smoother from dead reckoning allowed one iteration fails (it has not converged).
+description: >-
+  Dead reckoning and EKF-SLAM on a small landmark world; a batch smoother from dead reckoning allowed one iteration
+  fails (it has not converged).
 seeds: 2
 datasets:
   - name: sim:landmarks
