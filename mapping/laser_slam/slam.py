@@ -110,7 +110,7 @@ class Submap:
 class _Run:
     """The state of one :meth:`LaserSLAM.run`: the scans and the parts working on them; per scan its front-end pose
     L_k (``local`` (K, 3)), match covariance C_k (K, 3, 3), node i(k) and CPU time; per node its front-end pose L_i,
-    world pose G_i (``G`` (N, 3)), scan and end points; the active submaps, the pairwise registrations, the false loops
+    world pose G_i (``G`` (N, 3)) and scan; the active submaps, the pairwise registrations, the false loops
     added and the CPU time per part (``seconds``)."""
 
     scans: Scans
@@ -131,7 +131,6 @@ class _Run:
     L: list[np.ndarray] = field(default_factory=list)  # node poses, front end
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # node poses, world (current estimate)
     node_scan: list[int] = field(default_factory=list)
-    node_points: list[np.ndarray] = field(default_factory=list)
     travelled: list[float] = field(default_factory=lambda: [0.0])
     false_loops: list[tuple[int, int]] = field(default_factory=list)
     recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
@@ -297,7 +296,6 @@ class LaserSLAM:
         run.front.inserted(pose)
         run.L.append(pose.copy())
         run.node_scan.append(k)
-        run.node_points.append(beams.points)
         return i
 
     def _add_to_graph(self, run: _Run, i: int, k: int) -> None:
