@@ -69,6 +69,7 @@ from __future__ import annotations
 import bisect
 import re
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
@@ -284,213 +285,49 @@ class CarmenParams(Params):
 @with_params(CarmenParams)
 def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) -> Sequence:
     """A CARMEN log as a :class:`Sequence` (see the module docstring)."""
-    lines, tag = records(path, "CARMEN messages")
-    garbage = binary_lines(lines)
-    tag[garbage] = ""
-    dropped = {"binary_garbage": _dropped(lines.path, garbage, "holding binary garbage")}
-    present = [t for t in np.unique(tag) if t]
-    for t in present:
-        if not _NAME.match(t):
-            raise _fail(lines, int(np.flatnonzero(tag == t)[0]), "a CARMEN message name (upper-case identifier)")
-    odom_rows = np.flatnonzero(tag == "ODOM")
-    flaser_rows = np.flatnonzero(tag == "FLASER")
-    rl_rows = np.flatnonzero(tag == "ROBOTLASER1")
-    if flaser_rows.size and rl_rows.size:
-        raise _fail(
-            lines, int(max(flaser_rows[0], rl_rows[0])), "one laser message type per log (FLASER or ROBOTLASER1)"
-        )
-    scan_rows = flaser_rows if flaser_rows.size else rl_rows
-    if not scan_rows.size:
-        raise DataFormatError(lines.path, None, "FLASER or ROBOTLASER1 messages", "none")
-    parse = _flaser if flaser_rows.size else _robotlaser
-    values, first, n, laser_pose, robot_pose, scan_ts, layout, stated_max = parse(lines, scan_rows)
-
-    odo = fixed(
-        lines.path, _heads(lines, odom_rows), odom_rows + 1, 7, "an ODOM message (x y theta tv rv accel ts host lts)"
-    )
-    odo_ts = odo[:, 6]
-    # corrected logs echo each scan's corrected pose in the ODOM line right after it (usually with
-    # timestamp 0; some echoes carry garbage stamps, and freiburg-campus stamps ALL odometry 0)
-    after = np.searchsorted(scan_rows, odom_rows) - 1
-    messages = np.flatnonzero(tag != "")
-    pos = np.searchsorted(messages, odom_rows)
-    prev_line = np.where(pos > 0, messages[np.maximum(pos - 1, 0)], -1) if odom_rows.size else odom_rows
-    echo = np.isin(prev_line, scan_rows) if params.corrected else np.zeros(len(odo), dtype=bool)
-    echo_matches = (
-        int((echo & np.all(np.abs(odo[:, :3] - robot_pose[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum())
-        if params.corrected
-        else 0
-    )
-    zero_odom_count = int((odo_ts == 0).sum())
-    odo, odo_ts, odom_rows = odo[~echo], odo_ts[~echo], odom_rows[~echo]
-
-    # --- values outside their physical range: the message is dropped (its neighbours carry the motion across)
-    absurd_odom, why_odom = outside(
-        {"ODOM x": (odo[:, 0], POSITION), "ODOM y": (odo[:, 1], POSITION), "ODOM theta": (odo[:, 2], HEADING)}
-    )
-    bad_value = np.r_[0, np.cumsum(READING.outside(values))]
-    pose_fields = {
-        f"{which} {c}": (pose[:, k], bound)
-        for which, pose in (("scan pose", laser_pose), ("robot pose", robot_pose))
-        for k, (c, bound) in enumerate(zip(("x", "y", "theta"), (POSITION, POSITION, HEADING)))
-    }
-    absurd_scan, why_scan = outside(pose_fields)
-    reading = bad_value[first + n] > bad_value[first]
-    absurd_scan |= reading
-    dropped["out_of_range"] = _dropped(
-        lines.path,
-        np.concatenate([odom_rows[absurd_odom], scan_rows[absurd_scan]]),
-        "; ".join(w for w in (why_odom, why_scan, f"a reading outside {READING}" if reading.any() else "") if w),
-    )
-    odo, odo_ts, odom_rows = odo[~absurd_odom], odo_ts[~absurd_odom], odom_rows[~absurd_odom]
-
-    # --- beam layouts: the most common one (or ``beams=``), plus its interlaced partners
-    key = np.column_stack([n, *(np.round(a, 6) for a in layout)]) if layout else n[:, None]
-    layouts, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    n_l = layouts[:, 0].astype(np.int64)
-    start_l = np.full(len(n_l), -np.pi / 2) if layout is None else layouts[:, 1]
-    step_l = np.array([beam_step(int(b)) for b in n_l]) if layout is None else layouts[:, 2]
-    if params.beams is None:
-        chosen = int(np.argmax(counts))
-    else:
-        matches = np.flatnonzero(n_l == params.beams)
-        if not matches.size:
-            raise ValueError(f"{lines.path}: no scans with {params.beams} beams (layouts: {n_l.tolist()})")
-        chosen = int(matches[np.argmax(counts[matches])])
-    members = np.zeros(len(layouts), dtype=bool)
-    members[chosen] = True
-    if params.interlaced and params.beams is None:
-        members |= _interlaced_with(chosen, n_l, start_l, step_l)
-    keep = members[inverse]
-    dropped_other_layout = int((~keep).sum())
-    keep &= ~absurd_scan
-
-    # --- time (per stream: its clock, jitter clamped by a running maximum, faults dropped; else the scan index)
-    meta: dict = {}
-    if params.strict_time:
-        check_monotonic(lines.path, odo_ts, odom_rows + 1, "ODOM ipc timestamps")
-        check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
-    timed = np.flatnonzero(
-        keep
-    )  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
-    scan_faults = clock_faults(scan_ts[timed])
-    odo_faults = clock_faults(odo_ts) if not params.corrected else np.zeros(len(odo), dtype=bool)
-    if _carries_time(scan_ts[timed], scan_faults) and (params.corrected or _carries_time(odo_ts, odo_faults)):
-        dropped["bad_timestamp"] = _dropped(
-            lines.path,
-            np.concatenate([scan_rows[timed[scan_faults]], odom_rows[odo_faults]]),
-            f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log",
-        )
-        keep[timed[scan_faults]] = False
-        odo, odo_ts, odom_rows = odo[~odo_faults], odo_ts[~odo_faults], odom_rows[~odo_faults]
-        scan_t = strictly_increasing(scan_ts[keep])
-        odo_t = strictly_increasing(odo_ts) if odo_ts.size else odo_ts
-        meta["time_source"] = (
-            "ipc_timestamp (running maximum within each message type, equal stamps spread to the next)"
-        )
-        meta["time_adjusted_messages"] = int(
-            (scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odo_ts).sum())
-        )
-    else:
-        # the stamps carry no time: the scan index; each ODOM at the index of the next scan in file order
-        scan_t = np.arange(keep.sum(), dtype=float)
-        odo_t = np.searchsorted(scan_rows[keep], odom_rows).astype(float)
-        meta["time_source"] = "scan index (ipc timestamps zero, negative, alike or off their clock in most messages)"
-        meta["time_adjusted_messages"] = 0
-        dropped["bad_timestamp"] = []
-        warnings.warn(
-            f"{lines.path}: the ipc timestamps carry no time (zero, negative, alike or off their clock in most "
-            "messages): t is the scan index",
-            DataWarning,
-        )
-
-    B = int(n_l[members].max())
-    base = float(start_l[members].min())
-    angles = base + step_l[chosen] * np.arange(B)
-    kept_n = n[keep]
-    beam = np.arange(B)[None, :] < kept_n[:, None]
-    ranges = np.where(beam, values[np.where(beam, first[keep][:, None] + np.arange(B), 0)], np.nan).astype(np.float32)
-    offset_l = start_l - base
-    angle_offset = beam_count = None
-    if members.sum() > 1:
-        angle_offset = offset_l[inverse[keep]]
-        beam_count = kept_n
-
-    # --- poses, mount, motion
-    mounts = between(robot_pose[keep], laser_pose[keep])
+    lines, tag, dropped = _messages(path)
+    laser = _laser_messages(lines, tag)
+    odom, echo = _odometry(lines, tag, laser, params.corrected)
+    odom, absurd_scan = _drop_out_of_range(lines, laser, odom, dropped)
+    layouts = _layouts(lines.path, laser, params)
+    keep = layouts.keep & ~absurd_scan
+    odom, keep, scan_t, odo_t, meta = _time(lines, laser, odom, keep, params, dropped)
+    ranges, angles, angle_offset, beam_count = _ranges(laser, layouts, keep)
+    mounts = between(laser.robot[keep], laser.pose[keep])
     mount = np.median(mounts, axis=0)
-    if params.corrected:
-        # each scan's odometry = last raw ODOM pose before it in the file (else the first one)
-        last = np.searchsorted(odom_rows, scan_rows[keep]) - 1
-        motion = None
-        if odo.shape[0]:
-            scan_odom = odo[np.clip(last, 0, None), :3]
-            motion = Increments(t=scan_t[1:], delta=between(scan_odom[:-1], scan_odom[1:]))
-        truth = Trajectory(t=scan_t, poses=robot_pose[keep])
-        initial = robot_pose[keep][0]
-        meta["ground_truth_kind"] = "slam-reference"
-        meta["motion_source"] = "raw ODOM pose before each scan, between consecutive scans"
-    else:
-        truth = None
-        if odo.shape[0] >= 2:
-            motion = Increments(t=odo_t[1:], delta=between(odo[:-1, :3], odo[1:, :3]))
-            initial = odo[0, :3]
-            meta["motion_source"] = "ODOM poses, between consecutive messages"
-        else:
-            motion = Increments(t=scan_t[1:], delta=between(robot_pose[keep][:-1], robot_pose[keep][1:]))
-            initial = robot_pose[keep][0]
-            meta["motion_source"] = "odometry pose of each scan message (the log has no ODOM)"
-        meta["ground_truth_kind"] = "none"
-
-    max_range = params.max_range
-    if max_range is None:
-        max_range = float(np.max(stated_max[keep])) if stated_max is not None else float(np.nanmax(ranges))
-        meta["max_range_source"] = "ROBOTLASER1 max_range" if stated_max is not None else "largest reading of the log"
-    else:
-        meta["max_range_source"] = "given (the dataset's no-return sentinel)"
+    motion, truth, initial = _motion(laser, odom, keep, scan_t, odo_t, params.corrected, meta)
+    max_range = _max_range(laser, keep, ranges, params.max_range, meta)
     scans = Scans(
         t=scan_t,
         ranges=ranges,
         angles=angles,
         max_range=max_range,
         mount=mount,
-        pose=robot_pose[keep],
+        pose=laser.robot[keep],
         angle_offset=angle_offset,
         beam_count=beam_count,
     )
+    present = [t for t in np.unique(tag) if t]
     ignored = {str(t): int((tag == t).sum()) for t in present if t not in ("ODOM", "FLASER", "ROBOTLASER1", "PARAM")}
     meta.update(
         {
             "format": "CARMEN log",
             "file": lines.path,
             "corrected": params.corrected,
-            "scan_message": "FLASER" if flaser_rows.size else "ROBOTLASER1",
+            "scan_message": laser.message,
             "scans": int(keep.sum()),
-            "odom_messages": int(len(odo)),
-            "skipped_echo_odom": int(echo.sum()),
-            "echo_odom_matching_scan_pose": echo_matches,
-            "zero_time_odom": zero_odom_count,
-            "dropped_scans_other_layout": dropped_other_layout,
+            "odom_messages": int(len(odom.values)),
+            **echo,
+            "dropped_scans_other_layout": layouts.dropped,
             "dropped_lines": dropped,
-            "interlaced": bool(members.sum() > 1),
-            "beam_layouts": [
-                {
-                    "beams": int(n_l[k]),
-                    "start": float(start_l[k]),
-                    "step": float(step_l[k]),
-                    "scans": int(counts[k]),
-                    "chosen": bool(members[k]),
-                    "angle_offset": float(offset_l[k]) if members[k] else None,
-                }
-                for k in range(len(layouts))
-            ],
+            "interlaced": bool(layouts.members.sum() > 1),
+            "beam_layouts": layouts.table(),
             "no_return_readings": int((ranges >= max_range).sum()),
             "mount_spread": float(np.abs(mounts - mount).max()) if mounts.size else 0.0,
             "ignored_messages": ignored,
             "params": _params(lines, np.flatnonzero(tag == "PARAM")),
-            "scan_ipc_timestamp": scan_ts[keep],
-            "odom_ipc_timestamp": odo_ts,
+            "scan_ipc_timestamp": laser.ts[keep],
+            "odom_ipc_timestamp": odom.ts,
             "noise": "not stated by the log",
         }
     )
@@ -505,6 +342,277 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         noise=Noise(),
         meta=meta,
     )
+
+
+@dataclass
+class _Laser:
+    """The laser messages of a log (one of FLASER, ROBOTLASER1), S of them: their 0-based lines ``rows`` (S,), the
+    numbers of all ``values`` with each message's first reading at ``first`` (S,) and ``n`` (S,) readings, the laser
+    ``pose`` and ``robot`` pose (S, 3), ipc stamps ``ts`` (S,), the stated ``layout`` (start, res) and max range (S,)
+    (ROBOTLASER1; None for FLASER)."""
+
+    message: str
+    rows: np.ndarray
+    values: np.ndarray
+    first: np.ndarray
+    n: np.ndarray
+    pose: np.ndarray
+    robot: np.ndarray
+    ts: np.ndarray
+    layout: tuple[np.ndarray, np.ndarray] | None
+    stated_max: np.ndarray | None
+
+
+@dataclass
+class _Odometry:
+    """The ODOM messages kept so far: ``values`` (N, 7) (x y θ tv rv accel ts), stamps ``ts`` (N,), 0-based lines
+    ``rows`` (N,)."""
+
+    values: np.ndarray
+    ts: np.ndarray
+    rows: np.ndarray
+
+    def without(self, drop: np.ndarray) -> _Odometry:
+        """The messages but those of the mask ``drop`` (N,)."""
+        return _Odometry(self.values[~drop], self.ts[~drop], self.rows[~drop])
+
+
+@dataclass
+class _Layouts:
+    """The beam layouts (L distinct): beams ``n`` (L,), ``start`` and ``step`` (L,) [rad], ``counts`` (L,) of scans,
+    each scan's layout ``inverse`` (S,), the ``chosen`` one and the ``members`` (L,) kept with it; ``keep`` (S,) the
+    scans of a member layout, ``dropped`` the others' count."""
+
+    n: np.ndarray
+    start: np.ndarray
+    step: np.ndarray
+    counts: np.ndarray
+    inverse: np.ndarray
+    chosen: int
+    members: np.ndarray
+    keep: np.ndarray
+    dropped: int
+
+    def table(self) -> list[dict]:
+        """``meta["beam_layouts"]``: one row per layout, the offset of a member from the smallest start."""
+        offset = self.start - float(self.start[self.members].min())
+        return [
+            {
+                "beams": int(self.n[k]),
+                "start": float(self.start[k]),
+                "step": float(self.step[k]),
+                "scans": int(self.counts[k]),
+                "chosen": bool(self.members[k]),
+                "angle_offset": float(offset[k]) if self.members[k] else None,
+            }
+            for k in range(len(self.n))
+        ]
+
+
+def _messages(path) -> tuple[Lines, np.ndarray, dict]:
+    """The log's lines, each line's message name (``""``: none, or binary garbage, dropped and warned about) and the
+    dropped lines so far (``{"binary_garbage": [line, …]}``); a name that is no upper-case identifier raises."""
+    lines, tag = records(path, "CARMEN messages")
+    garbage = binary_lines(lines)
+    tag[garbage] = ""
+    dropped = {"binary_garbage": _dropped(lines.path, garbage, "holding binary garbage")}
+    for t in np.unique(tag):
+        if t and not _NAME.match(t):
+            raise _fail(lines, int(np.flatnonzero(tag == t)[0]), "a CARMEN message name (upper-case identifier)")
+    return lines, tag, dropped
+
+
+def _laser_messages(lines: Lines, tag: np.ndarray) -> _Laser:
+    """The log's laser messages, parsed (FLASER or ROBOTLASER1: both in one log, or neither, raise)."""
+    flaser_rows = np.flatnonzero(tag == "FLASER")
+    rl_rows = np.flatnonzero(tag == "ROBOTLASER1")
+    if flaser_rows.size and rl_rows.size:
+        raise _fail(
+            lines, int(max(flaser_rows[0], rl_rows[0])), "one laser message type per log (FLASER or ROBOTLASER1)"
+        )
+    rows = flaser_rows if flaser_rows.size else rl_rows
+    if not rows.size:
+        raise DataFormatError(lines.path, None, "FLASER or ROBOTLASER1 messages", "none")
+    parse = _flaser if flaser_rows.size else _robotlaser
+    return _Laser("FLASER" if flaser_rows.size else "ROBOTLASER1", rows, *parse(lines, rows))
+
+
+def _odometry(lines: Lines, tag: np.ndarray, laser: _Laser, corrected: bool) -> tuple[_Odometry, dict]:
+    """The ODOM messages, without a corrected log's echoes of its scan poses (the ODOM line right after a scan), and
+    the counts for meta (echoes skipped, echoes matching the scan's pose, ODOM stamped 0)."""
+    odom_rows = np.flatnonzero(tag == "ODOM")
+    scan_rows = laser.rows
+    odo = fixed(
+        lines.path, _heads(lines, odom_rows), odom_rows + 1, 7, "an ODOM message (x y theta tv rv accel ts host lts)"
+    )
+    odo_ts = odo[:, 6]
+    # corrected logs echo each scan's corrected pose in the ODOM line right after it (usually with
+    # timestamp 0; some echoes carry garbage stamps, and freiburg-campus stamps ALL odometry 0)
+    after = np.searchsorted(scan_rows, odom_rows) - 1
+    messages = np.flatnonzero(tag != "")
+    pos = np.searchsorted(messages, odom_rows)
+    prev_line = np.where(pos > 0, messages[np.maximum(pos - 1, 0)], -1) if odom_rows.size else odom_rows
+    echo = np.isin(prev_line, scan_rows) if corrected else np.zeros(len(odo), dtype=bool)
+    echo_matches = (
+        int((echo & np.all(np.abs(odo[:, :3] - laser.robot[np.clip(after, 0, None)]) < 1e-3, axis=1)).sum())
+        if corrected
+        else 0
+    )
+    counts = {
+        "skipped_echo_odom": int(echo.sum()),
+        "echo_odom_matching_scan_pose": echo_matches,
+        "zero_time_odom": int((odo_ts == 0).sum()),
+    }
+    return _Odometry(odo, odo_ts, odom_rows).without(echo), counts
+
+
+def _drop_out_of_range(lines: Lines, laser: _Laser, odom: _Odometry, dropped: dict) -> tuple[_Odometry, np.ndarray]:
+    """Messages with a value outside its physical range dropped and listed (``dropped["out_of_range"]``): the ODOM
+    messages kept, and the mask (S,) of the laser messages to drop."""
+    odo = odom.values
+    absurd_odom, why_odom = outside(
+        {"ODOM x": (odo[:, 0], POSITION), "ODOM y": (odo[:, 1], POSITION), "ODOM theta": (odo[:, 2], HEADING)}
+    )
+    bad_value = np.r_[0, np.cumsum(READING.outside(laser.values))]
+    pose_fields = {
+        f"{which} {c}": (pose[:, k], bound)
+        for which, pose in (("scan pose", laser.pose), ("robot pose", laser.robot))
+        for k, (c, bound) in enumerate(zip(("x", "y", "theta"), (POSITION, POSITION, HEADING)))
+    }
+    absurd_scan, why_scan = outside(pose_fields)
+    reading = bad_value[laser.first + laser.n] > bad_value[laser.first]
+    absurd_scan |= reading
+    dropped["out_of_range"] = _dropped(
+        lines.path,
+        np.concatenate([odom.rows[absurd_odom], laser.rows[absurd_scan]]),
+        "; ".join(w for w in (why_odom, why_scan, f"a reading outside {READING}" if reading.any() else "") if w),
+    )
+    return odom.without(absurd_odom), absurd_scan
+
+
+def _layouts(path: str, laser: _Laser, params: CarmenParams) -> _Layouts:
+    """The scans' beam layouts: the most common one (or ``beams=``), plus its interlaced partners (``interlaced``)."""
+    n, layout = laser.n, laser.layout
+    key = np.column_stack([n, *(np.round(a, 6) for a in layout)]) if layout else n[:, None]
+    layouts, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    n_l = layouts[:, 0].astype(np.int64)
+    start_l = np.full(len(n_l), -np.pi / 2) if layout is None else layouts[:, 1]
+    step_l = np.array([beam_step(int(b)) for b in n_l]) if layout is None else layouts[:, 2]
+    if params.beams is None:
+        chosen = int(np.argmax(counts))
+    else:
+        matches = np.flatnonzero(n_l == params.beams)
+        if not matches.size:
+            raise ValueError(f"{path}: no scans with {params.beams} beams (layouts: {n_l.tolist()})")
+        chosen = int(matches[np.argmax(counts[matches])])
+    members = np.zeros(len(layouts), dtype=bool)
+    members[chosen] = True
+    if params.interlaced and params.beams is None:
+        members |= _interlaced_with(chosen, n_l, start_l, step_l)
+    keep = members[inverse]
+    return _Layouts(n_l, start_l, step_l, counts, inverse, chosen, members, keep, int((~keep).sum()))
+
+
+def _time(lines: Lines, laser: _Laser, odom: _Odometry, keep: np.ndarray, params: CarmenParams, dropped: dict):
+    """The time of the kept scans and ODOM messages (per stream: its clock, jitter clamped by a running maximum,
+    faults dropped and listed in ``dropped["bad_timestamp"]``; else the scan index): the ODOM messages and scans (S,)
+    kept, the scan stamps (S_kept,), the ODOM stamps (N,) and meta's ``time_source`` / ``time_adjusted_messages``."""
+    meta: dict = {}
+    scan_ts, scan_rows = laser.ts, laser.rows
+    if params.strict_time:
+        check_monotonic(lines.path, odom.ts, odom.rows + 1, "ODOM ipc timestamps")
+        check_monotonic(lines.path, scan_ts, scan_rows + 1, "scan ipc timestamps")
+    timed = np.flatnonzero(
+        keep
+    )  # the scans of the stream; ODOM stamps count in a raw log only (a corrected log places its odometry by its scans)
+    scan_faults = clock_faults(scan_ts[timed])
+    odo_faults = clock_faults(odom.ts) if not params.corrected else np.zeros(len(odom.values), dtype=bool)
+    if _carries_time(scan_ts[timed], scan_faults) and (params.corrected or _carries_time(odom.ts, odo_faults)):
+        dropped["bad_timestamp"] = _dropped(
+            lines.path,
+            np.concatenate([scan_rows[timed[scan_faults]], odom.rows[odo_faults]]),
+            f"their ipc timestamp zero, negative or more than {JITTER_S:g} s off the clock of the log",
+        )
+        keep[timed[scan_faults]] = False
+        odom = odom.without(odo_faults)
+        scan_t = strictly_increasing(scan_ts[keep])
+        odo_t = strictly_increasing(odom.ts) if odom.ts.size else odom.ts
+        meta["time_source"] = (
+            "ipc_timestamp (running maximum within each message type, equal stamps spread to the next)"
+        )
+        meta["time_adjusted_messages"] = int(
+            (scan_t != scan_ts[keep]).sum() + (0 if params.corrected else (odo_t != odom.ts).sum())
+        )
+    else:
+        # the stamps carry no time: the scan index; each ODOM at the index of the next scan in file order
+        scan_t = np.arange(keep.sum(), dtype=float)
+        odo_t = np.searchsorted(scan_rows[keep], odom.rows).astype(float)
+        meta["time_source"] = "scan index (ipc timestamps zero, negative, alike or off their clock in most messages)"
+        meta["time_adjusted_messages"] = 0
+        dropped["bad_timestamp"] = []
+        warnings.warn(
+            f"{lines.path}: the ipc timestamps carry no time (zero, negative, alike or off their clock in most "
+            "messages): t is the scan index",
+            DataWarning,
+        )
+    return odom, keep, scan_t, odo_t, meta
+
+
+def _ranges(laser: _Laser, layouts: _Layouts, keep: np.ndarray):
+    """The kept scans' ranges (S_kept, B) float32 (NaN past a scan's beams), the angles (B,) from the smallest start of
+    the member layouts, and for an interlaced stream each scan's angle offset and beam count (S_kept,), else None."""
+    members = layouts.members
+    B = int(layouts.n[members].max())
+    base = float(layouts.start[members].min())
+    angles = base + layouts.step[layouts.chosen] * np.arange(B)
+    kept_n = laser.n[keep]
+    beam = np.arange(B)[None, :] < kept_n[:, None]
+    ranges = np.where(beam, laser.values[np.where(beam, laser.first[keep][:, None] + np.arange(B), 0)], np.nan).astype(
+        np.float32
+    )
+    angle_offset = beam_count = None
+    if members.sum() > 1:
+        angle_offset = (layouts.start - base)[layouts.inverse[keep]]
+        beam_count = kept_n
+    return ranges, angles, angle_offset, beam_count
+
+
+def _motion(laser: _Laser, odom: _Odometry, keep, scan_t, odo_t, corrected: bool, meta: dict):
+    """The odometry increments, the ground truth (a corrected log's scan poses, else None) and the initial pose;
+    meta's ``ground_truth_kind`` and ``motion_source``."""
+    odo, robot = odom.values, laser.robot[keep]
+    if corrected:
+        # each scan's odometry = last raw ODOM pose before it in the file (else the first one)
+        last = np.searchsorted(odom.rows, laser.rows[keep]) - 1
+        motion = None
+        if odo.shape[0]:
+            scan_odom = odo[np.clip(last, 0, None), :3]
+            motion = Increments(t=scan_t[1:], delta=between(scan_odom[:-1], scan_odom[1:]))
+        meta["ground_truth_kind"] = "slam-reference"
+        meta["motion_source"] = "raw ODOM pose before each scan, between consecutive scans"
+        return motion, Trajectory(t=scan_t, poses=robot), laser.robot[keep][0]
+    if odo.shape[0] >= 2:
+        motion = Increments(t=odo_t[1:], delta=between(odo[:-1, :3], odo[1:, :3]))
+        initial = odo[0, :3]
+        meta["motion_source"] = "ODOM poses, between consecutive messages"
+    else:
+        motion = Increments(t=scan_t[1:], delta=between(robot[:-1], robot[1:]))
+        initial = robot[0]
+        meta["motion_source"] = "odometry pose of each scan message (the log has no ODOM)"
+    meta["ground_truth_kind"] = "none"
+    return motion, None, initial
+
+
+def _max_range(laser: _Laser, keep: np.ndarray, ranges: np.ndarray, given: float | None, meta: dict) -> float:
+    """The no-return sentinel: ``given``, else ROBOTLASER1's stated max range, else the largest reading; its source in
+    meta's ``max_range_source``."""
+    if given is not None:
+        meta["max_range_source"] = "given (the dataset's no-return sentinel)"
+        return given
+    stated = laser.stated_max
+    meta["max_range_source"] = "ROBOTLASER1 max_range" if stated is not None else "largest reading of the log"
+    return float(np.max(stated[keep])) if stated is not None else float(np.nanmax(ranges))
 
 
 class CarmenSource(CarmenParams, SourceParams):

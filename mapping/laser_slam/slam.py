@@ -44,6 +44,8 @@ its scan, the final batch solve and refinement to the last scan), summing to ``m
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -51,7 +53,7 @@ from pydantic import PositiveFloat, PositiveInt
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, wrap_angle
-from slamarena.datasets.sequence import Sequence
+from slamarena.datasets.sequence import Scans, Sequence
 from slamarena.params import Field, Params
 from slamarena.robust import RobustKernelParams
 
@@ -104,6 +106,50 @@ class Submap:
         self.finished = False
 
 
+@dataclass
+class _Run:
+    """The state of one :meth:`LaserSLAM.run`: the scans and the parts working on them; per scan its front-end pose
+    L_k (``local`` (K, 3)), match covariance C_k (K, 3, 3), node i(k) and CPU time; per node its front-end pose L_i,
+    world pose G_i (``G`` (N, 3)) and scan; the active submaps, the pairwise registrations, the false loops
+    added and the CPU time per part (``seconds``)."""
+
+    scans: Scans
+    K: int
+    front: FrontEnd
+    loops: LoopCloser
+    backend: Backend
+    icp: PointToLineICPMatcher
+    pose: np.ndarray  # the current front-end pose
+    tracking: MapPyramid | None
+    local: np.ndarray
+    node_of_scan: np.ndarray  # i(k): the last node at or before scan k
+    match_cov: np.ndarray  # C_k, zero where scan k was not matched
+    step_time: np.ndarray  # CPU time of each scan's steps, its loop search and optimisation included
+    false_at: list[int]  # scans after which a false loop is due
+    pair_floor: np.ndarray
+    diag: dict
+    L: list[np.ndarray] = field(default_factory=list)  # node poses, front end
+    G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # node poses, world (current estimate)
+    node_scan: list[int] = field(default_factory=list)
+    travelled: list[float] = field(default_factory=lambda: [0.0])
+    false_loops: list[tuple[int, int]] = field(default_factory=list)
+    recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
+    pairs: list = field(default_factory=list)  # pairwise registrations (a, k, z, Σ)
+    active: list[Submap] = field(default_factory=list)
+    seconds: dict = field(
+        default_factory=lambda: {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
+    )
+
+    @contextmanager
+    def timed(self, part: str):
+        """Charge the CPU time of the block to ``seconds[part]``."""
+        tic = time.process_time()
+        try:
+            yield
+        finally:
+            self.seconds[part] += time.process_time() - tic
+
+
 class LaserSLAM:
     """Laser graph SLAM with loop closure (module docstring; :class:`LaserSLAMParams`)."""
 
@@ -127,186 +173,226 @@ class LaserSLAM:
 
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Map ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
+        p = self.params
+        run = self._start(sequence)
+        for k in range(run.K):
+            step_start = time.process_time()
+            with run.timed("front_end"):
+                beams = self._track(run, k)
+            if p.refine.neighbours:
+                with run.timed("pairwise"):
+                    self._register_pairwise(run, k, beams)
+            if len(beams.points) >= p.frontend.min_beams and run.front.due(run.pose):
+                with run.timed("front_end"):
+                    i = self._insert_node(run, k, beams)
+                with run.timed("optimisation"):
+                    self._add_to_graph(run, i, k)
+                if p.loop.enabled and i % p.loop.search_every == 0:
+                    with run.timed("loop_search"):
+                        found = self._search_loops(run, i, k, beams)
+                    with run.timed("optimisation"):
+                        self._close_loops(run, i, k, found)
+            run.node_of_scan[k] = len(run.L) - 1
+            run.step_time[k] = time.process_time() - step_start
+            if progress is not None:
+                progress(k + 1, run.K)
+        finish_start = time.process_time()
+        with run.timed("optimisation"):
+            G, report = run.backend.finish()
+        poses, refinement = self._scan_poses(run, G)
+        run.step_time[-1] += time.process_time() - finish_start  # the final solve (and refinement) is the last scan's
+        return self._estimate(sequence, run, G, poses, report, refinement)
+
+    def _start(self, sequence: Sequence) -> _Run:
+        """The run's state before the first scan: the front end, loop closer and graph, no nodes or submaps, the
+        start pose and (``tracking="global"``) the empty tracking map around it."""
         scans = sequence.scans
         if scans is None or len(scans) == 0:
             raise ValueError(f"LaserSLAM needs a sequence with laser scans; {sequence.name!r} has none")
         p = self.params
         K = len(scans)
         front = FrontEnd(p.frontend, scans)
-        loops = LoopCloser(p.loop)
-        backend = Backend(p.robust_kernel)
         self.submaps = []
-        local = np.zeros((K, 3))  # L_k
-        node_of_scan = np.full(K, -1, dtype=np.int64)  # i(k): the last node at or before scan k
-        L: list[np.ndarray] = []  # node poses, front end
-        G = np.zeros((0, 3))  # node poses, world (current estimate)
-        node_scan: list[int] = []
-        node_points: list[np.ndarray] = []
-        travelled = [0.0]
-        false_at = [
-            K * j // (p.loop.false_loops + 1) for j in range(1, p.loop.false_loops + 1)
-        ]  # scans after which a false loop is due
-        false_loops: list[tuple[int, int]] = []
-        icp = PointToLineICPMatcher(p.refine.matcher)
-        recent: list[tuple[int, object]] = []  # the last refine.neighbours scans with their prepared ICP references
-        pairs: list[tuple[int, int, np.ndarray, np.ndarray]] = []  # pairwise registrations (a, k, z, Σ)
-        pair_floor = np.diag(
-            np.square([p.refine.sigma_translation, p.refine.sigma_translation, p.refine.sigma_rotation])
-        )
-        match_cov = np.zeros((K, 3, 3))  # C_k, zero where scan k was not matched
-        diag = {
-            "matched": np.zeros(K, bool),
-            "score": np.full(K, np.nan),
-            "usable_beams": np.zeros(K, np.int64),
-            "bad_beams": np.zeros(K, np.int64),
-        }
-        seconds = {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
-        step_time = np.zeros(K)  # CPU time of each scan's steps, its loop search and optimisation included
-        active: list[Submap] = []
         pose = front.start_pose(sequence.start_pose)
-        tracking = None
-        if p.tracking == "global":
-            tracking = MapPyramid.around(p.pyramid, pose, self._reach(scans))
-        for k in range(K):
-            tic = step_start = time.process_time()
-            beams = front.beams(k)
-            diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
-            pose = front.guess(k, local, pose)
-            if active:
-                res = front.match(active[0].maps if tracking is None else tracking, beams, pose)
-                if res is not None:
-                    pose = res.pose
-                    diag["matched"][k], diag["score"][k] = True, res.score
-                    match_cov[k] = _finite(res.cov)
-            local[k] = pose
-            if p.refine.neighbours:
-                seconds["front_end"] += time.process_time() - tic
-                tic = time.process_time()
-                pts = beams.points[np.hypot(*beams.points.T) < p.refine.max_range]
-                if len(pts) >= p.frontend.min_beams:
-                    for a, reference in recent:
-                        r = icp.match(reference, pts, between(local[a], pose))
-                        if r.score >= p.refine.min_paired and np.all(np.isfinite(r.cov)):
-                            pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + pair_floor))
-                    recent = recent[-(p.refine.neighbours - 1) :] if p.refine.neighbours > 1 else []
-                    recent.append((k, icp.prepare(pts)))
-                seconds["pairwise"] += time.process_time() - tic
-                tic = time.process_time()
-            new_node = len(beams.points) >= p.frontend.min_beams and front.due(pose)
-            if new_node:
-                i = len(L)
-                if not active or len(active[-1].nodes) >= p.submap_scans:
-                    active.append(self._new_submap(pose, scans))
-                first, *rest = [s.maps for s in active] + ([tracking] if tracking is not None else [])
-                first.integrate(
-                    beams.r[beams.mapped],
-                    beams.a[beams.mapped],
-                    pose,
-                    scans.mount,
-                    max_range=front.limit,
-                    clear_range=p.frontend.clear_range,
-                    also=rest,
-                )
-                for submap in active:
-                    submap.nodes.append(i)
-                if len(active[0].nodes) >= 2 * p.submap_scans:
-                    finished = active.pop(0)
-                    finished.finished = True
-                    for (
-                        grid
-                    ) in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
-                        grid.release_scratch()
-                front.inserted(pose)
-                L.append(pose.copy())
-                node_scan.append(k)
-                node_points.append(beams.points)
-                seconds["front_end"] += time.process_time() - tic
-                tic = time.process_time()
-                if i == 0:
-                    G = pose[None, :].copy()
-                    backend.add_node(0, pose)
-                else:
-                    z = between(L[i - 1], L[i])
-                    cov = self._front_end_cov(L[i], match_cov[k])
-                    G = np.vstack([G, compose(G[i - 1], z)])
-                    backend.add_node(i, G[i], z, cov)
-                    travelled.append(travelled[-1] + float(np.hypot(*z[:2])))
-                seconds["optimisation"] += time.process_time() - tic
-                if p.loop.enabled and i % p.loop.search_every == 0:
-                    tic = time.process_time()
-                    found = []
-                    Ln = np.asarray(L)
-                    for s in loops.candidates(self.submaps, i, G, np.asarray(travelled)):
-                        constraint = loops.try_close(
-                            self.submaps[s], i, beams.points, Ln, G, diag["score"][k] if diag["matched"][k] else 1.0
-                        )
-                        if constraint is not None:
-                            found.append(constraint)
-                    seconds["loop_search"] += time.process_time() - tic
-                    tic = time.process_time()
-                    if len(false_loops) < len(false_at) and k >= false_at[len(false_loops)]:
-                        false = self._false_loop(i, G)
-                        if false is not None:
-                            found.append(false)
-                            false_loops.append((i, false[0]))
-                    for c, z, cov in found:
-                        G = backend.add_loop(c, i, z, cov)
-                    seconds["optimisation"] += time.process_time() - tic
-            else:
-                seconds["front_end"] += time.process_time() - tic
-            node_of_scan[k] = len(L) - 1
-            step_time[k] = time.process_time() - step_start
-            if progress is not None:
-                progress(k + 1, K)
+        return _Run(
+            scans=scans,
+            K=K,
+            front=front,
+            loops=LoopCloser(p.loop),
+            backend=Backend(p.robust_kernel),
+            icp=PointToLineICPMatcher(p.refine.matcher),
+            pose=pose,
+            tracking=MapPyramid.around(p.pyramid, pose, self._reach(scans)) if p.tracking == "global" else None,
+            local=np.zeros((K, 3)),
+            node_of_scan=np.full(K, -1, dtype=np.int64),
+            match_cov=np.zeros((K, 3, 3)),
+            step_time=np.zeros(K),
+            false_at=[K * j // (p.loop.false_loops + 1) for j in range(1, p.loop.false_loops + 1)],
+            pair_floor=np.diag(
+                np.square([p.refine.sigma_translation, p.refine.sigma_translation, p.refine.sigma_rotation])
+            ),
+            diag={
+                "matched": np.zeros(K, bool),
+                "score": np.full(K, np.nan),
+                "usable_beams": np.zeros(K, np.int64),
+                "bad_beams": np.zeros(K, np.int64),
+            },
+        )
 
-        tic = finish_start = time.process_time()
-        G, report = backend.finish()
-        seconds["optimisation"] += time.process_time() - tic
-        Ln = np.asarray(L)
-        i_k = np.maximum(node_of_scan, 0)
-        poses = compose(G[i_k], between(Ln[i_k], local))
+    def _track(self, run: _Run, k: int):
+        """Scan k's beams, matched from the odometry guess against the tracking map (or the older active submap):
+        its front-end pose L_k (``run.pose``, ``run.local[k]``) and match covariance C_k (3, 3). Returns the beams."""
+        front, diag = run.front, run.diag
+        beams = front.beams(k)
+        diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
+        run.pose = front.guess(k, run.local, run.pose)
+        if run.active:
+            res = front.match(run.active[0].maps if run.tracking is None else run.tracking, beams, run.pose)
+            if res is not None:
+                run.pose = res.pose
+                diag["matched"][k], diag["score"][k] = True, res.score
+                run.match_cov[k] = _finite(res.cov)
+        run.local[k] = run.pose
+        return beams
+
+    def _register_pairwise(self, run: _Run, k: int, beams) -> None:
+        """Scan k's end points within ``refine.max_range`` registered by ICP onto the last ``refine.neighbours``
+        scans: a pairwise factor (a, k, z (3,), Σ (3, 3)) for each registration pairing enough points."""
+        p = self.params
+        pts = beams.points[np.hypot(*beams.points.T) < p.refine.max_range]
+        if len(pts) < p.frontend.min_beams:
+            return
+        for a, reference in run.recent:
+            r = run.icp.match(reference, pts, between(run.local[a], run.pose))
+            if r.score >= p.refine.min_paired and np.all(np.isfinite(r.cov)):
+                run.pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + run.pair_floor))
+        run.recent = run.recent[-(p.refine.neighbours - 1) :] if p.refine.neighbours > 1 else []
+        run.recent.append((k, run.icp.prepare(pts)))
+
+    def _insert_node(self, run: _Run, k: int, beams) -> int:
+        """Scan k becomes node i (returned): a new submap when the newest is full, the scan integrated into every
+        active submap (and the tracking map), the oldest submap finished at 2 · ``submap_scans`` nodes."""
+        p, pose, active = self.params, run.pose, run.active
+        i = len(run.L)
+        if not active or len(active[-1].nodes) >= p.submap_scans:
+            active.append(self._new_submap(pose, run.scans))
+        first, *rest = [s.maps for s in active] + ([run.tracking] if run.tracking is not None else [])
+        first.integrate(
+            beams.r[beams.mapped],
+            beams.a[beams.mapped],
+            pose,
+            run.scans.mount,
+            max_range=run.front.limit,
+            clear_range=p.frontend.clear_range,
+            also=rest,
+        )
+        for submap in active:
+            submap.nodes.append(i)
+        if len(active[0].nodes) >= 2 * p.submap_scans:
+            finished = active.pop(0)
+            finished.finished = True
+            for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
+                grid.release_scratch()
+        run.front.inserted(pose)
+        run.L.append(pose.copy())
+        run.node_scan.append(k)
+        return i
+
+    def _add_to_graph(self, run: _Run, i: int, k: int) -> None:
+        """Node i into the graph with its sequential factor z_i = L_{i−1}⁻¹ ⊕ L_i (covariance from C_k and the
+        floors); its world pose G_i = G_{i−1} ⊕ z_i appended to ``run.G`` (N, 3)."""
+        if i == 0:
+            run.G = run.pose[None, :].copy()
+            run.backend.add_node(0, run.pose)
+            return
+        L = run.L
+        z = between(L[i - 1], L[i])
+        cov = self._front_end_cov(L[i], run.match_cov[k])
+        run.G = np.vstack([run.G, compose(run.G[i - 1], z)])
+        run.backend.add_node(i, run.G[i], z, cov)
+        run.travelled.append(run.travelled[-1] + float(np.hypot(*z[:2])))
+
+    def _search_loops(self, run: _Run, i: int, k: int, beams) -> list:
+        """The loop closures (c, z (3,), Σ (3, 3)) found for node i (scan k) against the finished submaps."""
+        found = []
+        diag, Ln = run.diag, np.asarray(run.L)
+        for s in run.loops.candidates(self.submaps, i, run.G, np.asarray(run.travelled)):
+            constraint = run.loops.try_close(
+                self.submaps[s], i, beams.points, Ln, run.G, diag["score"][k] if diag["matched"][k] else 1.0
+            )
+            if constraint is not None:
+                found.append(constraint)
+        return found
+
+    def _close_loops(self, run: _Run, i: int, k: int, found: list) -> None:
+        """The ``found`` loops (and a false loop, when one is due by scan k) added to the graph; ``run.G`` (N, 3)
+        refreshed by iSAM2."""
+        if len(run.false_loops) < len(run.false_at) and k >= run.false_at[len(run.false_loops)]:
+            false = self._false_loop(i, run.G)
+            if false is not None:
+                found.append(false)
+                run.false_loops.append((i, false[0]))
+        for c, z, cov in found:
+            run.G = run.backend.add_loop(c, i, z, cov)
+
+    def _scan_poses(self, run: _Run, G: np.ndarray):
+        """One world pose per scan (K, 3), G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) from the optimised node poses G (N, 3), then
+        refined between the nodes (``refine.neighbours`` > 0); returns the poses and the refinement's report."""
+        p = self.params
+        Ln = np.asarray(run.L)
+        i_k = np.maximum(run.node_of_scan, 0)
+        poses = compose(G[i_k], between(Ln[i_k], run.local))
         refinement = None
-        if p.refine.neighbours and L:
-            tic = time.process_time()
-            nodes = np.asarray(node_scan)
-            hanging = [
-                (int(nodes[i_k[k]]), k, between(Ln[i_k[k]], local[k]), self._front_end_cov(local[k], match_cov[k]))
-                for k in range(nodes[0] + 1, K)
-                if nodes[i_k[k]] != k
-            ]
-            poses, refinement = refine_scans(poses, nodes, hanging, pairs, p.robust_kernel)
-            seconds["optimisation"] += time.process_time() - tic
-        step_time[-1] += time.process_time() - finish_start  # the final solve (and refinement) is the last scan's
-        self.pose_graph = backend.pose_graph(sequence.name, G)
-        self.map = self._render(G, node_scan, scans, front.limit)
-        diag.update(loops.record.arrays())
-        diag["node_scan"] = np.asarray(node_scan, dtype=np.int64)
-        diag["front_end_poses"] = local  # the poses before loop closure, one per scan
+        if p.refine.neighbours and run.L:
+            with run.timed("optimisation"):
+                nodes = np.asarray(run.node_scan)
+                hanging = [
+                    (
+                        int(nodes[i_k[k]]),
+                        k,
+                        between(Ln[i_k[k]], run.local[k]),
+                        self._front_end_cov(run.local[k], run.match_cov[k]),
+                    )
+                    for k in range(nodes[0] + 1, run.K)
+                    if nodes[i_k[k]] != k
+                ]
+                poses, refinement = refine_scans(poses, nodes, hanging, run.pairs, p.robust_kernel)
+        return poses, refinement
+
+    def _estimate(self, sequence: Sequence, run: _Run, G: np.ndarray, poses: np.ndarray, report, refinement):
+        """The estimate (scan poses (K, 3) at the scan stamps) with the diagnostics and meta; ``self.pose_graph`` and
+        ``self.map`` (re-rendered from the optimised node poses G (N, 3)) set."""
+        p, diag = self.params, run.diag
+        self.pose_graph = run.backend.pose_graph(sequence.name, G)
+        self.map = self._render(G, run.node_scan, run.scans, run.front.limit)
+        diag.update(run.loops.record.arrays())
+        diag["node_scan"] = np.asarray(run.node_scan, dtype=np.int64)
+        diag["front_end_poses"] = run.local  # the poses before loop closure, one per scan
         diag["false_loop_node"], diag["false_loop_anchor"] = (
-            np.asarray(v, dtype=np.int64).reshape(-1) for v in (zip(*false_loops) if false_loops else ([], []))
+            np.asarray(v, dtype=np.int64).reshape(-1) for v in (zip(*run.false_loops) if run.false_loops else ([], []))
         )
         accepted = diag["loop_accepted"]
         meta = {
             "params": p.canonical(),
-            "scans": int(K),
-            "nodes": len(L),
+            "scans": int(run.K),
+            "nodes": len(run.L),
             "submaps": len(self.submaps),
             "loop_candidates": int(accepted.size),
             "loop_closures": int(accepted.sum()),
             "loop_rejected": int((~accepted).sum()),
-            "false_loops": len(false_loops),
-            "seconds": seconds,
+            "false_loops": len(run.false_loops),
+            "seconds": run.seconds,
             "optimisation": report,
             "refinement": refinement,
-            "odometry_stalled_scans": int(front.stalled.sum()),
+            "odometry_stalled_scans": int(run.front.stalled.sum()),
             "map_shape": list(self.map.shape),
             "map_origin": self.map.origin.tolist(),
         }
         return Estimate(
             method="laser_slam",
-            t=scans.t.copy(),
+            t=run.scans.t.copy(),
             poses=poses,
-            step_time=step_time,
+            step_time=run.step_time,
             diagnostics=diag,
             meta=meta,
         )

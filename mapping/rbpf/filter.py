@@ -36,6 +36,7 @@ GridSLAM's, ``particles``, ``filter_steps``, ``resampling_events``, ``memory_per
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -43,7 +44,7 @@ from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveIn
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, transform_points, wrap_angle
-from slamarena.datasets.sequence import Sequence
+from slamarena.datasets.sequence import Scans, Sequence
 from slamarena.params import Field, Params
 
 from ..beams import classify, scan_counts
@@ -149,6 +150,48 @@ def systematic_resampling(weights: np.ndarray, rng: np.random.Generator) -> np.n
     return np.searchsorted(c, u, side="right").astype(np.int64)
 
 
+def _checked_scans(sequence: Sequence):
+    """The sequence's scans, which must exist and carry the odometry poses (``Scans.pose``)."""
+    scans = sequence.scans
+    if scans is None or len(scans) == 0:
+        raise ValueError(f"RBPF needs a sequence with laser scans; {sequence.name!r} has none")
+    if scans.pose is None:
+        raise ValueError(
+            f"RBPF needs the odometry poses attached to the scans (Scans.pose); {sequence.name!r} has none"
+        )
+    return scans
+
+
+@dataclass
+class _Run:
+    """The state of one :meth:`RBPF.run`: the scans and their odometry, the particles (poses (P, 3), log-weights and
+    lineage evidence (P,), the odometry anchor of the guesses and of the last filter step), the filter steps so far,
+    the per-scan histories (poses (K, P, 3), ancestors (K, P)) and diagnostics."""
+
+    scans: Scans
+    P: int
+    rng: np.random.Generator
+    odom: np.ndarray
+    fresh: np.ndarray
+    limit: float
+    poses: np.ndarray
+    anchor: np.ndarray
+    odom_anchor: np.ndarray | None
+    odom_filter: np.ndarray | None
+    logw: np.ndarray
+    evidence: np.ndarray  # Σ log η along each particle's lineage, never reset (the best particle's criterion)
+    hist_pose: np.ndarray
+    hist_parent: np.ndarray
+    parent: np.ndarray  # this scan's ancestors (the identity unless it resampled)
+    step_time: np.ndarray
+    n_beams: np.ndarray
+    diag: dict
+    neff: list = field(default_factory=list)
+    neff_t: list = field(default_factory=list)
+    resampled: list = field(default_factory=list)
+    updates: int = 0
+
+
 class RBPF:
     """Grid-based Rao-Blackwellised particle filter with the improved proposal (module docstring, :class:`RBPFParams`)."""
 
@@ -182,25 +225,32 @@ class RBPF:
 
     def run(self, sequence: Sequence, progress=None) -> Estimate:
         """Filter ``sequence.scans``; ``progress(k, K)`` is called after each scan when given."""
-        scans = sequence.scans
-        if scans is None or len(scans) == 0:
-            raise ValueError(f"RBPF needs a sequence with laser scans; {sequence.name!r} has none")
-        if scans.pose is None:
-            raise ValueError(
-                f"RBPF needs the odometry poses attached to the scans (Scans.pose); {sequence.name!r} has none"
-            )
+        scans = _checked_scans(sequence)
+        run = self._start(sequence)
+        for k in range(len(scans)):
+            t0 = time.perf_counter()
+            run.parent = np.arange(run.P)
+            r, a, bad, no_return, usable = self._beams(run, k)
+            motion = self._predict(run, k)
+            if usable.sum() >= self.params.min_beams:
+                pts = transform_points(
+                    scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])])
+                )
+                since, step = self._filter_step_due(run, k)
+                if run.updates > 0 and not step:
+                    self._track(run, k, pts, motion)
+                elif step:
+                    self._filter_step(run, k, pts, since, r, a, bad, no_return)
+            self._record(run, k)
+            run.step_time[k] = time.perf_counter() - t0
+            if progress is not None:
+                progress(k + 1, len(scans))
+        return self._estimate(run)
+
+    def _gauss_newton_options(self) -> dict:
+        """The Gauss-Newton matcher's keyword options (:func:`.proposal.gauss_newton`) from the parameters."""
         p = self.params
-        K, B = scans.ranges.shape
-        P = p.particles
-        rng = np.random.default_rng(p.seed)
-        odom = scans.pose
-        fresh = fresh_readings(odom)
-        limit = scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range)
-        start = odom[0] if fresh[0] else np.asarray(sequence.start_pose, dtype=float)
-        self.maps = TiledPyramid(
-            P, p.pyramid, p.tile, size=initial_side(min(scans.max_range, p.clear_range)), centre=tuple(start[:2])
-        )
-        gn = dict(
+        return dict(
             sigma=p.sigma_likelihood,
             iterations=p.iterations,
             tol_t=p.tol_translation,
@@ -210,114 +260,166 @@ class RBPF:
             halvings=p.step_halvings,
         )
 
-        poses = np.tile(np.asarray(start, dtype=float), (P, 1))
-        anchor, odom_anchor = poses.copy(), (odom[0] if fresh[0] else None)
-        odom_filter = odom_anchor
-        logw = np.zeros(P)
-        evidence = np.zeros(P)  # Σ log η along each particle's lineage, never reset (the best particle's criterion)
-        hist_pose = np.zeros((K, P, 3))
-        hist_parent = np.zeros((K, P), np.int64)
-        step_time = np.zeros(K)
-        diag = {
-            "bad_beams": np.zeros(K, np.int64),
-            "no_return_beams": np.zeros(K, np.int64),
-            "usable_beams": np.zeros(K, np.int64),
-            "matched": np.zeros(K, bool),
-            "iterations": np.zeros(K, np.int64),
-            "filter_step": np.zeros(K, bool),
-            "proposal_fallbacks": np.zeros(K, np.int64),
-            "memory_per_particle": np.full(K, np.nan),
-        }
-        neff, neff_t, resampled = [], [], []
-        n_beams = np.zeros(K, np.int64)
-        updates = 0
-        for k in range(K):
-            t0 = time.perf_counter()
-            parent = np.arange(P)
-            r, a = scans.beams(k)
-            n_beams[k] = r.size
-            bad, no_return, usable = classify(r, scans.max_range, limit)
-            diag["bad_beams"][k], diag["no_return_beams"][k], diag["usable_beams"][k] = (
-                bad.sum(),
-                no_return.sum(),
-                usable.sum(),
-            )
-
-            motion = np.zeros(3)
-            if fresh[k] and odom_anchor is not None:
-                motion = between(odom_anchor, odom[k])
-                poses = compose(anchor, motion)
-            if usable.sum() >= p.min_beams:
-                pts = transform_points(
-                    scans.mount, np.column_stack([r[usable] * np.cos(a[usable]), r[usable] * np.sin(a[usable])])
-                )
-                since = between(odom_filter, odom[k]) if (fresh[k] and odom_filter is not None) else np.zeros(3)
-                step = (
-                    updates < max(p.initial_updates, 1)
-                    or np.hypot(since[0], since[1]) >= p.update_distance
-                    or abs(wrap_angle(since[2])) >= p.update_angle
-                )
-                if updates > 0 and not step:
-                    poses, diag["iterations"][k] = gauss_newton(
-                        self.maps, pts, poses, np.linalg.inv(p.motion.cov(motion)), **gn
-                    )
-                    diag["matched"][k] = True
-                elif step:
-                    if updates > 0:
-                        poses, fallbacks, log_eta, diag["iterations"][k] = self._propose(
-                            pts, poses, p.motion.cov(since), rng
-                        )
-                        logw += p.weight_tempering * log_eta
-                        evidence += log_eta
-                        logw -= logw.max()
-                        w = np.exp(logw)
-                        w /= w.sum()
-                        neff.append(1.0 / np.sum(w**2))
-                        neff_t.append(scans.t[k])
-                        resampled.append(bool(neff[-1] < p.resample_threshold * P))
-                        diag["proposal_fallbacks"][k] = fallbacks
-                        diag["matched"][k] = fallbacks < P
-                    mapped = ~bad & ((r < limit) | no_return)
-                    hit = r[mapped] < limit
-                    reach = np.where(hit, r[mapped], np.minimum(r[mapped], p.clear_range))
-                    sensors = compose(poses, scans.mount)
-                    if updates == 0:  # every particle starts from the same map: integrate once, share it
-                        self.maps.integrate(sensors, reach, a[mapped], hit, which=[0])
-                        self.maps.resample(np.zeros(P, np.int64))
-                    else:
-                        self.maps.integrate(sensors, reach, a[mapped], hit)
-                    if updates > 0 and resampled[-1]:
-                        parent = systematic_resampling(w, rng)
-                        self.maps.resample(parent)
-                        poses, logw, evidence = poses[parent], np.zeros(P), evidence[parent]
-                    odom_filter = odom[k] if fresh[k] else odom_filter
-                    updates += 1
-                    diag["filter_step"][k] = True
-                    diag["memory_per_particle"][k] = self.maps.memory()["per_particle"]
-            if fresh[k]:
-                anchor, odom_anchor = poses.copy(), odom[k]
-                odom_filter = odom[k] if odom_filter is None else odom_filter
-            hist_pose[k], hist_parent[k] = poses, parent
-            step_time[k] = time.perf_counter() - t0
-            if progress is not None:
-                progress(k + 1, K)
-
-        diag.update(
-            neff=np.asarray(neff, dtype=float),
-            neff_t=np.asarray(neff_t, dtype=float),
-            resampled=np.asarray(resampled, dtype=bool),
+    def _start(self, sequence: Sequence) -> _Run:
+        """The run's state before the first scan: P particles at the start pose (the first fresh odometry pose, else
+        the sequence's), one empty shared map pyramid (``self.maps``), zero weights, empty histories."""
+        p, scans = self.params, sequence.scans
+        K, P = len(scans), p.particles
+        odom = scans.pose
+        fresh = fresh_readings(odom)
+        start = odom[0] if fresh[0] else np.asarray(sequence.start_pose, dtype=float)
+        self.maps = TiledPyramid(
+            P, p.pyramid, p.tile, size=initial_side(min(scans.max_range, p.clear_range)), centre=tuple(start[:2])
         )
-        self.best, self._map = int(np.argmax(evidence)), None
-        self._history = (hist_pose, hist_parent)
+        poses = np.tile(np.asarray(start, dtype=float), (P, 1))
+        return _Run(
+            scans=scans,
+            P=P,
+            rng=np.random.default_rng(p.seed),
+            odom=odom,
+            fresh=fresh,
+            limit=scans.max_range if p.max_usable_range is None else min(scans.max_range, p.max_usable_range),
+            poses=poses,
+            anchor=poses.copy(),
+            odom_anchor=odom[0] if fresh[0] else None,
+            odom_filter=odom[0] if fresh[0] else None,
+            logw=np.zeros(P),
+            evidence=np.zeros(P),
+            hist_pose=np.zeros((K, P, 3)),
+            hist_parent=np.zeros((K, P), np.int64),
+            parent=np.arange(P),
+            step_time=np.zeros(K),
+            n_beams=np.zeros(K, np.int64),
+            diag={
+                "bad_beams": np.zeros(K, np.int64),
+                "no_return_beams": np.zeros(K, np.int64),
+                "usable_beams": np.zeros(K, np.int64),
+                "matched": np.zeros(K, bool),
+                "iterations": np.zeros(K, np.int64),
+                "filter_step": np.zeros(K, bool),
+                "proposal_fallbacks": np.zeros(K, np.int64),
+                "memory_per_particle": np.full(K, np.nan),
+            },
+        )
+
+    def _beams(self, run: _Run, k: int):
+        """Scan k's ranges r (B_k,), angles a (B_k,) and its masks bad, no_return, usable (B_k,), counted in diag."""
+        r, a = run.scans.beams(k)
+        run.n_beams[k] = r.size
+        bad, no_return, usable = classify(r, run.scans.max_range, run.limit)
+        run.diag["bad_beams"][k], run.diag["no_return_beams"][k], run.diag["usable_beams"][k] = (
+            bad.sum(),
+            no_return.sum(),
+            usable.sum(),
+        )
+        return r, a, bad, no_return, usable
+
+    def _predict(self, run: _Run, k: int) -> np.ndarray:
+        """At a fresh odometry reading, every particle's guess ĝ_i = anchor_i ⊕ (⊖o_f ⊕ o_k) (``run.poses`` (P, 3));
+        returns that odometry motion (3,), zero without a fresh reading."""
+        motion = np.zeros(3)
+        if run.fresh[k] and run.odom_anchor is not None:
+            motion = between(run.odom_anchor, run.odom[k])
+            run.poses = compose(run.anchor, motion)
+        return motion
+
+    def _filter_step_due(self, run: _Run, k: int) -> tuple[np.ndarray, bool]:
+        """The odometry motion (3,) since the last filter step and whether scan k is a filter step (the first
+        ``initial_updates``, or moved ``update_distance`` / turned ``update_angle``)."""
+        p = self.params
+        since = between(run.odom_filter, run.odom[k]) if (run.fresh[k] and run.odom_filter is not None) else np.zeros(3)
+        step = (
+            run.updates < max(p.initial_updates, 1)
+            or np.hypot(since[0], since[1]) >= p.update_distance
+            or abs(wrap_angle(since[2])) >= p.update_angle
+        )
+        return since, step
+
+    def _track(self, run: _Run, k: int, pts: np.ndarray, motion: np.ndarray) -> None:
+        """Between filter steps: every particle's pose (P, 3) becomes the mode of its target from the guess, with Σ_u
+        of the scan's odometry ``motion`` (3,); no draw, no weight, no map update."""
+        run.poses, run.diag["iterations"][k] = gauss_newton(
+            self.maps, pts, run.poses, np.linalg.inv(self.params.motion.cov(motion)), **self._gauss_newton_options()
+        )
+        run.diag["matched"][k] = True
+
+    def _filter_step(self, run: _Run, k: int, pts, since, r, a, bad, no_return) -> None:
+        """A filter step at scan k: weigh the proposal (after the first), integrate the scan (B_k,) into every map at
+        its particle's pose, resample when N_eff is low; the odometry of this step is remembered."""
+        w = self._weigh(run, k, pts, since) if run.updates > 0 else None
+        self._integrate(run, r, a, bad, no_return)
+        if run.updates > 0 and run.resampled[-1]:
+            self._resample(run, w)
+        run.odom_filter = run.odom[k] if run.fresh[k] else run.odom_filter
+        run.updates += 1
+        run.diag["filter_step"][k] = True
+        run.diag["memory_per_particle"][k] = self.maps.memory()["per_particle"]
+
+    def _weigh(self, run: _Run, k: int, pts: np.ndarray, since: np.ndarray) -> np.ndarray:
+        """Draw the new poses (P, 3) from the improved proposal with Σ_u of ``since``, add γ log η to the log-weights
+        and log η to the evidence; N_eff and whether to resample are recorded. Returns the normalised weights (P,)."""
+        p = self.params
+        run.poses, fallbacks, log_eta, run.diag["iterations"][k] = self._propose(
+            pts, run.poses, p.motion.cov(since), run.rng
+        )
+        run.logw += p.weight_tempering * log_eta
+        run.evidence += log_eta
+        run.logw -= run.logw.max()
+        w = np.exp(run.logw)
+        w /= w.sum()
+        run.neff.append(1.0 / np.sum(w**2))
+        run.neff_t.append(run.scans.t[k])
+        run.resampled.append(bool(run.neff[-1] < p.resample_threshold * run.P))
+        run.diag["proposal_fallbacks"][k] = fallbacks
+        run.diag["matched"][k] = fallbacks < run.P
+        return w
+
+    def _integrate(self, run: _Run, r, a, bad, no_return) -> None:
+        """Every particle's map integrates the scan's mapped beams at its pose (the first scan once, shared by all)."""
+        p = self.params
+        mapped = ~bad & ((r < run.limit) | no_return)
+        hit = r[mapped] < run.limit
+        reach = np.where(hit, r[mapped], np.minimum(r[mapped], p.clear_range))
+        sensors = compose(run.poses, run.scans.mount)
+        if run.updates == 0:  # every particle starts from the same map: integrate once, share it
+            self.maps.integrate(sensors, reach, a[mapped], hit, which=[0])
+            self.maps.resample(np.zeros(run.P, np.int64))
+        else:
+            self.maps.integrate(sensors, reach, a[mapped], hit)
+
+    def _resample(self, run: _Run, w: np.ndarray) -> None:
+        """Systematic resampling by the weights w (P,): maps, poses and evidence follow the ancestors, weights reset."""
+        run.parent = systematic_resampling(w, run.rng)
+        self.maps.resample(run.parent)
+        run.poses, run.logw, run.evidence = run.poses[run.parent], np.zeros(run.P), run.evidence[run.parent]
+
+    def _record(self, run: _Run, k: int) -> None:
+        """After scan k: at a fresh reading the poses become the odometry anchor; poses and ancestors (P,) stored."""
+        if run.fresh[k]:
+            run.anchor, run.odom_anchor = run.poses.copy(), run.odom[k]
+            run.odom_filter = run.odom[k] if run.odom_filter is None else run.odom_filter
+        run.hist_pose[k], run.hist_parent[k] = run.poses, run.parent
+
+    def _estimate(self, run: _Run) -> Estimate:
+        """The best particle's lineage (K, 3) as the estimate, with the diagnostics and meta (module docstring)."""
+        p, diag, P = self.params, run.diag, run.P
+        diag.update(
+            neff=np.asarray(run.neff, dtype=float),
+            neff_t=np.asarray(run.neff_t, dtype=float),
+            resampled=np.asarray(run.resampled, dtype=bool),
+        )
+        self.best, self._map = int(np.argmax(run.evidence)), None
+        self._history = (run.hist_pose, run.hist_parent)
         trajectory = self.trajectory(self.best)
         memory = self.maps.memory()
         finest = self.maps.finest
+        K, B = run.scans.ranges.shape
         meta = {
             "params": p.canonical(),
             "scans": int(K),
             "beams": int(B),
             "particles": int(P),
-            **scan_counts(diag, n_beams),
+            **scan_counts(diag, run.n_beams),
             "filter_steps": int(diag["filter_step"].sum()),
             "map_updates": int(diag["filter_step"].sum()),
             "resampling_events": int(diag["resampled"].sum()),
@@ -332,7 +434,7 @@ class RBPF:
             "map_origin": finest.origin.tolist(),
         }
         return Estimate(
-            method="rbpf", t=scans.t.copy(), poses=trajectory, step_time=step_time, diagnostics=diag, meta=meta
+            method="rbpf", t=run.scans.t.copy(), poses=trajectory, step_time=run.step_time, diagnostics=diag, meta=meta
         )
 
     def _propose(self, pts, guesses, motion_cov, rng):
@@ -343,15 +445,7 @@ class RBPF:
         p = self.params
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
-        gn = dict(
-            sigma=p.sigma_likelihood,
-            iterations=p.iterations,
-            tol_t=p.tol_translation,
-            tol_r=p.tol_rotation,
-            max_step_t=p.max_step_translation,
-            max_step_r=p.max_step_rotation,
-            halvings=p.step_halvings,
-        )
+        gn = self._gauss_newton_options()
         eps = rng.standard_normal((P, 3))
         from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
         modes, iterations = gauss_newton(
