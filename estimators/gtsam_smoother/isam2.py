@@ -32,7 +32,7 @@ non-finite estimate and a marginal covariance that is not positive definite (the
 Final updates that leave a variable moving by more than ``final_tol`` after ``final_updates`` of them
 (``final_updates=0`` asks for none) are an error unless the answer is converged relative to the problem all the
 same (:func:`~.graph.converged`, the rule of :func:`~.graph.optimize`: the Gauss-Newton step from it below ``step_tol``
-of the variables' σ; on MRCLAM a heading wedged between 1 ms steps keeps moving by 10⁻⁵ rad from update to update at
+in its Mahalanobis norm, every variable within that fraction of its σ; on MRCLAM a heading wedged between 1 ms steps keeps moving by 10⁻⁵ rad from update to update at
 ½χ² constant to 10⁻⁸, and on Dataset 1 a variable by 4·10⁻⁴ where σ is centimetres); a non-finite error at the end is
 an error too.
 
@@ -99,7 +99,7 @@ class ISAM2SmootherParams(LandmarkSmootherParams, RelinearizationParams):
     final_tol: PositiveFloat = Field(
         1e-6, description="the final updates stop once no variable changes by more than this in any coordinate [m, rad]"
     )
-    step_tol: StepTol = 0.01
+    step_tol: StepTol = 0.1
     factorization: Literal["CHOLESKY", "QR"] = Field(
         "CHOLESKY", description="iSAM2's factorisation of the linearised system"
     )
