@@ -32,8 +32,9 @@ non-finite estimate and a marginal covariance that is not positive definite (the
 Final updates that leave a variable moving by more than ``final_tol`` after ``final_updates`` of them
 (``final_updates=0`` asks for none) are an error unless the answer is converged relative to the problem all the
 same (:func:`~.graph.converged`, the rule of :func:`~.graph.optimize`: the Gauss-Newton step from it below ``step_tol``
-in its Mahalanobis norm, every variable within that fraction of its σ; on MRCLAM a heading wedged between 1 ms steps keeps moving by 10⁻⁵ rad from update to update at
-½χ² constant to 10⁻⁸, and on Dataset 1 a variable by 4·10⁻⁴ where σ is centimetres); a non-finite error at the end is
+in its Mahalanobis norm, every variable within that fraction of its σ; on MRCLAM a heading wedged between 1 ms steps
+keeps moving by 10⁻⁵ rad from update to update at ½χ² constant to 10⁻⁸, and on Dataset 1 robot 1 a variable by
+4·10⁻⁴ at a step of 0.02 σ: research/notebook/2026-11-28-gtsam-convergence.md); a non-finite error at the end is
 an error too.
 
 Parameters: :class:`ISAM2SmootherParams` — the landmark smoothers' (:class:`~.landmark.LandmarkSmootherParams`),
@@ -47,7 +48,8 @@ step k), the landmarks still the final ones; ``step_time[k]`` = wall time
 (``step_clock="cpu"``: CPU time) of update k plus reading x̂_k, like the filters' per-event time. ``diagnostics``:
 ``online_poses`` (K, 3) — the estimate of x_k right after step k (what a filter would have had),
 ``relinearized`` (K,) variables relinearised per step, ``final_updates_used``, ``final_change``,
-``final_error``, ``lifted_between``, ``between_cov`` (K − 1, 3, 3) and the rejected-input counts; ``meta["params"]`` the canonical parameters.
+``final_error``, ``lifted_between``, ``between_cov`` (K − 1, 3, 3) and the rejected-input counts; ``meta["params"]``
+the canonical parameters.
 """
 
 from __future__ import annotations
