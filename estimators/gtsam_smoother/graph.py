@@ -21,10 +21,11 @@ it ended above where it started, and when the optimiser stopped without convergi
 gave up (no damping up to ``lambdaUpperBound`` lowers the error: GTSAM's "cannot decrease error with
 maximum lambda"), the last iteration raised the error by more than the tolerances (Gauss-Newton
 diverging: GTSAM's "stopping because error increased"), or ``max_iterations`` ran out with the last
-decrease above the tolerances — unless the answer is the optimum of its own linearisation all the same: a
-Gauss-Newton step from it promises at most the tolerance or :data:`NEGLIGIBLE_DECREASE` (the
-answer within 1 % of a standard deviation of that optimum; Levenberg-Marquardt can give up there when
-the tolerances ask for more than round-off allows). Inside :func:`gtsam_errors`, GTSAM's own
+decrease above the tolerances — unless the answer is converged relative to the problem all the same
+(:func:`converged`): the Gauss-Newton step δ from it to the optimum of its own linearisation is below ``step_tol``
+(default 0.1) in its Mahalanobis norm, so every variable and every linear function of them lies within that fraction
+of its own marginal σ of that optimum (Levenberg-Marquardt crawls or gives up there when the tolerances ask for
+more than round-off and conditioning allow). Inside :func:`gtsam_errors`, GTSAM's own
 ``RuntimeError`` (an indeterminate linear system, …) becomes an :class:`OptimizationError` that says
 where it happened and which variable GTSAM names.
 """
@@ -39,7 +40,7 @@ from typing import Annotated, Literal
 
 import gtsam
 import numpy as np
-from pydantic import NonNegativeFloat, PositiveInt
+from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
 
 from slamarena.params import Field, Params
 from slamarena.robust import RobustKernelParams, information_model, noise_model, robustify
@@ -73,7 +74,8 @@ __all__ = [
     "gtsam_errors",
     "finite_error",
     "remaining_decrease",
-    "NEGLIGIBLE_DECREASE",
+    "converged",
+    "StepTol",
     "poses_of",
     "points_of",
 ]
@@ -90,6 +92,13 @@ AbsoluteErrorTol = Annotated[
 RelinearizeSkip = Annotated[
     PositiveInt, Field(description="iSAM2 checks which variables to relinearise every this many updates")
 ]
+StepTol = Annotated[
+    PositiveFloat,
+    Field(
+        description="an optimiser that stopped short of its tolerances has converged when the Gauss-Newton step from its "
+        "answer is below this in its Mahalanobis norm: every variable within this many of its σ (graph.converged) [σ]"
+    ),
+]
 ComputeCovariances = Annotated[
     bool, Field(description="compute the marginal covariances: world-frame pose_cov and landmark_cov")
 ]
@@ -104,6 +113,7 @@ class OptimizerParams(Params):
     max_iterations: PositiveInt = Field(100, description="most iterations of the optimiser")
     relative_error_tol: RelativeErrorTol = 1e-10
     absolute_error_tol: AbsoluteErrorTol = 1e-10
+    step_tol: StepTol = 0.1
 
 
 class RelinearizationParams(Params):
@@ -275,18 +285,29 @@ def optimize(graph, initial, params: OptimizerParams) -> OptimizeResult:
         stop = "the error ended above where it started"
     else:
         return OptimizeResult(values, initial_error, final_error, n, elapsed)
-    # stopped without converging: an error unless the answer is the optimum of its own linearisation all the same
-    remaining = remaining_decrease(graph, values, f"{name}: the linearisation at its answer")
-    if final_error > initial_error or remaining > max(tol, NEGLIGIBLE_DECREASE):
-        raise OptimizationError(
-            f"{ran}: {stop}; its linearisation at the answer still promises a decrease of {remaining:.3g}"
-        )
+    # stopped without converging: an error unless the answer is converged relative to the problem all the same
+    done, remaining = converged(graph, values, f"{name}: the linearisation at its answer", params.step_tol, tol)
+    if final_error > initial_error or not done:
+        raise OptimizationError(f"{ran}: {stop}; its linearisation at the answer {remaining}")
     return OptimizeResult(values, initial_error, final_error, n, elapsed)
 
 
-#: the decrease of ½χ² below which a point is the optimum of its linearisation: ½ · 0.01², i.e. the point lies within
-#: 1 % of a standard deviation (Mahalanobis, all variables together) of that optimum
-NEGLIGIBLE_DECREASE = 0.5 * 0.01**2
+def converged(graph, values, where: str, step_tol: float, tol: float = 0.0) -> tuple[bool, str]:
+    """Whether ``values`` is converged relative to the problem, and what its linearisation still promises (words).
+
+    With J, b the whitened linearisation at ``values``, H = JᵀJ its information and δ = H⁻¹Jᵀb the Gauss-Newton step,
+    the promised decrease is Δ = ½ δᵀHδ = ½ d², d the step's Mahalanobis norm (all variables together, in the
+    information the optimiser already has; :func:`remaining_decrease`). For every linear function aᵀx of the
+    variables — one coordinate, a relative pose, an aligned trajectory — |aᵀδ| ≤ d √(aᵀH⁻¹a) (Cauchy-Schwarz): within
+    d of its own marginal σ. Converged: d ≤ ``step_tol`` (0.1 σ raises the expected squared error of a consistent
+    estimate by at most 1 %) or Δ ≤ ``tol`` (the optimiser's own "no change").
+    """
+    decrease = remaining_decrease(graph, values, where)
+    d = float(np.sqrt(2.0 * max(decrease, 0.0)))
+    words = f"still promises a decrease of {decrease:.3g} (a step of {d:.3g} σ)"
+    if decrease <= tol or d <= step_tol:
+        return True, words
+    return False, f"{words} > step_tol = {step_tol:g}"
 
 
 def remaining_decrease(graph, values, where: str) -> float:
