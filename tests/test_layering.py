@@ -27,8 +27,10 @@ DATASETS_MAY_IMPORT = {
     "pooch",
     "gtsam",
     "rosbags",
+    "pandas",
 }  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example
-# data, rosbags only inside the ROS bag and MCAP readers and writers (formats/bag*.py, ros_results.py)
+# data, rosbags only inside the ROS bag and MCAP readers and writers (formats/bag*.py, ros_results.py),
+# pandas only inside formats/_text.py (its C parser converts the numbers of every text reader)
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
