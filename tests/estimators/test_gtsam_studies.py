@@ -69,9 +69,11 @@ def test_pose_graph_study(tmp_path):
 
     rows = pd.read_csv(tmp_path / "summary.csv").set_index("dataset")
     assert (rows["estimate.final_error"] <= rows["estimate.initial_error"]).all()
-    assert (
-        rows["ate.rmse"] < 1.0
-    ).all()  # manhattanOlson3500 0.80 m, city10000 0.041 m, cityTrees10000 0.10 m when measured
+    # ATE RMSE measured 2026-11-28 (this test, the reduced config): manhattanOlson3500 0.795 m, isam_city10000 0.0406 m,
+    # cityTrees10000 0.103 m. Bounds: 2.5× the measured value, but never looser than the former common bound of 1 m.
+    bound = {"manhattanOlson3500": 1.0, "isam_city10000": 0.1, "cityTrees10000": 0.25}
+    for label in truth:
+        assert rows.at[label, "ate.rmse"] < bound[label], (label, rows.at[label, "ate.rmse"])
 
 
 def _max_difference(a, b) -> tuple[float, float]:
