@@ -197,7 +197,9 @@ def test_mrclam_dataset6_study():
         "given iSAM2's between covariances (diagnostics['between_cov']) optimises iSAM2's graph; the problem's graph differs "
         "by the stiffness rule's lifts.",
     )
-    assert all(float(r[5]) < 0.3 and float(r[7]) < 1.0 for r in accuracy)
+    # measured 2026-11-28 (robots 1–5): SE(2)-aligned ATE 0.115/0.127/0.131/0.202/0.169 m (bound 0.3 m: 1.5× the worst,
+    # kept), aligned landmark RMSE 0.073/0.107/0.126/0.094/0.121 m (bound 0.3 m: 2.4× the worst; was 1.0 m)
+    assert all(float(r[5]) < 0.3 and float(r[7]) < 0.3 for r in accuracy)
 
 
 def test_victoria_park_study():
