@@ -299,6 +299,34 @@ def eval_trajectory(
     raise typer.Exit(eval_command(result, as_json))
 
 
+@app.command("identify-noise")
+def identify_noise(
+    dataset: str = typer.Argument(..., help="A dataset with landmark ids, e.g. victoria_park or sim:landmarks."),
+    entry: list[str] = typer.Option(
+        ..., "--entry", help="Diagonal entries to identify, NAME=I,J (repeatable), e.g. increment_cov=0,1,2."
+    ),
+    param: list[str] = typer.Option(
+        [],
+        "--param",
+        help="An EKF-SLAM parameter, key=value (repeatable); an identified one's value is its stated start.",
+    ),
+    dataset_param: list[str] = typer.Option(
+        [], "--dataset-param", help="A dataset keyword, key=value (repeatable), e.g. n_landmarks=20 for sim:landmarks."
+    ),
+    step: float = typer.Option(4.0, "--step", help="Grid factor between neighbouring models."),
+    max_exponent: int = typer.Option(6, "--max-exponent", help="Largest |k| of a factor step**k."),
+):
+    """A sensor model identified by EKF-SLAM's innovation likelihood with the data's landmark ids (JSON)."""
+    from .cli_map import parse_params
+    from .cli_noise import identify_noise_command, parse_entries
+
+    typer.echo(
+        identify_noise_command(
+            dataset, parse_entries(entry), parse_params(param), parse_params(dataset_param), step, max_exponent
+        )
+    )
+
+
 @app.command("params")
 def params(
     method: str = typer.Argument(..., help="A method name of an experiment config (e.g. laser_slam, rbpf, ekf_slam)."),

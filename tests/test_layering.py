@@ -28,9 +28,11 @@ DATASETS_MAY_IMPORT = {
     "gtsam",
     "rosbags",
     "cv2",
+    "pandas",
 }  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example
 # data, rosbags only inside the ROS bag and MCAP readers and writers (formats/bag*.py, ros_results.py), cv2 (imported on
-# first use) only to decode a camera image when one is asked for
+# first use) only to decode a camera image when one is asked for, pandas only inside formats/_text.py (its C parser
+# converts the numbers of every text reader)
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:

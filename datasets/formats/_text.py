@@ -15,36 +15,24 @@ Python work per line is a few string operations; nothing runs per number. A file
 single record or data row (empty, or only blank and comment lines) is a :class:`DataFormatError`
 (``got 'no data line'``), never an empty dataset.
 
-**How numbers are converted, and why the result is exact.** Tokens are found on the bytes
-(C ``isspace`` separates them, as in numpy's parser). Each token of the form
-``[+-] digits [. digits]`` with 1–16 characters after the sign is converted with integer
-arithmetic on the 16 bytes that end at its last character, read as one 128-bit little-endian
-number (two ``uint64`` words; a block of tokens at a time, a few dozen array operations per block):
-
-- ``v = bytes xor '0'``, masked to the characters after the sign: digits become 0…9, ``.``
-  becomes 0x1E, the bytes in front become leading zeros;
-- the bytes equal to 0x1E are flagged (a byte-wise comparison; the flag is the lowest bit of its
-  byte); the popcount of ``flags − 1`` (a 128-bit subtraction) gives the position of the lowest dot;
-- the bytes below that dot move up one byte: the dot is gone, the digits are right-aligned and the
-  ``k`` bytes above the dot are the fractional digits (a second dot would remain, and fail below);
-- the token is accepted only if every byte is now a digit (``(y + 0x76 | y) & 0x80 == 0``) and
-  the mantissa fits; a final dot (``5.``) is left to the fallback;
-- the digits give the integer mantissa ``m`` by three multiply–shift–mask steps per word
-  (8 digits each) and ``m = hi·10⁸ + lo``.
-
-The value is ``m / 10^k`` (``m / −10^k`` after a minus sign). With ``m < 2⁵³`` both operands are
-exact doubles (``k ≤ 15 ≤ 22``) and IEEE division rounds correctly, so the quotient is the double
-nearest to the decimal number: the value ``strtod`` — and numpy's parser — returns (Clinger's fast
-path; ``-0`` gives ``-0.0``). Every other token (more digits, exponents, ``nan``/``inf``, anything
-malformed) goes through :func:`numpy.fromstring` as before, and a token that fails there is
-reported by the same error path as before. ``tests/datasets/test_text.py`` compares both paths bit
-for bit on the staged MRCLAM and Intel files and against ``float()`` on generated decimals.
+**How numbers are converted.** Tokens are found on the bytes (C ``isspace`` separates them, as in
+numpy's parser), which gives every line's field count and so every error location. The tokens
+themselves are converted by pandas' C parser (:func:`_pandas_values`): their text, every separator
+turned into a line end, is read as one float64 column. pandas (fast_float; ``round_trip`` before
+pandas 3.1) rounds correctly, so every value is the double ``strtod`` returns. pandas gets only text
+made of ``[0-9+-.eE]`` tokens, on which it accepts exactly what ``float()`` accepts; every other text
+(``nan``, ``inf``, a malformed token, garbage bytes), and any text pandas rejects, goes through
+:func:`numpy.fromstring` as before, and a token that fails there is reported by the per-line
+error path with its file and line. ``tests/datasets/test_text.py`` compares the result with numpy's
+parser bit for bit on the staged MRCLAM and Intel files and with ``float()`` on generated decimals.
 """
 
 from __future__ import annotations
 
 import bz2
+import csv
 import gzip
+import io
 import lzma
 import warnings
 from pathlib import Path
@@ -154,8 +142,9 @@ def binary_lines(lines: list[str]) -> np.ndarray:
     return np.unique(np.searchsorted(np.flatnonzero(b == 10), np.flatnonzero(~_TEXT[b])))
 
 
+_SPACE_BYTES = b"\t\n\x0b\x0c\r "
 _SPACE = np.zeros(256, dtype=bool)
-_SPACE[[9, 10, 11, 12, 13, 32]] = True  # C isspace(), as numpy's parser
+_SPACE[list(_SPACE_BYTES)] = True  # C isspace(), as numpy's parser
 
 
 def _scan(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,63 +164,33 @@ def _scan(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return edges[0::2], edges[1::2], newlines
 
 
-def _words(byte: int) -> np.uint64:
-    return np.uint64(byte * 0x0101010101010101)
+#: what pandas is given: tokens of these characters only (every other text goes to numpy's parser)
+_PLAIN = b"0123456789+-.eE"
+#: every separator (C isspace) to a line end: the tokens become one column
+_TO_LINES = bytes.maketrans(b" \t\x0b\x0c\r", b"\n" * 5)
 
 
-_ZEROS, _HIGH, _ABOVE_NINE = _words(0x30), _words(0x80), _words(0x76)
-_M8, _M16 = np.uint64(0x00FF00FF00FF00FF), np.uint64(0x0000FFFF0000FFFF)
+def _pandas_values(text: bytes) -> np.ndarray | None:
+    """The numbers of ``text`` (tokens of :data:`_PLAIN` characters) by pandas' C parser; ``None`` if it rejects one."""
+    import pandas as pd
 
-
-def _top(n: int) -> list[int]:
-    """The two little-endian words of a 16-byte mask of the last ``n`` bytes."""
-    mask = (1 << 128) - (1 << 8 * (16 - n))
-    return [mask & (2**64 - 1), mask >> 64]
-
-
-#: _LAST[n]: mask of the last n bytes of a 16-byte window (16-byte items), n = 0..16
-_LAST = np.array([_top(n) for n in range(17)], dtype="<u8").view("V16").ravel()
-#: for q = 1 + position of the dot in the window (16: a final dot, 17: no dot): the bytes above it, kept in place
-_ABOVE = _LAST[[16 - q if q < 16 else 16 for q in range(18)]]
-#: divisor ±10^k of a token, indexed by q + 18·negative: k = 16 − q fractional digits (q ≥ 16: none)
-_DIVISOR = np.array([10.0 ** (16 - q if q < 16 else 0) for q in range(18)])
-_DIVISOR = np.concatenate([_DIVISOR, -_DIVISOR])
-_BLOCK = 1 << 15  # tokens per block: the block's uint64 temporaries stay in cache
-
-
-def _digits_to_int(y: np.ndarray) -> np.ndarray:
-    """8 digit values per little-endian word (first digit in the lowest byte) → their integer."""
-    y = (y * np.uint64(10 << 8 | 1)) >> np.uint64(8) & _M8  # pairs: 10·d_i + d_i+1
-    y = (y * np.uint64(100 << 16 | 1)) >> np.uint64(16) & _M16  # quads
-    return (y * np.uint64(10000 << 32 | 1)) >> np.uint64(32)  # the 8 digits
-
-
-def _decimal_block(windows: np.ndarray, first: np.ndarray, length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Values of plain decimal tokens and which tokens were plain decimals (module docstring).
-
-    ``windows``: the 16 bytes ending at each token's last byte (``V16`` items); ``first``: the
-    token's first byte; ``length``: its number of bytes.
-    """
-    negative = first == 45  # '-'
-    n = length - (negative | (first == 43))  # characters after the sign
-    v = windows.view("<u8").reshape(-1, 2) ^ _ZEROS
-    v &= _LAST[np.minimum(n, 16)].view("<u8").reshape(-1, 2)
-    dot = (v.view(np.uint8) == 0x2E ^ 0x30).view("<u8")  # 1 in the lowest bit of each byte holding '.'
-    below = dot - np.uint64(1)  # as one 128-bit number (low word borrows): the bits below the lowest dot
-    below[:, 1] += dot[:, 0] != 0
-    bits = np.bitwise_count(below)
-    q = (bits[:, 0] + bits[:, 1] + 8) >> 3  # 1 + position of the lowest dot; 17: none
-    above = _ABOVE[q].view("<u8").reshape(-1, 2)
-    up = v << np.uint64(8)
-    up[:, 1] |= v[:, 0] >> np.uint64(56)
-    y = up ^ ((v ^ up) & above)  # the window without the dot's byte: digits right-aligned
-    bad = (y + _ABOVE_NINE) | y  # 0x80 set in each byte of y that is not a digit
-    ok = ((bad[:, 0] | bad[:, 1]) & _HIGH) == 0
-    ok &= (n - 1).view(np.uint64) < 16  # 1..16 characters after the sign
-    d = _digits_to_int(y)
-    m = d[:, 0] * np.uint64(10**8) + d[:, 1]
-    ok &= m < np.uint64(2**53)
-    return m.astype(np.float64) / _DIVISOR[q + 18 * negative], ok
+    precision = (
+        {} if tuple(int(x) for x in pd.__version__.split(".")[:2]) >= (3, 1) else {"float_precision": "round_trip"}
+    )
+    try:
+        column = pd.read_csv(
+            io.BytesIO(text.translate(_TO_LINES)),
+            header=None,
+            names=[0],
+            dtype=np.float64,
+            engine="c",
+            quoting=csv.QUOTE_NONE,
+            na_filter=False,
+            **precision,
+        )
+    except (ValueError, pd.errors.ParserError):
+        return None
+    return column[0].to_numpy()
 
 
 def _parse_row(body: str | bytes) -> np.ndarray | None:
@@ -250,39 +209,23 @@ def _parse_tokens(
 ) -> np.ndarray | None:
     """The float64 value of every token ``blob[starts[i]:ends[i]]``; ``None`` if one is not a number.
 
-    Plain decimals go through :func:`_decimal_block`, every other token through numpy's parser.
-    ``run``: the tokens are all the tokens of ``blob[starts[0]:ends[-1]]``, so that text that is
-    mostly not plain decimals (exponent notation, say) can go to numpy's parser as it stands.
+    ``run``: the tokens are all the tokens of ``blob[starts[0]:ends[-1]]`` (one slice); otherwise the
+    bytes outside the tokens are blanked. Text of :data:`_PLAIN` tokens goes to pandas, the rest (and
+    what pandas rejects) to numpy's parser (module docstring).
     """
     if starts.size == 0:
         return np.zeros(0)
-    whole = blob[starts[0] : ends[-1]] if run else None
-    head = np.full(32, 32, dtype=np.uint8)  # the first bytes, behind 16 spaces: windows of tokens ending early
-    head[16 : 16 + min(b.size, 16)] = b[:16]
-    windows = np.ndarray(shape=(max(b.size - 15, 0),), dtype="V16", buffer=blob, strides=(1,))
-    early = np.ndarray(shape=(17,), dtype="V16", buffer=head, strides=(1,))
-    values = np.empty(starts.size)
-    ok = np.empty(starts.size, dtype=bool)
-    for a in range(0, starts.size, _BLOCK):
-        s, e = starts[a : a + _BLOCK], ends[a : a + _BLOCK]
-        if e[0] >= 16:
-            x = windows[e - 16]
-        else:  # tokens ending within the first 16 bytes: windows of the space-padded head
-            x = early[np.minimum(e, 16)]
-            late = e > 16
-            x[late] = windows[e[late] - 16]
-        values[a : a + _BLOCK], ok[a : a + _BLOCK] = _decimal_block(x, b[s], e - s)
-        if a == 0 and whole is not None and 2 * np.count_nonzero(ok[:_BLOCK]) < ok[:_BLOCK].size:
-            return _exactly(_parse_row(whole), starts.size)  # mostly other numbers (judged on the first block)
-    if not ok.all():
-        other = np.flatnonzero(~ok)
-        rest = _exactly(
-            _parse_row(b" ".join([blob[s:e] for s, e in zip(starts[other].tolist(), ends[other].tolist())])), other.size
-        )
-        if rest is None:
-            return None
-        values[other] = rest
-    return values
+    if run:
+        text = blob[starts[0] : ends[-1]]
+    else:
+        inside = np.zeros(b.size + 1, dtype=np.int64)
+        inside[starts] += 1
+        inside[ends] -= 1
+        text = np.where(np.cumsum(inside[:-1]) > 0, b, np.uint8(32)).tobytes()
+    values = None
+    if not text.translate(None, _PLAIN + _SPACE_BYTES):
+        values = _pandas_values(text)
+    return _exactly(values if values is not None else _parse_row(text), starts.size)
 
 
 def _exactly(values: np.ndarray | None, n: int) -> np.ndarray | None:

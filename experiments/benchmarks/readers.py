@@ -8,8 +8,8 @@ says how much the parsing (tokenising, numeric conversion, validation, building 
 the aim is ≤ 3×.
 
 **The alternatives.** Every number a text reader converts goes through one call of
-:func:`slamarena.datasets.formats._text._parse_tokens` per record type (the project's exact
-vectorised decimal parser), on one run of numeric text: the joined bodies of :func:`_text.numbers`
+:func:`slamarena.datasets.formats._text._parse_tokens` per record type (pandas' C parser on the
+tokens as one column, numpy's parser for what it rejects), on one run of numeric text: the joined bodies of :func:`_text.numbers`
 or the data lines of :func:`_text.numeric_table`. One load per case records those calls; then the
 conversion step alone is timed on exactly those texts, by
 
@@ -261,7 +261,7 @@ def main(out: Path | None = None, quick: bool = False) -> int:
             rows.append(
                 {
                     "dataset": label,
-                    "variant": "full reader (own parser)" if key == "own" else f"reader with {key}",
+                    "variant": "full reader (as shipped)" if key == "own" else f"reader with {key}",
                     "conversion_s": t[key],
                     "reader_s": reader if r["usable"][key] else "",
                     "ratio": reader / ref if r["usable"][key] else "",

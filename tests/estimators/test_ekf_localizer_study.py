@@ -285,8 +285,10 @@ def test_study_mrclam():
         ],
         rows,
     )
+    # measured 2026-11-28: EKF ATE 0.189/0.240/0.226/0.303/0.212 m (robots 1–5), at most 0.166 of dead reckoning's
+    # (robot 4): the ratio bound is 2.1× that (was 0.5); 0.35 m is 1.16× the worst robot's and stays
     for s, d in out.values():
-        assert s["ate"] < 0.5 * d["ate"] and s["ate"] < 0.35
+        assert s["ate"] < 0.35 * d["ate"] and s["ate"] < 0.35
 
 
 def _error_by_time_since_update(est, seq) -> tuple[float, float]:

@@ -61,7 +61,7 @@ def test_the_range_offset_matters(seq, anchored):
 def test_isam2_equals_batch_with_anchored_beacons(seq, anchored):
     est = ISAM2Smoother(beacon_range_var=SIGMA**2, beacon_bias=BIAS).run(seq)
     assert np.abs(est.poses - anchored.poses).max() < 1e-6
-    assert_covariances_close(est.pose_cov, anchored.pose_cov, rtol=1e-3)  # measured 2.5e-6
+    assert_covariances_close(est.pose_cov, anchored.pose_cov, rtol=5e-5)  # measured 2.5e-5 (2026-11-28): 2× margin
 
 
 def test_range_only_slam_recovers_free_beacons(seq):

@@ -69,9 +69,11 @@ def test_pose_graph_study(tmp_path):
 
     rows = pd.read_csv(tmp_path / "summary.csv").set_index("dataset")
     assert (rows["estimate.final_error"] <= rows["estimate.initial_error"]).all()
-    assert (
-        rows["ate.rmse"] < 1.0
-    ).all()  # manhattanOlson3500 0.80 m, city10000 0.041 m, cityTrees10000 0.10 m when measured
+    # ATE RMSE measured 2026-11-28 (this test, the reduced config): manhattanOlson3500 0.795 m, isam_city10000 0.0406 m,
+    # cityTrees10000 0.103 m. Bounds: 2.5× the measured value, but never looser than the former common bound of 1 m.
+    bound = {"manhattanOlson3500": 1.0, "isam_city10000": 0.1, "cityTrees10000": 0.25}
+    for label in truth:
+        assert rows.at[label, "ate.rmse"] < bound[label], (label, rows.at[label, "ate.rmse"])
 
 
 def _max_difference(a, b) -> tuple[float, float]:
@@ -195,7 +197,9 @@ def test_mrclam_dataset6_study():
         "given iSAM2's between covariances (diagnostics['between_cov']) optimises iSAM2's graph; the problem's graph differs "
         "by the stiffness rule's lifts.",
     )
-    assert all(float(r[5]) < 0.3 and float(r[7]) < 1.0 for r in accuracy)
+    # measured 2026-11-28 (robots 1–5): SE(2)-aligned ATE 0.115/0.127/0.131/0.202/0.169 m (bound 0.3 m: 1.5× the worst,
+    # kept), aligned landmark RMSE 0.073/0.107/0.126/0.094/0.121 m (bound 0.3 m: 2.4× the worst; was 1.0 m)
+    assert all(float(r[5]) < 0.3 and float(r[7]) < 0.3 for r in accuracy)
 
 
 def test_victoria_park_study():

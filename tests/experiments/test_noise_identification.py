@@ -34,3 +34,40 @@ def test_scoring_leaves_the_estimate_unchanged_and_counts_every_labelled_reobser
     np.testing.assert_array_equal(scored.poses, plain.poses)
     ids = seq.range_bearing.landmark_id
     assert len(scoring.scored) == len(ids) - len(np.unique(ids))  # every row but each landmark's first
+
+
+def test_identify_noise_command_states_the_library_result_from_a_given_start():
+    """`slamarena identify-noise`: the start given by --param (16× the simulator's), the filter's other parameters and
+    the dataset's keywords reach identify(); it prints the same exponents and model as the library call."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from slamarena.experiments.cli import app
+
+    truth = _world().noise
+    start = (16.0 * truth.range_bearing_cov).tolist()
+    args = [
+        "identify-noise",
+        "sim:landmarks",
+        "--entry",
+        "range_bearing_cov=0,1",
+        "--param",
+        f"range_bearing_cov={start}",
+    ]
+    args += ["--param", f"twist_cov={truth.twist_cov.tolist()}", "--dataset-param", "n_landmarks=20"]
+    result = CliRunner().invoke(app, [*args, "--dataset-param", "seed=1"])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    assert out["exponents"] == {"range_bearing_cov[0]": -2, "range_bearing_cov[1]": -2}
+    np.testing.assert_allclose(out["model"]["range_bearing_cov"], truth.range_bearing_cov, rtol=1e-12)
+    assert out["score"]["rows"] > 0 and out["models_evaluated"] >= 3
+
+
+def test_identify_noise_command_rejects_a_malformed_entry():
+    from typer.testing import CliRunner
+
+    from slamarena.experiments.cli import app
+
+    result = CliRunner().invoke(app, ["identify-noise", "sim:landmarks", "--entry", "range_bearing_cov:0"])
+    assert result.exit_code == 2 and "NAME=I,J" in result.output

@@ -92,7 +92,8 @@ def test_sim_laser_study():
     results["odometry"] = [{"seed": s, "ate_rmse": v} for s, v in enumerate(odo)]
     print("odometry ATE", np.round(odo, 3))
     (OUT / "sim.json").write_text(json.dumps(results, indent=2))
-    assert np.median([r["ate_rmse"] for r in results["gauss_newton"]]) < 0.03
+    # median ATE RMSE of gauss_newton over the 5 seeds measured 2026-11-28: 0.0057 m; bound 2.6× that (was 0.03)
+    assert np.median([r["ate_rmse"] for r in results["gauss_newton"]]) < 0.015
 
 
 def _match_scans(raw, corrected):
