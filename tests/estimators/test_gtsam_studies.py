@@ -87,7 +87,8 @@ def _differences(a, b) -> str:
 
 
 def test_mrclam_dataset6_study():
-    """Every robot of Dataset 6 (known ids, the noise of experiments/configs/mrclam.yaml, Huber): iSAM2 finishes and equals the batch optimum of its graph;
+    """Every robot of Dataset 6 (known ids, the noise of experiments/configs/mrclam.yaml, Huber): iSAM2 finishes and
+    equals the batch optimum of its graph;
     the batch smoother (from iSAM2's estimate) beats dead reckoning; from dead reckoning it stops in local minima
     (robots 3 and 5)."""
     from slamarena.estimators.dead_reckoning import DeadReckoning
@@ -171,7 +172,8 @@ def test_mrclam_dataset6_study():
             "batch time [s]",
         ],
         accuracy,
-        "Batch smoother from iSAM2's estimate (the default start), Huber kernel (k = 1.345 σ) on the observations, pose keys at every observation "
+        "Batch smoother from iSAM2's estimate (the default start), Huber kernel (k = 1.345 σ) on the observations, "
+        "pose keys at every observation "
         f"set and every 1 s, noise {noise} (identified against Vicon, experiments/configs/mrclam.yaml); start pose = Vicon at the "
         "first odometry stamp; landmark error against the surveyed map, as estimated (start-anchored) and after the SE(2) "
         "alignment that best fits the trajectory to Vicon.",
