@@ -12,9 +12,20 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from slamarena.params import Field, Params
+
 from .matching import match
 
-__all__ = ["orb", "warp_match_rate"]
+__all__ = ["FeatureParams", "orb", "warp_match_rate"]
+
+
+class FeatureParams(Params):
+    """Features and their matching, shared by the VO pipelines: ORB (OpenCV) and Hamming matching (ratio test,
+    mutual check, a distance cap)."""
+
+    n_features: int = Field(2000, ge=50, description="ORB features per image")
+    ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")
+    max_distance: int = Field(64, ge=0, le=256, description="largest Hamming distance of a match [bits]")
 
 
 def orb(image: np.ndarray, n_features: int = 2000, **options) -> tuple[np.ndarray, np.ndarray]:

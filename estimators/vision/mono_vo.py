@@ -31,7 +31,7 @@ from slamarena.datasets.sequence import Camera
 from slamarena.params import Field, Params
 
 from .backends import BACKENDS, Backend
-from .features import orb
+from .features import FeatureParams, orb
 from .projection import normalise, residuals
 from .stereo_vo import VOResult, pose_matrix
 
@@ -43,9 +43,7 @@ class MonoVOParams(Params):
     after the first run failed on frames 0–60 of KITTI 00, part of the scored frames
     (research/notebook/2026-11-28-vision.md)."""
 
-    n_features: int = Field(2000, ge=50, description="ORB features per image")
-    ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")
-    max_distance: int = Field(64, ge=0, le=256, description="largest Hamming distance of a match [bits]")
+    features: FeatureParams = Field(FeatureParams(), description="ORB features and their matching")
     init_parallax: float = Field(10.0, gt=0, description="median displacement that starts the map [px]")
     essential_threshold: float = Field(1.0, gt=0, description="Sampson threshold of the essential RANSAC [px]")
     pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC and triangulation threshold [px]")
@@ -97,7 +95,7 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
 
     def features_of(k: int):
         if k not in features:
-            features[k] = orb(camera.image(k), params.n_features)
+            features[k] = orb(camera.image(k), params.features.n_features)
         return features[k]
 
     # ---- start: keyframes 0 and k1
@@ -107,7 +105,7 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
     for k1 in range(1, n):
         start = time.process_time()
         u1, d1 = features_of(k1)
-        a, b = backend.match(d0, d1, params.ratio, params.max_distance)
+        a, b = backend.match(d0, d1, params.features.ratio, params.features.max_distance)
         cpu[k1] += time.process_time() - start
         if len(a) >= 8 and np.median(np.linalg.norm(u1[b] - u0[a], axis=1)) >= params.init_parallax:
             break
@@ -132,7 +130,7 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         u, d = features_of(k)
         X_map = np.concatenate([m[0] for m in maps])
         d_map = np.concatenate([m[1] for m in maps])
-        i, j = backend.match(d, d_map, params.ratio, params.max_distance)
+        i, j = backend.match(d, d_map, params.features.ratio, params.features.max_distance)
         result = backend.pnp(K, X_map[j], u[i], params.pnp_threshold, params.seed + k)
         count = 0 if result is None else int(result.inliers.sum())
         inliers[k] = count
@@ -152,7 +150,7 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         ):
             previous = keyframes[-1]
             up, dp = features_of(previous)
-            a, b = backend.match(dp, d, params.ratio, params.max_distance)
+            a, b = backend.match(dp, d, params.features.ratio, params.features.max_distance)
             T_prev, T_now = np.linalg.inv(poses[previous]), np.linalg.inv(poses[k])
             moved = len(a) >= 8 and np.median(np.linalg.norm(u[b] - up[a], axis=1)) >= params.init_parallax
             X, keep = triangulate_pair(

@@ -39,7 +39,7 @@ from slamarena.estimators.gtsam_smoother.graph import OptimizationError
 from slamarena.params import Field, Params
 
 from .backends import BACKENDS
-from .features import orb
+from .features import FeatureParams, orb
 from .window_ba import Observation, bundle_adjust
 
 __all__ = ["StereoVOParams", "VOResult", "stereo_points", "stereo_vo", "pose_matrix"]
@@ -48,9 +48,7 @@ __all__ = ["StereoVOParams", "VOResult", "stereo_points", "stereo_vo", "pose_mat
 class StereoVOParams(Params):
     """Stereo VO parameters (set a priori, not fitted to the scored frames)."""
 
-    n_features: int = Field(2000, ge=50, description="ORB features per image")
-    ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")
-    max_distance: int = Field(64, ge=0, le=256, description="largest Hamming distance of a match [bits]")
+    features: FeatureParams = Field(FeatureParams(), description="ORB features and their matching")
     row_tolerance: float = Field(1.0, ge=0, description="|v_l − v_r| of a stereo match on the rectified pair [px]")
     min_disparity: float = Field(2.0, gt=0, description="smallest disparity triangulated [px] (depth ≤ fx b / d)")
     pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC inlier threshold [px]")
@@ -91,11 +89,11 @@ def stereo_points(
     """Frame k's stereo points: left pixels (n, 2), right columns u_R (n,), camera-frame points (n, 3), left
     descriptors (n, 32)."""
     backend = BACKENDS[params.geometry]
-    ul, dl = orb(camera.image(k), params.n_features)
-    ur, dr = orb(camera.image(k, "right"), params.n_features)
+    ul, dl = orb(camera.image(k), params.features.n_features)
+    ur, dr = orb(camera.image(k, "right"), params.features.n_features)
     disparity = ul[:, None, 0] - ur[None, :, 0]
     allowed = (np.abs(ul[:, None, 1] - ur[None, :, 1]) <= params.row_tolerance) & (disparity >= params.min_disparity)
-    i, j = backend.match(dl, dr, params.ratio, params.max_distance, allowed)
+    i, j = backend.match(dl, dr, params.features.ratio, params.features.max_distance, allowed)
     K, b = camera.K, camera.baseline
     x_left = (ul[i] - K[:2, 2]) / np.diag(K)[:2]
     x_right = (ur[j] - K[:2, 2]) / np.diag(K)[:2]
@@ -163,9 +161,9 @@ def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:
             add_keyframe(0, None)
             cpu[k] = time.process_time() - start
             continue
-        u, d = orb(camera.image(k), params.n_features)
+        u, d = orb(camera.image(k), params.features.n_features)
         local = np.flatnonzero(np.isin(origin, keyframes[-params.map_keyframes :]))
-        i, j = backend.match(d, descriptors[local], params.ratio, params.max_distance)
+        i, j = backend.match(d, descriptors[local], params.features.ratio, params.features.max_distance)
         result = backend.pnp(camera.K, points[local[j]], u[i], params.pnp_threshold, params.seed + k)
         count = 0 if result is None else int(result.inliers.sum())
         inliers[k] = count
