@@ -57,7 +57,7 @@ A message whose stamp is zero, negative, not finite or off the clock by more tha
 stamped 50 s late, say) is dropped — its neighbours carry the motion across — listed in
 ``meta["dropped_lines"]["bad_timestamp"]`` and warned about (:class:`DataWarning`); one line never
 changes the time base of the log. Only a log whose stamps carry no time — most of a stream off its
-clock, or all alike (several corrected logs stamp everything 0 or with one value) — gets ``t`` = the
+clock, or most alike (several corrected logs stamp everything 0, with one value or a few) — gets ``t`` = the
 scan index (``meta["time_source"]``, with a warning). ``strict_time=True`` raises at the first
 stamp stepping back instead. The original stamps of the scans read are kept in
 ``meta["scan_ipc_timestamp"]``: relations files (Kümmerle et al.) refer to them; the log's relations file, where one is
@@ -224,9 +224,10 @@ def clock_faults(ts: np.ndarray) -> np.ndarray:
 
 
 def _carries_time(ts: np.ndarray, faults: np.ndarray) -> bool:
-    """Most stamps of the stream are on its clock, and the clock advances (not all stamps alike)."""
+    """Most stamps of the stream are on its clock, and most of those are distinct (the clock advances: not all alike,
+    nor a few values repeated, as the corrected CSAIL log's 406 scans carry 2 distinct stamps)."""
     good = ts[~faults]
-    return ts.size == 0 or (2 * good.size > ts.size and (good.size == 1 or np.ptp(good) > 0))
+    return ts.size == 0 or (2 * good.size > ts.size and (good.size == 1 or 2 * np.unique(good).size > good.size))
 
 
 def _dropped(path: str, rows: np.ndarray, reason: str) -> list[int]:

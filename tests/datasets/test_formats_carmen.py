@@ -107,6 +107,7 @@ def test_corrected_intel():
         ("orebro", 237, 181, "scan index"),
         ("acapulco", 861, 181, "ipc"),
         ("seattle", 241, 361, "ipc"),
+        ("csail", 406, 361, "scan index"),  # 406 scans, 2 distinct stamps: the reader once spread them over 19756 s
     ],
 )
 def test_corrected_logs_with_bad_stamps(name, scans, beams, time_source):
@@ -266,6 +267,18 @@ def test_only_a_log_whose_stamps_mostly_carry_no_time_goes_by_the_scan_index(tmp
             and len(s.motion) == 19
             and s.meta["dropped_lines"]["bad_timestamp"] == []
         )
+
+
+def test_a_log_whose_stamps_repeat_a_few_values_goes_by_the_scan_index(tmp_path):
+    """Stamps on their clock but mostly alike (two distinct values, as the corrected CSAIL log's) carry no time: the
+    running maximum would spread them over the log instead."""
+    lines = _steady_log()
+    for k in range(20):  # every ODOM and FLASER stamped 100 s or 200 s, never stepping back
+        lines[2 * k + 1] = _shift_stamp(lines[2 * k + 1], (100.0 if k < 10 else 200.0) - (100 + 0.2 * k))
+        lines[2 * k + 2] = _shift_stamp(lines[2 * k + 2], (100.0 if k < 10 else 200.0) - (100 + 0.2 * k + 0.1))
+    with pytest.warns(DataWarning, match="carry no time"):
+        s = carmen.read(_log(tmp_path, "\n".join(lines) + "\n"))
+    assert s.meta["time_source"].startswith("scan index") and np.array_equal(s.scans.t, np.arange(20.0))
 
 
 def test_staged_intel_with_a_late_odom_and_a_garbage_scan_keeps_its_clock(intel, tmp_path):
