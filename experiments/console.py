@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shlex
 import time
 from pathlib import Path
 
@@ -12,7 +13,7 @@ from .cellspec import CellOutcome
 from .config import ExperimentConfig
 from .plan import forced_cells, plan
 
-__all__ = ["progress", "ProgressLines", "console_summary", "print_grid"]
+__all__ = ["progress", "ProgressLines", "console_summary", "print_results", "print_next_step", "print_grid"]
 
 
 def progress(console):
@@ -127,6 +128,24 @@ def console_summary(console, frame, cells_run: int, cached: int, elapsed: float)
         )
     if len(failed) > 8:
         console.print(f"[red]… and {len(failed) - 8} more failed cells (see summary.csv)[/red]")
+
+
+def print_results(console, out: Path, figure_errors: dict) -> None:
+    """After the table: the figures not drawn (and why), and where the results are."""
+    for name, err in figure_errors.items():
+        console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
+    console.print(f"results: {escape(str(out))}", highlight=False)
+
+
+def print_next_step(console, out: Path, report_html: Path | None) -> None:
+    """The last line: the report written, or the command that writes it."""
+    if report_html is not None:
+        console.print(f"report: {escape(str(report_html))} (open it in a browser)", highlight=False)
+    else:
+        console.print(
+            f"next: slamarena report {escape(shlex.quote(str(out)))}  (every table and figure on one page, report.html)",
+            highlight=False,
+        )
 
 
 def print_grid(

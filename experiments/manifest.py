@@ -18,7 +18,7 @@ from .config import ExperimentConfig
 from .plan import Cell
 from .results import MANIFEST, write_json
 
-__all__ = ["start_manifest", "record_interruption", "now"]
+__all__ = ["start_manifest", "finish_manifest", "record_interruption", "now"]
 
 
 def _git_revision() -> str | None:
@@ -104,6 +104,28 @@ def start_manifest(
     }
     write_json(out / MANIFEST, manifest)
     return manifest
+
+
+def finish_manifest(
+    manifest: dict,
+    out: Path,
+    elapsed: float,
+    failed: list[str],
+    tables: list[Path],
+    figures: list,
+    figure_errors: dict,
+) -> None:
+    """Complete ``manifest.json`` as the run ends: when, how long, the failed cells, the tables and figures written
+    (relative to ``out``) and the figures not drawn with why."""
+    manifest.update(
+        finished=now(),
+        duration_s=elapsed,
+        failed=failed,
+        tables=[str(p.relative_to(out)) for p in tables],
+        figures=[str(Path(p).relative_to(out)) for p in figures],
+        figure_errors=figure_errors,
+    )
+    write_json(out / MANIFEST, manifest)
 
 
 def record_interruption(manifest: dict, out: Path, cells: list[Cell], console) -> None:

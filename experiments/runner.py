@@ -41,7 +41,6 @@ disk (:mod:`~slamarena.experiments.outdir`); the command line is :mod:`~slamaren
 from __future__ import annotations
 
 import errno
-import shlex
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -51,12 +50,12 @@ from rich.markup import escape
 from .cell import DISK_FULL_ERRNOS
 from .cellspec import CellOutcome
 from .config import ExperimentConfig
-from .console import ProgressLines, console_summary, progress
+from .console import ProgressLines, console_summary, print_next_step, print_results, progress
 from .execute import execute
-from .manifest import now, record_interruption, start_manifest
+from .manifest import finish_manifest, record_interruption, start_manifest
 from .outdir import DiskFull, disk_full_message, results_lock
 from .plan import Cell, cell_env, cell_spec, check_recompute, forced_cells, plan
-from .results import MANIFEST, SUMMARY, atomic_write_text, write_json
+from .results import SUMMARY, atomic_write_text
 from .tables import collect, monte_carlo_table, table_specs, write_frame, write_tables
 
 __all__ = ["run_experiment", "run_cells", "write_outputs", "draw_figures", "FigureMaker"]
@@ -99,6 +98,14 @@ def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path)
     if len(mc_frame):
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
     return written
+
+
+def write_report_html(out: Path) -> Path:
+    """``report.html`` and ``report.md`` of ``out`` (:mod:`slamarena.experiments.report`); returns the HTML's path."""
+    from .report import write_report
+
+    html, _ = write_report(out)
+    return html
 
 
 def draw_figures(config: ExperimentConfig, out: Path, make_figures: FigureMaker | None) -> tuple[list, dict]:
@@ -182,31 +189,12 @@ def _run_locked(
         tables = write_outputs(config, cells, frame, out)
         figure_files, figure_errors = draw_figures(config, out, make_figures)
         elapsed = time.perf_counter() - t_start
-        manifest.update(
-            finished=now(),
-            duration_s=elapsed,
-            failed=sorted(failures),
-            tables=[str(p.relative_to(out)) for p in tables],
-            figures=[str(Path(p).relative_to(out)) for p in figure_files],
-            figure_errors=figure_errors,
-        )
-        write_json(out / MANIFEST, manifest)
+        finish_manifest(manifest, out, elapsed, sorted(failures), tables, figure_files, figure_errors)
     except OSError as exc:
         if exc.errno not in DISK_FULL_ERRNOS:
             raise
         raise DiskFull(disk_full_message(out, cells, left)) from None
     console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
-    for name, err in figure_errors.items():
-        console.print(f"[yellow]figure {escape(name)} not drawn: {escape(str(err))}[/yellow]")
-    console.print(f"results: {escape(str(out))}", highlight=False)
-    if report:
-        from .report import write_report
-
-        html, _ = write_report(out)
-        console.print(f"report: {escape(str(html))} (open it in a browser)", highlight=False)
-    else:
-        console.print(
-            f"next: slamarena report {escape(shlex.quote(str(out)))}  (every table and figure on one page, report.html)",
-            highlight=False,
-        )
+    print_results(console, out, figure_errors)
+    print_next_step(console, out, write_report_html(out) if report else None)
     return 0 if (frame["status"] == "ok").all() else 1
