@@ -41,8 +41,11 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
+from dataclasses import asdict, replace
 from datetime import UTC, datetime
 from pathlib import Path
+
+from .cellspec import CellOutcome, CellSpec
 
 __all__ = [
     "run_cell",
@@ -118,67 +121,59 @@ def file_digest(path: Path) -> str | None:
 
 
 def outcome(
-    spec: dict,
+    cell_id: str,
+    cell_dir: str | Path,
     returncode: int | None,
     elapsed: float,
     stderr: str = "",
     timeout: float | None = None,
     compile_s: float = 0.0,
-) -> dict:
-    """What became of a cell process (``returncode`` None: killed at the timeout): ``{"id", "status", "error",
-    "traceback", "elapsed", "compile_s"}``, status one of ok, error, timeout, killed, disk_full."""
-    result = {
-        "id": spec["id"],
-        "status": "ok",
-        "error": "",
-        "traceback": "",
-        "elapsed": elapsed,
-        "compile_s": compile_s,
-    }
+) -> CellOutcome:
+    """What became of the process of cell ``cell_id`` writing into ``cell_dir`` (``returncode`` None: killed at the
+    timeout): ok, error (with the error and traceback its ``error.json`` records, else the tail of its output), timeout,
+    killed or disk_full."""
+    ended = CellOutcome(cell_id, elapsed=elapsed, compile_s=compile_s)
     if returncode is None:
         compiled = f"; {compile_s:.0f} s of it compiling numba kernels" if compile_s >= 0.5 else ""
-        return {**result, "status": "timeout", "error": f"timed out after {timeout:g} s (killed){compiled}"}
+        return replace(ended, status="timeout", error=f"timed out after {timeout:g} s (killed){compiled}")
     if returncode == 0:
-        return result
+        return ended
     if returncode == EXIT_DISK_FULL:
-        return {**result, "status": "disk_full", "error": f"no space left on the device writing {spec['dir']}"}
+        return replace(ended, status="disk_full", error=f"no space left on the device writing {cell_dir}")
     try:
-        info = json.loads((Path(spec["dir"]) / "error.json").read_text())
-        return {**result, "status": "error", "error": info["error"], "traceback": info["traceback"]}
+        info = json.loads((Path(cell_dir) / "error.json").read_text())
+        return replace(ended, status="error", error=info["error"], traceback=info["traceback"])
     except (OSError, ValueError, KeyError):
         pass
     if returncode < 0:
-        return {**result, "status": "killed", "error": f"cell process killed by {signal.Signals(-returncode).name}"}
+        return replace(ended, status="killed", error=f"cell process killed by {signal.Signals(-returncode).name}")
     tail = (stderr or "").strip().splitlines()[-20:]
-    return {
-        **result,
-        "status": "error",
-        "error": f"cell process exited with code {returncode}",
-        "traceback": "\n".join(tail),
-    }
+    return replace(
+        ended, status="error", error=f"cell process exited with code {returncode}", traceback="\n".join(tail)
+    )
 
 
-def _prepare(spec: dict) -> None:
-    cell = Path(spec["dir"])
+def _prepare(spec: CellSpec) -> None:
+    cell = Path(spec.dir)
     cell.mkdir(parents=True, exist_ok=True)
     (cell / "error.json").unlink(missing_ok=True)
 
 
-def run_cell(spec: dict, timeout: float | None) -> dict:
+def run_cell(spec: CellSpec, timeout: float | None) -> CellOutcome:
     """Run one cell in a fresh child process (the Dask path); returns its :func:`outcome`."""
     _prepare(spec)
     start = time.perf_counter()
-    proc = _start([], spec.get("env", {}), subprocess.PIPE)
+    proc = _start([], spec.env, subprocess.PIPE)
     try:
         try:
-            _, stderr = proc.communicate(json.dumps(spec), timeout=timeout)
+            _, stderr = proc.communicate(json.dumps(spec.to_dict()), timeout=timeout)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.communicate()
-            return outcome(spec, None, time.perf_counter() - start, timeout=timeout)
+            return outcome(spec.id, spec.dir, None, time.perf_counter() - start, timeout=timeout)
     finally:
         _forget(proc)
-    return outcome(spec, proc.returncode, time.perf_counter() - start, stderr)
+    return outcome(spec.id, spec.dir, proc.returncode, time.perf_counter() - start, stderr)
 
 
 class Worker:
@@ -190,23 +185,23 @@ class Worker:
         self.env = env
         self.proc: subprocess.Popen | None = None
 
-    def run(self, spec: dict, timeout: float | None) -> dict:
+    def run(self, spec: CellSpec, timeout: float | None) -> CellOutcome:
         """Run one cell in a child the server forks; returns its :func:`outcome`."""
         if self.proc is None or self.proc.poll() is not None:
             self.proc = _start(["--serve"], self.env, subprocess.DEVNULL)
         start = time.perf_counter()
         try:
-            self.proc.stdin.write(json.dumps({"spec": spec, "timeout": timeout}) + "\n")
+            self.proc.stdin.write(json.dumps({"spec": spec.to_dict(), "timeout": timeout}) + "\n")
             self.proc.stdin.flush()
             line = self.proc.stdout.readline()
         except OSError:
             line = ""
         if line:
-            return json.loads(line)
+            return CellOutcome.from_dict(json.loads(line))
         code = self.proc.wait()  # the server died (killed from outside, out of memory), the cell with it
         _forget(self.proc)
         self.proc = None
-        return outcome(spec, code if code < 0 else -signal.SIGKILL, time.perf_counter() - start)
+        return outcome(spec.id, spec.dir, code if code < 0 else -signal.SIGKILL, time.perf_counter() - start)
 
     def close(self) -> None:
         """Let the server exit (end of its input), or kill it if it does not."""
@@ -253,12 +248,13 @@ def serve() -> int:
     preload()
     for line in sys.stdin:
         request = json.loads(line)
-        answers.write(json.dumps(_fork_cell(request["spec"], request["timeout"])) + "\n")
+        ended = _fork_cell(CellSpec.from_dict(request["spec"]), request["timeout"])
+        answers.write(json.dumps(ended.to_dict()) + "\n")
         answers.flush()
     return 0
 
 
-def _fork_cell(spec: dict, timeout: float | None) -> dict:
+def _fork_cell(spec: CellSpec, timeout: float | None) -> CellOutcome:
     import mmap
     import select
     import tempfile
@@ -305,7 +301,8 @@ def _fork_cell(spec: dict, timeout: float | None) -> dict:
     stderr = log.read().decode("utf-8", errors="replace")
     log.close()
     shared.close()
-    return outcome(spec, os.waitstatus_to_exitcode(status) if ended else None, elapsed, stderr, timeout, compile_s)
+    code = os.waitstatus_to_exitcode(status) if ended else None
+    return outcome(spec.id, spec.dir, code, elapsed, stderr, timeout, compile_s)
 
 
 def _flatten_series(series: dict) -> dict:
@@ -330,7 +327,7 @@ def _truth_arrays(ref) -> dict:
     return out
 
 
-def execute(spec: dict, clock=None) -> dict:
+def execute(spec: CellSpec, clock=None) -> dict:
     """The work of one cell (in its own process); returns the ``metrics.json`` content. ``clock`` is the
     :class:`~slamarena.experiments.compilation.CompileClock` running around it (its seconds go to ``compile_s``)."""
 
@@ -344,24 +341,24 @@ def execute(spec: dict, clock=None) -> dict:
     from .results import read_json, save_npz, write_json, write_trajectory_tum
 
     started = _now()
-    cell = Path(spec["dir"])
-    ds, es, seed = spec["dataset"], spec["estimator"], spec["seed"]
+    cell = Path(spec.dir)
+    ds, es, seed = spec.dataset, spec.estimator, spec.seed
     t0 = time.perf_counter()
-    params = dict(ds["params"], seed=seed) if ds["simulator"] else dict(ds["params"])
-    data = datasets.load(ds["name"], **params)
+    params = dict(ds.params, seed=seed) if ds.simulator else dict(ds.params)
+    data = datasets.load(ds.name, **params)
     load_time = time.perf_counter() - t0
 
     estimate_file = cell / "estimate.npz"
     previous = cell / "estimate.json"
     estimate = None
-    if not spec.get("force") and previous.exists():
+    if not spec.force and previous.exists():
         stamp = read_json(previous)
-        if stamp.get("key") == spec["key"] and stamp.get("sha256") and stamp["sha256"] == file_digest(estimate_file):
+        if stamp.get("key") == spec.key and stamp.get("sha256") and stamp["sha256"] == file_digest(estimate_file):
             estimate, wall = Estimate.load(estimate_file), stamp["wall"]
     if estimate is None:
-        cls = import_target(method_table()[es["name"]])
-        kwargs = dict(es["params"])
-        if spec["seed_to_estimator"]:  # the method's parameters take a seed (EstimatorSpec.takes_seed)
+        cls = import_target(method_table()[es.name])
+        kwargs = dict(es.params)
+        if spec.seed_to_estimator:  # the method's parameters take a seed (EstimatorSpec.takes_seed)
             kwargs["seed"] = seed
         method = cls(**kwargs)
         t1 = time.perf_counter()
@@ -369,18 +366,16 @@ def execute(spec: dict, clock=None) -> dict:
         wall = time.perf_counter() - t1
         estimate.save(estimate_file)
         write_trajectory_tum(cell / "trajectory.tum", estimate.t, estimate.poses, data)
-        if spec.get("mcap"):
+        if spec.mcap:
             from .mcap_output import MCAP_NAME, write_result_mcap
 
             write_result_mcap(cell / MCAP_NAME, estimate, method)
-        write_json(
-            previous, {"key": spec["key"], "wall": wall, "finished": _now(), "sha256": file_digest(estimate_file)}
-        )
+        write_json(previous, {"key": spec.key, "wall": wall, "finished": _now(), "sha256": file_digest(estimate_file)})
 
     ref = reference_of(data)
     if ref.t is not None:  # beside trajectory.tum, same stamps convention: `evo_ape tum groundtruth.tum trajectory.tum`
         write_trajectory_tum(cell / "groundtruth.tum", ref.t, ref.poses, data)
-    selected = {name: METRICS[name].params(**p) for name, p in spec["metrics"].items()}
+    selected = {name: METRICS[name].params(**p) for name, p in spec.metrics.items()}
     cell_data = CellData(estimate, data, ref, wall=wall, peak_rss=peak_rss_mb())
     scalars, series, skipped = evaluate(cell_data, selected)
     save_npz(cell / "series.npz", _flatten_series(series))
@@ -388,11 +383,11 @@ def execute(spec: dict, clock=None) -> dict:
     alignment = series.get("ate", {}).get("alignment")
     result = {
         "status": "ok",
-        "id": spec["id"],
-        "key": spec["key"],
-        "metrics_key": spec["metrics_key"],
-        "dataset": ds,
-        "estimator": es,
+        "id": spec.id,
+        "key": spec.key,
+        "metrics_key": spec.metrics_key,
+        "dataset": asdict(ds),
+        "estimator": asdict(es),
         "seed": seed,
         "metrics": scalars,
         "skipped": skipped,
@@ -420,13 +415,13 @@ def remove_temporaries(directory: Path) -> None:
         path.unlink(missing_ok=True)
 
 
-def record(spec: dict, on_compile: Callable[[float], None] | None = None) -> int:
+def record(spec: CellSpec, on_compile: Callable[[float], None] | None = None) -> int:
     """Run the cell and record its outcome in its directory: 0 (``metrics.json`` written), 1 (``error.json`` with the
     error and traceback), :data:`EXIT_DISK_FULL` (no space to write; temporaries removed, nothing half-written)."""
     from .compilation import CompileClock
     from .results import write_json
 
-    cell = Path(spec["dir"])
+    cell = Path(spec.dir)
     try:
         try:
             with CompileClock(on_compile) as clock:
@@ -458,7 +453,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv == ["--serve"]:
         return serve()
     spec = json.loads(Path(argv[0]).read_text() if argv else sys.stdin.read())
-    return record(spec)
+    return record(CellSpec.from_dict(spec))
 
 
 if __name__ == "__main__":

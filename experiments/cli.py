@@ -3,7 +3,7 @@
 Commands delegate to the modules that own the work, imported inside each command so that
 ``slamarena --help`` starts without loading numpy-heavy or GTSAM/Open3D code:
 
-    slamarena run [CONFIG]            slamarena.experiments.runner
+    slamarena run [CONFIG]            slamarena.experiments.cli_run
     slamarena figures RESULTS_DIR     slamarena.paper_figures.make
     slamarena report RESULTS_DIR [B]  slamarena.experiments.report
     slamarena results [PAGE…]         slamarena.experiments.quote (the quoted tables and numbers of README and research/)
@@ -114,7 +114,7 @@ def run(
         raise typer.Exit(0)
     from slamarena.paper_figures.make import make_all
 
-    from .runner import run_from_cli
+    from .cli_run import run_from_cli
 
     raise typer.Exit(
         run_from_cli(

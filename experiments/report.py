@@ -185,7 +185,7 @@ def _figure_order(path: Path):
 
 # ---------------------------------------------------------------------------- pieces
 def _fmt(x) -> str:
-    from .tables import _fmt as fmt
+    from .tables import format_number as fmt
 
     return fmt(float(x)) if isinstance(x, (int, float, np.number)) and not isinstance(x, bool) else str(x)
 
@@ -291,10 +291,10 @@ def _caption(r: Results, columns: list[str], published: list[dict]) -> Text:
 def _table_cells(r: Results, columns: list[str], published: list[dict]):
     """(means, rows of Cells, the published rows quoted) of a table spec's columns, through the tables module's
     aggregation with the published rows (:func:`~slamarena.experiments.tables.with_published`)."""
-    from .tables import PUBLISHED, _cells, aggregate, with_published
+    from .tables import PUBLISHED, aggregate, format_cells, with_published
 
     means, stds, best = with_published(*aggregate(r.frame, columns), published)
-    frame = _cells(means, stds, best, lambda s: Cell(s, frozenset({"best"})))
+    frame = format_cells(means, stds, best, lambda s: Cell(s, frozenset({"best"})))
     rows = []
     for row in frame.itertuples(index=False):
         quoted = str(row[1]).endswith(PUBLISHED)
@@ -309,7 +309,7 @@ def _table_cells(r: Results, columns: list[str], published: list[dict]):
 
 
 def _monte_carlo_table(r: Results) -> Table | None:
-    from .runner import MONTE_CARLO_COLUMNS
+    from .tables import MONTE_CARLO_COLUMNS
 
     mc = r.monte_carlo()
     if mc is None or not len(mc):

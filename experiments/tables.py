@@ -9,20 +9,42 @@ says which direction is better (``slamarena.experiments.metrics`` outputs: lower
 mean that reads the same as the best (the same text at the table's three significant digits) is
 marked too, so no value a reader sees as tied for best is left plain.
 The CSV also carries the raw ``<column>_mean`` / ``<column>_std`` numbers.
+
+The summary frame of a run is :func:`collect` (``summary.csv``); :func:`monte_carlo_table` is the run's NEES and NIS
+averaged over the seeds (``tables/monte_carlo.*``, its columns in :data:`MONTE_CARLO_COLUMNS`).
 """
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from .metrics import output_columns
-from .results import atomic_write_text
+from .results import atomic_write_text, load_npz, read_json
 
-__all__ = ["aggregate", "to_markdown", "to_latex", "write_tables", "write_frame", "default_columns", "table_specs"]
+if TYPE_CHECKING:
+    from .cellspec import CellOutcome
+    from .config import ExperimentConfig
+    from .plan import Cell
+
+__all__ = [
+    "aggregate",
+    "format_number",
+    "format_cells",
+    "collect",
+    "monte_carlo_table",
+    "MONTE_CARLO_COLUMNS",
+    "to_markdown",
+    "to_latex",
+    "write_tables",
+    "write_frame",
+    "default_columns",
+    "table_specs",
+]
 
 _DEFAULTS = (
     "ate.rmse",
@@ -52,7 +74,7 @@ def table_specs(tables: list, enabled) -> list[dict]:
     return specs or [{"name": "summary", "columns": default_columns(enabled)}]
 
 
-def _fmt(x: float) -> str:
+def format_number(x: float) -> str:
     if not np.isfinite(x):
         return "–"
     if x == 0:
@@ -80,8 +102,8 @@ def aggregate(frame: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, pd
         for ds, block in means[col].groupby(level="dataset", sort=False):
             if block.notna().sum() < 2:
                 continue
-            target = _fmt(block.min() if direction == "lower" else block.max())
-            best.loc[block.index[block.map(_fmt) == target], col] = True
+            target = format_number(block.min() if direction == "lower" else block.max())
+            best.loc[block.index[block.map(format_number) == target], col] = True
     means.insert(0, "n", counts)
     return means, stds, best
 
@@ -117,14 +139,14 @@ def with_published(
     return means.iloc[order], stds.iloc[order], best.iloc[order]
 
 
-def _cells(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, mark) -> pd.DataFrame:
+def format_cells(means: pd.DataFrame, stds: pd.DataFrame, best: pd.DataFrame, mark) -> pd.DataFrame:
     out = pd.DataFrame(index=means.index)
     out["n"] = [str(int(n)) if n else "–" for n in means["n"]]
     for col in best.columns:
         texts = []
         for idx in means.index:
             m, s, n = means.at[idx, col], stds.at[idx, col], means.at[idx, "n"]
-            text = _fmt(m) if (n < 2 or not np.isfinite(s)) else f"{_fmt(m)} ± {_fmt(s)}"
+            text = format_number(m) if (n < 2 or not np.isfinite(s)) else f"{format_number(m)} ± {format_number(s)}"
             texts.append(mark(text) if best.at[idx, col] else text)
         out[col] = texts
     return out.reset_index()
@@ -170,7 +192,7 @@ def to_markdown(means, stds, best, published=()) -> str:
         if any(r["label"] + PUBLISHED == e for e in means.index.get_level_values(1))
     )
     return (
-        _markdown(_cells(means, stds, best, lambda s: f"**{s}**"))
+        _markdown(format_cells(means, stds, best, lambda s: f"**{s}**"))
         + "\nn: seeds; mean ± std over seeds; best per dataset in bold"
         + ("; rows marked (published) quote the paper, n –" if sources else "")
         + ".\n\n"
@@ -180,12 +202,12 @@ def to_markdown(means, stds, best, published=()) -> str:
 
 
 def to_latex(means, stds, best, published=()) -> str:
-    cells = _cells(means, stds, best, lambda s: f"\\textbf{{{s}}}")
+    cells = format_cells(means, stds, best, lambda s: f"\\textbf{{{s}}}")
     return _latex(cells.map(lambda v: str(v).replace(" ± ", r" $\pm$ ").replace("–", "--")))
 
 
 def to_csv(means, stds, best, published=()) -> str:
-    cells = _cells(means, stds, best, lambda s: f"{s}*")
+    cells = format_cells(means, stds, best, lambda s: f"{s}*")
     raw = pd.concat([means.drop(columns="n").add_suffix("_mean"), stds.add_suffix("_std")], axis=1).reset_index(
         drop=True
     )
@@ -210,10 +232,105 @@ def write_tables(frame: pd.DataFrame, tables, directory: Path, published=()) -> 
 def write_frame(frame: pd.DataFrame, stem: Path) -> list[Path]:
     """A plain frame (one row per group, nothing to average) in the three formats."""
     stem = Path(stem)
-    shown = frame.map(lambda v: _fmt(v) if isinstance(v, float) else v)
+    shown = frame.map(lambda v: format_number(v) if isinstance(v, float) else v)
     paths = [stem.with_suffix(".md"), stem.with_suffix(".csv"), stem.with_suffix(".tex")]
     atomic_write_text(paths[0], _markdown(shown))
     atomic_write_text(paths[1], frame.to_csv(index=False))
     numbers = shown.iloc[:, 2:].map(lambda v: _tex_escape(str(v)))  # the text columns are escaped by _latex
     atomic_write_text(paths[2], _latex(pd.concat([shown.iloc[:, :2], numbers], axis=1)))
     return paths
+
+
+def collect(config: ExperimentConfig, cells: list[Cell], failures: dict[str, CellOutcome]):
+    """The summary frame: one row per cell, metric scalars flattened to ``<metric>.<output>``."""
+    rows = []
+    for cell in cells:
+        ds, es = config.datasets[cell.dataset], config.estimators[cell.estimator]
+        row = {
+            "dataset": config.dataset_labels()[cell.dataset],
+            "estimator": config.estimator_labels()[cell.estimator],
+            "seed": cell.seed,
+            "dataset_name": ds.name,
+            "method": es.name,
+        }
+        if cell.id in failures:
+            row.update(
+                status=failures[cell.id].status,
+                error=failures[cell.id].error,
+                traceback=failures[cell.id].traceback,
+            )
+        elif cell.finished():
+            info = read_json(cell.dir / "metrics.json")
+            row.update(status="ok", error="", traceback="")
+            for metric, values in info["metrics"].items():
+                for key, value in values.items():
+                    row[f"{metric}.{key}"] = value
+            row["skipped"] = "; ".join(f"{k}: {v}" for k, v in info.get("skipped", {}).items())
+        else:
+            row.update(status="missing", error="no result (the run was interrupted?)", traceback="")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+#: the columns of ``tables/monte_carlo.*`` (:func:`monte_carlo_table`) and what each is
+MONTE_CARLO_COLUMNS = {
+    "dataset": "dataset label",
+    "estimator": "method label",
+    "statistic": "nees (pose NEES, 3 degrees of freedom) or nis (the innovations of one stamp summed)",
+    "runs": "N, the seeds averaged",
+    "stamps": "stamps all N runs share (with equal dimension), where the average is taken",
+    "mean_over_dof": "mean over those stamps of the N-run average divided by its degrees of freedom (1 for a consistent filter)",
+    "in_band": "fraction of those stamps whose N-run average lies inside the two-sided N-run χ² band",
+    "early_over_dof": "the same mean over the first 10 % of the time those stamps span (before any drift)",
+    "late_over_dof": "the same mean over the last 10 % of that time (a filter that degrades over the run rises here)",
+    "band_lo_over_dof": "the band's lower end divided by the degrees of freedom (mean over the stamps)",
+    "band_hi_over_dof": "the band's upper end divided by the degrees of freedom (mean over the stamps)",
+}
+
+
+def monte_carlo_table(config: ExperimentConfig, cells: list[Cell]):
+    """Per (dataset, method): NEES and NIS averaged over the seeds at shared stamps, with the
+    N-run χ² band (:func:`slamarena.experiments.metrics.consistency.monte_carlo`); one row per statistic."""
+    from .metrics.consistency import monte_carlo, nis_per_stamp
+    from .metrics.reference import MetricUnavailable
+    from .metrics.series import Series
+
+    enabled = config.enabled_metrics()
+    groups: dict[tuple[str, str, str], list] = {}
+    for cell in cells:
+        if not cell.finished() or not (cell.dir / "series.npz").exists():
+            continue
+        series = load_npz(cell.dir / "series.npz")
+        key = (config.dataset_labels()[cell.dataset], config.estimator_labels()[cell.estimator])
+        if Series.NEES in series:
+            groups.setdefault(key + ("nees",), []).append(
+                (series[Series.NEES_T], series[Series.NEES], np.full(series[Series.NEES_T].shape, 3.0))
+            )
+        if Series.NIS in series:
+            groups.setdefault(key + ("nis",), []).append(
+                nis_per_stamp(series[Series.NIS_T], series[Series.NIS], series[Series.NIS_DOF])
+            )
+    rows = []
+    for (ds, es, stat), runs in groups.items():
+        try:
+            mc = monte_carlo(runs, probability=enabled[stat].probability)
+        except MetricUnavailable:
+            continue
+        ratio, t = mc["mean"] / mc["dof"], mc["t"]
+        span = t[-1] - t[0]
+        rows.append(
+            {
+                "dataset": ds,
+                "estimator": es,
+                "statistic": stat,
+                "runs": mc["runs"],
+                "stamps": int(t.size),
+                "mean_over_dof": float(np.mean(ratio)),
+                "in_band": mc["in_band"],
+                "early_over_dof": float(np.mean(ratio[t <= t[0] + 0.1 * span])),
+                "late_over_dof": float(np.mean(ratio[t >= t[-1] - 0.1 * span])),
+                "band_lo_over_dof": float(np.mean(mc["lo"] / mc["dof"])),
+                "band_hi_over_dof": float(np.mean(mc["hi"] / mc["dof"])),
+            }
+        )
+    return pd.DataFrame(rows)

@@ -127,7 +127,7 @@ def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model(
 @pytest.mark.parametrize("name,cells", [("mrclam", 40), ("victoria_park", 15)])
 def test_the_benchmarks_plan_on_the_staged_data(name, cells, tmp_path, capsys):
     from slamarena.datasets import DatasetNotFoundError
-    from slamarena.experiments.runner import run_from_cli
+    from slamarena.experiments.cli_run import run_from_cli
 
     try:
         code = run_from_cli(config=name, jobs=1, scheduler=None, out=tmp_path / "o", force=False, dry_run=True)

@@ -236,7 +236,7 @@ def test_the_pages_quote_only_tables_of_shipped_configs(page):
         config = load_config(experiment)
         written = {t.name: t.columns for t in config.tables}
         if table == "monte_carlo":
-            from slamarena.experiments.runner import MONTE_CARLO_COLUMNS
+            from slamarena.experiments.tables import MONTE_CARLO_COLUMNS
 
             columns = list(MONTE_CARLO_COLUMNS)
         else:

@@ -22,8 +22,7 @@ import pytest
 from slamarena.experiments.metrics import output_columns
 from slamarena.experiments.report import Cell, Results, Table, _anchor, _monte_carlo_table, to_html, write_report
 from slamarena.experiments.report import to_markdown as report_markdown
-from slamarena.experiments.runner import MONTE_CARLO_COLUMNS
-from slamarena.experiments.tables import aggregate
+from slamarena.experiments.tables import MONTE_CARLO_COLUMNS, aggregate
 
 ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-c", "from slamarena.experiments.cli import main; main()"]

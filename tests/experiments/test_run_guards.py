@@ -18,7 +18,8 @@ import pytest
 from rich.console import Console
 
 from slamarena.experiments.config import load_config
-from slamarena.experiments.runner import plan, run_experiment
+from slamarena.experiments.plan import plan
+from slamarena.experiments.runner import run_experiment
 
 TINY = """
 name: tiny
@@ -65,36 +66,41 @@ def test_without_a_terminal_each_finished_cell_is_a_line_with_counts_and_eta_and
 
 def test_cells_of_one_worker_are_separate_processes_and_a_dead_worker_is_replaced(tmp_path):
     from slamarena.experiments.cell import Worker
-    from slamarena.experiments.runner import _cell_env, _spec
+    from slamarena.experiments.plan import cell_env, cell_spec
 
     cfg = _config(tmp_path)
     cells = plan(cfg, tmp_path / "out")
-    env = _cell_env(cfg)
+    env = cell_env(cfg)
     worker = Worker(env)
     try:
-        first = worker.run(_spec(cfg, cells[0], env), 120)
+        first = worker.run(cell_spec(cfg, cells[0], env), 120)
         server = worker.proc.pid
-        second = worker.run(_spec(cfg, cells[1], env), 120)
-        assert first["status"] == second["status"] == "ok"
+        second = worker.run(cell_spec(cfg, cells[1], env), 120)
+        assert first.status == second.status == "ok"
         assert worker.proc.pid == server  # one worker served both
         pids = [json.loads((c.dir / "metrics.json").read_text())["pid"] for c in cells]
         assert len(set(pids)) == 2 and server not in pids  # each cell in a process of its own
         worker.proc.kill()
         worker.proc.wait()
-        again = worker.run(_spec(cfg, cells[0], env, force=True), 120)
-        assert again["status"] == "ok" and worker.proc.pid != server
+        again = worker.run(cell_spec(cfg, cells[0], env, force=True), 120)
+        assert again.status == "ok" and worker.proc.pid != server
     finally:
         worker.close()
 
 
 def test_the_first_cell_of_a_method_runs_before_its_others():
-    from slamarena.experiments.runner import CellQueue
+    from slamarena.experiments.cellspec import CellDataset, CellMethod, CellSpec
+    from slamarena.experiments.execute import CellQueue
 
-    specs = [{"id": f"{m}{k}", "estimator": {"name": m}} for m in ("ekf", "fast") for k in range(2)]
+    def spec(method, k):
+        dataset = CellDataset("sim:landmarks", {}, "sim_landmarks", True)
+        return CellSpec(f"{method}{k}", "/x", "", "", k, dataset, CellMethod(method, {}, method), False, {})
+
+    specs = [spec(m, k) for m in ("ekf", "fast") for k in range(2)]
     queue = CellQueue(specs)
-    assert [queue.take()["id"], queue.take()["id"]] == ["ekf0", "fast0"]  # ekf1 held back while ekf0 runs
+    assert [queue.take().id, queue.take().id] == ["ekf0", "fast0"]  # ekf1 held back while ekf0 runs
     taken = []
-    waiter = threading.Thread(target=lambda: taken.append(queue.take()["id"]))
+    waiter = threading.Thread(target=lambda: taken.append(queue.take().id))
     waiter.start()
     waiter.join(0.3)
     assert waiter.is_alive() and not taken  # nothing may start: both methods' first cells are running
@@ -102,7 +108,7 @@ def test_the_first_cell_of_a_method_runs_before_its_others():
     waiter.join(5)
     assert taken == ["fast1"]
     queue.done(specs[0])
-    assert queue.take()["id"] == "ekf1" and queue.take() is None
+    assert queue.take().id == "ekf1" and queue.take() is None
 
 
 def test_a_timeout_after_compilation_says_so_and_the_compile_clock_counts_compilation_once():
@@ -111,10 +117,10 @@ def test_a_timeout_after_compilation_says_so_and_the_compile_clock_counts_compil
     from slamarena.experiments.cell import outcome
     from slamarena.experiments.compilation import CompileClock
 
-    result = outcome({"id": "a/b/0", "dir": "/x"}, None, 300.2, timeout=300, compile_s=212.4)
-    assert result["status"] == "timeout"
-    assert result["error"] == "timed out after 300 s (killed); 212 s of it compiling numba kernels"
-    assert "compiling" not in outcome({"id": "a/b/0", "dir": "/x"}, None, 1.0, timeout=1, compile_s=0.0)["error"]
+    result = outcome("a/b/0", "/x", None, 300.2, timeout=300, compile_s=212.4)
+    assert result.status == "timeout"
+    assert result.error == "timed out after 300 s (killed); 212 s of it compiling numba kernels"
+    assert "compiling" not in outcome("a/b/0", "/x", None, 1.0, timeout=1, compile_s=0.0).error
 
     @njit
     def inner(x):
@@ -213,7 +219,7 @@ class _InProcessWorker:
         from slamarena.experiments.cell import _prepare, outcome, record
 
         _prepare(spec)
-        return outcome(spec, record(spec), 0.0)
+        return outcome(spec.id, spec.dir, record(spec), 0.0)
 
     def close(self):
         pass
@@ -226,7 +232,7 @@ def _disk_full(*args, **kwargs):
 def test_a_full_disk_is_one_line_leaves_no_temporary_and_the_run_resumes(tmp_path, monkeypatch):
     import slamarena.datasets.estimate as estimate_module
     from slamarena.experiments import cell as cell_module
-    from slamarena.experiments.runner import run_from_cli
+    from slamarena.experiments.cli_run import run_from_cli
 
     path = tmp_path / "exp.yaml"
     path.write_text(TINY.replace("seeds: 2", "seeds: 3"))
@@ -265,7 +271,7 @@ def test_a_full_disk_is_one_line_leaves_no_temporary_and_the_run_resumes(tmp_pat
 def test_a_cell_that_finds_the_disk_full_removes_its_temporaries(tmp_path, monkeypatch):
     from slamarena.experiments import results
     from slamarena.experiments.cell import EXIT_DISK_FULL, _prepare, record
-    from slamarena.experiments.runner import _cell_env, _spec
+    from slamarena.experiments.plan import cell_env, cell_spec
 
     cfg = _config(tmp_path, TINY.replace("seeds: 2", "seeds: 1"))
     [cell] = plan(cfg, tmp_path / "out")
@@ -279,7 +285,7 @@ def test_a_cell_that_finds_the_disk_full_removes_its_temporaries(tmp_path, monke
         real_fsync(fd)
 
     monkeypatch.setattr(results.os, "fsync", fsync_then_full)
-    spec = _spec(cfg, cell, _cell_env(cfg))
+    spec = cell_spec(cfg, cell, cell_env(cfg))
     _prepare(spec)
     assert record(spec) == EXIT_DISK_FULL
     assert not _temporaries(cell.dir) and not (cell.dir / "metrics.json").exists()

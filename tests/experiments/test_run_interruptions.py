@@ -13,7 +13,8 @@ import time
 import pytest
 
 from slamarena.experiments.config import load_config
-from slamarena.experiments.runner import plan, run_experiment
+from slamarena.experiments.plan import plan
+from slamarena.experiments.runner import run_experiment
 
 SLOW = """
 name: slow

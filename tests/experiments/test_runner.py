@@ -16,7 +16,8 @@ import pytest
 from rich.console import Console
 
 from slamarena.experiments.config import load_config
-from slamarena.experiments.runner import plan, run_experiment
+from slamarena.experiments.plan import plan
+from slamarena.experiments.runner import run_experiment
 
 TINY = """
 name: tiny
@@ -153,7 +154,8 @@ def test_changed_metric_settings_reuse_the_estimate_and_force_recomputes(tmp_pat
 def test_recompute_recomputes_the_cells_of_one_method_only(tmp_path):
     """``--recompute LABEL``: the cached cells of that method are recomputed, the others kept; an unknown label is refused
     before anything runs, naming the config's labels."""
-    from slamarena.experiments.runner import UsageError, run_from_cli
+    from slamarena.experiments.cli_run import run_from_cli
+    from slamarena.experiments.plan import UsageError
 
     text = TINY.replace("seeds: 2", "seeds: 1").replace(
         "  - name: dead_reckoning\n",
@@ -270,7 +272,7 @@ def test_methods_restricted_to_datasets(tmp_path):
 
 
 def test_dry_run_lists_the_grid(tmp_path, capsys):
-    from slamarena.experiments.runner import run_from_cli
+    from slamarena.experiments.cli_run import run_from_cli
 
     _, path = _config(tmp_path)
     assert run_from_cli(config=path, jobs=1, scheduler=None, out=tmp_path / "o", force=False, dry_run=True) == 0
@@ -316,22 +318,22 @@ def test_a_recording_at_a_path_runs_and_its_files_are_in_the_cache_key(tmp_path)
 
 def test_single_threaded_config_limits_the_threads_of_every_cell(tmp_path):
     """single_threaded: true gives each cell process one BLAS/OpenMP/numba thread; the default leaves the environment alone."""
-    from slamarena.experiments.runner import _cell_env
+    from slamarena.experiments.plan import cell_env
 
     plain, _ = _config(tmp_path)
     single, _ = _config(tmp_path, TINY.replace("timeout: 120", "timeout: 120\nsingle_threaded: true"), "single.yaml")
-    assert "OPENBLAS_NUM_THREADS" not in _cell_env(plain)
-    env = _cell_env(single)
+    assert "OPENBLAS_NUM_THREADS" not in cell_env(plain)
+    env = cell_env(single)
     assert {env[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")} == {
         "1"
     }
-    assert env["SLAMARENA_DATA"] == _cell_env(plain)["SLAMARENA_DATA"]
+    assert env["SLAMARENA_DATA"] == cell_env(plain)["SLAMARENA_DATA"]
 
 
 def test_table_numbers_three_significant_digits_and_counts_in_full():
-    from slamarena.experiments.tables import _fmt
+    from slamarena.experiments.tables import format_number
 
-    assert [_fmt(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == [
+    assert [format_number(x) for x in (2724.0, 50000.0, 0.0, 0.05432, 2724.5, 3.2e-5, float("nan"))] == [
         "2724",
         "50000",
         "0",
