@@ -30,7 +30,6 @@ compiling are measured (:class:`~slamarena.experiments.compilation.CompileClock`
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import os
 import signal
@@ -113,9 +112,10 @@ def _forget(proc: subprocess.Popen) -> None:
 def file_digest(path: Path) -> str | None:
     """SHA-256 of a file (``None`` if it cannot be read): what ``metrics.json`` and ``estimate.json`` record of the
     files they were computed from, so that an edited or damaged file is recomputed, never reused."""
+    from .results import sha256_file
+
     try:
-        with open(path, "rb") as fh:
-            return hashlib.file_digest(fh, "sha256").hexdigest()
+        return sha256_file(path)
     except OSError:
         return None
 

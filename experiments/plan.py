@@ -24,7 +24,7 @@ from slamarena.errors import UserError
 from .cell import CACHED_FILES, file_digest
 from .cellspec import CellDataset, CellMethod, CellSpec
 from .config import ExperimentConfig
-from .results import cell_dir, read_json
+from .results import cell_dir, read_json, sha256_file
 
 __all__ = [
     "Cell",
@@ -78,14 +78,6 @@ def package_version() -> str:
         return "unknown"
 
 
-def _sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -96,7 +88,7 @@ def dataset_checksums(name: str, params: dict) -> dict[str, str]:
 
     if name in SIMULATORS:
         return {}
-    return {role: _sha256_file(path) for role, path in resolve(name, params).files().items()}
+    return {role: sha256_file(path) for role, path in resolve(name, params).files().items()}
 
 
 def plan(config: ExperimentConfig, out: Path) -> list[Cell]:

@@ -30,6 +30,7 @@ Every file is written to a temporary name in the same directory and renamed over
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import os
@@ -38,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "sha256_file",
     "atomic_write_bytes",
     "atomic_write_text",
     "write_json",
@@ -141,3 +143,10 @@ def write_trajectory_tum(path: str | Path, t: np.ndarray, poses: np.ndarray, dat
 
 def cell_dir(out: Path, dataset_label: str, estimator_label: str, seed: int) -> Path:
     return Path(out) / "runs" / dataset_label / estimator_label / str(seed)
+
+
+def sha256_file(path: Path) -> str:
+    """SHA-256 of a file (OSError if it cannot be read): the cache keys' hash of a dataset's files, and (through
+    :func:`slamarena.experiments.cell.file_digest`) of the files a cell wrote."""
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()

@@ -18,7 +18,6 @@ raise :class:`DataFormatError` naming the file and line. Images are never read h
 when asked.
 
 Catalogued: ``kitti:00`` (the staged 200 frames of sequence 00); any sequence: ``kitti:<root>/sequences/NN``.
-(:mod:`.kitti` is the reader of KITTI's velodyne ``.bin`` scans, a different file family.)
 """
 
 from __future__ import annotations

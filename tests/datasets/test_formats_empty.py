@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from slamarena.datasets import DataFormatError
-from slamarena.datasets.formats import carmen, g2o, isam, kitti, mrclam, plaza, relations, toro, tum, victoria_park
+from slamarena.datasets.formats import carmen, g2o, isam, mrclam, plaza, relations, toro, tum, victoria_park
 
 #: a file with nothing in it but comments and blank lines, in each text format's comment syntax
 COMMENTS = "# written by hand\n\n   \n\t\n# nothing else\n"
@@ -49,11 +49,10 @@ READERS = {
     "carmen": carmen.read,
     "relations": relations.read,
     "tum": tum.read,
-    "kitti": kitti.read,
 }
-#: a file of comments only, for every format that has comments (not the binary KITTI .bin and Plaza .mat)
+#: a file of comments only, for every format that has comments (not the binary Plaza .mat)
 NO_DATA = {name: COMMENTS for name in READERS}
-del NO_DATA["kitti"], NO_DATA["plaza mat"]
+del NO_DATA["plaza mat"]
 
 
 @pytest.mark.parametrize(

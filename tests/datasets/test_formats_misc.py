@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from checks import staged
 
 from slamarena.datasets import DataFormatError
-from slamarena.datasets.formats import kitti, relations, tum
+from slamarena.datasets.formats import relations, tum
 
 
 def test_relations_round_trip_and_tagged_lines(tmp_path, rng):
@@ -53,20 +52,3 @@ def test_tum_rejects_tilted_rotation_and_bad_lines(tmp_path):
     (tmp_path / "c.tum").write_text("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n")
     with pytest.raises(DataFormatError, match="non-decreasing"):
         tum.read(tmp_path / "c.tum")
-
-
-@pytest.mark.realdata
-def test_kitti_staged_scan():
-    p = kitti.read(staged("lidar3d_smoke/kitti_velodyne_6frames/velodyne/000000.bin"))
-    assert p.shape == (124668, 4) and p.dtype == np.float32
-    assert np.allclose(p[0], [52.898, 0.023, 1.998, 0.08], atol=1e-3)
-
-
-def test_kitti_round_trip_and_truncated(tmp_path, rng):
-    pts = rng.normal(size=(100, 4)).astype(np.float32)
-    kitti.write(tmp_path / "a.bin", pts)
-    assert np.array_equal(kitti.read(tmp_path / "a.bin"), pts)
-    for cut in (4, 1):  # a float short, a byte short (numpy's reader alone drops the incomplete float unseen)
-        (tmp_path / "b.bin").write_bytes(pts.tobytes()[:-cut])
-        with pytest.raises(DataFormatError, match="multiple of 16 bytes"):
-            kitti.read(tmp_path / "b.bin")
