@@ -6,7 +6,8 @@ their message definitions deserialize with those; other ROS 2 bags with the ROS 
 
 Every failure — a file that does not open (truncated, not a bag), a topic that is absent or of another type, a
 message that does not deserialize, stamps that step back — is a :class:`~slamarena.datasets.errors.DataFormatError`
-naming the bag, the topic and the 0-based index of the message in that topic (:func:`bag_error`).
+naming the bag, the topic and the 0-based index of the message in that topic (:func:`bag_error`); for a bag that
+does not open, the message where its data stops (:func:`~slamarena.datasets.formats.bag_damage.locate_damage`).
 
 Stamps (:class:`TopicMessages`): ``receive`` is the bag's record time of each message; ``header`` the message's
 ``header.stamp`` (NaN for a type without a header, e.g. ``geometry_msgs/Twist``; a topic whose header stamps are all
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFormatError
+from .bag_damage import locate_damage
 
 __all__ = ["TopicMessages", "bag_error", "bag_location", "open_bag", "read_topic", "pick_topic", "header_ns"]
 
@@ -57,11 +59,25 @@ def open_bag(path: str | Path) -> Iterator:
         reader = AnyReader([location], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as exc:  # rosbags raises its own error classes, struct and OS errors for damaged files
-        raise bag_error(location, None, None, "a readable ROS bag", f"{type(exc).__name__}: {exc}") from None
+        raise _unreadable(location, exc) from None
     try:
         yield reader
     finally:
         reader.close()
+
+
+def _unreadable(location: Path, exc: Exception) -> DataFormatError:
+    """The error for a bag that does not open, located at the message where its data stops (when it has any)."""
+    got = f"{type(exc).__name__}: {exc}"
+    damage = locate_damage(location)
+    if damage is None:
+        return bag_error(location, None, None, "a readable ROS bag", got)
+    return DataFormatError(
+        f"{location}, {damage.describe()}",
+        None,
+        "a readable ROS bag",
+        f"{got} ({damage.intact} messages intact before the damage)",
+    )
 
 
 @dataclass(frozen=True)

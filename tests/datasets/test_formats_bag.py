@@ -3,6 +3,8 @@ staged ACES bag against the CARMEN reader."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from bags import GPS_ORIGIN, MOUNT, MOUNT_LINKS, RECEIVE_LAG, robot_bag
@@ -10,7 +12,9 @@ from checks import load_staged, staged
 
 from slamarena import datasets
 from slamarena.datasets import DataFormatError
+from slamarena.datasets.formats.bag_write import BagWriter
 from slamarena.datasets.formats.ros_convert import WGS84_A, WGS84_F
+from slamarena.datasets.formats.ros_messages import message
 from slamarena.datasets.geometry import between, wrap_angle
 
 KINDS = [("run.bag", "sqlite3"), ("run", "sqlite3"), ("run", "mcap"), ("run.mcap", "mcap")]
@@ -104,6 +108,65 @@ def test_a_truncated_bag_is_named(tmp_path, name, storage, damaged):
     f = tmp_path / damaged
     f.write_bytes(f.read_bytes()[: f.stat().st_size // 2])
     _fails(tmp_path / name, "a readable ROS bag")
+
+
+def _two_topic_bag(path, storage="sqlite3", n=12):
+    """/a and /b alternating (a0 b0 a1 b1 …), each a String whose text marks it; returns the write order."""
+    order = []
+    with BagWriter(path, storage=storage) as w:
+        for k in range(n):
+            for topic in ("/a", "/b"):
+                w.write(topic, 10.0 + k, message(w.typestore, "std_msgs/msg/String", data=f"<{topic}:{k:04d}>" * 40))
+                order.append((topic, k))
+    return order
+
+
+@pytest.mark.parametrize("name", ["cut.bag", "cut.mcap"])
+@pytest.mark.parametrize("topic,k", [("/b", 3), ("/a", 9)])
+def test_a_bag_cut_inside_a_message_names_that_message(tmp_path, name, topic, k):
+    path = tmp_path / name
+    order = _two_topic_bag(path)
+    data = path.read_bytes()
+    inside = data.index(f"<{topic}:{k:04d}>".encode()) + 100  # the file ends in the middle of that message's text
+    path.write_bytes(data[:inside])
+    text = _fails(path, rf"{path}, topic {topic}, message {k}: expected a readable ROS bag")
+    assert f"({order.index((topic, k))} messages intact before the damage)" in text
+
+
+def test_a_bag_cut_between_its_pages_names_the_last_message_read(tmp_path):
+    order = _two_topic_bag(tmp_path / "cut", n=200)
+    db = tmp_path / "cut" / "cut.db3"
+    db.write_bytes(db.read_bytes()[: int(db.stat().st_size * 0.9)])
+    text = _fails(tmp_path / "cut", "expected a readable ROS bag")
+    intact = int(re.search(r"\((\d+) messages intact", text).group(1))
+    assert 0 < intact < len(order)
+    topic, k = order[intact - 1]  # sqlite keeps the rows in the order written
+    assert f"{tmp_path / 'cut'}, topic {topic}, after message {k}:" in text
+
+
+@pytest.mark.parametrize("compression", ["BZ2", "LZ4"])
+def test_a_compressed_ros1_bag_cut_in_a_chunk_names_a_message_in_write_order(tmp_path, compression):
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts, path, order = get_typestore(Stores.ROS1_NOETIC), tmp_path / "z.bag", []
+    noise = np.random.default_rng(0).bytes(300 * 2 * 64).hex()  # incompressible text: the chunks fill the file
+    w = Writer(path)
+    w.chunk_threshold = 4096  # many chunks, as in a recorded bag (rosbag's default is 768 KiB)
+    w.set_compression(getattr(Writer.CompressionFormat, compression))
+    with w:
+        conns = {t: w.add_connection(t, "std_msgs/msg/String", typestore=ts) for t in ("/a", "/b")}
+        for k in range(300):
+            for topic in conns:
+                text = message(ts, "std_msgs/msg/String", data=f"{topic}:{k}:" + noise[len(order) * 128 :][:128])
+                w.write(conns[topic], (10 + k) * 10**9, ts.serialize_ros1(text, "std_msgs/msg/String"))
+                order.append((topic, k))
+    path.write_bytes(path.read_bytes()[: int(path.stat().st_size * 0.5)])
+    text = _fails(path, "expected a readable ROS bag")
+    intact = int(re.search(r"\((\d+) messages intact", text).group(1))
+    assert 0 < intact < len(order)
+    inside, after = order[intact], order[intact - 1]
+    assert f"topic {inside[0]}, message {inside[1]}:" in text or f"topic {after[0]}, after message {after[1]}:" in text
 
 
 def test_missing_and_mistyped_topics_are_named(tmp_path):
