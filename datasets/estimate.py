@@ -35,13 +35,13 @@ class Estimate:
     t: np.ndarray
     poses: np.ndarray
     pose_cov: np.ndarray | None = None
-    poses_3d: np.ndarray | None = None
     landmark_ids: np.ndarray | None = None
     landmarks: np.ndarray | None = None
     landmark_cov: np.ndarray | None = None
     step_time: np.ndarray | None = None
     diagnostics: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    poses_3d: np.ndarray | None = None
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float)
