@@ -7,6 +7,8 @@ side) and the experiment runner share one type.
     method          registry name of the method
     t (K,)          pose times [s], strictly increasing: one pose per stamp (a filter keeps its posterior)
     poses (K, 3)    (x, y, θ) in the world frame
+    poses_3d        (K, 4, 4) ``T_world←body`` of a 3-D trajectory (camera methods), or ``None``; ``poses`` then
+                    holds its top view (the method documents which plane)
     pose_cov        (K, 3, 3) world-frame covariance of (x, y, θ), or ``None``
     landmark_ids    (L,) int, landmarks (L, 2), landmark_cov (L, 2, 2) or ``None``
     step_time (K,)  wall time [s] spent producing each pose (filters: the predict+update work
@@ -39,6 +41,7 @@ class Estimate:
     step_time: np.ndarray | None = None
     diagnostics: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    poses_3d: np.ndarray | None = None
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float)
@@ -51,13 +54,17 @@ class Estimate:
                 f"Estimate ({self.method}): times must increase strictly — one pose per stamp — "
                 f"but t[{k + 1}] = {self.t[k + 1]!r} follows {self.t[k]!r}"
             )
+        if self.poses_3d is not None:
+            self.poses_3d = np.asarray(self.poses_3d, dtype=float).reshape(-1, 4, 4)
+            if self.poses_3d.shape[0] != self.t.shape[0]:
+                raise ValueError(f"Estimate: {self.poses_3d.shape[0]} 3-D poses but {self.t.shape[0]} times")
         if self.pose_cov is not None:
             self.pose_cov = np.asarray(self.pose_cov, dtype=float).reshape(-1, 3, 3)
         if self.landmarks is not None:
             self.landmarks = np.asarray(self.landmarks, dtype=float).reshape(-1, 2)
             self.landmark_ids = np.asarray(self.landmark_ids, dtype=np.int64).reshape(-1)
 
-    _ARRAYS = ("t", "poses", "pose_cov", "landmark_ids", "landmarks", "landmark_cov", "step_time")
+    _ARRAYS = ("t", "poses", "pose_cov", "poses_3d", "landmark_ids", "landmarks", "landmark_cov", "step_time")
 
     def save(self, path: str | Path) -> None:
         """Write to ``.npz`` (arrays, diagnostics prefixed ``diag/``, meta as JSON), atomically."""

@@ -23,6 +23,8 @@ REGISTRY: dict[str, str] = {
     "gtsam_isam2": "slamarena.estimators.gtsam_smoother:ISAM2Smoother",
     "gtsam_fixed_lag": "slamarena.estimators.gtsam_smoother:FixedLagLocalizer",
     "gtsam_pose_graph": "slamarena.estimators.gtsam_smoother:PoseGraphOptimizer",
+    "stereo_vo": "slamarena.estimators.vision.estimators:StereoVO",
+    "mono_vo": "slamarena.estimators.vision.estimators:MonoVO",
 }
 
 #: method → the input streams it needs (slamarena.datasets.streams): each entry is a set of alternatives, one of
@@ -36,6 +38,8 @@ REQUIRES: dict[str, tuple[frozenset[str], ...]] = {
     "gtsam_isam2": (frozenset({"motion"}), frozenset({"range_bearing", "beacon_ranges"})),
     "gtsam_fixed_lag": (frozenset({"motion"}),),
     "gtsam_pose_graph": (frozenset({"graph", "range_bearing", "beacon_ranges"}),),
+    "stereo_vo": (frozenset({"camera"}),),
+    "mono_vo": (frozenset({"camera"}),),
 }
 
 

@@ -12,7 +12,9 @@ and ``<root>/poses/NN.txt`` (optional, sequences 00–10): per line the 3 × 4 m
 ``T_0←k`` of frame k's left camera in frame 0's left camera (x right, y down, z forward).
 
 The frames read are the left images present from ``000000`` on without a gap (a copy may hold fewer images than
-``times.txt`` has lines: the reader stops at the last image; ``meta`` says how many lines it left). A time or pose
+``times.txt`` has lines: the reader stops at the last image; ``meta`` says how many lines it left), or ``frames`` of
+them from ``first`` on (frame ``first`` then has index 0; its time and pose are line ``first + 1`` of ``times.txt``
+and of the pose file, the poses still ``T_0←k`` of the sequence's frame 0). A time or pose
 file shorter than the images, a malformed line, a missing ``P0``/``P1``, or P0/P1 that are not one rectified pair
 raise :class:`DataFormatError` naming the file and line. Images are never read here: :class:`Camera` reads one
 when asked.
@@ -85,7 +87,8 @@ def _frames(directory: Path) -> list[Path]:
 class KittiParams(Params):
     """Options of the KITTI odometry reader."""
 
-    frames: int | None = Field(None, ge=2, description="read only the first `frames` frames (None: every image)")
+    first: int = Field(0, ge=0, description="the first frame read (frames before it are left out)")
+    frames: int | None = Field(None, ge=2, description="read only `frames` frames from `first` (None: every image)")
 
 
 class KittiSource(KittiParams, SourceParams):
@@ -115,29 +118,36 @@ def read(files: dict, name: str, /, *, params: KittiSource) -> Sequence:
     """The family reader: ``files`` has roles first_image, calib, times and (optional) poses."""
     sequence = Path(files["calib"]).parent
     left = _frames(Path(files["first_image"]).parent)
-    if params.frames is not None:
-        left = left[: params.frames]
+    end = len(left) if params.frames is None else min(len(left), params.first + params.frames)
+    if end - params.first < 2:
+        raise DataFormatError(left[0].parent, None, f"two or more images from image {params.first}", f"{len(left)}")
+    first, left = params.first, left[params.first : end]
     n = len(left)
     right = [sequence / "image_1" / p.name for p in left]
     right_names = np.array([str(p) if p.is_file() else "" for p in right], dtype=str)
     K, baseline = read_calib(files["calib"])
     times, lines = numeric_table(files["times"], 1, "a time [s]")
-    if len(times) < n:
-        raise DataFormatError(files["times"], int(lines[-1]), f"{n} times (one per image)", f"{len(times)} lines")
-    check_monotonic(str(files["times"]), times[:n, 0], lines[:n], "frame times")
-    truth = read_poses(files["poses"], n) if "poses" in files else None
+    if len(times) < first + n:
+        raise DataFormatError(
+            files["times"], int(lines[-1]), f"{first + n} times (one per image)", f"{len(times)} lines"
+        )
+    unused = len(times) - n
+    times, lines = times[first : first + n], lines[first : first + n]
+    check_monotonic(str(files["times"]), times[:, 0], lines, "frame times")
+    truth = read_poses(files["poses"], first + n)[first:] if "poses" in files else None
     width, height = _png_size(left[0])
     meta = {
         "dataset": "KITTI odometry",
         "files": [str(files[r]) for r in ("calib", "times", "poses") if r in files],
         "images": str(left[0].parent),
+        "first_frame": first,
         "frames": n,
         "stereo_frames": int((right_names != "").sum()),
-        "time_lines_unused": int(len(times) - n),
+        "time_lines_unused": int(unused),
         "ground_truth_kind": "KITTI's poses (GPS/INS), T_0<-k of the left camera" if truth is not None else "none",
     }
     camera = Camera(
-        t=times[:n, 0],
+        t=times[:, 0],
         left=np.array([str(p) for p in left], dtype=str),
         K=K,
         width=width,

@@ -6,9 +6,11 @@ descriptors (m, 32).
 
 Per keyframe (stereo points): ORB in the left and right images (:func:`.features.orb`), matched by Hamming distance
 (:mod:`.matching`) among the pairs a rectified pair allows — same row within ``row_tolerance`` px, disparity
-``d = u_l − u_r`` in ``[min_disparity, ∞)`` — then DLT-triangulated (:func:`.triangulation.triangulate_dlt`) with
-the left camera ``[I | 0]`` and the right camera ``[I | (−b, 0, 0)ᵀ]`` (the same as z = fx b / d on a rectified
-pair) and moved to the world frame by the keyframe's pose.
+``d = u_l − u_r`` in ``[min_disparity, ∞)`` —, the disparity refined to a fraction of a pixel (``subpixel``:
+:func:`.disparity.refine_disparity`, block matching along the row and a 1-D Lucas-Kanade step; an ORB keypoint is
+located only to a pixel of its pyramid level), then DLT-triangulated (:func:`.triangulation.triangulate_dlt`) with
+the left camera ``[I | 0]`` and the right camera ``[I | (−b, 0, 0)ᵀ]`` on the left point's row (the same as
+z = fx b / d on a rectified pair) and moved to the world frame by the keyframe's pose.
 
 Per frame (tracking): ORB in the left image, matched to the map points of the last ``map_keyframes`` keyframes;
 ``T_cam←world`` by :func:`.pnp.pnp_ransac` (P3P samples, ``pnp_threshold`` px, LM refinement on the inliers).
@@ -39,6 +41,7 @@ from slamarena.estimators.gtsam_smoother.graph import OptimizationError
 from slamarena.params import Field, Params
 
 from .backends import BACKENDS
+from .disparity import refine_disparity
 from .features import FeatureParams, orb
 from .window_ba import Observation, bundle_adjust
 
@@ -58,6 +61,7 @@ class StereoVOParams(Params):
     seed: int = Field(0, ge=0, description="RANSAC's random seed")
     geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
     window: int = Field(0, ge=0, description="keyframes of the windowed bundle adjustment (0: none)")
+    subpixel: bool = Field(True, description="refine each stereo match's disparity to a fraction of a pixel")
 
 
 @dataclass
@@ -89,17 +93,23 @@ def stereo_points(
     """Frame k's stereo points: left pixels (n, 2), right columns u_R (n,), camera-frame points (n, 3), left
     descriptors (n, 32)."""
     backend = BACKENDS[params.geometry]
-    ul, dl = orb(camera.image(k), params.features.n_features)
-    ur, dr = orb(camera.image(k, "right"), params.features.n_features)
+    left, right = camera.image(k), camera.image(k, "right")
+    ul, dl = orb(left, params.features.n_features)
+    ur, dr = orb(right, params.features.n_features)
     disparity = ul[:, None, 0] - ur[None, :, 0]
     allowed = (np.abs(ul[:, None, 1] - ur[None, :, 1]) <= params.row_tolerance) & (disparity >= params.min_disparity)
     i, j = backend.match(dl, dr, params.features.ratio, params.features.max_distance, allowed)
+    ul, dl, u_right = ul[i], dl[i], ur[j, 0]
+    if params.subpixel:
+        u_right, refined = refine_disparity(left, right, ul, u_right)
+        refined &= ul[:, 0] - np.nan_to_num(u_right) >= params.min_disparity
+        ul, dl, u_right = ul[refined], dl[refined], u_right[refined]
     K, b = camera.K, camera.baseline
-    x_left = (ul[i] - K[:2, 2]) / np.diag(K)[:2]
-    x_right = (ur[j] - K[:2, 2]) / np.diag(K)[:2]
+    x_left = (ul - K[:2, 2]) / np.diag(K)[:2]
+    x_right = (np.column_stack([u_right, ul[:, 1]]) - K[:2, 2]) / np.diag(K)[:2]  # rectified: the left row
     X = backend.triangulate(x_left, x_right, (np.eye(3), np.zeros(3)), (np.eye(3), np.array([-b, 0.0, 0.0])))
     good = np.isfinite(X).all(axis=1) & (X[:, 2] > 0)
-    return ul[i][good], ur[j][good, 0], X[good], dl[i][good]
+    return ul[good], u_right[good], X[good], dl[good]
 
 
 def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:

@@ -9,7 +9,8 @@ that does not apply (no ground truth, no covariance) raises :class:`MetricUnavai
 reason is recorded instead of a number.
 
 Modules: :mod:`.alignment` (Umeyama in 2D), :mod:`.reference` (ground truth at estimate
-times), :mod:`.trajectory` (ATE, RPE), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
+times), :mod:`.trajectory` (ATE, RPE), :mod:`.trajectory3d` (camera trajectories: 3-D ATE after SE(3)/Sim(3)
+alignment, KITTI's relative error and drift), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
 :mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.; ``loop``: their error on the ground truth's
 revisits, a measure of loop closure), :mod:`.cost`, :mod:`.estimate` (what the
 estimate reports of itself: landmark count, rejected rows, an optimiser's final error), :mod:`.occupancy` (the quality
@@ -40,6 +41,7 @@ from .relations import (
     relation_error_from_file,
 )
 from .trajectory import ATE_OUTPUTS, RPE_OUTPUTS, ATEParams, RPEParams, ate, rpe
+from .trajectory3d import ATE3D_OUTPUTS, RELATIVE3D_OUTPUTS, ATE3DParams, RelativeErrorParams, ate3d, relative3d
 
 __all__ = ["METRICS", "Metric", "CellData", "MetricUnavailable", "evaluate", "output_columns", "reference_of"]
 
@@ -77,6 +79,8 @@ METRICS: dict[str, Metric] = {
     ),
     "estimate": Metric(EstimateParams, ESTIMATE_OUTPUTS, lambda c, p: estimate_counts(c.estimate, p)),
     "occupancy": Metric(OccupancyParams, OCCUPANCY_OUTPUTS, lambda c, p: occupancy_quality(c.estimate, c.data, p)),
+    "ate3d": Metric(ATE3DParams, ATE3D_OUTPUTS, lambda c, p: ate3d(c.estimate, c.data, p)),
+    "kitti_rel": Metric(RelativeErrorParams, RELATIVE3D_OUTPUTS, lambda c, p: relative3d(c.estimate, c.data, p)),
 }
 
 

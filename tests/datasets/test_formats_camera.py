@@ -135,3 +135,15 @@ def test_checkerboard_bad_files_name_file_and_line(tmp_path):
     (tmp_path / "K.txt").write_text("420 0 355\n0 420 250\n0 1 1\n")
     with pytest.raises(DataFormatError, match=r"K.txt:3: expected 3 rows of an upper-triangular K"):
         vamr.read(files, "v", params=params)
+
+
+def test_kitti_first_frame_option_reads_a_later_segment():
+    whole = load_staged("kitti:00", frames=30).camera
+    later = load_staged("kitti:00", first=15, frames=10)
+    cam = later.camera
+    assert len(cam) == 10 and later.meta["first_frame"] == 15 and later.meta["time_lines_unused"] == 4541 - 10
+    np.testing.assert_array_equal(cam.t, whole.t[15:25])
+    np.testing.assert_array_equal(cam.ground_truth, whole.ground_truth[15:25])  # still T_0←k of frame 0
+    assert cam.left[0].endswith("000015.png") and cam.right[0].endswith("000015.png")
+    with pytest.raises(DataFormatError, match="two or more images from image 199"):
+        load_staged("kitti:00", first=199)

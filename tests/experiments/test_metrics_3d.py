@@ -67,3 +67,68 @@ def test_kitti_relative_error_of_a_one_percent_scale_error_is_one_percent():
     )
     with pytest.raises(ValueError, match="no segment"):
         kitti_relative_error(long, gt, [500])
+
+
+def camera_sequence(truth):
+    """A Sequence whose camera carries ``truth`` (K, 4, 4) as ground truth (images never read)."""
+    from slamarena.datasets.sequence import Camera, Sequence
+
+    n = len(truth)
+    K = np.array([[700.0, 0, 600], [0, 700, 180], [0, 0, 1]])
+    camera = Camera(t=0.1 * np.arange(n), left=np.array(["none.png"] * n), K=K, ground_truth=truth)
+    return Sequence(name="cam", camera=camera)
+
+
+def camera_estimate(data, poses_3d, t=None):
+    from slamarena.datasets.estimate import Estimate
+    from slamarena.estimators.vision.estimators import top_view
+
+    t = data.camera.t if t is None else t
+    return Estimate(method="vo", t=t, poses=top_view(poses_3d), poses_3d=poses_3d)
+
+
+def test_registry_metrics_of_a_ten_percent_long_straight_trajectory_by_hand():
+    """Straight along z at 1 m per frame, estimate 10 % long: by hand, t_rel = 10 % on every segment, r_rel = 0,
+    drift = 10 % of the path, the Sim(3) alignment removes it all at scale 1/1.1; the SE(3) ATE is the RMSE of the
+    residuals of the best rigid fit of 1.1 k onto k (k = 0 … 99), i.e. 0.1 |k − 49.5| → 0.1 · sqrt(mean (k − 49.5)²)."""
+    from slamarena.experiments.metrics import METRICS, CellData, evaluate, reference_of
+
+    n = 100
+    truth = np.tile(np.eye(4), (n, 1, 1))
+    truth[:, 2, 3] = np.arange(n)
+    long = truth.copy()
+    long[:, 2, 3] *= 1.1
+    data = camera_sequence(truth)
+    estimate = camera_estimate(data, long)
+    selected = {"ate3d": METRICS["ate3d"].params(), "kitti_rel": METRICS["kitti_rel"].params(lengths=[10, 40], step=1)}
+    scalars, series, skipped = evaluate(CellData(estimate, data, reference_of(data)), selected)
+    assert skipped == {}
+    ate, rel = scalars["ate3d"], scalars["kitti_rel"]
+    k = np.arange(n)
+    assert ate["rmse"] == pytest.approx(0.1 * np.sqrt(np.mean((k - 49.5) ** 2)))
+    assert ate["percent"] == pytest.approx(100 * ate["rmse"] / 99)
+    assert ate["sim3_rmse"] < 1e-9 and ate["sim3_scale"] == pytest.approx(1 / 1.1) and ate["path_m"] == 99
+    assert rel["t_rel_percent"] == pytest.approx(10.0) and rel["r_rel_deg_per_100m"] == pytest.approx(0, abs=1e-9)
+    assert rel["t_rel_sim3_percent"] == pytest.approx(0, abs=1e-9) and rel["drift_percent"] == pytest.approx(10.0)
+    assert rel["segments"] == (n - 10) + (n - 40)
+    np.testing.assert_allclose(series["ate3d"]["error"], 0.1 * np.abs(k - 49.5), atol=1e-9)
+
+
+def test_registry_metrics_refuse_what_they_cannot_score():
+    from slamarena.datasets.estimate import Estimate
+    from slamarena.experiments.metrics import METRICS, CellData, evaluate, reference_of
+
+    truth = straight_then_turn(20)
+    data = camera_sequence(truth)
+    selected = {"ate3d": METRICS["ate3d"].params(), "kitti_rel": METRICS["kitti_rel"].params()}
+    planar = Estimate(method="planar", t=data.camera.t, poses=np.zeros((20, 3)))
+    _, _, skipped = evaluate(CellData(planar, data, reference_of(data)), selected)
+    assert "no 3-D trajectory" in skipped["ate3d"]
+    shifted = camera_estimate(data, truth, t=data.camera.t + 0.05)
+    _, _, skipped = evaluate(CellData(shifted, data, reference_of(data)), selected)
+    assert "not the camera's frame times" in skipped["ate3d"]
+    exact = camera_estimate(data, truth)
+    _, _, skipped = evaluate(CellData(exact, data, reference_of(data)), selected)
+    assert "no segment" in skipped["kitti_rel"]  # 19 m of path, the devkit's 100 m segments by default
+    with pytest.raises(ValueError):
+        METRICS["kitti_rel"].params(lengths=[])
