@@ -29,10 +29,14 @@ DATASETS_MAY_IMPORT = {
     "rosbags",
     "cv2",
     "pandas",
+    "lz4",
+    "backports",
+    "compression",
 }  # scipy.io for MAT files, pydantic for parameter models, pooch only inside fetch, gtsam only to locate the wheel's example
 # data, rosbags only inside the ROS bag and MCAP readers and writers (formats/bag*.py, ros_results.py), cv2 (imported on
 # first use) only to decode a camera image when one is asked for, pandas only inside formats/_text.py (its C parser
-# converts the numbers of every text reader)
+# converts the numbers of every text reader), lz4 and zstd (rosbags' own decompressors: lz4, backports.zstd or Python
+# 3.14's compression.zstd) only in formats/bag_damage.py, to read the chunks of a bag that rosbags cannot open
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:

@@ -249,9 +249,12 @@ def _lz4(data: bytes) -> bytes:
 
 
 def _zstd(data: bytes) -> bytes:
-    import zstandard
+    try:  # rosbags' own zstd: the standard library's from Python 3.14, its backport before
+        from compression import zstd
+    except ImportError:
+        from backports import zstd
 
-    return zstandard.ZstdDecompressor().decompressobj().decompress(data)
+    return zstd.ZstdDecompressor().decompress(data)
 
 
 _DECOMPRESSORS: dict[str, Callable[[bytes], bytes]] = {"": _raw, "none": _raw, "bz2": _bz2, "lz4": _lz4, "zstd": _zstd}

@@ -144,24 +144,44 @@ def test_a_bag_cut_between_its_pages_names_the_last_message_read(tmp_path):
     assert f"{tmp_path / 'cut'}, topic {topic}, after message {k}:" in text
 
 
-@pytest.mark.parametrize("compression", ["BZ2", "LZ4"])
-def test_a_compressed_ros1_bag_cut_in_a_chunk_names_a_message_in_write_order(tmp_path, compression):
+def _compressed_writer(path, compression):
+    """A rosbags writer whose chunks are compressed: ROS 1 bz2 or lz4 (4 KiB chunks, as a recorder makes many), or a
+    ROS 2 MCAP bag with zstd chunks (rosbags closes a chunk at 1 MiB)."""
+    if compression == "zstd":
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+        w = Writer(path, version=8, storage_plugin=StoragePlugin.MCAP)
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        return w
     from rosbags.rosbag1 import Writer
+
+    w = Writer(path)
+    w.chunk_threshold = 4096
+    w.set_compression(getattr(Writer.CompressionFormat, compression))
+    return w
+
+
+@pytest.mark.parametrize("compression,name,n,size", [("BZ2", "z.bag", 300, 64), ("LZ4", "z.bag", 300, 64),
+                                                      ("zstd", "z", 1200, 700)])  # fmt: skip
+def test_a_compressed_bag_cut_in_a_chunk_names_a_message_in_write_order(tmp_path, compression, name, n, size):
     from rosbags.typesys import Stores, get_typestore
 
-    ts, path, order = get_typestore(Stores.ROS1_NOETIC), tmp_path / "z.bag", []
-    noise = np.random.default_rng(0).bytes(300 * 2 * 64).hex()  # incompressible text: the chunks fill the file
-    w = Writer(path)
-    w.chunk_threshold = 4096  # many chunks, as in a recorded bag (rosbag's default is 768 KiB)
-    w.set_compression(getattr(Writer.CompressionFormat, compression))
-    with w:
+    ros1 = name.endswith(".bag")
+    ts, path, order = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE), tmp_path / name, []
+    noise = np.random.default_rng(0).bytes(n * 2 * size).hex()  # incompressible text: the chunks fill the file
+    with _compressed_writer(path, compression) as w:
         conns = {t: w.add_connection(t, "std_msgs/msg/String", typestore=ts) for t in ("/a", "/b")}
-        for k in range(300):
+        for k in range(n):
             for topic in conns:
-                text = message(ts, "std_msgs/msg/String", data=f"{topic}:{k}:" + noise[len(order) * 128 :][:128])
-                w.write(conns[topic], (10 + k) * 10**9, ts.serialize_ros1(text, "std_msgs/msg/String"))
+                text = message(
+                    ts, "std_msgs/msg/String", data=f"{topic}:{k}:" + noise[len(order) * 2 * size :][: 2 * size]
+                )
+                serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+                w.write(conns[topic], (10 + k) * 10**9, serialize(text, "std_msgs/msg/String"))
                 order.append((topic, k))
-    path.write_bytes(path.read_bytes()[: int(path.stat().st_size * 0.5)])
+    f = path if ros1 else next(path.glob("*.mcap"))
+    f.write_bytes(f.read_bytes()[: int(f.stat().st_size * 0.5)])
     text = _fails(path, "expected a readable ROS bag")
     intact = int(re.search(r"\((\d+) messages intact", text).group(1))
     assert 0 < intact < len(order)
