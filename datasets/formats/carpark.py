@@ -70,10 +70,10 @@ class CarparkParams(Params):
     """Options of the car park reader (what the calibration established; research/method/carpark.md)."""
 
     mount_heading: float = Field(
-        -0.016, ge=-0.2, le=0.2, description="the laser's yaw in the vehicle frame [rad] (calibrated: −0.016)"
+        -0.014, ge=-0.2, le=0.2, description="the laser's yaw in the vehicle frame [rad] (calibrated: −0.0142 ± 0.0007)"
     )
     laser_time_offset: float = Field(
-        -0.016, ge=-0.5, le=0.5, description="added to the laser stamps [s] (calibrated: −0.016)"
+        -0.015, ge=-0.5, le=0.5, description="added to the laser stamps [s] (calibrated: −0.0152 ± 0.0016)"
     )
     min_track_speed: float = Field(
         0.5, gt=0, description="GPS speed below which the track gives no heading (interpolated there) [m/s]"

@@ -36,11 +36,11 @@ def test_first_and_last_rows(carpark):
     assert np.allclose(m.dt[:-1], 0.025, atol=1e-9)
     # TimeLaser[0, 0] = 45.103; Laser[0, [0, 1, 180, 360]] = [0.84, 0.85, 81.91, 11.6]; Intensity[0, [19, 20, 334]] =
     # [8192, 32768, 8192] (every other beam of scan 0: 0)
-    assert len(s) == 586 and np.isclose(s.t[0], 45.103 - 0.016)
+    assert len(s) == 586 and np.isclose(s.t[0], 45.103 - 0.015)
     assert np.array_equal(s.ranges[0, [0, 1, 180, 360]], [0.84, 0.85, 81.91, 11.6]) and s.max_range == 80.0
     assert np.flatnonzero(s.intensities[0]).tolist() == [19, 20, 334]
     assert s.intensities[0, [19, 20, 334]].tolist() == [1.0, 4.0, 1.0]
-    assert np.allclose(s.angles[[0, 180, 360]], [-np.pi / 2, 0.0, np.pi / 2]) and np.allclose(s.mount, [A, B, -0.016])
+    assert np.allclose(s.angles[[0, 180, 360]], [-np.pi / 2, 0.0, np.pi / 2]) and np.allclose(s.mount, [A, B, -0.014])
     # TimeGPS[0, 0] = 45.047, GPSLon/GPSLat[0, 0] = 5.10475776, 4.20435697: the laser's position, the axle behind it
     assert len(gt) == 626 and np.isclose(gt.t[0], 45.047, rtol=0, atol=1e-12)
     laser = compose(gt.poses[0], [A, B, 0.0])
