@@ -9,7 +9,10 @@ Everything is vectorised over all beams of all scans at once; no loop over scans
 **Segments.** A beam is *valid* when its range is finite, in ``[min_range, max_range]`` and below the sensor's
 no-return code. A run of consecutive valid beams is one segment until the range jumps between neighbours,
 ``|r_{i+1} − r_i| > jump``; for ``features="beacons"`` only *bright* beams (intensity ≥ ``intensity_min``) are
-members, so a segment is a run of bright beams without a jump. A segment of n beams, first f and last l:
+members, so a segment is a run of bright beams without a jump, and runs of one scan separated by at most ``bridge``
+beams whose facing ends differ by at most ``jump`` are joined (near a beacon its reflection drops out on single beams:
+the car park's beacons at 2 m show bright beams 17 and 20 with dark ones between); a joined segment's front range is
+the mean of its bright beams. A segment of n beams, first f and last l:
 
 * front range ``r_f``: the mean of the range(s) of its middle beam(s) (one for odd n, two for even; ``m`` beams);
 * bearing ``β = (θ_f + θ_l)/2``, the centre of its angular extent;
@@ -76,6 +79,9 @@ class ExtractionParams(Params):
         0.5, description="a beam is bright at this intensity or above (beacons; the sensor's own intensity units)"
     )
     max_beacon_width: float = Field(0.5, gt=0, description="the widest chord of a beacon's bright segment [m]")
+    bridge: int = Field(
+        2, ge=0, description="bright runs split by at most this many beams (ranges within jump) are one beacon"
+    )
     beacon_radius: float = Field(
         0.0, ge=0, description="radius of a beacon: its centre lies this far behind the return [m]"
     )
@@ -124,6 +130,18 @@ def _segments(valid: np.ndarray, ranges: np.ndarray, jump: float) -> tuple[np.nd
     return np.flatnonzero(start), np.flatnonzero(end)
 
 
+def _bridged(first, last, flat, B, bridge, jump):
+    """Runs of bright beams joined across gaps of at most ``bridge`` beams within a scan when the ranges on either side
+    of the gap differ by at most ``jump`` (a beacon whose reflection drops out on a beam or two); the joined runs'
+    first and last flat indices and which of them were joined."""
+    gap = first[1:] - last[:-1] - 1
+    join = (first[1:] // B == last[:-1] // B) & (gap <= bridge) & (np.abs(flat[first[1:]] - flat[last[:-1]]) <= jump)
+    starts, ends = np.r_[True, ~join], np.r_[~join, True]
+    group = np.cumsum(starts) - 1
+    merged = np.bincount(group, minlength=int(starts.sum())) > 1
+    return first[starts], last[ends], merged
+
+
 @with_params(ExtractionParams)
 def extract(scans: Scans, /, *, params: ExtractionParams) -> Detections:
     """Beacons or poles in every scan (see the module docstring), in the sensor frame, ordered by scan and bearing."""
@@ -148,10 +166,19 @@ def extract(scans: Scans, /, *, params: ExtractionParams) -> Detections:
         member = valid
     first, last = _segments(member, np.where(member, r, 0.0), p.jump)
     flat = r.ravel()
+    merged = np.zeros(first.shape, dtype=bool)
+    if p.features == "beacons" and p.bridge > 0 and first.size > 1:
+        first, last, merged = _bridged(first, last, flat, B, p.bridge, p.jump)
     n = last - first + 1
     mid_lo, mid_hi = (first + last) // 2, (first + last + 1) // 2
-    r_front = 0.5 * (flat[mid_lo] + flat[mid_hi])
+    r_mid = np.stack([flat[mid_lo], flat[mid_hi]])
     m = np.where(mid_lo == mid_hi, 1, 2)
+    if merged.any():  # a bridged beacon: its middle beam may be a gap's; the mean of its bright beams instead
+        bright = np.cumsum(np.where(member.ravel(), flat, 0.0)), np.cumsum(member.ravel())
+        total = [c[last] - np.where(first > 0, c[first - 1], 0) for c in bright]
+        r_mid[:, merged] = (total[0] / total[1])[merged]
+        m = np.where(merged, total[1], m)
+    r_front = r_mid.mean(axis=0)
     beam_first = first % B
     bearing = angles[beam_first] + 0.5 * (n - 1) * dtheta
     extent = n * dtheta
@@ -178,10 +205,9 @@ def extract(scans: Scans, /, *, params: ExtractionParams) -> Detections:
     # the centre's range from the middle beam(s): beam i at δ_i from the centre bearing hits the circle at r_i, so
     # (r_i cos δ_i − r_c)² + (r_i sin δ_i)² = ρ², r_c = r_i cos δ_i + √(ρ² − r_i² sin² δ_i) (the root clamped at 0)
     centre = np.zeros(n.shape)
-    for k in (mid_lo, mid_hi):
-        delta = angles[k % B] - bearing
-        along = flat[k] * np.cos(delta)
-        centre += along + np.sqrt(np.maximum(radius**2 - (flat[k] * np.sin(delta)) ** 2, 0.0))
+    for k, r_k in zip((mid_lo, mid_hi), r_mid):
+        delta = np.where(merged, 0.0, angles[k % B] - bearing)
+        centre += r_k * np.cos(delta) + np.sqrt(np.maximum(radius**2 - (r_k * np.sin(delta)) ** 2, 0.0))
     # the centre bearing's quantisation error e_β (variance v_β below) puts the middle beam off the circle's apex by
     # u = r e_β, where the surface lies u²/(2ρ) deeper: the formula's mean bias E[u²]/(2ρ) is removed, E[u²] = r² v_β
     # but at most ρ²/3 (a beam meets the circle only for |u| < ρ: u is then uniform over (−ρ, ρ))

@@ -9,6 +9,7 @@ import pytest
 
 from slamarena import datasets
 from slamarena.datasets.geometry import compose, wrap_angle
+from slamarena.datasets.sequence import Scans
 from slamarena.datasets.sim import laser
 from slamarena.mapping.landmark_extraction import ExtractionParams, extract, landmark_sequence, to_robot_frame
 
@@ -146,3 +147,29 @@ def test_bad_input_is_refused(field):
     with pytest.raises(ValueError, match="no scans"):
         landmark_sequence(datasets.load("sim:landmarks", n_landmarks=5, seed=0))
     assert len(extract(seq.scans.select(slice(0, 0)), features="poles")) == 0
+
+
+def test_a_beacon_whose_reflection_drops_out_on_a_beam_is_one_detection():
+    """The car park's scan 521 (t = 156.388 s): beams 17 and 20 bright at 2.42 and 2.40 m, beam 18 dark at 2.37 m and
+    beam 19 a no-return between them."""
+    ranges = np.full((1, 41), 81.91)
+    ranges[0, 15:23] = [2.48, 81.87, 2.42, 2.37, 81.87, 2.40, 81.87, 2.43]
+    intensities = np.zeros((1, 41))
+    intensities[0, [17, 20]] = 4.0
+    scans = Scans(
+        t=[0.0], ranges=ranges, angles=np.radians(np.arange(41) * 0.5 - 10.0), max_range=80.0, intensities=intensities
+    )
+    one = extract(scans, features="beacons")
+    assert len(one) == 1 and one.beams[0] == 4 and np.isclose(one.range[0], 2.41)
+    assert np.isclose(one.bearing[0], np.radians(18.5 * 0.5 - 10.0))
+    assert len(extract(scans, features="beacons", bridge=0)) == 2
+    ranges[0, 20] = 3.5  # across a range step it is two objects
+    assert (
+        len(
+            extract(
+                Scans(t=[0.0], ranges=ranges, angles=scans.angles, max_range=80.0, intensities=intensities),
+                features="beacons",
+            )
+        )
+        == 2
+    )
