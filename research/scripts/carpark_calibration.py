@@ -21,8 +21,8 @@ from slamarena import datasets
 from slamarena.datasets.formats.carpark import VEHICLE
 from slamarena.datasets.geometry import compose, interpolate_poses
 from slamarena.datasets.sequence import RangeBearing
-from slamarena.estimators.models import DEFAULT_TWIST_COV
-from slamarena.experiments.noise_identification import identify
+from slamarena.estimators.models import DEFAULT_TWIST_COV, chi2_gate
+from slamarena.experiments.noise_identification import _Scoring, identify
 from slamarena.mapping.landmark_extraction import extract, landmark_sequence
 
 A, B, L = VEHICLE["laser_ahead"], VEHICLE["laser_left"], VEHICLE["wheelbase"]
@@ -110,6 +110,22 @@ def identify_noise() -> None:
     print(
         f"  loglik {s.loglik:.3f}, NIS/dof {s.nis_per_dof:.2f}, beyond chi2(0.95) {s.beyond_95:.3f}, rows {s.rows}; {len(found.trace)} models evaluated"
     )
+    # the tail: the labelled innovations the default gate (chi2_2(0.99999) = 23.0) would reject, per motion noise
+    gate = chi2_gate(0.99999, 2)
+    print(
+        f"  labelled re-observations beyond the default gate d2 > {gate:.1f}, twist_cov = diag(0.01 * 4^i, 0.0025 * 4^j):"
+    )
+    for i in range(3):
+        for j in range(3):
+            tw = np.diag([0.01 * 4**i, 0.0025 * 4**j])
+            ekf = _Scoring(use_ids=True, known_confidence=None, twist_cov=tw.tolist())
+            ekf.run(seq)
+            d2, loglik = np.array(ekf.scored).T
+            print(
+                f"    i={i} j={j} (sigma_v {np.sqrt(tw[0, 0]):.2f} m/s, sigma_w {np.sqrt(tw[1, 1]):.3f} rad/s): "
+                f"beyond {int((d2 > gate).sum())}, beyond chi2_2(0.999) = 13.8: {int((d2 > 13.8155).sum())}, "
+                f"beyond chi2_2(0.95): {np.mean(d2 > 5.9915):.3f}, max d2 {d2.max():.1f}, loglik {loglik.mean():.3f}"
+            )
 
 
 def main() -> None:
