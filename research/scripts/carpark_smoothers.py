@@ -26,10 +26,10 @@ FRONT_END = {**MOTION, "confirm_sightings": 3, "confirm_window": 2.0, "use_ids":
 
 
 def score(est, ref) -> str:
-    trajectory, _ = ate(est, ref, ATEParams(align="se2"))
+    trajectory, _ = ate(est, ref, ATEParams(align="se2", max_gap=0.25))
     line = f"ATE {trajectory['rmse']:.3f} m"
     if est.landmarks is not None and len(est.landmarks):
-        m, _ = landmark_error(est, ref, MapParams(by="nearest", max_distance=2.0))
+        m, _ = landmark_error(est, ref, MapParams(by="nearest", max_distance=2.0, max_gap=0.25))
         line += f", {len(est.landmark_ids)} landmarks, map RMS {m['rmse']:.3f} m, matched {m['matched']}, spurious {m['spurious']}"
     return line
 
