@@ -28,11 +28,17 @@ def carpark():
 def test_first_and_last_rows(carpark):
     m, s, gt = carpark.motion, carpark.scans, carpark.ground_truth
     # Time_VS[0, :2] = [45.024, 45.049]: the first row precedes the first GPS fix (45.047) and is dropped
-    assert len(m) == 5000 and np.isclose(m.t[0], 45.049, rtol=0, atol=1e-12) and carpark.meta["motion_rows_before_first_fix"] == 1
+    assert (
+        len(m) == 5000
+        and np.isclose(m.t[0], 45.049, rtol=0, atol=1e-12)
+        and carpark.meta["motion_rows_before_first_fix"] == 1
+    )
     # Velocity[0, 1] = 2.0120826, Steering[0, 1] = 0.27641376: the axle's twist by the Ackerman model
     v = 2.0120826 / (1 - np.tan(0.27641376) * H / L)
     assert np.isclose(m.v[0], v, rtol=1e-12) and np.isclose(m.omega[0], v * np.tan(0.27641376) / L, rtol=1e-12)
-    assert np.isclose(m.t[-1], 170.024, rtol=0, atol=1e-12) and np.isclose(m.v[-1], 2.3474297 / (1 - np.tan(0.22010764) * H / L))
+    assert np.isclose(m.t[-1], 170.024, rtol=0, atol=1e-12) and np.isclose(
+        m.v[-1], 2.3474297 / (1 - np.tan(0.22010764) * H / L)
+    )
     assert np.allclose(m.dt[:-1], 0.025, atol=1e-9)
     # TimeLaser[0, 0] = 45.103; Laser[0, [0, 1, 180, 360]] = [0.84, 0.85, 81.91, 11.6]; Intensity[0, [19, 20, 334]] =
     # [8192, 32768, 8192] (every other beam of scan 0: 0)
