@@ -86,7 +86,7 @@ def test_beacons_extracted_from_the_raw_scans_land_on_the_survey(carpark):
         return d.min(axis=1), d.argmin(axis=1)
 
     distance, nearest = on_survey(det.bearing[inside])
-    assert len(det) > 900 and np.mean(distance < 0.3) > 0.97
+    assert len(det) > 850 and np.mean(distance < 0.3) > 0.97
     assert set(nearest[distance < 0.3]) == set(range(15))
     assert np.mean(on_survey(-det.bearing[inside])[0] < 0.3) < 0.3
 
