@@ -60,6 +60,9 @@ FORMATS: dict[str, Format] = {
         "slamarena.datasets.formats.carmen:load", "carmen-corrected:/data/log-corrected.log", {"corrected": True}
     ),
     "bag": Format("slamarena.datasets.formats.bag:load", "bag:/data/run.bag (or a ROS 2 bag folder, or run.mcap)"),
+    "carpark": Format(
+        "slamarena.datasets.formats.carpark:read", "carpark:/data/acfr_carpark (for data_set.mat, beac_juan3.mat)"
+    ),
 }
 
 
@@ -119,6 +122,10 @@ _RADISH = 'A. Howard, N. Roy, "The Robotics Data Set Repository (Radish)", 2003'
 _PLAZA = (
     'J. Djugash, S. Singh, G. Kantor, W. Zhang, "Range-only SLAM for robots operating cooperatively with sensor '
     'networks", ICRA 2006; GTSAM copies: B. Boots, G. Gordon, "A spectral learning approach to range-only SLAM", ICML 2013'
+)
+_CARPARK = (
+    'J. Guivant, E. Nebot, "Optimization of the simultaneous localization and map-building algorithm for '
+    'real-time implementation", IEEE T-RA 17(3), 2001; ACFR (University of Sydney) Car Park dataset'
 )
 _KUEMMERLE = (
     'R. Kuemmerle et al., "On measuring the accuracy of SLAM algorithms", Autonomous Robots 27(4):387-407, 2009'
@@ -354,6 +361,14 @@ CATALOGUE: dict[str, CatalogueEntry] = {
         _VICTORIA,
     ),
     **_plaza(),
+    "carpark": CatalogueEntry(
+        "carpark",
+        "carpark",
+        "raw laser with intensity (retro-reflective beacons) + speed and steering (Ackerman), real outdoor",
+        "GPS (5 Hz) + 15 surveyed beacons",
+        {"path": "acfr_carpark"},
+        _CARPARK,
+    ),
     **_graphs(),
     **_carmen(),
     "bag:aces": CatalogueEntry(

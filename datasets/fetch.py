@@ -467,6 +467,16 @@ FILES: dict[str, tuple[str, str, bool]] = {
         "10596bac625acfe009080748b0ec9993fc9925a93370878c20288a22eeee5253",
         False,
     ),
+    "acfr_carpark/data_set.mat": (
+        "yuzehai1995/hwork_SLAM/b4715234d795a5dd8155371e99b71f99803eb551/hw4_slam/data_set.mat",
+        "f44c8adfa7e8e38ea6c40da3cd5d52bd8e029fc2d5ea27a9d7df24ad4ec98be7",
+        False,
+    ),
+    "acfr_carpark/beac_juan3.mat": (
+        "yuzehai1995/hwork_SLAM/b4715234d795a5dd8155371e99b71f99803eb551/hw4_slam/beac_juan3.mat",
+        "a6def97aef0e0f0d7a0a00f7014cdd1390fd8779ec7f17613c32b2e44aae1f36",
+        False,
+    ),
 }
 
 

@@ -5,6 +5,7 @@ Names (exact forms)::
     utias:<dataset>/robot<k>      e.g. utias:6/robot1        UTIAS MRCLAM (catalogued: Datasets 1 and 6)
     victoria_park, victoria_park:isam                        Victoria Park trees (GTSAM's / iSAM's copy)
     plaza:<run>                   e.g. plaza:Plaza1          CMU Plaza range-only
+    carpark                                                  the ACFR Car Park (raw laser, beacons, GPS)
     g2o:<name>   isam:<name>                                 pose graphs
     carmen:<name>   carmen-corrected:<name>                  laser logs
     bag:<path>                    e.g. bag:/data/run.bag     ROS 1 bags, ROS 2 bag folders, .mcap files
@@ -17,7 +18,7 @@ A catalogued name (:data:`~slamarena.datasets.catalogue.CATALOGUE`) is a staged 
 is fixed, its files are found under the data roots (all under one root), the caller's keywords are the
 reader's options. Any other recording in a known format is named by its family and path
 (:data:`~slamarena.datasets.catalogue.FORMATS`: utias, victoria_park, plaza, g2o, toro, isam, carmen,
-carmen-corrected, bag); a relative path is looked for in the working directory first, then under the data
+carmen-corrected, bag, carpark); a relative path is looked for in the working directory first, then under the data
 roots. Either way the reader's ``Params`` model validates every keyword before a file is looked for: an
 unknown or bad one is a ``pydantic.ValidationError`` naming it, and a location field given to a
 catalogued name, or given twice, is a :class:`~slamarena.datasets.errors.DatasetNameError`.

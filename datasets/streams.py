@@ -21,6 +21,7 @@ STREAMS: dict[str, frozenset[str]] = {
     "slamarena.datasets.formats.mrclam:read": frozenset({"motion", "range_bearing"}),
     "slamarena.datasets.formats.victoria_park:load": frozenset({"motion", "range_bearing"}),
     "slamarena.datasets.formats.plaza:read": frozenset({"motion", "beacon_ranges"}),
+    "slamarena.datasets.formats.carpark:read": frozenset({"motion", "scans"}),
     "slamarena.datasets.formats.carmen:load": frozenset({"motion", "scans"}),
     "slamarena.datasets.formats.kitti_odometry:read": frozenset({"camera"}),
     "slamarena.datasets.formats.vamr:read": frozenset({"camera"}),

@@ -41,6 +41,22 @@ innovation is accepted with probability ``confidence``.
 Odometry-increment motion x' = x ⊕ δ has ∂x'/∂x = [[1, 0, −s δx − c δy], [0, 1, c δx − s δy], [0, 0, 1]]
 and ∂x'/∂δ = blockdiag(R(θ), 1) (:func:`compose_jacobians`).
 
+Ackerman vehicle (:class:`AckermanModel`; Guivant & Nebot, the ACFR vehicles): wheel base L, speed v_e measured on the
+rear wheel at lateral offset h, steering angle α; the rear axle centre moves with the twist
+(:func:`slamarena.datasets.kinematics.ackerman_twist`) ``v = v_e / (1 − h tan α / L)``, ``ω = v tan α / L``, whose
+Jacobian with D = 1 − h tan α / L, T = tan α is::
+
+    ∂(v, ω)/∂(v_e, α) = [[1/D,        v_e h sec²α / (L D²)           ],
+                          [T/(L D),    (T ∂v/∂α + v sec²α) / L        ]]
+
+A sensor at (a, b) in the axle frame, with pose (x, y, φ) (the sensor's position, the vehicle's heading), moves as::
+
+    ẋ = v cos φ − ω (a sin φ + b cos φ),   ẏ = v sin φ + ω (a cos φ − b sin φ),   φ̇ = ω
+
+Euler step x' = x + f(x, u) dt (the dataset's model), G = I + dt ∂f/∂x with ∂ẋ/∂φ = −v sin φ − ω (a cos φ − b sin φ),
+∂ẏ/∂φ = v cos φ − ω (a sin φ + b cos φ); V = dt ∂f/∂(v, ω) · ∂(v, ω)/∂(v_e, α) with ∂f/∂v = (cos φ, sin φ, 0),
+∂f/∂ω = (−(a sin φ + b cos φ), a cos φ − b sin φ, 1).
+
 All functions broadcast over leading axes.
 """
 
@@ -61,6 +77,7 @@ __all__ = [
     "EULER",
     "ARC",
     "MOTION_MODELS",
+    "AckermanModel",
     "observe",
     "observation_jacobians",
     "inverse_observe",
@@ -165,6 +182,68 @@ class MotionModel:
 EULER = MotionModel("euler")
 ARC = MotionModel("arc")
 MOTION_MODELS: dict[str, MotionModel] = {"euler": EULER, "arc": ARC}
+
+
+@dataclass(frozen=True)
+class AckermanModel:
+    """An Ackerman vehicle driven by (encoder speed v_e [m/s], steering α [rad]) (module docstring): ``wheelbase`` L,
+    ``encoder_offset`` h (the encoder wheel left of the centre line > 0), a sensor at ``mount`` (a, b) [m] ahead of and
+    left of the rear axle centre, whose pose (x, y, φ) the motion moves."""
+
+    wheelbase: float
+    encoder_offset: float
+    mount: tuple[float, float] = (0.0, 0.0)
+
+    def twist(self, speed, steering) -> tuple[np.ndarray, np.ndarray]:
+        """The rear axle centre's (v, ω)."""
+        return kinematics.ackerman_twist(speed, steering, self.wheelbase, self.encoder_offset)
+
+    def twist_jacobian(self, speed, steering) -> np.ndarray:
+        """∂(v, ω)/∂(v_e, α) (..., 2, 2)."""
+        speed, steering = np.broadcast_arrays(np.asarray(speed, dtype=float), np.asarray(steering, dtype=float))
+        L, h = self.wheelbase, self.encoder_offset
+        T, sec2 = np.tan(steering), 1.0 / np.cos(steering) ** 2
+        D = 1.0 - h * T / L
+        v = speed / D
+        dv_da = speed * h * sec2 / (L * D**2)
+        J = np.empty(speed.shape + (2, 2))
+        J[..., 0, 0] = 1.0 / D
+        J[..., 0, 1] = dv_da
+        J[..., 1, 0] = T / (L * D)
+        J[..., 1, 1] = (T * dv_da + v * sec2) / L
+        return J
+
+    def rates(self, x, speed, steering) -> np.ndarray:
+        """ẋ = f(x, u) (..., 3) of the sensor pose x (..., 3)."""
+        x = np.asarray(x, dtype=float)
+        v, w = self.twist(speed, steering)
+        a, b = self.mount
+        c, s = np.cos(x[..., 2]), np.sin(x[..., 2])
+        return np.stack([v * c - w * (a * s + b * c), v * s + w * (a * c - b * s), w], axis=-1)
+
+    def predict(self, x, speed, steering, dt) -> np.ndarray:
+        """The Euler step x' = x + f(x, u) dt (heading wrapped)."""
+        x = np.asarray(x, dtype=float)
+        out = x + self.rates(x, speed, steering) * np.asarray(dt, dtype=float)[..., None]
+        out[..., 2] = wrap_angle(out[..., 2])
+        return out
+
+    def jacobians(self, x, speed, steering, dt) -> tuple[np.ndarray, np.ndarray]:
+        """G = ∂x'/∂x (..., 3, 3) and V = ∂x'/∂(v_e, α) (..., 3, 2) of :meth:`predict`."""
+        x = np.asarray(x, dtype=float)
+        v, w = self.twist(speed, steering)
+        dt = np.asarray(dt, dtype=float)
+        a, b = self.mount
+        c, s = np.cos(x[..., 2]), np.sin(x[..., 2])
+        v, w, dt, c, s = np.broadcast_arrays(v, w, dt, c, s)
+        G = np.zeros(c.shape + (3, 3))
+        G[..., 0, 0] = G[..., 1, 1] = G[..., 2, 2] = 1.0
+        G[..., 0, 2] = dt * (-v * s - w * (a * c - b * s))
+        G[..., 1, 2] = dt * (v * c - w * (a * s + b * c))
+        F = np.zeros(c.shape + (3, 2))  # ∂f/∂(v, ω)
+        F[..., 0, 0], F[..., 1, 0] = c, s
+        F[..., 0, 1], F[..., 1, 1], F[..., 2, 1] = -(a * s + b * c), a * c - b * s, 1.0
+        return G, dt[..., None, None] * F @ self.twist_jacobian(speed, steering)
 
 
 def observe(x, landmarks) -> np.ndarray:

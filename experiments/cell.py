@@ -346,6 +346,10 @@ def execute(spec: CellSpec, clock=None) -> dict:
     t0 = time.perf_counter()
     params = dict(ds.params, seed=seed) if ds.simulator else dict(ds.params)
     data = datasets.load(ds.name, **params)
+    if ds.landmarks is not None:  # the config's extraction: the scans' landmarks become the range-bearing stream
+        from slamarena.mapping.landmark_extraction import ExtractionParams, landmark_sequence
+
+        data = landmark_sequence(data, ExtractionParams.of(ds.landmarks))
     load_time = time.perf_counter() - t0
 
     estimate_file = cell / "estimate.npz"

@@ -18,6 +18,8 @@ class CellDataset:
     params: dict
     label: str
     simulator: bool
+    #: the landmark extraction applied after loading (DatasetSpec.landmarks), None: none
+    landmarks: dict | None = None
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,8 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
       - name: utias                   # a format family with the path of a recording (or utias:<dir>/robot<k>)
         params: {path: /data/MRCLAM_Dataset7, robot: 1}
         label: mrclam7_robot1
+      - name: carpark                 # raw scans: landmarks extracted before the methods run
+        landmarks: {features: beacons}  # mapping.landmark_extraction.ExtractionParams (its range-bearing stream)
     estimators:
       - name: dead_reckoning          # estimators.REGISTRY or mapping.REGISTRY
         params: {motion_model: arc}   # constructor keywords, checked by constructing the class
@@ -128,12 +130,20 @@ class DatasetSpec(BaseModel):
     name: str
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
+    #: landmarks extracted from the dataset's scans (mapping.landmark_extraction.ExtractionParams) as its range-bearing
+    #: stream, before any method runs; None: the dataset as read
+    landmarks: dict[str, Any] | None = None
 
     _resolved: dict = PrivateAttr(default_factory=dict)
+    _landmarks: dict | None = PrivateAttr(default=None)
 
     def resolved_params(self) -> dict:
         """Every parameter of the dataset, defaults filled in (its reader's or simulator's ``Params`` model)."""
         return self._resolved
+
+    def resolved_landmarks(self) -> dict | None:
+        """The extraction's parameters with its defaults filled in (None: no extraction)."""
+        return self._landmarks
 
     @property
     def is_simulator(self) -> bool:
@@ -162,6 +172,10 @@ class DatasetSpec(BaseModel):
                 UserError
             ) as exc:  # an unknown name, a location a catalogued name fixes, a path not in the family's form
                 raise ValueError(str(exc)) from None
+        if self.landmarks is not None:
+            from slamarena.mapping.landmark_extraction import extract
+
+            self._landmarks = resolve_params(extract, self.landmarks, f"dataset {self.name!r} landmarks")
         require_plain(self.label, "label")
         return self
 
@@ -336,6 +350,13 @@ class ExperimentConfig(BaseModel):
                 if es.datasets is not None and label not in es.datasets:
                     continue
                 have = streams_of(ds.name, ds.params)
+                if ds.landmarks is not None and have:
+                    if "scans" not in have:
+                        raise ValueError(
+                            f"datasets: {label!r} has landmarks to extract but {ds.name} has no scans "
+                            f"({', '.join(sorted(have))})"
+                        )
+                    have = have | {"range_bearing"}
                 missing = [
                     " or ".join(sorted(group)) for group in requires.get(es.name, ()) if have and not group & have
                 ]

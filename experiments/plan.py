@@ -112,6 +112,7 @@ def plan(config: ExperimentConfig, out: Path) -> list[Cell]:
                             "params": ds.resolved_params(),
                             "seed": seed if ds.is_simulator else None,
                             "files": checksums,
+                            **({"landmarks": ds.resolved_landmarks()} if ds.landmarks is not None else {}),
                         },
                         "estimator": {
                             "name": es.name,
@@ -180,7 +181,9 @@ def cell_spec(config: ExperimentConfig, cell: Cell, env: dict, force: bool = Fal
         key=cell.key,
         metrics_key=cell.metrics_key,
         seed=cell.seed,
-        dataset=CellDataset(ds.name, ds.params, config.dataset_labels()[cell.dataset], ds.is_simulator),
+        dataset=CellDataset(
+            ds.name, ds.params, config.dataset_labels()[cell.dataset], ds.is_simulator, ds.resolved_landmarks()
+        ),
         estimator=CellMethod(es.name, es.params, config.estimator_labels()[cell.estimator]),
         seed_to_estimator=cell.seed_to_estimator,
         metrics={k: v.model_dump(mode="json") for k, v in config.enabled_metrics().items()},

@@ -39,11 +39,23 @@ Scans at ``scan_rate`` (a divisor of ``odom_rate``), at odometry stamps ``t0 + j
 ``t0`` included. Beam ``b`` of a scan leaves the sensor pose ``x ⊕ mount`` (``x`` the true
 pose, ``mount`` the sensor pose in the robot frame) at angle ``angles[b]`` (``fov`` wide,
 centred ahead; end points included unless ``fov = 2π``). The reading is the distance to the
-nearest wall, ray-cast over all beams × all segments (numpy), plus ``N(0, sigma_range²)``;
+nearest wall or pole, ray-cast over all beams × all segments and circles (numpy), plus ``N(0, sigma_range²)``;
 a beam that hits nothing within ``max_range`` — or whose noisy reading reaches it, or that
 drops out (probability ``dropout``) — reads exactly ``max_range`` ("no return",
 ``Scans.max_range``). ``Scans.pose`` is the odometry pose (the noisy increments accumulated
 from the true start pose) at each scan: what a log attaches to its scans.
+
+Poles
+-----
+A world may hold **poles**: circles ``(x, y, radius)``, some of them retro-reflective (a beacon). ``"poles"`` (
+:func:`pole_field`): an open field 60 m × 40 m inside four walls, 36 tree-like poles of radius 0.05–0.30 m and 8
+reflective beacons of radius 0.05 m at fixed positions (a seeded draw at import, at least 3 m apart and at least
+2.5 m from the route), the route a rounded rectangle 8 m inside the walls. A world with poles gives each scan
+**intensities**: 1 where the beam's return is from a reflective pole, 0 elsewhere (``Scans.intensities``; no return:
+0), and its poles as the ground-truth map (``Sequence.landmarks``, ids 0 … in the order of ``World.poles``;
+``meta["pole_radius"]``, ``meta["pole_reflective"]``). A ray ``o + t d`` (``|d| = 1``) meets the circle of centre c and
+radius ρ at ``t = d·w − √((d·w)² − |w|² + ρ²)``, ``w = c − o`` (:func:`raycast_poles`; a sensor inside a pole sees
+nothing of it).
 """
 
 from __future__ import annotations
@@ -60,13 +72,15 @@ from slamarena.resources import require_memory
 
 from .. import kinematics
 from ..geometry import accumulate, compose, wrap_angle
-from ..sequence import Increments, Noise, Scans, Sequence, Trajectory
+from ..sequence import Increments, LandmarkMap, Noise, Scans, Sequence, Trajectory
 
 __all__ = [
     "World",
     "WORLDS",
     "LaserWorldParams",
     "corridor_loop",
+    "pole_field",
+    "raycast_poles",
     "segments",
     "raycast",
     "true_occupancy",
@@ -87,6 +101,8 @@ class World:
     route: tuple
     corner_radius: float
     description: str
+    #: (x, y, radius, reflective) per pole [m, m, m, bool]
+    poles: tuple = ()
 
 
 def _box(x0, y0, x1, y1):
@@ -221,8 +237,46 @@ def corridor_loop(width: float, height: float, name: str | None = None) -> World
     )
 
 
+def pole_field(
+    width: float = 60.0, height: float = 40.0, trees: int = 36, beacons: int = 8, inset: float = 8.0, seed: int = 7
+) -> World:
+    """An open field ``[0, width] × [0, height]`` inside four walls with ``trees`` poles of radius U(0.05, 0.30) m and
+    ``beacons`` reflective poles of radius 0.05 m, drawn once from ``seed`` (uniform in the field, rejected closer than
+    3 m to another pole, 2.5 m to the route or 1 m to a wall); the route a rectangle ``inset`` from the walls, corners
+    rounded with radius 3 m, counter-clockwise from the middle of its bottom side."""
+    rng = np.random.default_rng(seed)
+    route = (
+        (0.5 * width, inset),
+        (width - inset, inset),
+        (width - inset, height - inset),
+        (inset, height - inset),
+        (inset, inset),
+    )
+    legs = np.asarray(route + route[:1], dtype=float)
+    poles: list[tuple[float, float, float, bool]] = []
+    while len(poles) < trees + beacons:
+        p = rng.uniform([1.0, 1.0], [width - 1.0, height - 1.0])
+        a, e = legs[:-1], legs[1:] - legs[:-1]
+        u = np.clip(np.einsum("ij,ij->i", p - a, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+        if np.min(np.hypot(*(a + u[:, None] * e - p).T)) < 2.5:
+            continue
+        if any(np.hypot(p[0] - q[0], p[1] - q[1]) < 3.0 for q in poles):
+            continue
+        beacon = len(poles) >= trees
+        radius = 0.05 if beacon else float(rng.uniform(0.05, 0.30))
+        poles.append((float(p[0]), float(p[1]), radius, beacon))
+    return World(
+        name="poles",
+        walls=(_box(0.0, 0.0, width, height),),
+        route=route,
+        corner_radius=3.0,
+        description=f"open field {width:g} m × {height:g} m, {trees} tree-like poles and {beacons} reflective beacons",
+        poles=tuple(poles),
+    )
+
+
 #: world name → World
-WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS)}
+WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS, pole_field())}
 
 
 def _world(world: str | World) -> World:
@@ -271,6 +325,34 @@ def raycast(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, max_
         nearest = np.where(hit, t, np.inf).min(axis=2)
         out[lo : lo + block] = np.where(nearest <= max_range, nearest, np.inf)
     return out
+
+
+def raycast_poles(origins: np.ndarray, directions: np.ndarray, poles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance along each ray to the nearest pole and that pole's index (``inf`` and −1 where none is hit).
+
+    ``origins`` (P, 2), ``directions`` (P, B) world angles, ``poles`` (C, ≥ 3) rows ``(x, y, radius, …)``. The ray meets
+    circle c at ``t = d·w − √((d·w)² − |w|² + ρ²)`` (``w = c − o``) when the root is real and ``t > 0``."""
+    origins = np.asarray(origins, dtype=float).reshape(-1, 2)
+    directions = np.asarray(directions, dtype=float).reshape(origins.shape[0], -1)
+    poles = np.asarray(poles, dtype=float).reshape(-1, 4)
+    P, B = directions.shape
+    distance, index = np.full((P, B), np.inf), np.full((P, B), -1, dtype=np.int64)
+    if poles.shape[0] == 0:
+        return distance, index
+    block = max(1, _BLOCK_ELEMENTS // max(1, B * poles.shape[0]))
+    for lo in range(0, P, block):
+        o, d = origins[lo : lo + block], directions[lo : lo + block]
+        wx = poles[None, None, :, 0] - o[:, None, None, 0]  # (p, 1, C)
+        wy = poles[None, None, :, 1] - o[:, None, None, 1]
+        dw = np.cos(d)[:, :, None] * wx + np.sin(d)[:, :, None] * wy  # (p, B, C)
+        disc = dw**2 - (wx**2 + wy**2) + poles[:, 2] ** 2
+        with np.errstate(invalid="ignore"):
+            t = dw - np.sqrt(disc)
+        t = np.where((disc >= 0) & (t > 0), t, np.inf)
+        nearest = t.argmin(axis=2)
+        distance[lo : lo + block] = np.take_along_axis(t, nearest[:, :, None], axis=2)[:, :, 0]
+        index[lo : lo + block] = np.where(np.isfinite(distance[lo : lo + block]), nearest, -1)
+    return distance, index
 
 
 def true_occupancy(
@@ -367,7 +449,7 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "long_loop", "rooms"] | World = Field(
+    world: Literal["loop", "long_loop", "rooms", "poles"] | World = Field(
         "loop", description="a world of WORLDS by name, or a World"
     )
     n_beams: int = Field(361, ge=1, description="beams per scan")
@@ -443,10 +525,22 @@ def simulate(*, params: LaserWorldParams) -> Sequence:
     k_scan = np.arange(0, K + 1, every)
     angles = _beam_angles(p.n_beams, p.fov)
     sensor = compose(truth[k_scan], mount)
-    true_ranges = raycast(sensor[:, :2], sensor[:, 2:3] + angles[None, :], segments(w), p.max_range)
+    directions = sensor[:, 2:3] + angles[None, :]
+    true_ranges = raycast(sensor[:, :2], directions, segments(w), p.max_range)
+    poles = np.asarray(w.poles, dtype=float).reshape(-1, 4)
+    intensities = None
+    if len(poles):
+        to_pole, pole = raycast_poles(sensor[:, :2], directions, poles)
+        first = (to_pole < true_ranges) & (to_pole <= p.max_range)
+        true_ranges = np.where(first, to_pole, true_ranges)
+        if poles[:, 3].any():
+            intensities = (first & (poles[np.maximum(pole, 0), 3] > 0)).astype(np.float32)
     ranges = true_ranges + p.sigma_range * rng_range.standard_normal(true_ranges.shape)
     dropped = rng_dropout.uniform(size=ranges.shape) < p.dropout
-    ranges[~np.isfinite(true_ranges) | (ranges >= p.max_range) | dropped] = p.max_range
+    no_return = ~np.isfinite(true_ranges) | (ranges >= p.max_range) | dropped
+    ranges[no_return] = p.max_range
+    if intensities is not None:
+        intensities[no_return] = 0.0
 
     meta = dict(
         dataset="sim:laser",
@@ -457,13 +551,24 @@ def simulate(*, params: LaserWorldParams) -> Sequence:
         no_return_fraction=float(np.mean(ranges >= p.max_range)),
         dropped_beams=int(dropped.sum()),
     )
+    landmarks = None
+    if len(poles):
+        landmarks = LandmarkMap(ids=np.arange(len(poles)), xy=poles[:, :2])
+        meta.update(pole_radius=poles[:, 2].tolist(), pole_reflective=(poles[:, 3] > 0).tolist())
     return Sequence(
         name=f"sim:laser({w.name},seed={p.seed})",
         motion=Increments(t=t[1:], delta=noisy, cov=cov),
         scans=Scans(
-            t=t[k_scan], ranges=ranges, angles=angles, max_range=p.max_range, mount=mount, pose=odometry[k_scan]
+            t=t[k_scan],
+            ranges=ranges,
+            angles=angles,
+            max_range=p.max_range,
+            mount=mount,
+            pose=odometry[k_scan],
+            intensities=intensities,
         ),
         ground_truth=Trajectory(t=t, poses=truth),
+        landmarks=landmarks,
         initial_pose=start,
         noise=Noise(),
         meta=meta,

@@ -40,6 +40,7 @@ EXPECTED = (
         )
     ]
     + [f"isam:{n}" for n in ("manhattanOlson3500", "city10000", "cityTrees10000", "w20000")]
+    + ["carpark"]
     + [f"carmen:{n}" for n in ("intel", "fr079", "aces", "mit-csail", "fr-clinic")]
     + [
         f"carmen-corrected:{n}"
@@ -87,6 +88,7 @@ READERS = {
     "slamarena.datasets.formats.bag:load": ("bag:aces", "bag:/nowhere.bag", ("stamps", "sometimes")),
     "slamarena.datasets.formats.kitti_odometry:read": ("kitti:00", "kitti:/nowhere/sequences/00", ("frames", 1)),
     "slamarena.datasets.formats.vamr:read": ("vamr:checkerboard", "vamr:/nowhere", ("frames", 0)),
+    "slamarena.datasets.formats.carpark:read": ("carpark", "carpark:/nowhere", ("mount_heading", 1.0)),
 }
 
 

@@ -237,3 +237,40 @@ def test_a_params_model_and_keywords_simulate_alike():
     keywords = datasets.load("sim:laser", world=BOX, n_beams=16, mount=(0.2, 0.0, 0.1), seed=2)
     assert simulate.Params is LaserWorldParams and given.meta == keywords.meta and given.meta["world"] == "box"
     np.testing.assert_array_equal(given.scans.ranges, keywords.scans.ranges)
+
+
+def test_pole_rays_meet_the_nearest_circle_first():
+    """raycast_poles against the geometry: the hit lies on its circle, no point of the ray before it is inside any
+    circle, and a ray that hits nothing passes outside every circle; a head-on ray meets a pole at d − ρ."""
+    from slamarena.datasets.sim.laser import raycast_poles
+
+    rng = np.random.default_rng(8)
+    poles = np.column_stack([rng.uniform(-10, 10, (12, 2)), rng.uniform(0.1, 1.0, 12), np.zeros(12)])
+    origins = rng.uniform(-12, 12, (30, 2))
+    inside = np.hypot(origins[:, None, 0] - poles[:, 0], origins[:, None, 1] - poles[:, 1]) < poles[:, 2]
+    origins = origins[~inside.any(axis=1)]
+    directions = rng.uniform(-np.pi, np.pi, (len(origins), 40))
+    t, index = raycast_poles(origins, directions, poles)
+    d = np.stack([np.cos(directions), np.sin(directions)], -1)
+    samples = np.linspace(0, 1, 400)
+    for p in range(len(origins)):
+        for b in range(directions.shape[1]):
+            reach = t[p, b] if np.isfinite(t[p, b]) else 40.0
+            pts = origins[p] + (samples[:, None] * reach) * d[p, b]
+            gap = np.hypot(pts[:, None, 0] - poles[:, 0], pts[:, None, 1] - poles[:, 1]) - poles[:, 2]
+            assert gap[:-1].min() > -1e-9  # nothing inside a circle before the hit
+            if np.isfinite(t[p, b]):
+                assert abs(gap[-1, index[p, b]]) < 1e-9
+    head_on, which = raycast_poles(np.zeros((1, 2)), np.zeros((1, 1)), np.array([[5.0, 0.0, 0.5, 1.0]]))
+    assert head_on[0, 0] == pytest.approx(4.5) and which[0, 0] == 0
+
+
+def test_the_pole_field_gives_intensities_and_its_poles_as_landmarks():
+    seq = datasets.load("sim:laser", world="poles", fov=np.pi, n_beams=181, max_range=30.0, laps=1, seed=3)
+    poles = np.asarray(WORLDS["poles"].poles)
+    assert len(seq.landmarks) == len(poles) == 44 and np.allclose(seq.landmarks.xy, poles[:, :2])
+    assert seq.meta["pole_reflective"].count(True) == 8
+    bright = seq.scans.intensities > 0
+    assert bright.any() and np.all(seq.scans.ranges[bright] < 30.0)
+    assert set(np.unique(seq.scans.intensities)) <= {0.0, 1.0}
+    assert datasets.load("sim:laser", n_beams=16, seed=0).scans.intensities is None  # no reflective poles: none

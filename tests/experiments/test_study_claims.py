@@ -165,3 +165,19 @@ def test_loop_closure_the_rbpf_and_laser_slam_close_the_loop_that_scan_matching_
     assert m.at["laser_slam", "loop.trans_mean"] < 0.25 * m.at["grid_slam", "loop.trans_mean"]
     assert m.at["rbpf", "loop.trans_mean"] < 0.5 * m.at["grid_slam", "loop.trans_mean"]
     assert m.at["laser_slam", "ate.rmse"] < min(m.at["rbpf", "ate.rmse"], m.at["grid_slam", "ate.rmse"])
+
+
+def test_carpark_ekf_slam_maps_every_beacon_and_no_other(tmp_path):
+    """Section 3, the ACFR Car Park (issue 33's goals): with the car park's motion noise and tentative landmarks,
+    EKF-SLAM without ids (NN and JCBB) maps all 15 surveyed beacons, none spurious, the map within 0.5 m RMS and the
+    path within 1 m of the GPS, at least 3× better than dead reckoning; with every default it does not."""
+    _needs("carpark")
+    config = load_config("carpark").reduced(
+        estimators=["dead_reckoning", "ekf_slam_nn", "ekf_slam_jcbb", "ekf_slam_nn_defaults"], seeds=1
+    )
+    m = _means(config, tmp_path).loc["carpark"]
+    for row in ("ekf_slam_nn", "ekf_slam_jcbb"):
+        assert m.at[row, "map.matched"] == 15 and m.at[row, "map.spurious"] == 0
+        assert m.at[row, "map.rmse"] <= 0.5 and m.at[row, "ate.rmse"] <= 1.0
+        assert m.at[row, "ate.rmse"] * 3 <= m.at["dead_reckoning", "ate.rmse"]
+    assert m.at["ekf_slam_nn_defaults", "estimate.landmarks"] > 15
