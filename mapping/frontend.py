@@ -35,6 +35,7 @@ from slamarena.datasets.sequence import Scans
 from slamarena.params import Field, Params, params_model
 
 from .beams import classify
+from .odometry import MotionNoiseParams
 from .scan_matching import MATCHERS, MatchResult, make_matcher, matcher_class
 
 __all__ = ["FrontEnd", "FrontEndParams", "ScanBeams"]
@@ -79,6 +80,17 @@ class FrontEndParams(Params):
         None, description="longer returns are neither matched nor mapped [m]; None: all returns"
     )
     min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
+    odometry_noise: MotionNoiseParams = Field(
+        MotionNoiseParams(
+            sigma_t_min=0.01,
+            sigma_t_per_m=0.1,
+            sigma_t_per_rad=0.05,
+            sigma_r_min=0.01,
+            sigma_r_per_rad=0.1,
+            sigma_r_per_m=0.05,
+        ),
+        description="Σ_u of an odometry guess, the prior a matcher that takes one fuses with the scan (module docstring)",
+    )
 
     @property
     def matcher_model(self) -> Params:
@@ -123,6 +135,7 @@ class FrontEnd:
             scans.max_range if params.max_usable_range is None else min(scans.max_range, params.max_usable_range)
         )
         self._fresh = 0
+        self.prior_cov: np.ndarray | None = None
         self.stalled = np.zeros(len(scans), dtype=bool)
         self.last_insert: np.ndarray | None = None
         self.insertions = 0
@@ -143,8 +156,10 @@ class FrontEnd:
         return ScanBeams(r, a, bad, no_return, usable, points)
 
     def guess(self, k: int, estimates: np.ndarray, previous: np.ndarray) -> np.ndarray:
-        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose."""
+        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose; ``prior_cov`` becomes
+        Σ_u of the odometry motion it applied (None when it applied none)."""
         odom = self.odom
+        self.prior_cov = None
         if k == 0 or odom is None or not (np.all(np.isfinite(odom[k])) and np.all(np.isfinite(odom[k - 1]))):
             return previous
         if np.array_equal(odom[k], odom[k - 1]):
@@ -153,13 +168,17 @@ class FrontEnd:
         j, self._fresh = self._fresh, k
         if not np.all(np.isfinite(odom[j])):
             j = k - 1
-        return compose(estimates[j], between(odom[j], odom[k]))
+        motion = between(odom[j], odom[k])
+        self.prior_cov = self.params.odometry_noise.cov(motion)
+        return compose(estimates[j], motion)
 
     def match(self, reference, beams: ScanBeams, guess: np.ndarray) -> MatchResult | None:
         """The matcher's result against ``reference`` (a map pyramid, or end points for point matchers); None
         when the scan has too few usable beams."""
         if len(beams.points) < self.params.min_beams:
             return None
+        if self.matcher.takes_prior and self.prior_cov is not None:
+            return self.matcher.match(reference, beams.points, guess, prior_cov=self.prior_cov)
         return self.matcher.match(reference, beams.points, guess)
 
     def due(self, pose: np.ndarray) -> bool:
