@@ -6,6 +6,9 @@ freezes for four scans at scans 321–325, 798–802 and 1580–1584). A scan's 
 reading is no new reading. A mapper moves a pose by the odometry only at fresh readings, and then by the
 increment from the last fresh reading, ``⊖o_f ⊕ o_k``, applied to its pose at that reading (not to its
 latest pose, which it may have corrected in between): the motion of the frozen stretch is applied once.
+
+The noise of an odometry motion (:class:`MotionNoiseParams`): Σ_u (3, 3), the RBPF's motion model and the front
+end's odometry prior.
 """
 
 from __future__ import annotations

@@ -109,14 +109,10 @@ class RBPFParams(Params):
         "0: every step is taken",
     )
     degeneracy_threshold: NonNegativeFloat = Field(
-        1.0,
-        description="τ: a direction where the scan's geometric information is below τ times the motion model's is "
-        "degenerate, and the proposal keeps the motion model there (.proposal docstring; 0: every direction is matched)",
-    )
-    degeneracy_sigma: PositiveFloat = Field(
-        0.05,
-        description="σ_p of an end point's distance to its line in the scan's geometric information [m] (one cell of "
-        "the finest map, as the Gauss-Newton matcher's degeneracy_sigma)",
+        0.0,
+        description="τ: a direction where the scan's geometric information is below τ times that of its best-constrained "
+        "direction (in the motion model's metric) is degenerate, and the proposal keeps the motion model there "
+        "(.proposal docstring; 0, the default: every direction is matched; 1e-3 is the front end's)",
     )
     pyramid: PyramidParams = Field(
         PyramidParams(cells=CellModelParams(hit_guard=1)),
@@ -255,7 +251,7 @@ class RBPF:
         p = self.params
         if p.degeneracy_threshold == 0:
             return None
-        return degeneracy(pts, np.linalg.inv(motion_cov), p.degeneracy_sigma, p.degeneracy_threshold)
+        return degeneracy(pts, np.linalg.inv(motion_cov), p.degeneracy_threshold)
 
     def _start(self, sequence: Sequence) -> _Run:
         """The run's state before the first scan: P particles at the start pose (the first fresh odometry pose, else

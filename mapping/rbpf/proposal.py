@@ -53,6 +53,16 @@ says nothing, almost none where it pins the pose. The weight is the target's η_
 exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
 research/method/rbpf_mode_proposal.md "The mode proposal" has the derivation and what it costs.
 
+**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md). The scan's geometric
+information I_s (:func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information`, robot frame) against
+Λ = Σ_u⁻¹: ``I_s t = λ Λ t``, T = [t_0 t_1 t_2] with Tᵀ Λ T = I (:func:`degeneracy`); for particle p
+T_p = blockdiag(R(ψ_p), 1) T (Σ_u is isotropic in translation). A direction with λ_j < τ λ_max is degenerate: every
+Gauss-Newton step moves a particle in the kept directions only (ξ = ξ₀ + T_p c, c_j = 0), so along a degenerate
+direction the mode stays where it starts (the guess ĝ_i, or the motion draw x_i of the mode proposal), and the
+K points are placed with the Laplace covariance without the scan's information there,
+``A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + I)⁻¹ T_pᵀ`` (K = diag(keep)): the motion model's spread along it. The weights
+η_i are the target's integral as before.
+
 The per-particle loops over end points are numba kernels over all particles at once.
 """
 
@@ -301,14 +311,15 @@ def gauss_newton(
     return poses, iterations_taken
 
 
-def degeneracy(pts, info, sigma: float, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+def degeneracy(pts, info, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     """(T (3, 3), keep (3,)) in the robot frame: the generalised eigenbasis of the scan's geometric information
     I_s (end points ``pts`` (N, 2), :func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information` at ξ = 0)
-    against the motion model's ``info`` = Σ_u⁻¹ (Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ)), keep_j = [λ_j ≥ threshold]."""
+    against the motion model's ``info`` = Σ_u⁻¹ (Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ), ascending),
+    keep_j = [λ_j ≥ threshold · λ_max]."""
     from scipy.linalg import eigh
 
-    lam, T = eigh(scan_information(np.asarray(pts, dtype=float), np.zeros(3), sigma), info)
-    return np.ascontiguousarray(T), (lam >= threshold).astype(np.float64)
+    lam, T = eigh(scan_information(np.asarray(pts, dtype=float), np.zeros(3)), info)
+    return np.ascontiguousarray(T), (lam >= threshold * lam[-1]).astype(np.float64)
 
 
 def _particle_bases(basis, poses) -> tuple[np.ndarray, np.ndarray]:

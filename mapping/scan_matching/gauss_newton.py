@@ -34,9 +34,40 @@ Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.m
 from coarse to fine, each level starting from the previous result. Each level iterates
 at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
 and clamps every step to ``(max_step_translation · level resolution / finest resolution,
-max_step_rotation)``. The covariance is the Gauss-Newton (Laplace) approximation on the
-finest level, ``Σ = σ̂² H⁻¹`` with ``σ̂² = Σ r_i² / (n − 3)``. Score: the mean of M over the
-scan points on the finest level (0 … 1).
+max_step_rotation)``. A step that does not lower the objective is halved up to ``step_halvings`` times and the level
+stops where none does: the bilinear map is not smooth, and the undamped step settles into a two-cycle on its kinks
+(on MIT-CSAIL every match of scans 575–640 ended at the iteration cap, alternating by 5–10 mm, so its result was the
+phase of the cycle, and a change of the heading's last bit grew to metres: research/notebook/2026-11-28-degeneracy.md).
+Score: the mean of M over the scan points on the finest level (0 … 1).
+
+Prior. Without odometry the objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
+(``prior_*_weight``, as Cartographer's Ceres matcher), and the covariance is the Laplace approximation
+``Σ = σ̂² H⁻¹`` on the finest level, ``σ̂² = Σ r_i² / (n − 3)``.
+
+Degeneracy (research/method/laser_degeneracy.md). With the odometry's covariance Σ_u (3, 3) of the guess
+(``prior_cov``) the match fuses the two in information form (σ̂² at the guess, finest level):
+
+    minimise  ½ Σ r_i² + ½ σ̂² eᵀ Σ_u⁻¹ e     (i.e. Σ r_i²/σ̂² + eᵀ Σ_u⁻¹ e: the scan's information H/σ̂², the odometry's Σ_u⁻¹)
+
+The map's H also carries information the scan does not have: where the scan's far end reaches past the mapped
+walls, unobserved cells (M = ½) beside the mapped ones (M ≈ 1) pull the scan back along a corridor, every scan,
+and the front end falls metres behind (25 m over 38 m of the ``sim:laser`` corridor). Which directions the scan
+constrains is read from its own geometry instead: with the unit normal n_i of the line through each end point's
+neighbours (the point-to-line ICP's normals),
+
+    I_s = Σ_i J_iᵀ J_i,   J_i = n_iᵀ [I₂, R'(ψ) s_i]   (1, 3)                                      (3, 3)
+
+and the generalised eigenproblem ``I_s t = λ Σ_u⁻¹ t`` (T = [t_0 t_1 t_2], Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ),
+ascending): λ_j is the scan's information along t_j in the odometry's metric. A direction with λ_j < τ λ_2
+(``degeneracy_threshold``) is degenerate (Zhang, Kaess & Singh 2016, with the odometry as the metric): the pose
+moves only in the kept directions, ξ = ξ₀ + T c with c_j = 0 for the degenerate j, each step solving
+(TᵀAT) c = Tᵀb there (A = H + σ̂² Σ_u⁻¹, b = g + σ̂² Σ_u⁻¹ e). The covariance handed on is the posterior of the
+fused objective with the scan's information kept where the scan has it,
+
+    Σ = T (K Tᵀ (H/σ̂²) T K + I)⁻¹ Tᵀ,   K = diag(keep)                                            (3, 3)
+
+(σ̂² and H at the match): along a degenerate direction the odometry's variance, elsewhere the scan's and odometry's
+information summed. ``info["degenerate"]`` counts the degenerate directions.
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """
@@ -252,11 +283,13 @@ def solve_level(
 class GaussNewtonMatcherParams(Params):
     """Parameters of :class:`GaussNewtonMatcher`.
 
-    The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as
-    Cartographer's Ceres matcher does: directions the map does not constrain (along a corridor) then follow
-    the guess instead of drifting on the coarse levels (on sim:laser, pure Hector jumps 0.2–0.3 m along the
-    first corridor; research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
-    constrained directions); 0 gives Hector's objective exactly.
+    Without an odometry prior the prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the
+    objective, as Cartographer's Ceres matcher does (on sim:laser, pure Hector jumps 0.2–0.3 m along the first
+    corridor; research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
+    constrained directions); 0 gives Hector's objective exactly. With one, the fusion and the degeneracy test of the
+    module docstring, τ = 10⁻³ chosen on the simulated worlds (research/method/laser_degeneracy.md): a plain corridor's
+    along-corridor direction has 1–2 · 10⁻⁴ of the best one's information (normal-estimation noise), every scan of
+    the ``loop`` and ``rooms`` worlds at least 5.7 · 10⁻³.
     """
 
     iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
@@ -287,14 +320,10 @@ class GaussNewtonMatcherParams(Params):
         "none does (0: every step is taken, which settles into a two-cycle on the bilinear map's kinks: module docstring)",
     )
     degeneracy_threshold: NonNegativeFloat = Field(
-        1.0,
+        1e-3,
         description="τ: with an odometry prior, a direction where the scan's geometric information is below τ times "
-        "the odometry's is degenerate and kept at the guess (module docstring; 0: plain fusion)",
-    )
-    degeneracy_sigma: PositiveFloat = Field(
-        0.05,
-        description="σ_p of an end point's distance to its line in the scan's geometric information [m] (one cell of "
-        "the finest map: the map places an end point no better)",
+        "that of its best-constrained direction (in the odometry's metric) is degenerate and kept at the guess "
+        "(module docstring; 0: plain fusion)",
     )
 
 
@@ -384,9 +413,9 @@ class Fusion:
         return self.T @ np.linalg.inv(Hc + np.eye(3)) @ self.T.T
 
 
-def scan_information(points: np.ndarray, pose: np.ndarray, sigma: float) -> np.ndarray:
+def scan_information(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """The information (3, 3) the scan's own geometry carries about its pose ξ (module docstring, "Degeneracy"):
-    Σ_i J_iᵀJ_i / σ² over the end points s_i (N, 2) whose neighbourhood fits a line, J_i = n_iᵀ[I₂, R'(ψ) s_i] with
+    Σ_i J_iᵀJ_i over the end points s_i (N, 2) whose neighbourhood fits a line, J_i = n_iᵀ[I₂, R'(ψ) s_i] with
     n_i that line's unit normal in the world frame (the point-to-line ICP's normals and Jacobian)."""
     from .point_to_line import PointToLineICPMatcher, residuals_and_jacobian
 
@@ -396,7 +425,7 @@ def scan_information(points: np.ndarray, pose: np.ndarray, sigma: float) -> np.n
     n = ref.normals[ok] @ np.array([[c, s], [-s, c]])  # R(ψ) n
     world = ref.points[ok] @ np.array([[c, s], [-s, c]]) + pose[:2]
     _, J = residuals_and_jacobian(pose, ref.points[ok], world, n)
-    return J.T @ J / sigma**2
+    return J.T @ J
 
 
 def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, prior_cov: np.ndarray, params) -> Fusion | None:
@@ -413,8 +442,8 @@ def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, prior_cov: np.nda
         return None
     info = np.linalg.inv(prior_cov)
     info = 0.5 * (info + info.T)
-    lam, T = eigh(scan_information(pts, guess, params.degeneracy_sigma), info)  # Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ)
-    keep = (lam >= params.degeneracy_threshold).astype(np.float64)
+    lam, T = eigh(scan_information(pts, guess), info)  # Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ), λ ascending
+    keep = (lam >= params.degeneracy_threshold * lam[-1]).astype(np.float64)
     return Fusion(info=info, s2=ssr / (n - 3), T=np.ascontiguousarray(T), lam=lam, keep=keep)
 
 

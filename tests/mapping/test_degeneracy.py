@@ -155,7 +155,7 @@ def test_a_corridor_scan_is_degenerate_along_the_corridor_and_the_covariance_say
     maps = _map("corridor", poses, rotate=rotate)
     truth = np.array([*(_rot(rotate) @ [40.3, 2.0]), rotate])
     pts, _ = _scan("corridor", truth, rotate=rotate)
-    I_s = scan_information(pts, truth, 0.05)
+    I_s = scan_information(pts, truth)
     w, V = np.linalg.eigh(I_s[:2, :2])
     assert abs(V[:, 0] @ along) > 0.999 and w[0] < 1e-6 * w[1]
     guess = truth + np.array([*(0.08 * along + 0.05 * np.array([-along[1], along[0]])), 0.01])
