@@ -14,13 +14,12 @@ For scan k (robot pose ``x_k = (x, y, θ)``):
    odometry increment applied to the previous estimate; mit-csail's odometry freezes for four scans while
    the robot moves and then jumps by the whole motion (scans 321–325, 798–802, 1580–1584): the matcher has
    already followed that motion, and applying the jump to x_{k−1} would count it twice. Without odometry:
-   ``x̂_k = x_{k−1}``. The guess's covariance is Σ_u of the odometry motion ``⊖o_j ⊕ o_k`` it applied
-   (``odometry_noise``, :class:`~slamarena.mapping.odometry.MotionNoiseParams`; isotropic in translation, so the same
-   in the world frame); none when it applied none (stalled, no odometry).
+   ``x̂_k = x_{k−1}``.
 3. Match (:meth:`FrontEnd.match`): with at least ``min_beams`` usable beams, ``x_k = matcher.match(map, s,
-   x̂_k).pose``; else ``x_k = x̂_k`` (not matched). A matcher that ``takes_prior`` (Gauss-Newton) gets Σ_u and fuses
-   the odometry with the scan, keeping the directions the scan does not constrain at the guess; its covariance then
-   shows them (:mod:`~slamarena.mapping.scan_matching.gauss_newton`, "Degeneracy"; research/method/laser_degeneracy.md).
+   x̂_k).pose``; else ``x_k = x̂_k`` (not matched). When the guess applied an odometry motion, a matcher that
+   ``takes_odometry`` (Gauss-Newton) keeps the directions the scan does not constrain at the guess, and its
+   covariance shows them (:mod:`~slamarena.mapping.scan_matching.gauss_newton`, "Degeneracy";
+   research/method/laser_degeneracy.md).
 4. Motion filter (:meth:`FrontEnd.due`): a scan is inserted into the map while the map holds fewer than
    ``initial_updates`` scans, then when the pose moved more than ``update_distance`` or turned more than
    ``update_angle`` since the last insertion.
@@ -39,7 +38,6 @@ from slamarena.datasets.sequence import Scans
 from slamarena.params import Field, Params, params_model
 
 from .beams import classify
-from .odometry import MotionNoiseParams
 from .scan_matching import MATCHERS, MatchResult, make_matcher, matcher_class
 
 __all__ = ["FrontEnd", "FrontEndParams", "ScanBeams"]
@@ -57,10 +55,6 @@ class FrontEndParams(Params):
     sparse at grazing angles and the Gauss-Newton match against it can jump by a cell (the notes' "10–20 scans
     before scan matching"). ``clear_range``: 5 m, Cartographer's missing_data_ray_length: no-returns of real
     lasers also come from glass and dark surfaces, and long clearing rays erase walls they pass.
-    ``odometry_noise``: σ_t = 3 cm + 10 % of the distance + 5 cm/rad, σ_r = 0.03 rad + 10 % of the turn + 0.05 rad/m:
-    at rest as strong as the fixed prior weights it replaces (w = 100 at a typical σ̂² ≈ 0.1, σ = √(σ̂²/w) ≈ 3 cm,
-    0.03 rad), so that where the scan constrains the pose the fusion changes the match no more than that prior did;
-    the simulator's odometry (≈ 6 mm along a 0.1 m step) is well inside it. Chosen without the staged logs.
     """
 
     matcher: Literal[tuple(MATCHERS)] = Field(
@@ -88,17 +82,6 @@ class FrontEndParams(Params):
         None, description="longer returns are neither matched nor mapped [m]; None: all returns"
     )
     min_beams: int = Field(10, ge=3, description="fewest usable beams for a match")
-    odometry_noise: MotionNoiseParams = Field(
-        MotionNoiseParams(
-            sigma_t_min=0.01,
-            sigma_t_per_m=0.1,
-            sigma_t_per_rad=0.05,
-            sigma_r_min=0.01,
-            sigma_r_per_rad=0.1,
-            sigma_r_per_m=0.05,
-        ),
-        description="Σ_u of an odometry guess, the prior a matcher that takes one fuses with the scan (module docstring)",
-    )
 
     @property
     def matcher_model(self) -> Params:
@@ -143,7 +126,7 @@ class FrontEnd:
             scans.max_range if params.max_usable_range is None else min(scans.max_range, params.max_usable_range)
         )
         self._fresh = 0
-        self.prior_cov: np.ndarray | None = None
+        self.odometry_guess = False
         self.stalled = np.zeros(len(scans), dtype=bool)
         self.last_insert: np.ndarray | None = None
         self.insertions = 0
@@ -164,10 +147,10 @@ class FrontEnd:
         return ScanBeams(r, a, bad, no_return, usable, points)
 
     def guess(self, k: int, estimates: np.ndarray, previous: np.ndarray) -> np.ndarray:
-        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose; ``prior_cov`` becomes
-        Σ_u of the odometry motion it applied (None when it applied none)."""
+        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose; ``odometry_guess``
+        becomes whether it applied an odometry motion."""
         odom = self.odom
-        self.prior_cov = None
+        self.odometry_guess = False
         if k == 0 or odom is None or not (np.all(np.isfinite(odom[k])) and np.all(np.isfinite(odom[k - 1]))):
             return previous
         if np.array_equal(odom[k], odom[k - 1]):
@@ -176,17 +159,16 @@ class FrontEnd:
         j, self._fresh = self._fresh, k
         if not np.all(np.isfinite(odom[j])):
             j = k - 1
-        motion = between(odom[j], odom[k])
-        self.prior_cov = self.params.odometry_noise.cov(motion)
-        return compose(estimates[j], motion)
+        self.odometry_guess = True
+        return compose(estimates[j], between(odom[j], odom[k]))
 
     def match(self, reference, beams: ScanBeams, guess: np.ndarray) -> MatchResult | None:
         """The matcher's result against ``reference`` (a map pyramid, or end points for point matchers); None
         when the scan has too few usable beams."""
         if len(beams.points) < self.params.min_beams:
             return None
-        if self.matcher.takes_prior and self.prior_cov is not None:
-            return self.matcher.match(reference, beams.points, guess, prior_cov=self.prior_cov)
+        if self.matcher.takes_odometry and self.odometry_guess:
+            return self.matcher.match(reference, beams.points, guess, odometry=True)
         return self.matcher.match(reference, beams.points, guess)
 
     def due(self, pose: np.ndarray) -> bool:

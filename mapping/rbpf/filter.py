@@ -50,11 +50,32 @@ from slamarena.params import Field, Params
 from ..beams import classify, scan_counts
 from ..map_pyramid import PyramidParams, initial_side
 from ..occupancy_grid import CellModelParams, OccupancyGrid
-from ..odometry import MotionNoiseParams, fresh_readings
+from ..odometry import fresh_readings
 from .proposal import degeneracy, gauss_newton, quadrature, residuals
 from .tiled_grid import TiledPyramid
 
 __all__ = ["RBPF", "RBPFParams", "MotionNoiseParams", "systematic_resampling"]
+
+
+class MotionNoiseParams(Params):
+    """The odometry motion model's noise: Σ_u = diag(σ_t², σ_t², σ_r²) with
+    ``σ_t = sigma_t_min + sigma_t_per_m·d + sigma_t_per_rad·|Δθ|`` and
+    ``σ_r = sigma_r_min + sigma_r_per_rad·|Δθ| + sigma_r_per_m·d`` for an odometry motion of d metres and
+    Δθ radians (isotropic in translation, hence the same in every frame)."""
+
+    sigma_t_min: PositiveFloat = Field(0.1, description="σ_t of the motion model at rest [m]")
+    sigma_t_per_m: NonNegativeFloat = Field(0.1, description="σ_t per metre travelled [m/m]")
+    sigma_t_per_rad: NonNegativeFloat = Field(0.05, description="σ_t per radian turned [m/rad]")
+    sigma_r_min: PositiveFloat = Field(0.1, description="σ_r of the motion model at rest [rad]")
+    sigma_r_per_rad: NonNegativeFloat = Field(0.1, description="σ_r per radian turned [rad/rad]")
+    sigma_r_per_m: NonNegativeFloat = Field(0.05, description="σ_r per metre travelled [rad/m]")
+
+    def cov(self, motion: np.ndarray) -> np.ndarray:
+        """Σ_u (3, 3) of an odometry motion ``(dx, dy, dθ)``."""
+        d, a = float(np.hypot(motion[0], motion[1])), abs(float(wrap_angle(motion[2])))
+        st = self.sigma_t_min + self.sigma_t_per_m * d + self.sigma_t_per_rad * a
+        sr = self.sigma_r_min + self.sigma_r_per_rad * a + self.sigma_r_per_m * d
+        return np.diag([st**2, st**2, sr**2])
 
 
 class RBPFParams(Params):
@@ -110,9 +131,9 @@ class RBPFParams(Params):
     )
     degeneracy_threshold: NonNegativeFloat = Field(
         0.0,
-        description="τ: a direction where the scan's geometric information is below τ times that of its best-constrained "
-        "direction (in the motion model's metric) is degenerate, and the proposal keeps the motion model there "
-        "(.proposal docstring; 0, the default: every direction is matched; 1e-3 is the front end's)",
+        description="τ: a translation direction where the scan's geometric information is below τ times that of the "
+        "other is degenerate, and the proposal keeps the motion model there (.proposal docstring; 0, the default: off; "
+        "0.003 separates the simulated corridor from the simulated rooms)",
     )
     pyramid: PyramidParams = Field(
         PyramidParams(cells=CellModelParams(hit_guard=1)),
@@ -245,13 +266,13 @@ class RBPF:
             halvings=p.step_halvings,
         )
 
-    def _basis(self, pts: np.ndarray, motion_cov: np.ndarray):
-        """The degenerate directions of the scan ``pts`` (N, 2) against Σ_u (:func:`.proposal.degeneracy`), None when
-        ``degeneracy_threshold`` is 0."""
+    def _basis(self, pts: np.ndarray):
+        """The degenerate direction of the scan ``pts`` (N, 2) (:func:`.proposal.degeneracy`), None when there is none
+        or ``degeneracy_threshold`` is 0."""
         p = self.params
         if p.degeneracy_threshold == 0:
             return None
-        return degeneracy(pts, np.linalg.inv(motion_cov), p.degeneracy_threshold)
+        return degeneracy(pts, p.degeneracy_threshold)
 
     def _start(self, sequence: Sequence) -> _Run:
         """The run's state before the first scan: P particles at the start pose (the first fresh odometry pose, else
@@ -331,13 +352,12 @@ class RBPF:
     def _track(self, run: _Run, k: int, pts: np.ndarray, motion: np.ndarray) -> None:
         """Between filter steps: every particle's pose (P, 3) becomes the mode of its target from the guess, with Σ_u
         of the scan's odometry ``motion`` (3,); no draw, no weight, no map update."""
-        motion_cov = self.params.motion.cov(motion)
         run.poses, run.diag["iterations"][k] = gauss_newton(
             self.maps,
             pts,
             run.poses,
-            np.linalg.inv(motion_cov),
-            basis=self._basis(pts, motion_cov),
+            np.linalg.inv(self.params.motion.cov(motion)),
+            basis=self._basis(pts),
             **self._gauss_newton_options(),
         )
         run.diag["matched"][k] = True
@@ -444,7 +464,7 @@ class RBPF:
         p = self.params
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
-        gn = dict(self._gauss_newton_options(), basis=self._basis(pts, motion_cov))
+        gn = dict(self._gauss_newton_options(), basis=self._basis(pts))
         eps = rng.standard_normal((P, 3))
         from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
         modes, iterations = gauss_newton(

@@ -53,15 +53,13 @@ says nothing, almost none where it pins the pose. The weight is the target's η_
 exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
 research/method/rbpf_mode_proposal.md "The mode proposal" has the derivation and what it costs.
 
-**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md). The scan's geometric
-information I_s (:func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information`, robot frame) against
-Λ = Σ_u⁻¹: ``I_s t = λ Λ t``, T = [t_0 t_1 t_2] with Tᵀ Λ T = I (:func:`degeneracy`); for particle p
-T_p = blockdiag(R(ψ_p), 1) T (Σ_u is isotropic in translation). A direction with λ_j < τ λ_max is degenerate: every
-Gauss-Newton step moves a particle in the kept directions only (ξ = ξ₀ + T_p c, c_j = 0), so along a degenerate
-direction the mode stays where it starts (the guess ĝ_i, or the motion draw x_i of the mode proposal), and the
-K points are placed with the Laplace covariance without the scan's information there,
-``A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + I)⁻¹ T_pᵀ`` (K = diag(keep)): the motion model's spread along it. The weights
-η_i are the target's integral as before.
+**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md). When the translation
+block of the scan's geometric information (robot frame) has eigenvalues λ_0 < τ λ_1 (:func:`degeneracy`: a corridor),
+u_0 is degenerate; for particle p, T_p = blockdiag(R(ψ_p) [u_0 u_1], 1). Every Gauss-Newton step then moves a particle
+in the kept directions only (ξ = ξ₀ + T_p c, c_0 = 0), so along the corridor the mode stays where it starts (the guess
+ĝ_i, or the motion draw x_i of the mode proposal), and the K points are placed with the Laplace covariance without the
+scan's information along u_0, ``A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + T_pᵀ Σ_u⁻¹ T_p)⁻¹ T_pᵀ`` (K = diag(0, 1, 1)): the
+motion model's spread along it. The weights η_i are the target's integral as before.
 
 The per-particle loops over end points are numba kernels over all particles at once.
 """
@@ -311,20 +309,22 @@ def gauss_newton(
     return poses, iterations_taken
 
 
-def degeneracy(pts, info, threshold: float) -> tuple[np.ndarray, np.ndarray]:
-    """(T (3, 3), keep (3,)) in the robot frame: the generalised eigenbasis of the scan's geometric information
-    I_s (end points ``pts`` (N, 2), :func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information` at ξ = 0)
-    against the motion model's ``info`` = Σ_u⁻¹ (Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ), ascending),
-    keep_j = [λ_j ≥ threshold · λ_max]."""
-    from scipy.linalg import eigh
-
-    lam, T = eigh(scan_information(np.asarray(pts, dtype=float), np.zeros(3)), info)
-    return np.ascontiguousarray(T), (lam >= threshold * lam[-1]).astype(np.float64)
+def degeneracy(pts, threshold: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(T (3, 3), keep (3,)) in the robot frame when the scan ``pts`` (N, 2) is degenerate in translation, else None:
+    u_0, u_1 the eigenvectors of the translation block of the scan's geometric information
+    (:func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information` at ξ = 0), eigenvalues λ_0 ≤ λ_1,
+    degenerate when λ_0 < threshold · λ_1; T = blockdiag([u_0 u_1], 1), keep = (0, 1, 1)."""
+    lam, U = np.linalg.eigh(scan_information(np.asarray(pts, dtype=float), np.zeros(3))[:2, :2])
+    if not lam[0] < threshold * lam[1]:
+        return None
+    T = np.eye(3)
+    T[:2, :2] = U
+    return T, np.array([0.0, 1.0, 1.0])
 
 
 def _particle_bases(basis, poses) -> tuple[np.ndarray, np.ndarray]:
-    """Every particle's basis T_p = blockdiag(R(ψ_p), 1) T (P, 3, 3) from the robot frame's (Σ_u is isotropic in
-    translation, so T_p keeps Tᵀ Σ_u⁻¹ T = I), and keep (3,); identities when ``basis`` is None."""
+    """Every particle's basis T_p = blockdiag(R(ψ_p), 1) T (P, 3, 3) from the robot frame's, and keep (3,); identities
+    when ``basis`` is None."""
     P = len(poses)
     if basis is None:
         return np.ascontiguousarray(np.broadcast_to(np.eye(3), (P, 3, 3))), np.ones(3)
@@ -368,7 +368,7 @@ def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float
     else:
         Ts, keep = _particle_bases(basis, modes)
         Tt, K = np.swapaxes(Ts, 1, 2), np.diag(keep)
-        A_inv = Ts @ np.linalg.inv(K @ Tt @ H @ Ts @ K / sigma**2 + np.eye(3)) @ Tt
+        A_inv = Ts @ np.linalg.inv(K @ Tt @ H @ Ts @ K / sigma**2 + Tt @ np.linalg.inv(motion_cov) @ Ts) @ Tt
         A_inv = 0.5 * (A_inv + np.swapaxes(A_inv, 1, 2))
     L = np.linalg.cholesky(A_inv)  # (P, 3, 3)
     D = np.einsum("pij,kj->pki", L, NODES)  # ξ_ij − ξ*_i (P, K, 3)

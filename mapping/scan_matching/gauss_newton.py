@@ -242,11 +242,13 @@ def solve_level(
     Minimises ½ Σ r² + ½ eᵀWe (e = ξ̂ − ξ towards ``prior`` ξ̂, W (3, 3)) over the poses ξ = ξ₀ + T c with
     ``c_j = 0`` where ``keep[j]`` is 0 (module docstring, "Degeneracy"; T = I and keep = 1: every direction). Each
     step solves (TᵀAT) c = Tᵀb in the kept coordinates (A = H + W, b = g + We); with ``halvings`` > 0 a step that
-    does not lower the objective is halved up to that many times, and the level stops where none does.
+    does not lower the objective is halved up to that many times, and the level stops where none does. Returns the
+    iterate with the lowest objective (the last one when every step descends).
     """
     x, y, th = pose[0], pose[1], pose[2]
     H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
     f, We = _objective(ssr, W, prior, x, y, th)
+    best = (x, y, th, H, ssr, msum, n, f)
     it = 0
     for it in range(1, iterations + 1):
         if n < 3:
@@ -275,8 +277,11 @@ def solve_level(
         if not accepted:
             break
         x, y, th, H, g, ssr, msum, n, f, We = nx, ny, nth, nH, ng, nssr, nmsum, nn, nf, nWe
+        if n >= 3 and f < best[7]:
+            best = (x, y, th, H, ssr, msum, n, f)
         if converged:
             break
+    x, y, th, H, ssr, msum, n, f = best
     return np.array([x, y, th]), H, ssr, msum, n, it
 
 
@@ -315,15 +320,15 @@ class GaussNewtonMatcherParams(Params):
         description="w_r of the prior towards the guess [1/rad²] when no odometry prior is given; 0: Hector's objective",
     )
     step_halvings: NonNegativeInt = Field(
-        4,
+        0,
         description="a step that does not lower the objective is halved up to this many times, and a level stops where "
-        "none does (0: every step is taken, which settles into a two-cycle on the bilinear map's kinks: module docstring)",
+        "none does (0: every step is taken; either way a level returns its lowest iterate: module docstring)",
     )
     degeneracy_threshold: NonNegativeFloat = Field(
-        1e-3,
-        description="τ: with an odometry prior, a direction where the scan's geometric information is below τ times "
-        "that of its best-constrained direction (in the odometry's metric) is degenerate and kept at the guess "
-        "(module docstring; 0: plain fusion)",
+        0.0,
+        description="τ: when the guess carries odometry and the translation information of the scan's geometry is "
+        "below τ times its largest along a direction, that direction keeps the guess (module docstring, "
+        "'Degeneracy'); 0, the default: off (0.003 separates the simulated corridor from the simulated rooms)",
     )
 
 
@@ -331,27 +336,21 @@ class GaussNewtonMatcher:
     """Hector-style multi-resolution Gauss-Newton scan-to-map matcher (module docstring, :class:`GaussNewtonMatcherParams`)."""
 
     kind = "grid"
-    takes_prior = True
+    takes_odometry = True
     Params = GaussNewtonMatcherParams
 
     def __init__(self, params: GaussNewtonMatcherParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
 
-    def match(self, maps, points: np.ndarray, guess: np.ndarray, prior_cov: np.ndarray | None = None) -> MatchResult:
-        """The match of ``points`` (N, 2) against ``maps`` from ``guess`` (3,); ``prior_cov`` (3, 3), the covariance of
-        the guess (world frame) from the odometry, makes it the fusion of module docstring "Degeneracy"."""
+    def match(self, maps, points: np.ndarray, guess: np.ndarray, odometry: bool = False) -> MatchResult:
+        """The match of ``points`` (N, 2) against ``maps`` from ``guess`` (3,); ``odometry``: the guess carries the
+        odometry's motion, and the directions the scan does not constrain keep it (module docstring, "Degeneracy")."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         guess = np.asarray(guess, dtype=np.float64)
         p = self.params
-        fusion = None if prior_cov is None else degenerate_basis(maps.levels[0], pts, guess, prior_cov, p)
-        if fusion is None:
-            W, T, keep = (
-                np.diag([p.prior_translation_weight, p.prior_translation_weight, p.prior_rotation_weight]),
-                _I3,
-                _KEEP,
-            )
-        else:
-            W, T, keep = fusion.s2 * fusion.info, fusion.T, fusion.keep
+        W = np.diag([p.prior_translation_weight, p.prior_translation_weight, p.prior_rotation_weight])
+        fusion = degenerate_basis(maps.levels[0], pts, guess, p) if odometry else None
+        T, keep = (_I3, _KEEP) if fusion is None else (fusion.T, fusion.keep)
         pose = guess.copy()
         fine = maps.levels[0].params.resolution
         total = 0
@@ -393,9 +392,9 @@ _KEEP = np.ones(3)
 
 @dataclass
 class Fusion:
-    """The odometry prior of one match in the scan's generalised eigenbasis (module docstring, "Degeneracy"):
-    ``info`` = Σ_u⁻¹ (3, 3); ``s2`` = σ̂² at the guess; ``T`` (3, 3) with Tᵀ Σ_u⁻¹ T = I and Tᵀ I_s T = diag(λ);
-    ``lam`` (3,) the scan's geometric information relative to the odometry's along T's columns; ``keep`` (3,) 1 where λ ≥ τ."""
+    """A degenerate match (module docstring, "Degeneracy"): ``info`` = Λ = W/σ̂² (3, 3), the odometry's information;
+    ``s2`` = σ̂² at the guess; ``T`` (3, 3) = blockdiag([u_0 u_1], 1), the translation eigenvectors of the scan's
+    geometric information (orthonormal); ``lam`` (2,) their eigenvalues; ``keep`` (3,) 0 for u_0, the degenerate one."""
 
     info: np.ndarray
     s2: float
@@ -404,13 +403,13 @@ class Fusion:
     keep: np.ndarray
 
     def covariance(self, H: np.ndarray, ssr: float, n: int) -> np.ndarray:
-        """Σ = T (diag(keep) Tᵀ(H/σ̂²)T diag(keep) + I)⁻¹ Tᵀ (3, 3) at the match (H, σ̂² = ssr / (n − 3) there):
-        the scan's information in the kept directions plus the odometry's (the posterior of the fused objective);
-        a degenerate direction keeps the odometry's variance."""
+        """Σ = T (K Tᵀ(H/σ̂²)T K + TᵀΛT)⁻¹ Tᵀ (3, 3) at the match (H, σ̂² = ssr / (n − 3) there; T orthonormal,
+        K = diag(keep)): the scan's information in the kept directions plus the odometry's (the posterior of the
+        fused objective); along the degenerate direction the odometry's variance."""
         s2 = ssr / (n - 3) if n > 3 and ssr > 0 else self.s2
         K = np.diag(self.keep)
         Hc = K @ self.T.T @ (H / s2) @ self.T @ K
-        return self.T @ np.linalg.inv(Hc + np.eye(3)) @ self.T.T
+        return self.T @ np.linalg.inv(Hc + self.T.T @ self.info @ self.T) @ self.T.T
 
 
 def scan_information(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -428,23 +427,27 @@ def scan_information(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return J.T @ J
 
 
-def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, prior_cov: np.ndarray, params) -> Fusion | None:
-    """The :class:`Fusion` of a match from ``guess`` with odometry covariance ``prior_cov`` (3, 3): σ̂² of the map
-    match at the guess on the finest ``grid``, and the generalised eigenproblem I_s t = λ Σ_u⁻¹ t of the scan's
-    geometric information I_s (:func:`scan_information`); None when fewer than four end points fall on the grid or
-    their residuals vanish (the match then runs without the odometry prior)."""
-    from scipy.linalg import eigh
-
+def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, params) -> Fusion | None:
+    """The :class:`Fusion` of a match from ``guess`` whose scan is degenerate in translation (module docstring,
+    "Degeneracy"), else None: the eigenvectors u_0, u_1 of the translation block of the scan's geometric information
+    I_s (:func:`scan_information`), degenerate when λ_0 < τ λ_1; σ̂² of the map match at the guess on the finest
+    ``grid`` and the odometry's information Λ = W/σ̂² (W the prior weights). None also when a prior weight is zero or
+    fewer than four end points fall on the grid or their residuals vanish (the match then runs as without odometry)."""
+    w = np.array([params.prior_translation_weight, params.prior_translation_weight, params.prior_rotation_weight])
+    if not np.all(w > 0) or params.degeneracy_threshold == 0:
+        return None
+    lam, U = np.linalg.eigh(scan_information(pts, guess)[:2, :2])  # ascending
+    if not lam[0] < params.degeneracy_threshold * lam[1]:
+        return None
     _, _, ssr, _, n = _normal_equations(
         grid.log_odds, grid.origin[0], grid.origin[1], grid.params.resolution, pts, *guess, params.hector_gradient_bug
     )
-    if n <= 3 or not ssr > 0 or not np.all(np.isfinite(prior_cov)):
+    if n <= 3 or not ssr > 0:
         return None
-    info = np.linalg.inv(prior_cov)
-    info = 0.5 * (info + info.T)
-    lam, T = eigh(scan_information(pts, guess), info)  # Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ), λ ascending
-    keep = (lam >= params.degeneracy_threshold * lam[-1]).astype(np.float64)
-    return Fusion(info=info, s2=ssr / (n - 3), T=np.ascontiguousarray(T), lam=lam, keep=keep)
+    s2 = ssr / (n - 3)
+    T = np.eye(3)
+    T[:2, :2] = U
+    return Fusion(info=np.diag(w / s2), s2=s2, T=T, lam=lam, keep=np.array([0.0, 1.0, 1.0]))
 
 
 def _laplace_covariance(H: np.ndarray, ssr: float, n: int) -> np.ndarray:
