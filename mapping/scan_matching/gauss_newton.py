@@ -34,40 +34,36 @@ Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.m
 from coarse to fine, each level starting from the previous result. Each level iterates
 at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
 and clamps every step to ``(max_step_translation · level resolution / finest resolution,
-max_step_rotation)``. A step that does not lower the objective is halved up to ``step_halvings`` times and the level
-stops where none does: the bilinear map is not smooth, and the undamped step settles into a two-cycle on its kinks
-(on MIT-CSAIL every match of scans 575–640 ended at the iteration cap, alternating by 5–10 mm, so its result was the
-phase of the cycle, and a change of the heading's last bit grew to metres: research/notebook/2026-11-28-degeneracy.md).
-Score: the mean of M over the scan points on the finest level (0 … 1).
+max_step_rotation)``; it returns its iterate of lowest objective. The bilinear map is not smooth, and the undamped
+step can settle into a two-cycle on its kinks up to the iteration cap: its last iterate is then the cycle's phase,
+and a change of the guess's last bit grew to metres on MIT-CSAIL (research/method/laser_degeneracy.md, "The branch
+cut"). With ``step_halvings`` > 0 a step that does not lower the objective is halved up to that many times and the
+level stops where none does (a descent; it stops at kinks short of the optimum along weak directions). Score: the
+mean of M over the scan points on the finest level (0 … 1).
 
-Prior. Without odometry the objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
-(``prior_*_weight``, as Cartographer's Ceres matcher), and the covariance is the Laplace approximation
-``Σ = σ̂² H⁻¹`` on the finest level, ``σ̂² = Σ r_i² / (n − 3)``.
+Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
+(``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
+information Λ = W/σ̂². The covariance is the Laplace approximation ``Σ = σ̂² H⁻¹`` on the finest level,
+``σ̂² = Σ r_i² / (n − 3)``.
 
-Degeneracy (research/method/laser_degeneracy.md). With the odometry's covariance Σ_u (3, 3) of the guess
-(``prior_cov``) the match fuses the two in information form (σ̂² at the guess, finest level):
-
-    minimise  ½ Σ r_i² + ½ σ̂² eᵀ Σ_u⁻¹ e     (i.e. Σ r_i²/σ̂² + eᵀ Σ_u⁻¹ e: the scan's information H/σ̂², the odometry's Σ_u⁻¹)
-
-The map's H also carries information the scan does not have: where the scan's far end reaches past the mapped
-walls, unobserved cells (M = ½) beside the mapped ones (M ≈ 1) pull the scan back along a corridor, every scan,
-and the front end falls metres behind (25 m over 38 m of the ``sim:laser`` corridor). Which directions the scan
-constrains is read from its own geometry instead: with the unit normal n_i of the line through each end point's
+Degeneracy (``match(…, odometry=True)``: the guess carries the odometry's motion; ``degeneracy_threshold`` τ > 0;
+research/method/laser_degeneracy.md). Where the scan's far end reaches past the mapped walls, unobserved cells
+(M = ½) beside the mapped ones pull the scan back along a corridor, every scan, so H cannot say which directions the
+scan constrains; the scan's own geometry does. With the unit normal n_i of the line through each end point's
 neighbours (the point-to-line ICP's normals),
 
     I_s = Σ_i J_iᵀ J_i,   J_i = n_iᵀ [I₂, R'(ψ) s_i]   (1, 3)                                      (3, 3)
 
-and the generalised eigenproblem ``I_s t = λ Σ_u⁻¹ t`` (T = [t_0 t_1 t_2], Tᵀ Σ_u⁻¹ T = I, Tᵀ I_s T = diag(λ),
-ascending): λ_j is the scan's information along t_j in the odometry's metric. A direction with λ_j < τ λ_2
-(``degeneracy_threshold``) is degenerate (Zhang, Kaess & Singh 2016, with the odometry as the metric): the pose
-moves only in the kept directions, ξ = ξ₀ + T c with c_j = 0 for the degenerate j, each step solving
-(TᵀAT) c = Tᵀb there (A = H + σ̂² Σ_u⁻¹, b = g + σ̂² Σ_u⁻¹ e). The covariance handed on is the posterior of the
-fused objective with the scan's information kept where the scan has it,
+and λ_0 ≤ λ_1, u_0, u_1 the eigenvalues and unit eigenvectors of its translation block (2, 2), u_0 is degenerate
+when λ_0 < τ λ_1 (Zhang, Kaess & Singh 2016). With T = blockdiag([u_0 u_1], 1) the pose then moves only in the kept
+directions, ξ = ξ₀ + T c with c_0 = 0, each step solving (TᵀAT) c = Tᵀb over (c_1, c_2) (A = H + W, b = g + We):
+along u_0 it keeps the odometry's guess. The covariance handed on is the posterior of the fused objective with the
+scan's information kept where the scan has it,
 
-    Σ = T (K Tᵀ (H/σ̂²) T K + I)⁻¹ Tᵀ,   K = diag(keep)                                            (3, 3)
+    Σ = T (K Tᵀ (H/σ̂²) T K + Tᵀ Λ T)⁻¹ Tᵀ,   K = diag(0, 1, 1)                                      (3, 3)
 
-(σ̂² and H at the match): along a degenerate direction the odometry's variance, elsewhere the scan's and odometry's
-information summed. ``info["degenerate"]`` counts the degenerate directions.
+(σ̂² and H at the match): along u_0 the odometry's variance σ̂²/w_t, elsewhere the scan's and the odometry's
+information summed. ``info["degenerate"]`` is 1 for such a match.
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """
@@ -288,13 +284,13 @@ def solve_level(
 class GaussNewtonMatcherParams(Params):
     """Parameters of :class:`GaussNewtonMatcher`.
 
-    Without an odometry prior the prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the
-    objective, as Cartographer's Ceres matcher does (on sim:laser, pure Hector jumps 0.2–0.3 m along the first
-    corridor; research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
-    constrained directions); 0 gives Hector's objective exactly. With one, the fusion and the degeneracy test of the
-    module docstring, τ = 10⁻³ chosen on the simulated worlds (research/method/laser_degeneracy.md): a plain corridor's
-    along-corridor direction has 1–2 · 10⁻⁴ of the best one's information (normal-estimation noise), every scan of
-    the ``loop`` and ``rooms`` worlds at least 5.7 · 10⁻³.
+    The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as Cartographer's
+    Ceres matcher does (on sim:laser, pure Hector jumps 0.2–0.3 m along the first corridor;
+    research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in constrained
+    directions); 0 gives Hector's objective exactly (and no degeneracy handling: it needs the prior as its fallback).
+    ``degeneracy_threshold``: 0.003 lies between a plain corridor's λ_0/λ_1 (≤ 5 · 10⁻⁴, the normals' noise) and every
+    scan of the simulated ``rooms`` and ``loop`` worlds (≥ 1.3 · 10⁻²); off by default because on Intel it raised grid
+    SLAM's relation error (research/method/laser_degeneracy.md).
     """
 
     iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
