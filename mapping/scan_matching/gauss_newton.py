@@ -34,12 +34,12 @@ Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.m
 from coarse to fine, each level starting from the previous result. Each level iterates
 at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
 and clamps every step to ``(max_step_translation · level resolution / finest resolution,
-max_step_rotation)``; it returns its iterate of lowest objective. The bilinear map is not smooth, and the undamped
-step can settle into a two-cycle on its kinks up to the iteration cap: its last iterate is then the cycle's phase,
-and a change of the guess's last bit grew to metres on MIT-CSAIL (research/method/laser_degeneracy.md, "The branch
-cut"). With ``step_halvings`` > 0 a step that does not lower the objective is halved up to that many times and the
-level stops where none does (a descent; it stops at kinks short of the optimum along weak directions). Score: the
-mean of M over the scan points on the finest level (0 … 1).
+max_step_rotation)``. The bilinear map is not smooth, and the undamped step can settle into a two-cycle on its kinks up
+to the iteration cap, the result then the cycle's phase: a change of the guess's last bit (e.g. another angle wrap)
+moved laser graph SLAM on MIT-CSAIL from 0.031 to 1.30 m (research/method/laser_degeneracy.md, "The branch cut").
+With ``step_halvings`` > 0 a step that does not lower the objective is halved up to that many times and the level
+stops where none does (a descent, which stops at kinks short of the optimum along weak directions). Score: the mean
+of M over the scan points on the finest level (0 … 1).
 
 Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
 (``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
