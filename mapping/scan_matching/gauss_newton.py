@@ -280,7 +280,7 @@ class GaussNewtonMatcherParams(Params):
     research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in constrained
     directions); 0 gives Hector's objective exactly (and no degeneracy handling: it needs the prior as its fallback).
     ``degeneracy_threshold``: 0.003 lies between a plain corridor's λ_0/λ_1 (≤ 5 · 10⁻⁴, the normals' noise) and every
-    scan of the simulated ``rooms`` and ``loop`` worlds (≥ 1.3 · 10⁻²); off by default because on Intel it raised grid
+    scan of the simulated ``rooms`` and ``loop`` worlds (≥ 1.3 · 10⁻²); off by default because on FR-Clinic it raised grid
     SLAM's relation error (research/method/laser_degeneracy.md).
     """
 
