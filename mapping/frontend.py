@@ -16,7 +16,10 @@ For scan k (robot pose ``x_k = (x, y, θ)``):
    already followed that motion, and applying the jump to x_{k−1} would count it twice. Without odometry:
    ``x̂_k = x_{k−1}``.
 3. Match (:meth:`FrontEnd.match`): with at least ``min_beams`` usable beams, ``x_k = matcher.match(map, s,
-   x̂_k).pose``; else ``x_k = x̂_k`` (not matched).
+   x̂_k).pose``; else ``x_k = x̂_k`` (not matched). When the guess applied an odometry motion, a matcher that
+   ``takes_odometry`` (Gauss-Newton) keeps the directions the scan does not constrain at the guess, and its
+   covariance shows them (:mod:`~slamarena.mapping.scan_matching.gauss_newton`, "Degeneracy";
+   research/method/laser_degeneracy.md).
 4. Motion filter (:meth:`FrontEnd.due`): a scan is inserted into the map while the map holds fewer than
    ``initial_updates`` scans, then when the pose moved more than ``update_distance`` or turned more than
    ``update_angle`` since the last insertion.
@@ -123,6 +126,7 @@ class FrontEnd:
             scans.max_range if params.max_usable_range is None else min(scans.max_range, params.max_usable_range)
         )
         self._fresh = 0
+        self.odometry_guess = False
         self.stalled = np.zeros(len(scans), dtype=bool)
         self.last_insert: np.ndarray | None = None
         self.insertions = 0
@@ -143,8 +147,10 @@ class FrontEnd:
         return ScanBeams(r, a, bad, no_return, usable, points)
 
     def guess(self, k: int, estimates: np.ndarray, previous: np.ndarray) -> np.ndarray:
-        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose."""
+        """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose; ``odometry_guess``
+        becomes whether it applied an odometry motion."""
         odom = self.odom
+        self.odometry_guess = False
         if k == 0 or odom is None or not (np.all(np.isfinite(odom[k])) and np.all(np.isfinite(odom[k - 1]))):
             return previous
         if np.array_equal(odom[k], odom[k - 1]):
@@ -153,6 +159,7 @@ class FrontEnd:
         j, self._fresh = self._fresh, k
         if not np.all(np.isfinite(odom[j])):
             j = k - 1
+        self.odometry_guess = True
         return compose(estimates[j], between(odom[j], odom[k]))
 
     def match(self, reference, beams: ScanBeams, guess: np.ndarray) -> MatchResult | None:
@@ -160,6 +167,8 @@ class FrontEnd:
         when the scan has too few usable beams."""
         if len(beams.points) < self.params.min_beams:
             return None
+        if self.matcher.takes_odometry and self.odometry_guess:
+            return self.matcher.match(reference, beams.points, guess, odometry=True)
         return self.matcher.match(reference, beams.points, guess)
 
     def due(self, pose: np.ndarray) -> bool:

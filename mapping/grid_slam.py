@@ -9,8 +9,8 @@ when the motion filter says so.
 Result: :class:`~slamarena.datasets.estimate.Estimate` with one pose per scan at the scan stamps,
 ``step_time`` the wall time of each scan's steps; ``diagnostics``: ``bad_beams``, ``no_return_beams``,
 ``usable_beams``, ``matched``, ``map_updated``, ``odometry_stalled``, ``score``, ``iterations``,
-``match_cov`` (K, 3, 3; NaN where not matched: the matcher's covariance given the map, not a full SLAM
-covariance, hence not ``pose_cov``). After ``run`` the map is ``self.maps`` (a
+``match_cov`` (K, 3, 3; NaN where not matched: the matcher's covariance given the map — with the odometry prior
+fused, :mod:`.frontend` — not a full SLAM covariance, hence not ``pose_cov``). After ``run`` the map is ``self.maps`` (a
 :class:`~slamarena.mapping.map_pyramid.MapPyramid`) and ``self.map`` its finest grid.
 """
 

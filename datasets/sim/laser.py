@@ -12,7 +12,11 @@ corridor's centre line, 165 m a lap, from (28, 2) heading +x; an alcove, pillar 
 every 8 m on average), a loop long enough that scan matching drifts by metres before it closes
 (research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). ``"rooms"``: an office floor
 (32 m × 22 m) — a ring corridor around a central block, with ten rooms off the corridor behind
-1 m doors and some furniture in the rooms.
+1 m doors and some furniture in the rooms. ``"corridor"``: the rectangle [0, 80] × [0, 12] around a 72 m × 4 m
+block [4, 76] × [4, 8], two plain 4 m corridors joined at their ends, the route their centre lines (168 m a lap, from
+(40, 2) heading +x); with the default 12 m range a scan between x ≈ 16 and 64 m sees two parallel walls and nothing
+else, so motion along the corridor is observable from the odometry only (the degeneracy test of
+research/method/laser_degeneracy.md).
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
 :func:`true_occupancy` rasterises them for map IoU.
 
@@ -275,8 +279,18 @@ def pole_field(
     )
 
 
+_CORRIDOR = World(
+    name="corridor",
+    walls=(_box(0, 0, 80, 12), _box(4, 4, 76, 8)),
+    route=((40.0, 2.0), (78.0, 2.0), (78.0, 10.0), (2.0, 10.0), (2.0, 2.0)),
+    corner_radius=1.5,
+    description="two featureless 4 m × 80 m corridors joined at their ends: along them only the odometry sees motion",
+)
+
 #: world name → World
-WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS, pole_field())}
+WORLDS: dict[str, World] = {
+    w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS, _CORRIDOR, pole_field())
+}
 
 
 def _world(world: str | World) -> World:
@@ -449,7 +463,7 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "long_loop", "rooms", "poles"] | World = Field(
+    world: Literal["loop", "long_loop", "rooms", "corridor", "poles"] | World = Field(
         "loop", description="a world of WORLDS by name, or a World"
     )
     n_beams: int = Field(361, ge=1, description="beams per scan")

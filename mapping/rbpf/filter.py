@@ -51,7 +51,7 @@ from ..beams import classify, scan_counts
 from ..map_pyramid import PyramidParams, initial_side
 from ..occupancy_grid import CellModelParams, OccupancyGrid
 from ..odometry import fresh_readings
-from .proposal import gauss_newton, quadrature, residuals
+from .proposal import degeneracy, gauss_newton, quadrature, residuals
 from .tiled_grid import TiledPyramid
 
 __all__ = ["RBPF", "RBPFParams", "MotionNoiseParams", "systematic_resampling"]
@@ -128,6 +128,12 @@ class RBPFParams(Params):
         description="a Gauss-Newton step that does not lower −log τ is halved up to this many times, and a level stops "
         "where none does (a descent: research/notebook/2026-11-23-rbpf-loop-rounds-4-6.md, rounds 4–6); "
         "0: every step is taken",
+    )
+    degeneracy_threshold: NonNegativeFloat = Field(
+        0.0,
+        description="τ: a translation direction where the scan's geometric information is below τ times that of the "
+        "other is degenerate, and the proposal keeps the motion model there (.proposal docstring; 0, the default: off; "
+        "0.003 separates the simulated corridor from the simulated rooms)",
     )
     pyramid: PyramidParams = Field(
         PyramidParams(cells=CellModelParams(hit_guard=1)),
@@ -260,6 +266,14 @@ class RBPF:
             halvings=p.step_halvings,
         )
 
+    def _basis(self, pts: np.ndarray):
+        """The degenerate direction of the scan ``pts`` (N, 2) (:func:`.proposal.degeneracy`), None when there is none
+        or ``degeneracy_threshold`` is 0."""
+        p = self.params
+        if p.degeneracy_threshold == 0:
+            return None
+        return degeneracy(pts, p.degeneracy_threshold)
+
     def _start(self, sequence: Sequence) -> _Run:
         """The run's state before the first scan: P particles at the start pose (the first fresh odometry pose, else
         the sequence's), one empty shared map pyramid (``self.maps``), zero weights, empty histories."""
@@ -339,7 +353,12 @@ class RBPF:
         """Between filter steps: every particle's pose (P, 3) becomes the mode of its target from the guess, with Σ_u
         of the scan's odometry ``motion`` (3,); no draw, no weight, no map update."""
         run.poses, run.diag["iterations"][k] = gauss_newton(
-            self.maps, pts, run.poses, np.linalg.inv(self.params.motion.cov(motion)), **self._gauss_newton_options()
+            self.maps,
+            pts,
+            run.poses,
+            np.linalg.inv(self.params.motion.cov(motion)),
+            basis=self._basis(pts),
+            **self._gauss_newton_options(),
         )
         run.diag["matched"][k] = True
 
@@ -445,13 +464,15 @@ class RBPF:
         p = self.params
         P = guesses.shape[0]
         info = np.linalg.inv(motion_cov)
-        gn = self._gauss_newton_options()
+        gn = dict(self._gauss_newton_options(), basis=self._basis(pts))
         eps = rng.standard_normal((P, 3))
         from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
         modes, iterations = gauss_newton(
             self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn
         )
-        mu, cov, log_eta, known = quadrature(self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood)
+        mu, cov, log_eta, known = quadrature(
+            self.maps, pts, modes, guesses, motion_cov, p.sigma_likelihood, basis=gn["basis"]
+        )
         ok = (known >= p.min_beams) & np.isfinite(log_eta) & np.all(np.isfinite(mu), axis=1)
         poses = from_motion.copy()
         if p.proposal == "gaussian":

@@ -53,6 +53,14 @@ says nothing, almost none where it pins the pose. The weight is the target's η_
 exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
 research/method/rbpf_mode_proposal.md "The mode proposal" has the derivation and what it costs.
 
+**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md). When the translation
+block of the scan's geometric information (robot frame) has eigenvalues λ_0 < τ λ_1 (:func:`degeneracy`: a corridor),
+u_0 is degenerate; for particle p, T_p = blockdiag(R(ψ_p) [u_0 u_1], 1). Every Gauss-Newton step then moves a particle
+in the kept directions only (ξ = ξ₀ + T_p c, c_0 = 0), so along the corridor the mode stays where it starts (the guess
+ĝ_i, or the motion draw x_i of the mode proposal), and the K points are placed with the Laplace covariance without the
+scan's information along u_0, ``A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + T_pᵀ Σ_u⁻¹ T_p)⁻¹ T_pᵀ`` (K = diag(0, 1, 1)): the
+motion model's spread along it. The weights η_i are the target's integral as before.
+
 The per-particle loops over end points are numba kernels over all particles at once.
 """
 
@@ -63,10 +71,10 @@ from numba import njit
 
 from slamarena.datasets.geometry import wrap_angle, wrap_scalar
 
-from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, take_step
+from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, scan_information, take_step
 from .tiled_grid import TiledPyramid
 
-__all__ = ["gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
+__all__ = ["degeneracy", "gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
 
 _U1 = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])
 _W1 = np.array([1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0])
@@ -149,6 +157,21 @@ def _objective(H, g, ssr, info, inv_var, guess, x, y, th):
 
 
 @njit(cache=True)
+def _masked_step(A, b, T, keep):
+    """The step T c (3,) with (TᵀAT) c = Tᵀb in the kept coordinates and c_j = 0 elsewhere, and whether it exists."""
+    At = T.T @ A @ T
+    bt = T.T @ b
+    for j in range(3):
+        if keep[j] == 0.0:
+            At[j, :] = 0.0
+            At[:, j] = 0.0
+            At[j, j] = 1.0
+            bt[j] = 0.0
+    c, ok = _solve3(At, bt)
+    return T @ c, ok
+
+
+@njit(cache=True)
 def _gauss_newton_level(
     pool,
     tables,
@@ -168,10 +191,14 @@ def _gauss_newton_level(
     max_t,
     max_r,
     halvings,
+    Ts,
+    keep,
 ):
     """Gauss-Newton on −log τ (module docstring) for every particle from ``poses`` (P, 3), in place; returns
     the iterations taken (summed over the particles). ``halvings`` > 0: a step that does not lower −log τ is
-    halved up to that many times, and the level stops where none does (0: every step is taken)."""
+    halved up to that many times, and the level stops where none does (0: every step is taken). Each step moves
+    particle p by T_p c with c_j = 0 where ``keep[j]`` is 0 (the degenerate directions, module docstring; ``Ts``
+    (P, 3, 3), T_p = I and keep = 1: every direction)."""
     total = 0
     for p in range(poses.shape[0]):
         table = tables[p]
@@ -184,7 +211,7 @@ def _gauss_newton_level(
             if not fresh:
                 H, g, ssr, known = _normal_equations(pool, table, shift, l0, ox, oy, res, pts, x, y, th)
                 f, A, b = _objective(H, g, ssr, info, inv_var, guesses[p], x, y, th)
-            d, ok = _solve3(A, b)
+            d, ok = _masked_step(A, b, Ts[p], keep)
             if not ok:
                 break
             if halvings == 0:
@@ -243,12 +270,16 @@ def gauss_newton(
     start=None,
     finest_only: bool = False,
     halvings: int = 0,
+    basis: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, int]:
     """Modes (P, 3) of −log τ for every particle, the motion prior centred on the guesses (P, 3) (``info`` = Σ_u⁻¹
     (3, 3)), coarse to fine (or on the finest level only) from ``start`` (P, 3; default: the guesses), and the
-    iterations taken (summed over levels and particles); ``halvings`` as ``RBPFParams.step_halvings``."""
+    iterations taken (summed over levels and particles); ``halvings`` as ``RBPFParams.step_halvings``; ``basis`` =
+    (T (3, 3), keep (3,)) of :func:`degeneracy` in the robot frame keeps the degenerate directions where they start
+    (None: every direction moves)."""
     poses = np.array(guesses if start is None else start, dtype=np.float64)
     pts = np.ascontiguousarray(pts, dtype=np.float64)
+    Ts, keep = _particle_bases(basis, guesses)
     fine = maps.finest.resolution
     iterations_taken = 0
     for grid in maps.levels[:1] if finest_only else reversed(maps.levels):
@@ -271,9 +302,37 @@ def gauss_newton(
             max_step_t * grid.resolution / fine,
             max_step_r,
             halvings,
+            Ts,
+            keep,
         )
     poses[:, 2] = wrap_angle(poses[:, 2])
     return poses, iterations_taken
+
+
+def degeneracy(pts, threshold: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(T (3, 3), keep (3,)) in the robot frame when the scan ``pts`` (N, 2) is degenerate in translation, else None:
+    u_0, u_1 the eigenvectors of the translation block of the scan's geometric information
+    (:func:`~slamarena.mapping.scan_matching.gauss_newton.scan_information` at ξ = 0), eigenvalues λ_0 ≤ λ_1,
+    degenerate when λ_0 < threshold · λ_1; T = blockdiag([u_0 u_1], 1), keep = (0, 1, 1)."""
+    lam, U = np.linalg.eigh(scan_information(np.asarray(pts, dtype=float), np.zeros(3))[:2, :2])
+    if not lam[0] < threshold * lam[1]:
+        return None
+    T = np.eye(3)
+    T[:2, :2] = U
+    return T, np.array([0.0, 1.0, 1.0])
+
+
+def _particle_bases(basis, poses) -> tuple[np.ndarray, np.ndarray]:
+    """Every particle's basis T_p = blockdiag(R(ψ_p), 1) T (P, 3, 3) from the robot frame's, and keep (3,); identities
+    when ``basis`` is None."""
+    P = len(poses)
+    if basis is None:
+        return np.ascontiguousarray(np.broadcast_to(np.eye(3), (P, 3, 3))), np.ones(3)
+    T, keep = basis
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    R = np.zeros((P, 3, 3))
+    R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
+    return np.ascontiguousarray(R @ T), keep
 
 
 def residuals(maps: TiledPyramid, pts, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -299,12 +358,19 @@ def log_gaussian(d, cov) -> np.ndarray:
     return -0.5 * np.sum(z**2, axis=-1) - np.log(np.diag(L)).sum() - 1.5 * np.log(2 * np.pi)
 
 
-def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float):
-    """μ (P, 3), Σ (P, 3, 3), log η (P,) and the observed end points (P,) of the module docstring."""
-    info = np.linalg.inv(motion_cov)
+def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float, basis=None):
+    """μ (P, 3), Σ (P, 3, 3), log η (P,) and the observed end points (P,) of the module docstring; with ``basis``
+    (:func:`degeneracy`) the Laplace covariance drops the scan's information in the degenerate directions,
+    A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + I)⁻¹ T_pᵀ (K = diag(keep)), which there is the motion model's."""
     ssr0, H, known = residuals(maps, pts, modes[:, None, :])
-    A = H / sigma**2 + info
-    L = np.linalg.cholesky(np.linalg.inv(A))  # (P, 3, 3)
+    if basis is None:
+        A_inv = np.linalg.inv(H / sigma**2 + np.linalg.inv(motion_cov))
+    else:
+        Ts, keep = _particle_bases(basis, modes)
+        Tt, K = np.swapaxes(Ts, 1, 2), np.diag(keep)
+        A_inv = Ts @ np.linalg.inv(K @ Tt @ H @ Ts @ K / sigma**2 + Tt @ np.linalg.inv(motion_cov) @ Ts) @ Tt
+        A_inv = 0.5 * (A_inv + np.swapaxes(A_inv, 1, 2))
+    L = np.linalg.cholesky(A_inv)  # (P, 3, 3)
     D = np.einsum("pij,kj->pki", L, NODES)  # ξ_ij − ξ*_i (P, K, 3)
     X = modes[:, None, :] + D
     ssr, _, _ = residuals(maps, pts, X)

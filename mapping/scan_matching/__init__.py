@@ -6,6 +6,10 @@ model or keywords) with ``kind`` telling what it matches against and a ``match``
     kind = "grid":   match(maps: MapPyramid, points (N, 2), guess (3,)) -> MatchResult
     kind = "points": match(reference (M, 2) world points, points (N, 2), guess (3,)) -> MatchResult
 
+``takes_odometry``: whether ``match`` also takes ``odometry=True`` (the guess carries the odometry's motion) and then
+keeps the directions the scan does not constrain at the guess (the Gauss-Newton matcher; :mod:`.gauss_newton`,
+"Degeneracy").
+
 ``points`` are the scan end points in the robot frame; ``guess`` and the result are robot
 poses in the map (world) frame. Heavy libraries (numba, scipy, open3d, kiss_icp) are
 imported inside the matcher modules only.

@@ -187,6 +187,7 @@ class _Correlative:
     """The pieces the exhaustive and the branch-and-bound search share; ``Params`` is the subclass's model."""
 
     kind = "grid"
+    takes_odometry = False
 
     def __init__(self, params: CorrelativeMatcherParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)

@@ -34,24 +34,53 @@ Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.m
 from coarse to fine, each level starting from the previous result. Each level iterates
 at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
 and clamps every step to ``(max_step_translation · level resolution / finest resolution,
-max_step_rotation)``. The covariance is the Gauss-Newton (Laplace) approximation on the
-finest level, ``Σ = σ̂² H⁻¹`` with ``σ̂² = Σ r_i² / (n − 3)``. Score: the mean of M over the
-scan points on the finest level (0 … 1).
+max_step_rotation)``. The bilinear map is not smooth, and the undamped step can settle into a two-cycle on its kinks up
+to the iteration cap, the result then the cycle's phase: a change of the guess's last bit (e.g. another angle wrap)
+moved laser graph SLAM on MIT-CSAIL from 0.031 to 1.30 m (research/method/laser_degeneracy.md, "The branch cut").
+With ``step_halvings`` > 0 a step that does not lower the objective is halved up to that many times and the level
+stops where none does (a descent, which stops at kinks short of the optimum along weak directions). Score: the mean
+of M over the scan points on the finest level (0 … 1).
+
+Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
+(``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
+information Λ = W/σ̂². The covariance is the Laplace approximation ``Σ = σ̂² H⁻¹`` on the finest level,
+``σ̂² = Σ r_i² / (n − 3)``.
+
+Degeneracy (``match(…, odometry=True)``: the guess carries the odometry's motion; ``degeneracy_threshold`` τ > 0;
+research/method/laser_degeneracy.md). Where the scan's far end reaches past the mapped walls, unobserved cells
+(M = ½) beside the mapped ones pull the scan back along a corridor, every scan, so H cannot say which directions the
+scan constrains; the scan's own geometry does. With the unit normal n_i of the line through each end point's
+neighbours (the point-to-line ICP's normals),
+
+    I_s = Σ_i J_iᵀ J_i,   J_i = n_iᵀ [I₂, R'(ψ) s_i]   (1, 3)                                      (3, 3)
+
+and λ_0 ≤ λ_1, u_0, u_1 the eigenvalues and unit eigenvectors of its translation block (2, 2), u_0 is degenerate
+when λ_0 < τ λ_1 (Zhang, Kaess & Singh 2016). With T = blockdiag([u_0 u_1], 1) the pose then moves only in the kept
+directions, ξ = ξ₀ + T c with c_0 = 0, each step solving (TᵀAT) c = Tᵀb over (c_1, c_2) (A = H + W, b = g + We):
+along u_0 it keeps the odometry's guess. The covariance handed on is the posterior of the fused objective with the
+scan's information kept where the scan has it,
+
+    Σ = T (K Tᵀ (H/σ̂²) T K + Tᵀ Λ T)⁻¹ Tᵀ,   K = diag(0, 1, 1)                                      (3, 3)
+
+(σ̂² and H at the match): along u_0 the odometry's variance σ̂²/w_t, elsewhere the scan's and the odometry's
+information summed. ``info["degenerate"]`` is 1 for such a match.
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
-from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt
+from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 
 from slamarena.params import Field, Params
 
 from . import MatchResult
 
-__all__ = ["GaussNewtonMatcher", "GaussNewtonMatcherParams", "interpolate", "solve_level"]
+__all__ = ["Fusion", "GaussNewtonMatcher", "GaussNewtonMatcherParams", "degenerate_basis", "interpolate", "solve_level"]
 
 
 @njit(cache=True)
@@ -185,41 +214,74 @@ def take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r):
 
 
 @njit(cache=True)
-def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, bug, prior, w_t, w_r):
+def _objective(ssr, W, prior, x, y, th):
+    """½ Σ r² + ½ eᵀWe and We (3,), e = ξ̂ − ξ (ξ̂ and ξ on the same branch of the angle throughout a match)."""
+    e = np.empty(3)
+    e[0] = prior[0] - x
+    e[1] = prior[1] - y
+    e[2] = prior[2] - th
+    We = W @ e
+    return 0.5 * ssr + 0.5 * (e @ We), We
+
+
+@njit(cache=True)
+def solve_level(
+    L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, bug, prior, W, T, keep, halvings
+):
     """Gauss-Newton on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations).
 
-    ``w_t, w_r > 0`` add the prior term ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards ``prior``.
+    Minimises ½ Σ r² + ½ eᵀWe (e = ξ̂ − ξ towards ``prior`` ξ̂, W (3, 3)); where ``keep[0]`` is 0 over the poses
+    ξ = ξ₀ + T c with c_0 = 0 (module docstring, "Degeneracy"), each step solving (TᵀAT) c = Tᵀb over (c_1, c_2)
+    (A = H + W, b = g + We). With ``halvings`` > 0 a step that does not lower the objective is halved up to that many
+    times, and the level stops where none does.
     """
     x, y, th = pose[0], pose[1], pose[2]
+    H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
+    f, We = _objective(ssr, W, prior, x, y, th)
     it = 0
     for it in range(1, iterations + 1):
-        H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
         if n < 3:
             break
-        H[0, 0] += w_t
-        H[1, 1] += w_t
-        H[2, 2] += w_r
-        g[0] += w_t * (prior[0] - x)
-        g[1] += w_t * (prior[1] - y)
-        g[2] += w_r * (prior[2] - th)
-        d, ok = _solve3(H, g)
+        if keep[0] == 0.0:
+            A = T.T @ (H + W) @ T
+            b = T.T @ (g + We)
+            A[0, :] = 0.0
+            A[:, 0] = 0.0
+            A[0, 0] = 1.0
+            b[0] = 0.0
+            c, ok = _solve3(A, b)
+            d = T @ c
+        else:
+            d, ok = _solve3(H + W, g + We)
         if not ok:
             break
-        x, y, th, converged = take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r)
+        accepted = False
+        for _ in range(halvings + 1):
+            nx, ny, nth, converged = take_step(d.copy(), x, y, th, max_step_t, max_step_r, tol_t, tol_r)
+            nH, ng, nssr, nmsum, nn = _normal_equations(L, ox, oy, res, pts, nx, ny, nth, bug)
+            nf, nWe = _objective(nssr, W, prior, nx, ny, nth)
+            if halvings == 0 or (nn >= 3 and nf <= f):
+                accepted = True
+                break
+            d *= 0.5
+        if not accepted:
+            break
+        x, y, th, H, g, ssr, msum, n, f, We = nx, ny, nth, nH, ng, nssr, nmsum, nn, nf, nWe
         if converged:
             break
-    H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
     return np.array([x, y, th]), H, ssr, msum, n, it
 
 
 class GaussNewtonMatcherParams(Params):
     """Parameters of :class:`GaussNewtonMatcher`.
 
-    The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as
-    Cartographer's Ceres matcher does: directions the map does not constrain (along a corridor) then follow
-    the guess instead of drifting on the coarse levels (on sim:laser, pure Hector jumps 0.2–0.3 m along the
-    first corridor; research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in
-    constrained directions); 0 gives Hector's objective exactly.
+    The prior weights add ``w_t‖t − t̂‖² + w_r(ψ − ψ̂)²`` towards the guess ξ̂ to the objective, as Cartographer's
+    Ceres matcher does (on sim:laser, pure Hector jumps 0.2–0.3 m along the first corridor;
+    research/method/grid_mapping.md). Default 100 each, small against the map's H (10⁴–10⁵ per m² in constrained
+    directions); 0 gives Hector's objective exactly (and no degeneracy handling: it needs the prior as its fallback).
+    ``degeneracy_threshold``: 0.003 lies between a plain corridor's λ_0/λ_1 (≤ 5 · 10⁻⁴, the normals' noise) and every
+    scan of the simulated ``rooms`` and ``loop`` worlds (≥ 1.3 · 10⁻²); off by default because on FR-Clinic it raised grid
+    SLAM's relation error (research/method/laser_degeneracy.md).
     """
 
     iterations: PositiveInt = Field(10, description="most Gauss-Newton iterations per pyramid level")
@@ -237,10 +299,23 @@ class GaussNewtonMatcherParams(Params):
         False, description="reproduce the gradient weights of Hector's published code (module docstring)"
     )
     prior_translation_weight: NonNegativeFloat = Field(
-        100.0, description="w_t of the prior towards the guess [1/m²]; 0: Hector's objective"
+        100.0,
+        description="w_t of the prior towards the guess [1/m²] when no odometry prior is given; 0: Hector's objective",
     )
     prior_rotation_weight: NonNegativeFloat = Field(
-        100.0, description="w_r of the prior towards the guess [1/rad²]; 0: Hector's objective"
+        100.0,
+        description="w_r of the prior towards the guess [1/rad²] when no odometry prior is given; 0: Hector's objective",
+    )
+    step_halvings: NonNegativeInt = Field(
+        0,
+        description="a step that does not lower the objective is halved up to this many times, and a level stops where "
+        "none does (0: every step is taken, Hector's iteration; module docstring)",
+    )
+    degeneracy_threshold: NonNegativeFloat = Field(
+        0.0,
+        description="τ: when the guess carries odometry and the translation information of the scan's geometry is "
+        "below τ times its largest along a direction, that direction keeps the guess (module docstring, "
+        "'Degeneracy'); 0, the default: off (0.003 separates the simulated corridor from the simulated rooms)",
     )
 
 
@@ -248,16 +323,22 @@ class GaussNewtonMatcher:
     """Hector-style multi-resolution Gauss-Newton scan-to-map matcher (module docstring, :class:`GaussNewtonMatcherParams`)."""
 
     kind = "grid"
+    takes_odometry = True
     Params = GaussNewtonMatcherParams
 
     def __init__(self, params: GaussNewtonMatcherParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
 
-    def match(self, maps, points: np.ndarray, guess: np.ndarray) -> MatchResult:
+    def match(self, maps, points: np.ndarray, guess: np.ndarray, odometry: bool = False) -> MatchResult:
+        """The match of ``points`` (N, 2) against ``maps`` from ``guess`` (3,); ``odometry``: the guess carries the
+        odometry's motion, and the directions the scan does not constrain keep it (module docstring, "Degeneracy")."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         guess = np.asarray(guess, dtype=np.float64)
-        pose = guess.copy()
         p = self.params
+        W = np.diag([p.prior_translation_weight, p.prior_translation_weight, p.prior_rotation_weight])
+        fusion = degenerate_basis(maps.levels[0], pts, guess, p) if odometry else None
+        T, keep = (_I3, _KEEP) if fusion is None else (fusion.T, fusion.keep)
+        pose = guess.copy()
         fine = maps.levels[0].params.resolution
         total = 0
         for grid in reversed(maps.levels):
@@ -276,18 +357,87 @@ class GaussNewtonMatcher:
                 p.max_step_rotation,
                 p.hector_gradient_bug,
                 guess,
-                p.prior_translation_weight,
-                p.prior_rotation_weight,
+                W,
+                T,
+                keep,
+                p.step_halvings,
             )
             total += it
-        # not wrap_angle: changing the last bit of this heading (wrap_angle rounds differently from this formula) moves
-        # LaserSLAM's mean relation error on MIT-CSAIL from 0.031 m to 1.30 m (tests/mapping/test_laser_slam.py::
-        # test_relations_on_mit_csail; research/notebook/2026-11-28-refactor.md) — a knife edge to understand first
+        # not wrap_angle, whose last bit differs: the undamped iteration can end in a two-cycle whose phase a last-bit
+        # change of the guess moves by millimetres, and on MIT-CSAIL that became 1.30 m (research/method/
+        # laser_degeneracy.md, "The branch cut"); the one convention waits for a matcher that converges
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        cov = _laplace_covariance(H, ssr, n)
-        return MatchResult(
-            pose=pose, cov=cov, score=msum / n if n else 0.0, iterations=total, info={"points_on_map": n}
-        )
+        info = {"points_on_map": n}
+        if fusion is None:
+            cov = _laplace_covariance(H, ssr, n)
+        else:
+            cov = fusion.covariance(H, ssr, n)
+            info["degenerate"] = int(np.sum(keep == 0.0))
+        return MatchResult(pose=pose, cov=cov, score=msum / n if n else 0.0, iterations=total, info=info)
+
+
+_I3 = np.eye(3)
+_KEEP = np.ones(3)
+
+
+@dataclass
+class Fusion:
+    """A degenerate match (module docstring, "Degeneracy"): ``info`` = Λ = W/σ̂² (3, 3), the odometry's information;
+    ``s2`` = σ̂² at the guess; ``T`` (3, 3) = blockdiag([u_0 u_1], 1), the translation eigenvectors of the scan's
+    geometric information (orthonormal); ``lam`` (2,) their eigenvalues; ``keep`` (3,) 0 for u_0, the degenerate one."""
+
+    info: np.ndarray
+    s2: float
+    T: np.ndarray
+    lam: np.ndarray
+    keep: np.ndarray
+
+    def covariance(self, H: np.ndarray, ssr: float, n: int) -> np.ndarray:
+        """Σ = T (K Tᵀ(H/σ̂²)T K + TᵀΛT)⁻¹ Tᵀ (3, 3) at the match (H, σ̂² = ssr / (n − 3) there; T orthonormal,
+        K = diag(keep)): the scan's information in the kept directions plus the odometry's (the posterior of the
+        fused objective); along the degenerate direction the odometry's variance."""
+        s2 = ssr / (n - 3) if n > 3 and ssr > 0 else self.s2
+        K = np.diag(self.keep)
+        Hc = K @ self.T.T @ (H / s2) @ self.T @ K
+        return self.T @ np.linalg.inv(Hc + self.T.T @ self.info @ self.T) @ self.T.T
+
+
+def scan_information(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """The information (3, 3) the scan's own geometry carries about its pose ξ (module docstring, "Degeneracy"):
+    Σ_i J_iᵀJ_i over the end points s_i (N, 2) whose neighbourhood fits a line, J_i = n_iᵀ[I₂, R'(ψ) s_i] with
+    n_i that line's unit normal in the world frame (the point-to-line ICP's normals and Jacobian)."""
+    from .point_to_line import PointToLineICPMatcher, residuals_and_jacobian
+
+    ref = PointToLineICPMatcher().prepare(points)
+    ok = np.isfinite(ref.normals[:, 0])
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    n = ref.normals[ok] @ np.array([[c, s], [-s, c]])  # R(ψ) n
+    world = ref.points[ok] @ np.array([[c, s], [-s, c]]) + pose[:2]
+    _, J = residuals_and_jacobian(pose, ref.points[ok], world, n)
+    return J.T @ J
+
+
+def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, params) -> Fusion | None:
+    """The :class:`Fusion` of a match from ``guess`` whose scan is degenerate in translation (module docstring,
+    "Degeneracy"), else None: the eigenvectors u_0, u_1 of the translation block of the scan's geometric information
+    I_s (:func:`scan_information`), degenerate when λ_0 < τ λ_1; σ̂² of the map match at the guess on the finest
+    ``grid`` and the odometry's information Λ = W/σ̂² (W the prior weights). None also when a prior weight is zero or
+    fewer than four end points fall on the grid or their residuals vanish (the match then runs as without odometry)."""
+    w = np.array([params.prior_translation_weight, params.prior_translation_weight, params.prior_rotation_weight])
+    if not np.all(w > 0) or params.degeneracy_threshold == 0:
+        return None
+    lam, U = np.linalg.eigh(scan_information(pts, guess)[:2, :2])  # ascending
+    if not lam[0] < params.degeneracy_threshold * lam[1]:
+        return None
+    _, _, ssr, _, n = _normal_equations(
+        grid.log_odds, grid.origin[0], grid.origin[1], grid.params.resolution, pts, *guess, params.hector_gradient_bug
+    )
+    if n <= 3 or not ssr > 0:
+        return None
+    s2 = ssr / (n - 3)
+    T = np.eye(3)
+    T[:2, :2] = U
+    return Fusion(info=np.diag(w / s2), s2=s2, T=T, lam=lam, keep=np.array([0.0, 1.0, 1.0]))
 
 
 def _laplace_covariance(H: np.ndarray, ssr: float, n: int) -> np.ndarray:

@@ -107,6 +107,7 @@ class KissICPMatcher:
     """kiss-icp point-to-map registration of a 2D scan (module docstring, :class:`KissICPMatcherParams`)."""
 
     kind = "points"
+    takes_odometry = False
     Params = KissICPMatcherParams
 
     def __init__(self, params: KissICPMatcherParams | None = None, /, **overrides):
@@ -156,6 +157,7 @@ class Open3DICPMatcher:
     """Open3D ICP: ``method`` point_to_point, point_to_plane or generalized (module docstring, :class:`Open3DICPMatcherParams`)."""
 
     kind = "points"
+    takes_odometry = False
     Params = Open3DICPMatcherParams
 
     def __init__(self, params: Open3DICPMatcherParams | None = None, /, **overrides):

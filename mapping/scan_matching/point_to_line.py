@@ -212,6 +212,7 @@ class PointToLineICPMatcher:
     """Point-to-line ICP (module docstring, :class:`PointToLineICPMatcherParams`)."""
 
     kind = "points"
+    takes_odometry = False
     Params = PointToLineICPMatcherParams
 
     def __init__(self, params: PointToLineICPMatcherParams | None = None, /, **overrides):
