@@ -1,14 +1,11 @@
-"""Studies behind research/notebook/2026-11-21-ekf-localizer-studies.md: the design notes' decisions tested as claims.
+"""notebook/2026-11-21-ekf-localizer-studies.md and 2026-11-21-ekf-localizer-real-data.md: the studies' tables.
 
-Slow (minutes); excluded from the default run. Each study prints its table (run with ``-s``)
-and asserts the direction of the finding, so a change that overturns it fails::
-
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k q_unit
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k cmd_vel_vs_odometry
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k consistency_by_source
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k imu
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k gps_sweep    # runs the shipped config gps_sweep
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k mrclam
+Run from the repository root: ``python research/scripts/ekf_localizer_studies.py STUDY`` with STUDY one of
+``q_unit``, ``consistency_by_source``, ``cmd_vel_vs_odometry``, ``imu``, ``mrclam`` (staged MRCLAM data); each prints
+its table (minutes on a loaded machine). Moved from the slow tests of ``tests/estimators/test_ekf_localizer_study.py``
+(issue 34), the same code without the assertions: the findings are claims of the shipped configs ``localizer_q_unit``
+and ``gps_sweep`` (study 1's ATE, heading and NEES columns and study 5), and behaviour tests at one seed in
+``tests/estimators/test_ekf_localizer_study.py`` (the rest).
 
 Accuracy is ATE without alignment (GPS and the surveyed map fix the frame), from
 :mod:`slamarena.experiments.metrics`; NEES is the single-run mean (3 when consistent).
@@ -16,16 +13,15 @@ Accuracy is ATE without alignment (GPS and the surveyed map fix the frame), from
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
-import pytest
 
 from slamarena import datasets
 from slamarena.estimators.ekf_localizer import EKFLocalizer
 from slamarena.experiments.metrics.consistency import nees
 from slamarena.experiments.metrics.reference import reference_of
 from slamarena.experiments.metrics.trajectory import ATEParams, ate
-
-pytestmark = pytest.mark.slow
 
 SEEDS = range(10)
 
@@ -56,7 +52,7 @@ def _noise_of(source: str, seed: int, **sim) -> list:
     return datasets.load("sim:localization", motion_source=source, seed=seed, **clean).noise.twist_cov.tolist()
 
 
-def test_study_q_unit():
+def study_q_unit():
     """The notes' Q = diag(0.01, 0.01, 0.01) without a unit, on the notes' world (cmd_vel 50 Hz,
     GPS 5 Hz, IMU 50 Hz), 60 s with a 20 s GPS outage from 20 s, 10 seeds."""
     configs = {
@@ -64,7 +60,7 @@ def test_study_q_unit():
         "notes Q per second (0.01 m²/s)": dict(Q=0.01, q_unit="per_second"),
         "simulator's stated twist noise, Q = 0": dict(Q=0.0, use_sequence_noise=True),
     }
-    rows, out = [], {}
+    rows = []
     for name, cfg in configs.items():
         scores, cover = [], []
         for seed in SEEDS:
@@ -78,7 +74,6 @@ def test_study_q_unit():
             cover.append((np.sqrt(np.trace(est.pose_cov[end, :2, :2])), err))
         s = _mean(scores)
         sd, err = np.mean(cover, axis=0)
-        out[name] = (s, sd, err)
         rows.append([name, s["ate"], s["heading"], s["nees"], sd, err])
     _table(
         "Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
@@ -92,22 +87,16 @@ def test_study_q_unit():
         ],
         rows,
     )
-    per_step, per_second, true = out.values()
-    # per-step reading: σ of metres for cm errors, a NEES far below the true-noise filter's
-    assert per_step[0]["nees"] < 0.5 * true[0]["nees"] and per_step[1] > 50 * per_step[2]
-    assert per_step[0]["heading"] > 2 * true[0]["heading"]  # the large θ noise makes the filter follow the noisy IMU
-    assert per_second[1] > 5 * per_second[2]
-    assert 1.0 < true[0]["nees"] < 5.0
 
 
-def test_study_cmd_vel_vs_odometry():
+def study_cmd_vel_vs_odometry():
     """Prediction from cmd_vel (the notes) or wheel odometry, with and without wheel slip
     (20–40 s, ground speed 80% of the wheel speed, or 95%/75% left/right), with GPS at 5 Hz
     throughout or lost from 15 to 45 s. Twist noise: each source's stated noise on the slip-free
     run of the same seed (the tuning a user has); IMU 10 Hz; 60 s; 10 seeds."""
     slips = {"none": [], "both wheels 0.8": [(20.0, 40.0, 0.8)], "left 0.95 / right 0.75": [(20.0, 40.0, 0.95, 0.75)]}
     outages = {"GPS 5 Hz": [], "GPS lost 15–45 s": [(15.0, 45.0)]}
-    rows, out = [], {}
+    rows = []
     for slip_name, slip in slips.items():
         for gps_name, outage in outages.items():
             for source in ("cmd_vel", "odometry"):
@@ -123,20 +112,15 @@ def test_study_cmd_vel_vs_odometry():
                     est = EKFLocalizer(Q=0.0, **noise).run(seq)
                     scores.append(_score(est, seq))
                 s = _mean(scores)
-                out[(slip_name, gps_name, source)] = s
                 rows.append([slip_name, gps_name, source, s["ate"], s["max"], s["heading"], s["nees"]])
     _table(
         "cmd_vel vs wheel odometry for prediction (10 seeds, 60 s)",
         ["slip", "GPS", "prediction from", "ATE RMSE [m]", "max error [m]", "heading RMSE [rad]", "mean NEES"],
         rows,
     )
-    for gps_name in outages:
-        assert out[("none", gps_name, "odometry")]["ate"] < 0.8 * out[("none", gps_name, "cmd_vel")]["ate"]
-    assert out[("both wheels 0.8", "GPS lost 15–45 s", "odometry")]["max"] > 1.0  # odometry does not see slip either
-    assert out[("both wheels 0.8", "GPS lost 15–45 s", "odometry")]["nees"] > 10.0
 
 
-def test_study_consistency_by_source():
+def study_consistency_by_source():
     """50-seed Monte Carlo (10 s, GPS 5 Hz, IMU 10 Hz, initial error drawn from P0) with the
     simulator's stated noise: wheel odometry (white encoder error) vs cmd_vel (actuator lag and
     Ornstein–Uhlenbeck noise: time-correlated, which a white Q cannot describe), EULER vs ARC."""
@@ -144,7 +128,7 @@ def test_study_consistency_by_source():
     from slamarena.experiments.metrics.consistency import monte_carlo
 
     P0 = np.array([1e-4, 1e-4, 1e-3])
-    rows, out = [], {}
+    rows = []
     for source in ("odometry", "cmd_vel"):
         for model in ("arc", "euler"):
             runs, nis = [], {"gps": [], "imu": []}
@@ -160,7 +144,6 @@ def test_study_consistency_by_source():
                 for sensor in nis:
                     nis[sensor].append(est.diagnostics[f"nis_{sensor}"])
             mc = monte_carlo(runs, 3)
-            out[(source, model)] = mc
             rows.append(
                 [
                     source,
@@ -183,13 +166,11 @@ def test_study_consistency_by_source():
         ],
         rows,
     )
-    assert out[("odometry", "arc")]["in_band"] >= 0.9
-    assert out[("cmd_vel", "arc")]["in_band"] < out[("odometry", "arc")]["in_band"]
 
 
-def test_study_imu():
+def study_imu():
     """What the IMU-yaw update buys: with / without it, GPS at 5 Hz or 1 Hz, cmd_vel, true noise, 60 s, 10 seeds."""
-    rows, out = [], {}
+    rows = []
     for gps_rate in (5.0, 1.0):
         for imu in (True, False):
             scores = []
@@ -199,55 +180,26 @@ def test_study_imu():
                     seq = type(seq)(**{**seq.__dict__, "heading": None})
                 scores.append(_score(EKFLocalizer(Q=0.0, use_sequence_noise=True).run(seq), seq))
             s = _mean(scores)
-            out[(gps_rate, imu)] = s
             rows.append([f"{gps_rate:g} Hz", "yes" if imu else "no", s["ate"], s["heading"], s["nees"]])
     _table(
         "IMU yaw update (cmd_vel, IMU 50 Hz, 10 seeds, 60 s)",
         ["GPS rate", "IMU yaw", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES"],
         rows,
     )
-    for gps_rate in (5.0, 1.0):
-        assert out[(gps_rate, True)]["heading"] < 0.5 * out[(gps_rate, False)]["heading"]
-        assert out[(gps_rate, True)]["ate"] < out[(gps_rate, False)]["ate"]
 
 
-def test_study_gps_sweep(tmp_path):
-    """Study 5 is the shipped config ``gps_sweep`` (ATE against GPS rate and σ, cmd_vel, IMU 10 Hz, the filter told the
-    true noise, 60 s, 5 seeds); its claims, asserted on the config's run."""
-    import pandas as pd
-
-    from slamarena.experiments.config import load_config
-    from slamarena.experiments.runner import run_experiment
-
-    assert run_experiment(load_config("gps_sweep"), tmp_path, jobs=2) == 0
-    ate_of = pd.read_csv(tmp_path / "summary.csv").groupby("dataset")["ate.rmse"].mean()
-    rates, sigmas = (1, 5, 10), (("1cm", 0.01), ("10cm", 0.1), ("50cm", 0.5))
-    grid = np.array([[ate_of[f"gps{r}hz_{label}"] for r in rates] for label, _ in sigmas])
-    print(grid)
-    assert np.all(np.diff(grid, axis=0) > 0)  # noisier GPS, larger error
-    assert np.all(np.diff(grid, axis=1) < 0)  # faster GPS, smaller error
-    assert np.all(
-        grid[1:] < np.array([s for _, s in sigmas])[1:, None]
-    )  # with σ ≥ 10 cm the filter beats the raw fixes everywhere
-    assert grid[0, 0] > sigmas[0][1]  # 1 cm fixes at 1 Hz: the drift between fixes dominates
-
-
-@pytest.mark.realdata
-def test_study_mrclam():
+def study_mrclam():
     """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
     against dead reckoning of the same odometry (the filter with no measurements). The dataset states
     no noise; ``MRCLAM_FILTER`` and its derivation are in research/notebook/2026-11-21-ekf-localizer-real-data.md."""
-    from checks import load_staged
-
-    rows, out = [], {}
+    rows = []
     for robot in range(1, 6):
-        seq = load_staged(f"utias:6/robot{robot}")
+        seq = datasets.load(f"utias:6/robot{robot}")
         est = EKFLocalizer(**MRCLAM_FILTER).run(seq)
         dead = EKFLocalizer(**MRCLAM_FILTER).run(type(seq)(**{**seq.__dict__, "range_bearing": None}))
         s, d = _score(est, seq), _score(dead, seq)
         rej = est.meta["rejected"]["landmark"]
         nis = est.diagnostics["nis_landmark"][est.diagnostics["nis_landmark_accepted"]]
-        out[robot] = (s, d)
         near, far = _error_by_time_since_update(est, seq)
         rows.append(
             [
@@ -285,10 +237,6 @@ def test_study_mrclam():
         ],
         rows,
     )
-    # measured 2026-11-28: EKF ATE 0.189/0.240/0.226/0.303/0.212 m (robots 1–5), at most 0.166 of dead reckoning's
-    # (robot 4): the ratio bound is 2.1× that (was 0.5); 0.35 m is 1.16× the worst robot's and stays
-    for s, d in out.values():
-        assert s["ate"] < 0.35 * d["ate"] and s["ate"] < 0.35
 
 
 def _error_by_time_since_update(est, seq) -> tuple[float, float]:
@@ -309,3 +257,22 @@ def _error_by_time_since_update(est, seq) -> tuple[float, float]:
 MRCLAM_FILTER = dict(
     motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999
 )
+
+
+STUDIES = {
+    "q_unit": study_q_unit,
+    "cmd_vel_vs_odometry": study_cmd_vel_vs_odometry,
+    "consistency_by_source": study_consistency_by_source,
+    "imu": study_imu,
+    "mrclam": study_mrclam,
+}
+
+
+def main() -> None:
+    if len(sys.argv) != 2 or sys.argv[1] not in STUDIES:
+        raise SystemExit(f"usage: python research/scripts/ekf_localizer_studies.py {{{','.join(STUDIES)}}}")
+    STUDIES[sys.argv[1]]()
+
+
+if __name__ == "__main__":
+    main()
