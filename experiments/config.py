@@ -25,10 +25,15 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
       - name: accuracy
         columns: [ate.rmse, rpe.trans_rmse, cost.step_median]
     figures: [trajectories, errors, nees, scaling]
+    claims:                           # the findings its pages state, checked on every run (slamarena.experiments.claims)
+      - claim: dead reckoning drifts by less than a metre on the 50-landmark world
+        column: ate.rmse
+        rows: lm50/dead_reckoning     # DATASET/ESTIMATOR shell patterns
+        below: 1.0                    # or {estimator: LABEL, times: F} (another row); above: likewise
 
 Every mistake — an unknown key, a wrong type or value, an unregistered dataset or method, a
-parameter the simulator/reader/estimator does not take or rejects — is a
-:class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
+parameter the simulator/reader/estimator does not take or rejects, a claim on a column or row the run will not
+have — is a :class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
 """
 
 from __future__ import annotations
