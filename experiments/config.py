@@ -27,10 +27,15 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
       - name: accuracy
         columns: [ate.rmse, rpe.trans_rmse, cost.step_median]
     figures: [trajectories, errors, nees, scaling]
+    claims:                           # the findings its pages state, checked on every run (slamarena.experiments.claims)
+      - claim: dead reckoning drifts by less than a metre on the 50-landmark world
+        column: ate.rmse
+        rows: lm50/dead_reckoning     # DATASET/ESTIMATOR shell patterns
+        below: 1.0                    # or {estimator: LABEL, times: F} (another row); above: likewise
 
 Every mistake — an unknown key, a wrong type or value, an unregistered dataset or method, a
-parameter the simulator/reader/estimator does not take or rejects — is a
-:class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
+parameter the simulator/reader/estimator does not take or rejects, a claim on a column or row the run will not
+have — is a :class:`ConfigError` whose message names the field path (e.g. ``estimators.0.params``).
 """
 
 from __future__ import annotations
@@ -54,10 +59,12 @@ from slamarena.errors import UserError
 from slamarena.params import describe_error, params_model
 from slamarena.targets import import_target
 
+from .claims import Claim
 from .metrics import METRICS, output_columns
 
 __all__ = [
     "ExperimentConfig",
+    "Claim",
     "PublishedRow",
     "DatasetSpec",
     "EstimatorSpec",
@@ -293,6 +300,11 @@ class ExperimentConfig(BaseModel):
     published: list[PublishedRow] = Field(
         default_factory=list, description="reference rows quoted from papers, shown beside ours"
     )
+    claims: list[Claim] = Field(
+        default_factory=list,
+        description="the findings its pages state, each a bound on a column; checked after a run and by "
+        "`slamarena results` (slamarena.experiments.claims)",
+    )
     output: Path | None = None
     timeout: float | None = Field(600.0, gt=0, description="seconds per cell; null for none")
     mcap: bool = Field(
@@ -371,6 +383,11 @@ class ExperimentConfig(BaseModel):
                 raise ValueError(
                     f"published.{k} ({row.label}) names unknown dataset labels {unknown}; labels are: {', '.join(labels)}"
                 )
+        for k, claim in enumerate(self.claims):
+            try:
+                claim.validate_against(self.cell_keys())
+            except ValueError as exc:
+                raise ValueError(f"claims.{k}: {exc}") from None
         enabled = {k for k, v in self.metrics if v is not None}
         for k, table in enumerate(self.tables):
             missing = sorted({c.split(".")[0] for c in table.columns} - enabled)
@@ -390,6 +407,15 @@ class ExperimentConfig(BaseModel):
     def estimator_labels(self) -> list[str]:
         return [e.label or sanitize(e.name) for e in self.estimators]
 
+    def cell_keys(self) -> set[str]:
+        """``dataset/estimator`` of every (dataset, method) pair of the grid (a method's ``datasets:`` respected)."""
+        return {
+            f"{d}/{e}"
+            for e, es in zip(self.estimator_labels(), self.estimators)
+            for d in self.dataset_labels()
+            if es.datasets is None or d in es.datasets
+        }
+
     def enabled_metrics(self) -> dict[str, BaseModel]:
         return {k: v for k, v in self.metrics if v is not None}
 
@@ -401,7 +427,8 @@ class ExperimentConfig(BaseModel):
     ) -> ExperimentConfig:
         """The same experiment on a part of its grid (the studies' slow tests run a shipped config this way): only the
         dataset and method labels named, ``seeds`` in place of the config's; tables, metrics and published rows as they
-        are (those of a dropped dataset dropped). Validated again."""
+        are (those of a dropped dataset dropped), the claims whose rows and references are all still in the grid.
+        Validated again."""
         raw = self.model_dump(mode="json", exclude_unset=True)
         keep_ds = set(datasets or self.dataset_labels())
         keep_es = set(estimators or self.estimator_labels())
@@ -413,6 +440,8 @@ class ExperimentConfig(BaseModel):
         raw["estimators"] = [e for e in raw["estimators"] if e.get("datasets") != []]
         for row in raw.get("published", []):
             row["values"] = {d: v for d, v in row["values"].items() if d in keep_ds}
+        kept = {f"{d}/{e}" for d, e in (k.split("/") for k in self.cell_keys()) if d in keep_ds and e in keep_es}
+        raw["claims"] = [c.model_dump(mode="json") for c in self.claims if c.applies(kept)]
         if seeds is not None:
             raw["seeds"] = seeds
         return ExperimentConfig.model_validate(raw)

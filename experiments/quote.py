@@ -27,6 +27,9 @@ Without a page, every page a reader opens is done: the README and each ``researc
 (:func:`reader_pages`). ``--check`` changes nothing and compares marker by marker (:func:`changes`): a table whose only
 difference is its provenance line is the same numbers from another run (reported, exit 0); a changed cell or value is
 a changed number (each listed with its old and new text, exit 1).
+
+Either way, the claims of every shipped config that states some (:mod:`slamarena.experiments.claims`) are checked on
+its run under ROOT: a claim that does not hold is listed with its value and bound, and the exit code is 1.
 """
 
 from __future__ import annotations
@@ -162,8 +165,9 @@ def not_shipped(run_dir: Path) -> list[str]:
     from .config import sanitize
 
     ran = dict(manifest.get("config", {}))
-    ran.pop("output", None)
-    shipped.pop("output", None)
+    for key in ("output", "claims"):  # where the results go and what is claimed of them do not change a number
+        ran.pop(key, None)
+        shipped.pop(key, None)
     kept = {d.get("label") or sanitize(d["name"]) for d in ran.get("datasets", [])}
     for row in shipped.get(
         "published", []
@@ -433,4 +437,6 @@ def quote_main(
             atomic_write_text(page, new)
         counts = f"{len(_TABLE.findall(new))} tables, {len(_VALUE.findall(new))} values; {len(missing)} sources missing"
         print(f"{page}: {'regenerated' if new != old else 'unchanged'} from {root} ({counts})")
-    return status
+    from .claims import check_shipped
+
+    return status | check_shipped(Path(root))

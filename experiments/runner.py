@@ -36,6 +36,8 @@ disk (:mod:`~slamarena.experiments.outdir`); the command line is :mod:`~slamaren
    (drawn by the ``make_figures`` callable the CLI hands in: ``slamarena.paper_figures.make.make_all``)
    and ``manifest.json`` are written (see :mod:`slamarena.experiments.results`); with ``--report``, then
    the report (:mod:`slamarena.experiments.report`); without it, the last line names that next step.
+6. The config's ``claims:`` are checked on the run (:mod:`slamarena.experiments.claims`): one that does not hold is
+   listed with its value and bound, and the exit code is 1, as for a failed cell.
 """
 
 from __future__ import annotations
@@ -128,7 +130,8 @@ def run_experiment(
 ) -> int:
     """Run (or resume) an experiment into ``out``: plan → run the cells → collect → tables → figures (→ report).
 
-    Returns the exit code: 0 every cell ok, 1 some cell failed or timed out, 130 interrupted (Ctrl-C); raises
+    Returns the exit code: 0 every cell ok and every claim of the config holds, 1 some cell failed or timed out or a
+    claim does not hold, 130 interrupted (Ctrl-C); raises
     :class:`DiskFull` (one line: the directory, the space free and needed) when the disk is full.
     ``make_figures(out, only=names, verbose=False) -> (files, errors)`` draws the config's figures; the
     CLI passes :func:`slamarena.paper_figures.make.make_all` (figures are the layer above this one, so
@@ -195,6 +198,17 @@ def _run_locked(
             raise
         raise DiskFull(disk_full_message(out, cells, left)) from None
     console_summary(console, frame, len(pending), len(cells) - len(pending), elapsed)
+    claims_hold = check_claims_of(config, out, console)
     print_results(console, out, figure_errors)
     print_next_step(console, out, write_report_html(out) if report else None)
-    return 0 if (frame["status"] == "ok").all() else 1
+    return 0 if (frame["status"] == "ok").all() and claims_hold else 1
+
+
+def check_claims_of(config: ExperimentConfig, out: Path, console) -> bool:
+    """The config's claims on the run just written (:mod:`~slamarena.experiments.claims`), printed; True if all hold."""
+    if not config.claims:
+        return True
+    from .claims import check_claims
+    from .claims import print_results as print_claims
+
+    return print_claims(check_claims(config.claims, out), config.name, lambda line: console.print(escape(line)))

@@ -1,17 +1,10 @@
-"""Studies behind research/notebook/2026-11-21-ekf-localizer-studies.md: the design notes' decisions tested as claims.
+"""The findings of research/notebook/2026-11-21-ekf-localizer-studies.md as behaviour, at one seed (fast).
 
-Slow (minutes); excluded from the default run. Each study prints its table (run with ``-s``)
-and asserts the direction of the finding, so a change that overturns it fails::
-
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k q_unit
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k cmd_vel_vs_odometry
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k consistency_by_source
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k imu
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k gps_sweep    # runs the shipped config gps_sweep
-    pytest -m slow -s tests/estimators/test_ekf_localizer_study.py -k mrclam
-
-Accuracy is ATE without alignment (GPS and the surveyed map fix the frame), from
-:mod:`slamarena.experiments.metrics`; NEES is the single-run mean (3 when consistent).
+The studies' tables are the shipped configs ``localizer_q_unit`` (study 1) and ``gps_sweep`` (study 5), whose claims
+are checked on every run of them (``slamarena run``, ``slamarena results``), and ``research/scripts/ekf_localizer_studies.py``
+for the tables a config cannot express (a sequence without its IMU, noise taken from another run, a drawn initial
+error). Here each finding is pinned on seed 0, its bound set from the value measured on 2026-11-28 (in the comment).
+ATE is without alignment (GPS fixes the frame).
 """
 
 from __future__ import annotations
@@ -21,291 +14,142 @@ import pytest
 
 from slamarena import datasets
 from slamarena.estimators.ekf_localizer import EKFLocalizer
+from slamarena.experiments.config import load_config
 from slamarena.experiments.metrics.consistency import nees
 from slamarena.experiments.metrics.reference import reference_of
 from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
-pytestmark = pytest.mark.slow
 
-SEEDS = range(10)
-
-
-def _score(est, seq) -> dict:
-    ref = reference_of(seq)
-    a, _ = ate(est, ref, ATEParams(align="none"))
-    n, _ = nees(est, ref)
-    return {"ate": a["rmse"], "max": a["max"], "heading": a["heading_rmse"], "nees": n["mean"]}
+def _ate(est, seq) -> dict:
+    return ate(est, reference_of(seq), ATEParams(align="none"))[0]
 
 
-def _mean(rows: list[dict]) -> dict:
-    return {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
+def _sigma_and_error_at(est, seq, t: float) -> tuple[float, float]:
+    """The filter's position σ (√trace of the xy covariance) and its actual error at the last pose before ``t``."""
+    truth = reference_of(seq)
+    end = np.flatnonzero(est.t < t)[-1]
+    k = np.searchsorted(truth.t, est.t[end] - 1e-9)
+    return float(np.sqrt(np.trace(est.pose_cov[end, :2, :2]))), float(
+        np.linalg.norm(est.poses[end, :2] - truth.poses[k, :2])
+    )
 
 
-def _table(title: str, header: list[str], rows: list[list]) -> str:
-    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)
-    lines = [f"\n### {title}", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]
-    text = "\n".join(lines)
-    print(text)
-    return text
+def test_the_unit_of_q_shows_in_the_covariance_at_the_end_of_an_outage():
+    """Study 1 (its other columns are the config ``localizer_q_unit``): after 20 s without GPS the per-step reading of
+    the notes' Q claims metres for a few centimetres of error, the per-second reading a fraction of a metre, the filter
+    told the simulator's noise what it has. Measured: σ/error 63, 8.6 and 1.01 (error 7.1, 7.4, 7.0 cm)."""
+    config = load_config("localizer_q_unit")
+    seq = datasets.load("sim:localization", seed=0, **config.datasets[0].params)
+    ratio = {}
+    for method in config.estimators:
+        sigma, error = _sigma_and_error_at(EKFLocalizer(**method.params).run(seq), seq, 40.0)
+        assert 0.05 < error < 0.09, (method.label, error)
+        ratio[method.label] = sigma / error
+    assert ratio["notes_per_step"] > 50
+    assert 6 < ratio["notes_per_second"] < 12
+    assert 0.8 < ratio["true_noise"] < 1.25
 
 
-def _noise_of(source: str, seed: int, **sim) -> list:
-    """twist_cov of the slip-free run of this seed: the tuning a user has before the wheels slip."""
-    clean = {k: v for k, v in sim.items() if k != "slip"}
-    return datasets.load("sim:localization", motion_source=source, seed=seed, **clean).noise.twist_cov.tolist()
+def test_the_imu_yaw_update_divides_the_heading_error_with_slow_gps():
+    """Study 4: GPS at 1 Hz, cmd_vel, the simulator's noise; without the IMU the heading is observable only through the
+    GPS track. Measured: heading RMSE 0.0265 rad without against 0.0095 with (×2.79), ATE 2.43 against 1.66 cm (×1.47)."""
+    seq = datasets.load("sim:localization", duration=60.0, gps_rate=1.0, imu_rate=50.0, seed=0)
+    with_imu = _ate(EKFLocalizer(Q=0.0, use_sequence_noise=True).run(seq), seq)
+    without = _ate(
+        EKFLocalizer(Q=0.0, use_sequence_noise=True).run(type(seq)(**{**seq.__dict__, "heading": None})), seq
+    )
+    assert without["heading_rmse"] > 2.5 * with_imu["heading_rmse"]
+    assert without["rmse"] > 1.3 * with_imu["rmse"]
 
 
-def test_study_q_unit():
-    """The notes' Q = diag(0.01, 0.01, 0.01) without a unit, on the notes' world (cmd_vel 50 Hz,
-    GPS 5 Hz, IMU 50 Hz), 60 s with a 20 s GPS outage from 20 s, 10 seeds."""
-    configs = {
-        "notes Q per 0.02 s step (0.5 m²/s)": dict(Q=0.01, q_unit="per_step"),
-        "notes Q per second (0.01 m²/s)": dict(Q=0.01, q_unit="per_second"),
-        "simulator's stated twist noise, Q = 0": dict(Q=0.0, use_sequence_noise=True),
+def _told_the_slip_free_noise(source: str, **sim) -> tuple:
+    """A run predicting from ``source``, told the input noise the simulator states for the slip-free run (study 3)."""
+    clean = datasets.load(
+        "sim:localization", motion_source=source, seed=0, **{k: v for k, v in sim.items() if k != "slip"}
+    )
+    seq = datasets.load("sim:localization", motion_source=source, seed=0, **sim)
+    noise = dict(twist_cov=clean.noise.twist_cov.tolist(), R_gps=seq.noise.gps_cov.tolist(), R_imu=seq.noise.yaw_var)
+    return EKFLocalizer(Q=0.0, **noise).run(seq), seq
+
+
+def test_odometry_beats_cmd_vel_without_slip():
+    """Study 3: predicting from wheel odometry halves the position error and divides the heading error by about three.
+    Measured: ATE 0.50 / 1.05 cm (×0.48), heading 0.0049 / 0.0135 rad (×0.37)."""
+    runs = {
+        source: _ate(*_told_the_slip_free_noise(source, duration=60.0, imu_rate=10.0))
+        for source in ("odometry", "cmd_vel")
     }
-    rows, out = [], {}
-    for name, cfg in configs.items():
-        scores, cover = [], []
-        for seed in SEEDS:
-            seq = datasets.load("sim:localization", duration=60.0, gps_outages=[(20.0, 40.0)], seed=seed)
-            est = EKFLocalizer(**cfg).run(seq)
-            scores.append(_score(est, seq))
-            end = np.flatnonzero(est.t < 40.0)[-1]  # last pose of the outage
-            truth = reference_of(seq)
-            k = np.searchsorted(truth.t, est.t[end] - 1e-9)
-            err = np.linalg.norm(est.poses[end, :2] - truth.poses[k, :2])
-            cover.append((np.sqrt(np.trace(est.pose_cov[end, :2, :2])), err))
-        s = _mean(scores)
-        sd, err = np.mean(cover, axis=0)
-        out[name] = (s, sd, err)
-        rows.append([name, s["ate"], s["heading"], s["nees"], sd, err])
-    _table(
-        "Q unit (cmd_vel, GPS 5 Hz with a 20 s outage, 10 seeds)",
-        [
-            "process noise",
-            "ATE RMSE [m]",
-            "heading RMSE [rad]",
-            "mean NEES (3 = consistent)",
-            "σ_xy at outage end [m]",
-            "error at outage end [m]",
-        ],
-        rows,
+    assert runs["odometry"]["rmse"] < 0.55 * runs["cmd_vel"]["rmse"]
+    assert runs["odometry"]["heading_rmse"] < 0.45 * runs["cmd_vel"]["heading_rmse"]
+
+
+def test_odometry_does_not_see_wheel_slip_and_claims_centimetres_while_it_drifts_metres():
+    """Study 3: both wheels at 80 % ground speed (20–40 s), GPS lost 15–45 s: odometry drifts by metres while its
+    covariance claims the slip-free noise. Measured: max error 3.71 m, RMSE 1.69 m, mean NEES 2.0e4."""
+    est, seq = _told_the_slip_free_noise(
+        "odometry", duration=60.0, imu_rate=10.0, gps_outages=[(15.0, 45.0)], slip=[(20.0, 40.0, 0.8)]
     )
-    per_step, per_second, true = out.values()
-    # per-step reading: σ of metres for cm errors, a NEES far below the true-noise filter's
-    assert per_step[0]["nees"] < 0.5 * true[0]["nees"] and per_step[1] > 50 * per_step[2]
-    assert per_step[0]["heading"] > 2 * true[0]["heading"]  # the large θ noise makes the filter follow the noisy IMU
-    assert per_second[1] > 5 * per_second[2]
-    assert 1.0 < true[0]["nees"] < 5.0
+    assert _ate(est, seq)["max"] > 3.0
+    assert nees(est, reference_of(seq))[0]["mean"] > 1e4
 
 
-def test_study_cmd_vel_vs_odometry():
-    """Prediction from cmd_vel (the notes) or wheel odometry, with and without wheel slip
-    (20–40 s, ground speed 80% of the wheel speed, or 95%/75% left/right), with GPS at 5 Hz
-    throughout or lost from 15 to 45 s. Twist noise: each source's stated noise on the slip-free
-    run of the same seed (the tuning a user has); IMU 10 Hz; 60 s; 10 seeds."""
-    slips = {"none": [], "both wheels 0.8": [(20.0, 40.0, 0.8)], "left 0.95 / right 0.75": [(20.0, 40.0, 0.95, 0.75)]}
-    outages = {"GPS 5 Hz": [], "GPS lost 15–45 s": [(15.0, 45.0)]}
-    rows, out = [], {}
-    for slip_name, slip in slips.items():
-        for gps_name, outage in outages.items():
-            for source in ("cmd_vel", "odometry"):
-                scores = []
-                for seed in SEEDS:
-                    sim = dict(duration=60.0, imu_rate=10.0, slip=slip, gps_outages=outage)
-                    seq = datasets.load("sim:localization", motion_source=source, seed=seed, **sim)
-                    noise = dict(
-                        twist_cov=_noise_of(source, seed, **sim),
-                        R_gps=seq.noise.gps_cov.tolist(),
-                        R_imu=seq.noise.yaw_var,
-                    )
-                    est = EKFLocalizer(Q=0.0, **noise).run(seq)
-                    scores.append(_score(est, seq))
-                s = _mean(scores)
-                out[(slip_name, gps_name, source)] = s
-                rows.append([slip_name, gps_name, source, s["ate"], s["max"], s["heading"], s["nees"]])
-    _table(
-        "cmd_vel vs wheel odometry for prediction (10 seeds, 60 s)",
-        ["slip", "GPS", "prediction from", "ATE RMSE [m]", "max error [m]", "heading RMSE [rad]", "mean NEES"],
-        rows,
-    )
-    for gps_name in outages:
-        assert out[("none", gps_name, "odometry")]["ate"] < 0.8 * out[("none", gps_name, "cmd_vel")]["ate"]
-    assert out[("both wheels 0.8", "GPS lost 15–45 s", "odometry")]["max"] > 1.0  # odometry does not see slip either
-    assert out[("both wheels 0.8", "GPS lost 15–45 s", "odometry")]["nees"] > 10.0
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["localizer_q_unit", "gps_sweep"])
+def test_the_shipped_studies_claims_hold(tmp_path, name):
+    """The whole config (about a minute, and three on a loaded machine); the runner checks its claims: exit 0 only if
+    every cell ran and every claim holds."""
+    from slamarena.experiments.runner import run_experiment
+
+    assert run_experiment(load_config(name), tmp_path, jobs=2) == 0
 
 
-def test_study_consistency_by_source():
-    """50-seed Monte Carlo (10 s, GPS 5 Hz, IMU 10 Hz, initial error drawn from P0) with the
-    simulator's stated noise: wheel odometry (white encoder error) vs cmd_vel (actuator lag and
-    Ornstein–Uhlenbeck noise: time-correlated, which a white Q cannot describe), EULER vs ARC."""
+@pytest.mark.slow
+def test_the_filter_is_consistent_with_odometry_and_not_with_cmd_vel():
+    """Study 2: 50 seeds × 10 s, GPS 5 Hz, IMU 10 Hz, the simulator's stated noise, the initial error drawn from P0: with
+    white encoder noise (odometry) the 50-run NEES average stays in its χ² band; with cmd_vel's time-correlated
+    actuator error it does not. Measured (ARC): 98.0 % and 72.4 % of the steps in band."""
     from slamarena.datasets.sequence import Sequence
     from slamarena.experiments.metrics.consistency import monte_carlo
 
     P0 = np.array([1e-4, 1e-4, 1e-3])
-    rows, out = [], {}
+    in_band = {}
     for source in ("odometry", "cmd_vel"):
-        for model in ("arc", "euler"):
-            runs, nis = [], {"gps": [], "imu": []}
-            for seed in range(50):
-                seq = datasets.load("sim:localization", duration=10.0, imu_rate=10.0, motion_source=source, seed=seed)
-                rng = np.random.default_rng(10_000 + seed)
-                seq = Sequence(
-                    **{**seq.__dict__, "initial_pose": seq.start_pose + np.sqrt(P0) * rng.standard_normal(3)}
-                )
-                est = EKFLocalizer(motion_model=model, Q=0.0, use_sequence_noise=True, initial_cov=P0.tolist()).run(seq)
-                series = nees(est, reference_of(seq))[1]
-                runs.append((series["t"], series["nees"]))
-                for sensor in nis:
-                    nis[sensor].append(est.diagnostics[f"nis_{sensor}"])
-            mc = monte_carlo(runs, 3)
-            out[(source, model)] = mc
-            rows.append(
-                [
-                    source,
-                    model,
-                    float(mc["in_band"]),
-                    float(mc["mean"].mean()),
-                    float(np.concatenate(nis["gps"]).mean()),
-                    float(np.concatenate(nis["imu"]).mean()),
-                ]
-            )
-    _table(
-        "Monte Carlo consistency by prediction source (50 seeds × 10 s; band χ²(150)/50 = [2.36, 3.72])",
-        [
-            "prediction from",
-            "model",
-            "steps with mean NEES in band",
-            "mean NEES",
-            "mean NIS GPS (2)",
-            "mean NIS IMU (1)",
-        ],
-        rows,
-    )
-    assert out[("odometry", "arc")]["in_band"] >= 0.9
-    assert out[("cmd_vel", "arc")]["in_band"] < out[("odometry", "arc")]["in_band"]
+        runs = []
+        for seed in range(50):
+            seq = datasets.load("sim:localization", duration=10.0, imu_rate=10.0, motion_source=source, seed=seed)
+            start = seq.start_pose + np.sqrt(P0) * np.random.default_rng(10_000 + seed).standard_normal(3)
+            seq = Sequence(**{**seq.__dict__, "initial_pose": start})
+            est = EKFLocalizer(motion_model="arc", Q=0.0, use_sequence_noise=True, initial_cov=P0.tolist()).run(seq)
+            series = nees(est, reference_of(seq))[1]
+            runs.append((series["t"], series["nees"]))
+        in_band[source] = float(monte_carlo(runs, 3)["in_band"])
+    assert in_band["odometry"] >= 0.95
+    assert in_band["cmd_vel"] < 0.8
 
 
-def test_study_imu():
-    """What the IMU-yaw update buys: with / without it, GPS at 5 Hz or 1 Hz, cmd_vel, true noise, 60 s, 10 seeds."""
-    rows, out = [], {}
-    for gps_rate in (5.0, 1.0):
-        for imu in (True, False):
-            scores = []
-            for seed in SEEDS:
-                seq = datasets.load("sim:localization", duration=60.0, gps_rate=gps_rate, imu_rate=50.0, seed=seed)
-                if not imu:
-                    seq = type(seq)(**{**seq.__dict__, "heading": None})
-                scores.append(_score(EKFLocalizer(Q=0.0, use_sequence_noise=True).run(seq), seq))
-            s = _mean(scores)
-            out[(gps_rate, imu)] = s
-            rows.append([f"{gps_rate:g} Hz", "yes" if imu else "no", s["ate"], s["heading"], s["nees"]])
-    _table(
-        "IMU yaw update (cmd_vel, IMU 50 Hz, 10 seeds, 60 s)",
-        ["GPS rate", "IMU yaw", "ATE RMSE [m]", "heading RMSE [rad]", "mean NEES"],
-        rows,
-    )
-    for gps_rate in (5.0, 1.0):
-        assert out[(gps_rate, True)]["heading"] < 0.5 * out[(gps_rate, False)]["heading"]
-        assert out[(gps_rate, True)]["ate"] < out[(gps_rate, False)]["ate"]
-
-
-def test_study_gps_sweep(tmp_path):
-    """Study 5 is the shipped config ``gps_sweep`` (ATE against GPS rate and σ, cmd_vel, IMU 10 Hz, the filter told the
-    true noise, 60 s, 5 seeds); its claims, asserted on the config's run."""
-    import pandas as pd
-
-    from slamarena.experiments.config import load_config
-    from slamarena.experiments.runner import run_experiment
-
-    assert run_experiment(load_config("gps_sweep"), tmp_path, jobs=2) == 0
-    ate_of = pd.read_csv(tmp_path / "summary.csv").groupby("dataset")["ate.rmse"].mean()
-    rates, sigmas = (1, 5, 10), (("1cm", 0.01), ("10cm", 0.1), ("50cm", 0.5))
-    grid = np.array([[ate_of[f"gps{r}hz_{label}"] for r in rates] for label, _ in sigmas])
-    print(grid)
-    assert np.all(np.diff(grid, axis=0) > 0)  # noisier GPS, larger error
-    assert np.all(np.diff(grid, axis=1) < 0)  # faster GPS, smaller error
-    assert np.all(
-        grid[1:] < np.array([s for _, s in sigmas])[1:, None]
-    )  # with σ ≥ 10 cm the filter beats the raw fixes everywhere
-    assert grid[0, 0] > sigmas[0][1]  # 1 cm fixes at 1 Hz: the drift between fixes dominates
-
-
+@pytest.mark.slow
 @pytest.mark.realdata
-def test_study_mrclam():
-    """MRCLAM Dataset 6, every robot: odometry prediction + range-bearing to the surveyed landmarks,
-    against dead reckoning of the same odometry (the filter with no measurements). The dataset states
-    no noise; ``MRCLAM_FILTER`` and its derivation are in research/notebook/2026-11-21-ekf-localizer-real-data.md."""
+def test_mrclam_localization_against_the_surveyed_map_beats_dead_reckoning():
+    """MRCLAM Dataset 6, every robot (research/notebook/2026-11-21-ekf-localizer-real-data.md): odometry prediction and
+    range-bearing updates to the surveyed landmarks against the same filter fed only the odometry. Measured
+    2026-11-28: EKF ATE 0.189/0.240/0.226/0.303/0.212 m (robots 1–5), at most 0.166 of dead reckoning's (robot 4)."""
     from checks import load_staged
 
-    rows, out = [], {}
+    filter_params = _mrclam_filter()
     for robot in range(1, 6):
         seq = load_staged(f"utias:6/robot{robot}")
-        est = EKFLocalizer(**MRCLAM_FILTER).run(seq)
-        dead = EKFLocalizer(**MRCLAM_FILTER).run(type(seq)(**{**seq.__dict__, "range_bearing": None}))
-        s, d = _score(est, seq), _score(dead, seq)
-        rej = est.meta["rejected"]["landmark"]
-        nis = est.diagnostics["nis_landmark"][est.diagnostics["nis_landmark_accepted"]]
-        out[robot] = (s, d)
-        near, far = _error_by_time_since_update(est, seq)
-        rows.append(
-            [
-                f"robot{robot}",
-                s["ate"],
-                s["max"],
-                s["heading"],
-                s["nees"],
-                near,
-                far,
-                d["ate"],
-                d["max"],
-                len(seq.range_bearing),
-                rej.get("gate", 0),
-                est.meta["recoveries"]["landmark"],
-                float(nis.mean() / 2),
-            ]
-        )
-    _table(
-        "MRCLAM Dataset 6: EKF localization vs dead reckoning (ATE vs Vicon, no alignment)",
-        [
-            "robot",
-            "EKF ATE RMSE [m]",
-            "EKF max [m]",
-            "EKF heading RMSE [rad]",
-            "EKF mean NEES",
-            "RMSE ≤ 1 s after a landmark update",
-            "RMSE > 10 s after",
-            "dead-reckoning ATE RMSE [m]",
-            "dead-reckoning max [m]",
-            "landmark rows",
-            "gated out",
-            "recoveries",
-            "mean NIS/2 (accepted)",
-        ],
-        rows,
-    )
-    # measured 2026-11-28: EKF ATE 0.189/0.240/0.226/0.303/0.212 m (robots 1–5), at most 0.166 of dead reckoning's
-    # (robot 4): the ratio bound is 2.1× that (was 0.5); 0.35 m is 1.16× the worst robot's and stays
-    for s, d in out.values():
-        assert s["ate"] < 0.35 * d["ate"] and s["ate"] < 0.35
+        est = _ate(EKFLocalizer(**filter_params).run(seq), seq)
+        dead = _ate(EKFLocalizer(**filter_params).run(type(seq)(**{**seq.__dict__, "range_bearing": None})), seq)
+        assert est["rmse"] < 0.35 * dead["rmse"] and est["rmse"] < 0.35, robot
 
 
-def _error_by_time_since_update(est, seq) -> tuple[float, float]:
-    """Position RMSE within 1 s of an accepted landmark update, and more than 10 s after one."""
-    from slamarena.experiments.metrics.reference import associate
+def _mrclam_filter() -> dict:
+    """``MRCLAM_FILTER`` of research/scripts/ekf_localizer_studies.py (its derivation: the real-data notebook)."""
+    import importlib.util
+    from pathlib import Path
 
-    match = associate(reference_of(seq), est.t, 0.1)
-    err = np.linalg.norm(est.poses[match.index, :2] - match.gt[:, :2], axis=1)
-    t = est.t[match.index]
-    updates = est.diagnostics["nis_landmark_t"][est.diagnostics["nis_landmark_accepted"]]
-    k = np.searchsorted(updates, t, side="right") - 1
-    since = np.where(k >= 0, t - updates[np.maximum(k, 0)], np.inf)
-    rmse = lambda m: float(np.sqrt(np.mean(err[m] ** 2))) if m.any() else float("nan")
-    return rmse(since <= 1.0), rmse(since > 10.0)
-
-
-#: the MRCLAM configuration (research/notebook/2026-11-21-ekf-localizer-real-data.md explains the choice)
-MRCLAM_FILTER = dict(
-    motion_model="arc", Q=(2e-4, 2e-4, 2e-3), q_unit="per_second", R_landmark=(0.15**2, 0.02**2), gate_confidence=0.999
-)
+    path = Path(__file__).resolve().parents[2] / "research" / "scripts" / "ekf_localizer_studies.py"
+    spec = importlib.util.spec_from_file_location("ekf_localizer_studies", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.MRCLAM_FILTER

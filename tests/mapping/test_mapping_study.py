@@ -1,24 +1,12 @@
-"""The accuracy study of research/notebook/2026-11-21-grid-slam-results.md (slow; ``pytest -m slow
-tests/mapping/test_mapping_study.py -s``).
+"""The findings of research/notebook/2026-11-21-grid-slam-results.md as behaviour.
 
-* ``sim:laser`` (seeds 0–4): ATE after SE(2) alignment against the ground truth, and the map
-  against the true walls moved by the same alignment (IoU, precision/recall within one cell),
-  for GridSLAM with each matcher.
-* Every staged raw CARMEN log (intel, fr079, aces, mit-csail, fr-clinic) with the Gauss-Newton
-  pipeline: time and real-time factor; where a SLAM-corrected version of the log exists,
-  relative-pose agreement with it (a reference comparison — the corrected poses are another
-  SLAM system's output, not ground truth): the corrected log's scans are found in the raw log
-  by their identical readings, and the relations (i, i+1) and (i, i+10) between corrected
-  scans are scored with the relation metric of slamarena.experiments.metrics.
-
-Writes ``results/mapping_study/{sim,carmen}.json`` and the map images there; asserts only
-loose sanity bounds (the numbers are the product).
+The study's tables are the shipped config ``grid_slam_matchers`` (ATE of every matcher on sim:laser, five seeds; its
+claims are checked on every run of it) and ``research/scripts/mapping_studies.py`` (the map against the true walls, the
+raw CARMEN logs, fr-clinic's interlaced layouts). Here the findings are pinned at one seed, or on one log, each bound
+set from the value measured on 2026-11-28 (in the docstring).
 """
 
 from __future__ import annotations
-
-import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,201 +15,63 @@ from slamarena.datasets.geometry import between, inverse
 from slamarena.mapping.evaluation import occupancy_agreement, true_occupancy_on
 from slamarena.mapping.grid_slam import GridSLAM
 
-OUT = Path("results/mapping_study")
-RAW_TO_CORRECTED = {"intel": "intel", "fr079": "freiburg-079", "aces": "aces", "mit-csail": "csail", "fr-clinic": None}
-SIM_MATCHERS = {
-    "gauss_newton": {},
-    "gauss_newton (pure Hector)": {"matcher_params": {"prior_translation_weight": 0.0, "prior_rotation_weight": 0.0}},
-    "gauss_newton (hector_gradient_bug)": {"matcher_params": {"hector_gradient_bug": True}},
-    "branch_and_bound": {"matcher": "branch_and_bound"},
-    "kiss_icp": {"matcher": "kiss_icp"},
-    "open3d_icp (generalized)": {"matcher": "open3d_icp", "matcher_params": {"method": "generalized"}},
-}
 
-
-def _aligned(est, seq):
+def _ate_and_walls(frontend: dict) -> tuple[dict, dict]:
+    """GridSLAM on sim:laser seed 0: ATE after SE(2) alignment, and its map against the true walls moved by the same
+    alignment (IoU, precision, recall within one cell)."""
+    from slamarena.datasets.sim.laser import simulate
     from slamarena.experiments.metrics.alignment import fit_alignment
     from slamarena.experiments.metrics.reference import associate, reference_of
     from slamarena.experiments.metrics.trajectory import ATEParams, ate
 
+    seq = simulate(seed=0)
+    slam = GridSLAM(frontend=frontend)
+    est = slam.run(seq)
     stats, _ = ate(est, reference_of(seq), ATEParams())
     match = associate(reference_of(seq), est.t, 0.1)
     A = fit_alignment(est.poses[match.index, :2], match.gt[:, :2], "se2")
-    return stats, inverse(np.array([*A.translation, A.angle]))
+    truth_in_map = inverse(np.array([*A.translation, A.angle]))
+    return stats, occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))
 
 
-@pytest.mark.slow
-def test_sim_laser_study():
-    from slamarena.datasets.sim.laser import simulate
-
-    OUT.mkdir(parents=True, exist_ok=True)
-    results = {}
-    for label, kw in SIM_MATCHERS.items():
-        rows = []
-        for seed in range(5):
-            seq = simulate(seed=seed)
-            slam = GridSLAM(frontend=kw)
-            est = slam.run(seq)
-            stats, truth_in_map = _aligned(est, seq)
-            agreement = occupancy_agreement(slam.map, true_occupancy_on(slam.map, "loop", truth_in_map))
-            rows.append(
-                {
-                    "seed": seed,
-                    "ate_rmse": stats["rmse"],
-                    "ate_max": stats["max"],
-                    "heading_rmse": stats["heading_rmse"],
-                    "iou": agreement["iou"],
-                    "precision": agreement["precision"],
-                    "recall": agreement["recall"],
-                    "ms_per_scan": 1e3 * float(np.mean(est.step_time)),
-                }
-            )
-            if seed == 0:
-                slam.map.save_png(
-                    OUT
-                    / f"sim_{label.split()[0]}{'_' + label.split('(')[1][:-1].replace(' ', '_') if '(' in label else ''}.png"
-                )
-        results[label] = rows
-        print(label, {k: round(float(np.median([r[k] for r in rows])), 4) for k in rows[0] if k != "seed"})
-    odo = []
-    for seed in range(5):
-        from slamarena.datasets.estimate import Estimate
-
-        seq = simulate(seed=seed)
-        odo.append(_aligned(Estimate("odometry", seq.scans.t, seq.scans.pose), seq)[0]["rmse"])
-    results["odometry"] = [{"seed": s, "ate_rmse": v} for s, v in enumerate(odo)]
-    print("odometry ATE", np.round(odo, 3))
-    (OUT / "sim.json").write_text(json.dumps(results, indent=2))
-    # median ATE RMSE of gauss_newton over the 5 seeds measured 2026-11-28: 0.0057 m; bound 2.6× that (was 0.03)
-    assert np.median([r["ate_rmse"] for r in results["gauss_newton"]]) < 0.015
-
-
-def _match_scans(raw, corrected):
-    """Index of each corrected scan in the raw log (identical readings), −1 if absent."""
-    key = lambda r: [row.tobytes() for row in np.round(np.asarray(r, float) * 100).astype(np.int32)]
-    where = {}
-    for k, b in enumerate(key(raw.ranges)):
-        where.setdefault(b, k)
-    return np.array([where.get(b, -1) for b in key(corrected.ranges)])
+def test_gauss_newton_maps_the_walls_and_hectors_gradient_bug_moves_them():
+    """Gauss-Newton on the map pyramid: ATE 5.7 mm, IoU with the true walls 0.879; with Hector's published gradient
+    weights (``hector_gradient_bug``): 26.5 mm (×4.7) and 0.671, walls moved by a cell in places."""
+    correct, correct_walls = _ate_and_walls({})
+    bug, bug_walls = _ate_and_walls({"matcher_params": {"hector_gradient_bug": True}})
+    assert correct["rmse"] < 0.007 and correct_walls["iou"] > 0.85
+    assert correct_walls["precision"] > 0.99 and correct_walls["recall"] > 0.98
+    assert bug["rmse"] > 4 * correct["rmse"]
+    assert bug_walls["iou"] < 0.75
 
 
 @pytest.mark.slow
 @pytest.mark.realdata
-@pytest.mark.parametrize("raw_name", list(RAW_TO_CORRECTED))
-def test_carmen_study(raw_name):
-    import time
-
+def test_grid_slam_agrees_with_the_corrected_mit_csail_log_where_odometry_does_not():
+    """MIT-CSAIL, the Gauss-Newton pipeline's defaults: the relative poses between corrected scans i and i+10 (the
+    corrected log's scans found in the raw log by their identical readings) against the SLAM-corrected log, a reference
+    (another SLAM system's output), not ground truth. Measured (notebook table): SLAM 0.283 m / 0.0746 rad, odometry
+    1.051 m / 0.2107 rad."""
     from slamarena import datasets
     from slamarena.datasets.errors import DatasetNotFoundError
     from slamarena.experiments.metrics.relations import RelationsParams, relation_error
 
     try:
-        seq = datasets.load(f"carmen:{raw_name}")
+        seq = datasets.load("carmen:mit-csail")
+        ref = datasets.load("carmen-corrected:csail").scans
     except DatasetNotFoundError as exc:
         pytest.skip(str(exc))
-    OUT.mkdir(parents=True, exist_ok=True)
-    slam = GridSLAM()
-    t = time.perf_counter()
-    est = slam.run(seq)
-    wall = time.perf_counter() - t
-    slam.map.save_png(OUT / f"carmen_{raw_name}.png")
-    duration = float(seq.scans.t[-1] - seq.scans.t[0])
-    row = {
-        "log": raw_name,
-        "scans": len(seq.scans),
-        "duration_s": duration,
-        "wall_s": wall,
-        "real_time_factor": duration / wall,
-        "bad_beams": est.meta["bad_beams"],
-        "scans_not_matched": est.meta["scans_not_matched"],
-        "map_updates": est.meta["map_updates"],
-        "map_shape": est.meta["map_shape"],
-    }
+    est = GridSLAM().run(seq)
     odometry = type(est)("odometry", seq.scans.t, seq.scans.pose)
-    corrected_name = RAW_TO_CORRECTED[raw_name]
-    if corrected_name is not None:
-        ref = datasets.load(f"carmen-corrected:{corrected_name}").scans
-        idx = _match_scans(seq.scans, ref)
-        found = idx >= 0
-        row["corrected_scans"], row["corrected_scans_found"] = int(len(idx)), int(found.sum())
-        for gap in (1, 10):
-            i = np.flatnonzero(found[:-gap] & found[gap:])
-            t_i, t_j = seq.scans.t[idx[i]], seq.scans.t[idx[i + gap]]
-            delta = between(ref.pose[i], ref.pose[i + gap])
-            for label, e in (("slam", est), ("odometry", odometry)):
-                stats, _ = relation_error(e, t_i, t_j, delta, RelationsParams(tolerance=1e-6))
-                row[f"relations_{gap}_{label}"] = stats
-        print(
-            raw_name,
-            {
-                k: (round(v["trans_mean"], 4), round(v["rot_mean"], 4))
-                for k, v in row.items()
-                if k.startswith("relations")
-            },
-        )
-    print(raw_name, {k: v for k, v in row.items() if not k.startswith("relations")})
-    path = OUT / "carmen.json"
-    table = json.loads(path.read_text()) if path.exists() else {}
-    table[raw_name] = row
-    path.write_text(json.dumps(table, indent=2))
-    assert row["real_time_factor"] > 1
-
-
-@pytest.mark.slow
-@pytest.mark.realdata
-@pytest.mark.parametrize("first", [500, 2000, None])
-def test_fr_clinic_interlaced_study(first):
-    """fr-clinic with all four interlaced layouts in one stream against its 181-beam layout alone,
-    over the same stretch of the log (the first ``first`` scans of the full stream; None: all).
-    No reference exists: map sharpness, matcher score, the end points of the shared 181-beam scans
-    on the final map, the wall-orientation concentration (rectilinear building: heading drift bends
-    the corridors), and the difference of the two trajectories at the shared scans."""
-    from slamarena import datasets
-    from slamarena.datasets.errors import DatasetNotFoundError
-    from slamarena.mapping.evaluation import hits_on_occupied, map_sharpness, wall_orientation_concentration
-
-    try:
-        everything = datasets.load("carmen:fr-clinic").scans
-        single = datasets.load("carmen:fr-clinic", interlaced=False).scans
-    except DatasetNotFoundError as exc:
-        pytest.skip(str(exc))
-    OUT.mkdir(parents=True, exist_ok=True)
-    stretch = everything.select(slice(0, first))
-    single = single.select(single.t <= stretch.t[-1])
-    shared = np.flatnonzero(stretch.beam_count == stretch.ranges.shape[1])  # the 181-beam scans: in both runs
-    assert np.array_equal(stretch.t[shared], single.t)
-    rows, shared_poses = {}, {}
-    for label, scans, common in (
-        ("all layouts", stretch, shared),
-        ("181-beam layout only", single, np.arange(len(single))),
-    ):
-        from slamarena.datasets.sequence import Sequence
-
-        slam = GridSLAM()
-        est = slam.run(Sequence(name=label, scans=scans))
-        rows[label] = {
-            "scans": len(scans),
-            "mean_score": float(np.nanmean(est.diagnostics["score"])),
-            "map_updates": est.meta["map_updates"],
-            **map_sharpness(slam.map),
-            "shared_hits_on_occupied": hits_on_occupied(slam.map, scans, est.poses[common], common),
-            "wall_orientation_concentration": wall_orientation_concentration(slam.map),
-            "ms_per_scan": 1e3 * float(np.mean(est.step_time)),
-        }
-        shared_poses[label] = est.poses[common]
-        slam.map.save_png(OUT / f"fr-clinic_{first or 'all'}_{label.split()[0]}.png")
-        print(first, label, {k: round(v, 4) if isinstance(v, float) else v for k, v in rows[label].items()})
-    d = between(shared_poses["181-beam layout only"], shared_poses["all layouts"])
-    rows["difference at shared scans"] = {
-        "trans_median": float(np.median(np.hypot(d[:, 0], d[:, 1]))),
-        "trans_max": float(np.hypot(d[:, 0], d[:, 1]).max()),
-        "rot_median_deg": float(np.degrees(np.median(np.abs(d[:, 2])))),
-        "rot_max_deg": float(np.degrees(np.abs(d[:, 2]).max())),
-    }
-    rows["log_s"] = float(stretch.t[-1] - stretch.t[0])
-    print(first, rows["difference at shared scans"], rows["log_s"])
-    path = OUT / "fr_clinic_interlaced.json"
-    table = json.loads(path.read_text()) if path.exists() else {}
-    table[str(first or "all")] = rows
-    path.write_text(json.dumps(table, indent=2))
-    assert rows["all layouts"]["scans"] > 3 * rows["181-beam layout only"]["scans"]
+    key = lambda r: [row.tobytes() for row in np.round(np.asarray(r, float) * 100).astype(np.int32)]
+    where: dict = {}
+    for k, b in enumerate(key(seq.scans.ranges)):
+        where.setdefault(b, k)
+    idx = np.array([where.get(b, -1) for b in key(ref.ranges)])
+    assert (idx >= 0).all()  # every corrected scan is in the raw log
+    i = np.arange(len(idx) - 10)
+    t_i, t_j, delta = seq.scans.t[idx[i]], seq.scans.t[idx[i + 10]], between(ref.pose[i], ref.pose[i + 10])
+    slam, _ = relation_error(est, t_i, t_j, delta, RelationsParams(tolerance=1e-6))
+    odo, _ = relation_error(odometry, t_i, t_j, delta, RelationsParams(tolerance=1e-6))
+    assert slam["trans_mean"] < 0.35 and slam["trans_mean"] < 0.3 * odo["trans_mean"]
+    assert slam["rot_mean"] < 0.09 and slam["rot_mean"] < 0.4 * odo["rot_mean"]
