@@ -25,8 +25,9 @@ the page's current text in place and is reported; ``--strict`` makes that an err
 
 Without a page, every page a reader opens is done: the README and each ``research/**/*.md`` holding a marker
 (:func:`reader_pages`). ``--check`` changes nothing and compares marker by marker (:func:`changes`): a table whose only
-difference is its provenance line is the same numbers from another run (reported, exit 0); a changed cell or value is
-a changed number (each listed with its old and new text, exit 1).
+difference is its provenance line is the same numbers from another run (reported, exit 0), as is one whose only other
+difference is which cells are marked best (bold: a tie rule changed); a changed cell or value is a changed number
+(each listed with its old and new text, exit 1).
 
 Either way, the claims of every shipped config that states some (:mod:`slamarena.experiments.claims`) are checked on
 its run under ROOT: a claim that does not hold is listed with its value and bound, and the exit code is 1.
@@ -332,12 +333,13 @@ def update_page(text: str, root: Path, strict: bool = False, reduced: bool = Fal
 
 @dataclass(frozen=True)
 class Change:
-    """One marker whose regenerated content differs from the page's: ``numbers`` (a cell or a value changed) or
-    ``provenance`` (a table whose numbers are the same, from another run: only its first line differs)."""
+    """One marker whose regenerated content differs from the page's: ``numbers`` (a cell or a value changed),
+    ``provenance`` (a table whose numbers are the same, from another run: only its first line differs) or ``marks``
+    (the same numbers, only the bold marks of the best cells differ, with or without a new provenance line)."""
 
     kind: str  # "table" | "value"
     spec: str
-    what: str  # "numbers" | "provenance"
+    what: str  # "numbers" | "provenance" | "marks"
     old: str
     new: str
 
@@ -368,6 +370,9 @@ def changes(old: str, new: str) -> list[Change]:
             if ra == rb and pa != pb:
                 out.append(Change(kind, spec, "provenance", pa, pb))
                 continue
+            if ra.replace("**", "") == rb.replace("**", ""):
+                out.append(Change(kind, spec, "marks", a, b))
+                continue
         out.append(Change(kind, spec, "numbers", a, b))
     return out
 
@@ -387,6 +392,7 @@ def _check(page: Path, old: str, new: str) -> bool:
     found = changes(old, new)
     numbers = [c for c in found if c.what == "numbers"]
     moved = [c for c in found if c.what == "provenance"]
+    marked = [c for c in found if c.what == "marks"]
     if not found:
         print(f"{page}: up to date")
     if moved:
@@ -395,6 +401,10 @@ def _check(page: Path, old: str, new: str) -> bool:
         )
         for c in moved:
             print(f"  {c.spec}: {c.old} → {c.new}")
+    if marked:
+        print(f"{page}: {len(marked)} table(s) with the same numbers, other best cells marked (bold):")
+        for c in marked:
+            print(f"  {c.spec}")
     if numbers:
         print(f"{page}: {len(numbers)} quoted number(s) changed:")
         for c in numbers:

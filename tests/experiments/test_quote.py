@@ -174,6 +174,12 @@ def test_check_tells_a_new_provenance_line_from_a_changed_number(tmp_path, capsy
     old, new = page.read_text(), update_page(page.read_text(), tmp_path / "results")[0]
     assert [(c.kind, c.what) for c in changes(old, new)] == [("table", "provenance")]
 
+    accuracy = (run / "tables" / "accuracy.md").read_text()
+    (run / "tables" / "accuracy.md").write_text(accuracy.replace("**0.054 ± 0.013**", "0.054 ± 0.013"))
+    assert quote_main(page, tmp_path / "results", check=True) == 0  # the same numbers, another cell marked best
+    out = capsys.readouterr().out
+    assert "1 table(s) with the same numbers, other best cells marked (bold)" in out and "changed" not in out
+
     (run / "tables" / "accuracy.md").write_text(ACCURACY.replace("0.054 ± 0.013", "0.061 ± 0.013"))
     assert quote_main(page, tmp_path / "results", check=True) == 1
     out = capsys.readouterr().out
