@@ -169,9 +169,14 @@ def information_models(information: np.ndarray, robust: np.ndarray | None = None
     # each row's bytes as one value: np.unique of those is a 1-D sort (np.unique(axis=0) sorts lexicographically,
     # 20× slower on city10000's 20687 equal rows)
     _, first, index = np.unique(rows.view(np.dtype((np.void, rows.itemsize * rows.shape[1]))).ravel(), True, True)
+    # the models made in the order the factors first use them: made in sorted order, each factor's model lies
+    # elsewhere in memory and Levenberg-Marquardt's linearisation runs ~10 % slower (intel)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
     d = information.shape[-1] if E else 0
-    models = [information_model(rows[i, :-1].reshape(d, d), kernel if rows[i, -1] else None) for i in first]
-    return [models[k] for k in index.ravel().tolist()]
+    models = [information_model(rows[i, :-1].reshape(d, d), kernel if rows[i, -1] else None) for i in first[order]]
+    return [models[k] for k in rank[index.ravel()].tolist()]
 
 
 def observation_noise(R: np.ndarray, kernel: RobustKernelParams | None = None):
