@@ -59,6 +59,7 @@ __all__ = [
     "LandmarkProblem",
     "MotionChain",
     "motion_chain",
+    "twist_pieces_of_intervals",
     "build_problem",
     "check_covariance",
     "valid_covariances",
