@@ -7,7 +7,9 @@ alone, a crash of a native library confined to it, and no cell outliving the run
   per job slot imports the packages every cell needs once (numpy, scipy, GTSAM, numba, every method's module:
   :func:`preload`, ~2 s of CPU a fresh interpreter pays again for each cell) and then forks a child per cell
   (:func:`serve`). The child runs the cell; the worker waits for it, kills it at the timeout and answers one JSON line
-  per cell. numba kernels compiled by a cell are in numba's on-disk cache (``cache=True``) for the cells after it.
+  per cell. numba kernels compiled by a cell are in numba's on-disk cache (``cache=True``); the worker loads them
+  from there before it forks the next cell (:func:`~slamarena.experiments.compilation.load_cached_kernels`), so that
+  the cells after it start with them.
 - :func:`run_cell` — on a Dask worker: a fresh ``python -m slamarena.experiments.cell`` process per cell, the spec as
   JSON on its standard input.
 
@@ -248,10 +250,23 @@ def serve() -> int:
     preload()
     for line in sys.stdin:
         request = json.loads(line)
+        _load_kernels()
         ended = _fork_cell(CellSpec.from_dict(request["spec"]), request["timeout"])
         answers.write(json.dumps(ended.to_dict()) + "\n")
         answers.flush()
     return 0
+
+
+def _load_kernels() -> None:
+    """Load the kernels numba's cache holds (earlier cells compiled them) into the worker, so that the cell forked next
+    starts with them (:func:`~slamarena.experiments.compilation.load_cached_kernels`); a cache entry it cannot read is
+    left to the cell, which compiles or loads what it needs itself."""
+    from .compilation import load_cached_kernels
+
+    try:
+        load_cached_kernels()
+    except Exception:  # noqa: BLE001 - the cell loads or compiles its kernels itself
+        pass
 
 
 def _fork_cell(spec: CellSpec, timeout: float | None) -> CellOutcome:

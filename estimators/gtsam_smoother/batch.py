@@ -84,8 +84,8 @@ class BatchSmoother(LandmarkSmoother):
         obs_noises = observation_noises(problem, self.params)
         rng_noise = range_noise(problem.R_range, self.params)
         for k, (rows, range_rows) in enumerate(zip(problem.observation_slices(), problem.range_slices())):
-            graph.push_back(
-                landmark_step_factors(problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows)
+            landmark_step_factors(
+                problem, k, self.prior_cov, between_cov, obs_noises, rows, rng_noise, range_rows, graph
             )
         for j in self.anchored_beacons(problem):
             graph.add(self.beacon_prior(problem, j))

@@ -37,6 +37,7 @@ wall time of update k.
 from __future__ import annotations
 
 import time
+from collections import deque
 from typing import Literal
 
 import gtsam
@@ -54,10 +55,10 @@ from .graph import (
     RelinearizationParams,
     RelinearizeSkip,
     RobustKernelParams,
-    X,
     gtsam_errors,
     isam2_params,
     noise_model,
+    symbols,
 )
 from .noise import body_to_world
 from .problem import MotionModelName, PoseChainParams, check_covariance, motion_chain, summable
@@ -131,48 +132,46 @@ class FixedLagLocalizer:
         smoother = gtsam.IncrementalFixedLagSmoother(lag, isam2_params(self.params))
         gps_noise = noise_model(R_gps, self.params) if gps is not None else None
         yaw_noise = noise_model(R_imu) if heading is not None else None
+        keys = symbols("x", range(K))
         online = np.empty((K, 3))
         smoothed = np.empty((K, 3))
-        smoothed_cov = np.empty((K, 3, 3))
-        online_cov = np.empty((K, 3, 3))
+        body_cov = np.full((K, 3, 3), np.nan)  # GTSAM's body-frame marginal of each pose, for the output's trajectory
         step_time = np.empty(K)
-        want_smoothed_cov = self.params.output == "smoothed"
-        window: list[int] = []
+        smoothed_out = self.params.output == "smoothed"
+        window: deque[int] = deque()
         for k in range(K):
             tic = time.perf_counter()
             where = f"fixed-lag update {k} (t = {chain.t[k]:.6g} s)"
             # poses that this update will marginalise (timestamp < t_k − lag): read them while they are in the window
             while window and chain.t[window[0]] < chain.t[k] - lag:
-                j = window.pop(0)
-                smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov, where)
+                j = window.popleft()
+                smoothed[j] = _pose(smoother, keys[j], j, body_cov if smoothed_out else None, where)
             factors = gtsam.NonlinearFactorGraph()
             if k == 0:
-                factors.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*chain.start), noise_model(self.prior_cov)))
+                factors.add(gtsam.PriorFactorPose2(keys[0], gtsam.Pose2(*chain.start), noise_model(self.prior_cov)))
                 x = chain.start
             else:
                 factors.add(
                     gtsam.BetweenFactorPose2(
-                        X(k - 1), X(k), gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])
+                        keys[k - 1], keys[k], gtsam.Pose2(*chain.delta[k - 1]), noise_model(chain.cov[k - 1])
                     )
                 )
                 x = compose(online[k - 1], chain.delta[k - 1])
             for r in gps_rows[k]:
-                factors.add(gtsam.PoseTranslationPrior2D(X(k), gps.xy[r], gps_noise))
+                factors.add(gtsam.PoseTranslationPrior2D(keys[k], gps.xy[r], gps_noise))
             for r in yaw_rows[k]:
-                factors.add(gtsam.PoseRotationPrior2D(X(k), gtsam.Rot2(float(heading.yaw[r])), yaw_noise))
+                factors.add(gtsam.PoseRotationPrior2D(keys[k], gtsam.Rot2(float(heading.yaw[r])), yaw_noise))
             values = gtsam.Values()
-            values.insert(X(k), gtsam.Pose2(*x))
+            values.insert(keys[k], gtsam.Pose2(*x))
             with gtsam_errors(where):
-                smoother.update(factors, values, {X(k): float(chain.t[k])})
-            online[k], online_cov[k] = _pose_and_cov(smoother, k, not want_smoothed_cov, where)
+                smoother.update(factors, values, {keys[k]: float(chain.t[k])})
+            online[k] = _pose(smoother, keys[k], k, None if smoothed_out else body_cov, where)
             window.append(k)
             step_time[k] = time.perf_counter() - tic
         for j in window:
-            smoothed[j], smoothed_cov[j] = _pose_and_cov(smoother, j, want_smoothed_cov, "fixed-lag end of the run")
-        if self.params.output == "smoothed":
-            poses, cov, other = smoothed, smoothed_cov, {"online_poses": online}
-        else:
-            poses, cov, other = online, online_cov, {"smoothed_poses": smoothed}
+            smoothed[j] = _pose(smoother, keys[j], j, body_cov if smoothed_out else None, "fixed-lag end of the run")
+        poses, other = (smoothed, {"online_poses": online}) if smoothed_out else (online, {"smoothed_poses": smoothed})
+        cov = body_to_world(poses[:, 2], body_cov)
         return Estimate(
             method="gtsam_fixed_lag",
             t=chain.t,
@@ -194,13 +193,14 @@ def _rows_per_pose(chain, t: np.ndarray, K: int, counts: dict, name: str) -> lis
     return [rows[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _pose_and_cov(smoother, k: int, with_cov: bool, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """Current estimate of pose k and (``with_cov``) its world-frame covariance (else NaN); :class:`OptimizationError`
-    naming ``where`` if GTSAM fails or the pose is not finite."""
+def _pose(smoother, key: int, k: int, body_cov: np.ndarray | None, where: str) -> np.ndarray:
+    """Current estimate of pose k (its ``key``) and, into ``body_cov[k]`` unless None, its marginal covariance (GTSAM's
+    body frame); :class:`OptimizationError` naming ``where`` if GTSAM fails or the pose is not finite."""
     with gtsam_errors(where):
-        p = smoother.calculateEstimatePose2(X(k))
+        p = smoother.calculateEstimatePose2(key)
         pose = np.array([p.x(), p.y(), p.theta()])
-        cov = smoother.marginalCovariance(X(k)) if with_cov else None
+        if body_cov is not None:
+            body_cov[k] = smoother.marginalCovariance(key)
     if not np.isfinite(pose).all():
         raise OptimizationError(f"{where}: the estimate of x{k} is not finite")
-    return pose, (np.full((3, 3), np.nan) if cov is None else body_to_world(pose[2], cov))
+    return pose

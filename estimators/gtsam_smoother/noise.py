@@ -48,6 +48,7 @@ from slamarena.estimators.models import MotionModel, compose_jacobians
 
 __all__ = [
     "twist_relative",
+    "twist_relatives",
     "increments_relative",
     "body_to_world",
     "world_to_body",
@@ -61,12 +62,27 @@ def twist_relative(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Relative pose δ (3,) over the twist pieces ``(v, ω, dt)`` and its additive covariance P (3, 3)
     in the frame of the first pose: ``P ← G P Gᵀ + V M Vᵀ`` from ``δ = 0, P = 0``."""
-    delta = np.zeros(3)
-    P = np.zeros((3, 3))
-    for vk, wk, dk in zip(v, omega, dt):
-        G, V = model.jacobians(delta, vk, wk, dk)
-        P = G @ P @ G.T + V @ M @ V.T
-        delta = model.predict(delta, vk, wk, dk)
+    delta, P = twist_relatives(model, v, omega, dt, np.zeros(np.size(v), dtype=np.int64), 1, M)
+    return delta[0], P[0]
+
+
+def twist_relatives(
+    model: MotionModel, v: np.ndarray, omega: np.ndarray, dt: np.ndarray, group: np.ndarray, n: int, M: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`twist_relative` of ``n`` intervals at once: the pieces (P,) in time order, ``group`` (P,) the interval of
+    each (non-decreasing, in [0, n)); returns δ (n, 3) and P (n, 3, 3) (zero for an interval without pieces). The
+    recursion runs over the pieces' rank within their interval, each step on every interval that has that many
+    pieces: the same operations on each interval as one call per interval, so the same numbers bit for bit."""
+    group = np.asarray(group, dtype=np.int64)
+    delta, P = np.zeros((n, 3)), np.zeros((n, 3, 3))
+    first = np.searchsorted(group, group, side="left")  # each piece's interval begins at this piece
+    rank = np.arange(group.size) - first
+    for r in range(int(rank.max(initial=-1)) + 1):
+        pieces = np.flatnonzero(rank == r)
+        at = group[pieces]
+        G, V = model.jacobians(delta[at], v[pieces], omega[pieces], dt[pieces])
+        P[at] = G @ P[at] @ np.swapaxes(G, -1, -2) + V @ M @ np.swapaxes(V, -1, -2)
+        delta[at] = model.predict(delta[at], v[pieces], omega[pieces], dt[pieces])
     return delta, P
 
 
@@ -104,13 +120,14 @@ def world_to_body(theta: np.ndarray | float, cov_world: np.ndarray) -> np.ndarra
 
 
 def regularise(P: np.ndarray, floor: float) -> np.ndarray:
-    """Symmetrise P and lift its eigenvalues to at least ``floor · λ_max`` (``floor ≤ 0``: unchanged)."""
-    P = 0.5 * (P + P.T)
+    """Symmetrise P (..., 3, 3) and lift each one's eigenvalues to at least ``floor · λ_max`` (``floor ≤ 0``:
+    unchanged)."""
+    P = 0.5 * (P + np.swapaxes(P, -1, -2))
     if floor <= 0:
         return P
     lam, U = np.linalg.eigh(P)
-    lam = np.maximum(lam, floor * max(lam[-1], np.finfo(float).tiny))
-    return (U * lam) @ U.T
+    lam = np.maximum(lam, floor * np.maximum(lam[..., -1:], np.finfo(float).tiny))
+    return (U * lam[..., None, :]) @ np.swapaxes(U, -1, -2)
 
 
 def _adjoint_of_inverse(delta: np.ndarray) -> np.ndarray:

@@ -48,10 +48,9 @@ from slamarena.estimators.models import (
     noise_in_force,
     observation_covariances,
 )
-from slamarena.estimators.stepping import twist_pieces
 from slamarena.params import Covariance2, Covariance3, Field, Params
 
-from .noise import increments_relative, regularise, twist_relative, world_to_body
+from .noise import increments_relative, regularise, twist_relatives, world_to_body
 
 __all__ = [
     "PoseChainParams",
@@ -60,6 +59,7 @@ __all__ = [
     "LandmarkProblem",
     "MotionChain",
     "motion_chain",
+    "twist_pieces_of_intervals",
     "build_problem",
     "check_covariance",
     "valid_covariances",
@@ -274,6 +274,24 @@ class MotionChain:
         return snapped, (snapped >= self.stamps[0]) & (snapped <= t_end)
 
 
+def twist_pieces_of_intervals(twist: Twist, key_t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """:func:`~slamarena.estimators.stepping.twist_pieces` of every interval ``(key_t[s], key_t[s + 1]]`` of the sorted
+    times ``key_t`` at once: the pieces ``(v, ω, dt)`` in time order and the interval ``s`` of each (non-decreasing);
+    the same pieces, computed by the same operations, as one call per interval."""
+    a, b = key_t[:-1], key_t[1:]
+    starts, ends = twist.t, twist.t + twist.dt
+    first = np.maximum(np.searchsorted(starts, a, side="right") - 1, 0)
+    last = np.searchsorted(starts, b, side="left")
+    count = np.maximum(np.where(b > a, last - first, 0), 0)
+    interval = np.repeat(np.arange(a.size), count)
+    k = np.arange(interval.size) - np.repeat(np.cumsum(count) - count, count) + first[interval]
+    lo = np.maximum(starts[k], a[interval])
+    hi = np.minimum(ends[k], b[interval])
+    keep = hi > lo
+    k, interval = k[keep], interval[keep]
+    return twist.v[k], twist.omega[k], hi[keep] - lo[keep], interval
+
+
 def motion_chain(
     sequence: Sequence,
     stamps: np.ndarray,
@@ -326,29 +344,26 @@ def motion_chain(
     key_t = np.unique(np.concatenate(parts))
     key_t = key_t[(key_t >= t_start) & (key_t <= t_end)]
 
-    model = MOTION_MODELS[params.motion_model]
-    pose_of_stamp = np.zeros(key_t.size, dtype=np.int64)
-    times, deltas, covs = [key_t[0]], [], []
-    for s in range(1, key_t.size):
-        a, b = key_t[s - 1], key_t[s]
-        if isinstance(motion, Twist):
-            v, w, dt = twist_pieces(motion, a, b)
-            moved = v.size > 0
-            if moved:
-                d, P = twist_relative(model, v, w, dt, M)
-        else:
+    S = key_t.size - 1  # intervals between consecutive keys
+    if isinstance(motion, Twist):
+        v, w, dt, interval = twist_pieces_of_intervals(motion, key_t)
+        deltas, P = twist_relatives(MOTION_MODELS[params.motion_model], v, w, dt, interval, S, M)
+        moved = np.zeros(S, dtype=bool)
+        moved[interval] = True
+        deltas, P = deltas[moved], P[moved]
+    else:
+        moved, deltas, P = np.zeros(S, dtype=bool), [], []
+        for s, (a, b) in enumerate(zip(key_t[:-1], key_t[1:])):
             rows = np.flatnonzero((inc_t > a) & (inc_t <= b))
-            moved = rows.size > 0
-            if moved:
-                d, P = increments_relative(inc_delta[rows], inc_cov[rows])
-        if not moved:
-            pose_of_stamp[s] = pose_of_stamp[s - 1]
-            continue
-        deltas.append(d)
-        covs.append(regularise(world_to_body(d[2], P), params.regularisation))
-        times.append(b)
-        pose_of_stamp[s] = len(times) - 1
-    cov = np.asarray(covs, dtype=float).reshape(-1, 3, 3)
+            if rows.size:
+                moved[s] = True
+                d, C = increments_relative(inc_delta[rows], inc_cov[rows])
+                deltas.append(d)
+                P.append(C)
+    deltas = np.asarray(deltas, dtype=float).reshape(-1, 3)
+    cov = regularise(world_to_body(deltas[:, 2], np.asarray(P, dtype=float).reshape(-1, 3, 3)), params.regularisation)
+    times = np.concatenate([key_t[:1], key_t[1:][moved]])
+    pose_of_stamp = np.concatenate([[0], np.cumsum(moved)])  # an interval without motion keeps the previous key
     singular = np.flatnonzero(np.linalg.eigvalsh(cov)[:, 0] <= 0)
     if singular.size:  # a Gaussian factor needs a positive-definite covariance (GTSAM's error would be NaN)
         k = int(singular[0])
@@ -357,9 +372,9 @@ def motion_chain(
             f"singular covariance; regularisation = {params.regularisation:g} does not lift it, a value > 0 does"
         )
     return MotionChain(
-        t=np.asarray(times, dtype=float),
+        t=times,
         start=np.asarray(sequence.start_pose, dtype=float),
-        delta=np.asarray(deltas, dtype=float).reshape(-1, 3),
+        delta=deltas,
         cov=cov,
         stamps=key_t,
         pose_of_stamp=pose_of_stamp,

@@ -6,7 +6,9 @@ them from that cache — what a user's first and second run cost. For each: wall
 the run and every process under it, from ``getrusage(RUSAGE_CHILDREN)``), the ratio of the wall time to its goal
 (cold ≤ 180 s, warm ≤ 90 s on two idle cores) with a met / not met verdict, the load average before and after (the
 goals are for an idle machine: on a loaded one the CPU time is the figure to compare), and whether both runs
-gave the same summary numbers. ``--quick``: ``--seeds 1`` (14 cells), where the goals are not measurable.
+gave the same summary numbers. ``--quick``: ``--seeds 1`` (14 cells), where the goals are not measurable. With
+``--out DIR`` the two results directories are kept (``DIR/first_run-XXXX/cold`` and ``…/warm``, a fresh directory
+each time) to compare their ``summary.csv`` with another revision's.
 """
 
 from __future__ import annotations
@@ -64,8 +66,12 @@ def same_numbers(a: Path, b: Path) -> bool:
 def main(out: Path | None = None, quick: bool = False) -> int:
     seeds = 1 if quick else None
     with tempfile.TemporaryDirectory(prefix="slamarena-first-run-") as scratch:
+        numba_cache = Path(scratch) / "numba-cache"  # fresh: the first run is cold
+        if out is not None:  # the two runs are kept, in a fresh directory
+            Path(out).mkdir(parents=True, exist_ok=True)
+            scratch = tempfile.mkdtemp(prefix="first_run-", dir=out)
+            print(f"results directories kept in {scratch}/cold and {scratch}/warm")
         scratch = Path(scratch)
-        numba_cache = scratch / "numba-cache"
         rows = []
         for phase in ("cold", "warm"):
             result = timed_run(scratch / phase, numba_cache, seeds)

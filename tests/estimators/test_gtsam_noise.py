@@ -10,6 +10,7 @@ gtsam = pytest.importorskip("gtsam")
 from checks import assert_covariances_close  # noqa: E402
 
 from slamarena.datasets.geometry import compose, wrap_angle  # noqa: E402
+from slamarena.datasets.sequence import Twist  # noqa: E402
 from slamarena.estimators.gtsam_smoother.graph import X, observation_noise, remaining_decrease  # noqa: E402
 from slamarena.estimators.gtsam_smoother.noise import (  # noqa: E402
     body_to_world,
@@ -17,9 +18,12 @@ from slamarena.estimators.gtsam_smoother.noise import (  # noqa: E402
     increments_relative,
     regularise,
     twist_relative,
+    twist_relatives,
     world_to_body,
 )
+from slamarena.estimators.gtsam_smoother.problem import twist_pieces_of_intervals  # noqa: E402
 from slamarena.estimators.models import ARC, EULER  # noqa: E402
+from slamarena.estimators.stepping import twist_pieces  # noqa: E402
 
 
 def _pose(p) -> np.ndarray:
@@ -227,3 +231,49 @@ def test_covariances_are_compared_in_their_own_metric():
     old(doubled)
     with pytest.raises(AssertionError, match="relative difference 1 > 0.001"):
         assert_covariances_close(doubled, B, rtol=1e-3)
+
+
+def _twist_relative_literal(model, v, w, dt, M):
+    """The filters' recursion over one interval's pieces, one piece at a time."""
+    delta, P = np.zeros(3), np.zeros((3, 3))
+    for vk, wk, dk in zip(v, w, dt):
+        G, V = model.jacobians(delta, vk, wk, dk)
+        P = G @ P @ G.T + V @ M @ V.T
+        delta = model.predict(delta, vk, wk, dk)
+    return delta, P
+
+
+@pytest.mark.parametrize("model", [EULER, ARC], ids=["euler", "arc"])
+def test_twist_relatives_are_the_literal_recursion_of_each_interval_bit_for_bit(model, rng):
+    n = 40
+    group = np.sort(rng.integers(0, n, 150))  # some intervals have no piece, some several
+    v, w, dt = rng.normal(1.0, 0.5, group.size), rng.normal(0.0, 0.8, group.size), rng.uniform(0.01, 0.2, group.size)
+    M = np.array([[0.01, 0.002], [0.002, 0.0025]])
+    delta, P = twist_relatives(model, v, w, dt, group, n, M)
+    for s in range(n):
+        d, C = _twist_relative_literal(model, v[group == s], w[group == s], dt[group == s], M)
+        assert np.array_equal(delta[s], d) and np.array_equal(P[s], C), s
+    d, C = twist_relative(model, v[:5], w[:5], dt[:5], M)
+    literal = _twist_relative_literal(model, v[:5], w[:5], dt[:5], M)
+    assert np.array_equal(d, literal[0]) and np.array_equal(C, literal[1])
+
+
+def test_twist_pieces_of_intervals_are_twist_pieces_of_each_interval(rng):
+    t = np.cumsum(rng.uniform(0.05, 0.3, 60))
+    dt = np.where(rng.random(60) < 0.2, 0.02, np.diff(t, append=t[-1] + 0.1))  # some rows end before the next: gaps
+    twist = Twist(t=t, v=rng.normal(1, 0.3, 60), omega=rng.normal(0, 0.5, 60), dt=dt)
+    key_t = np.unique(np.concatenate([[t[0] - 1.0], rng.uniform(t[0] - 0.5, t[-1] + 0.5, 90), t[10:20], [t[-1] + 1]]))
+    v, w, d, interval = twist_pieces_of_intervals(twist, key_t)
+    assert np.all(np.diff(interval) >= 0)
+    for s, (a, b) in enumerate(zip(key_t[:-1], key_t[1:])):
+        expected = twist_pieces(twist, a, b)
+        got = (v[interval == s], w[interval == s], d[interval == s])
+        assert all(np.array_equal(x, y) for x, y in zip(got, expected)), s
+
+
+def test_regularise_of_a_stack_is_regularise_of_each_bit_for_bit(rng):
+    A = rng.normal(size=(50, 3, 3))
+    P = A @ np.swapaxes(A, 1, 2)
+    P[:10, :, 2] = P[:10, 2, :] = 0.0  # rank-deficient: lifted
+    stacked = regularise(P, 1e-4)
+    assert all(np.array_equal(stacked[k], regularise(P[k], 1e-4)) for k in range(50))
