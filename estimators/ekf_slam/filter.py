@@ -94,7 +94,10 @@ Linearisation points (``jacobians=``):
 * FEJ and OC both: a landmark's point is only as good as the pose it was first estimated from. Before each update set
   the measurement a matched landmark's points predict, ``z̆ = h(x̆, m̆)``, is gated as a measurement of it,
   ``d² = (z̆ − h(x̂, m̂))ᵀ S⁻¹ (z̆ − h(x̂, m̂)) > χ²₂(anchor_confidence)`` (S at the current estimate), and a point that
-  fails is set again by its initialisation rule (:meth:`EKFSLAM._refresh_anchors`; ``anchor_confidence=None``: never).
+  fails is set again by its initialisation rule (:meth:`EKFSLAM._refresh_anchors`). Off by default
+  (``anchor_confidence=None``, the published filters): it also fires after loop closures, where the posterior S is
+  smaller than the prior a point was made under, and at 0.99999 that takes FEJ and OC out of the χ² band on a hard
+  simulated world.
 * ``"ideal"``: every Jacobian (G and V with the measured control, H, G_x, G_z) at the TRUE
   robot pose and TRUE landmark positions, given through :meth:`EKFSLAM.set_truth` (``run``
   supplies them from the sequence's ground truth). A diagnostic device of consistency
@@ -354,12 +357,12 @@ class EKFSLAMParams(Params):
         description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)",
     )
     anchor_confidence: Confidence | None = Field(
-        0.99999,
+        None,
         description="FEJ / OC: a matched landmark whose linearisation point (with the robot's) predicts a measurement beyond "
         "χ²₂(anchor_confidence) of the current estimate's — d² against the innovation covariance S, as a measurement is "
-        "gated (the default: the default gate of a labelled row) — has its point set again by the rule that set it at "
-        "initialisation (a stale first estimate); "
-        "None: never (the published FEJ / OC-EKF)",
+        "gated — has its point set again by the rule that set it at initialisation (a stale first estimate); "
+        "None (default): never, the published FEJ / OC-EKF (at 0.99999 the simulator's hard world leaves the χ² band: "
+        "research/notebook/2026-11-28-landmark-real-data.md)",
     )
     jacobians: Linearisation = Field(
         Linearisation.STANDARD,

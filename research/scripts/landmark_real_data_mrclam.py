@@ -28,8 +28,8 @@ NOISE = dict(twist_cov=[0.0117624, 0.174], range_bearing_cov=[0.0225, 0.0004])
 METHODS = {
     "dead_reckoning": ("dead_reckoning", {}),
     "ekf_slam": ("ekf_slam", dict(NOISE, known_confidence=0.999)),
-    "ekf_slam_fej": ("ekf_slam", dict(NOISE, known_confidence=0.999, jacobians="fej")),
-    "ekf_slam_oc": ("ekf_slam", dict(NOISE, known_confidence=0.999, jacobians="oc")),
+    "ekf_slam_fej": ("ekf_slam", dict(NOISE, known_confidence=0.999, jacobians="fej", anchor_confidence=0.99999)),
+    "ekf_slam_oc": ("ekf_slam", dict(NOISE, known_confidence=0.999, jacobians="oc", anchor_confidence=0.99999)),
     "fastslam": ("fastslam", dict(NOISE, version=2, particles=50)),
     "fastslam1": ("fastslam", dict(NOISE, version=1, particles=50)),
 }

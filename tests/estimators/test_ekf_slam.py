@@ -711,7 +711,7 @@ def _stale_first_estimate(jacobians: str, anchor_confidence: float | None) -> tu
 def test_a_stale_first_estimate_locks_fej_out_and_is_set_again():
     """FEJ's Jacobians at a first estimate the loop closure has left metres behind point the wrong way: the published
     filter (anchor_confidence=None) drifts relative to the one landmark it sees by more than 1.5 m and its gate refuses
-    that landmark's re-observations; with the default anchor test B's point is set again once the closure has moved it
+    that landmark's re-observations; with the anchor test at 0.99999 B's point is set again once the closure has moved it
     (the d² of the point's predicted measurement beyond χ²₂(0.99999)), and the filter holds B within 0.2 m, no row
     refused. The OC-EKF chooses its robot point by least squares and holds in this case either way."""
     published, gated, ekf = _stale_first_estimate("fej", None)
