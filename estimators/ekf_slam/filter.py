@@ -91,6 +91,13 @@ Linearisation points (``jacobians=``):
   initialisation Jacobian maps the robot's nullspace directions onto the landmark's), the robot's anchor x̆ moves with
   the propagation Jacobians, and before each update set it is shifted by the offset closest to the current estimates
   (least squares over the set's landmarks, :meth:`EKFSLAM._reanchor`).
+* FEJ and OC both: a landmark's point is only as good as the pose it was first estimated from. Before each update set
+  the measurement a matched landmark's points predict, ``z̆ = h(x̆, m̆)``, is gated as a measurement of it,
+  ``d² = (z̆ − h(x̂, m̂))ᵀ S⁻¹ (z̆ − h(x̂, m̂)) > χ²₂(anchor_confidence)`` (S at the current estimate), and a point that
+  fails is set again by its initialisation rule (:meth:`EKFSLAM._refresh_anchors`). Off by default
+  (``anchor_confidence=None``, the published filters): it also fires after loop closures, where the posterior S is
+  smaller than the prior a point was made under, and at 0.99999 that takes FEJ and OC out of the χ² band on a hard
+  simulated world.
 * ``"ideal"``: every Jacobian (G and V with the measured control, H, G_x, G_z) at the TRUE
   robot pose and TRUE landmark positions, given through :meth:`EKFSLAM.set_truth` (``run``
   supplies them from the sequence's ground truth). A diagnostic device of consistency
@@ -349,6 +356,14 @@ class EKFSLAMParams(Params):
         ge=1,
         description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)",
     )
+    anchor_confidence: Confidence | None = Field(
+        None,
+        description="FEJ / OC: a matched landmark whose linearisation point (with the robot's) predicts a measurement beyond "
+        "χ²₂(anchor_confidence) of the current estimate's — d² against the innovation covariance S, as a measurement is "
+        "gated — has its point set again by the rule that set it at initialisation (a stale first estimate); "
+        "None (default): never, the published FEJ / OC-EKF (at 0.99999 the simulator's hard world leaves the χ² band: "
+        "research/notebook/2026-11-28-landmark-real-data.md)",
+    )
     jacobians: Linearisation = Field(
         Linearisation.STANDARD,
         description="linearisation point: 'standard' current estimate, 'fej' first estimates, "
@@ -420,6 +435,7 @@ class EKFSLAM:
         self.gate_match = chi2_gate(p.match_confidence, 2)
         self.gate_new = chi2_gate(p.new_confidence, 2)
         self.gate_known = chi2_gate(p.known_confidence, 2)
+        self.gate_anchor = chi2_gate(p.anchor_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -453,6 +469,7 @@ class EKFSLAM:
         )
         self._sets, self._t = 0, None  # the number of update sets and the last one's stamp
         self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
+        self.anchors_reset = 0  # FEJ / OC: landmark linearisation points set again (anchor_confidence)
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
         self.log_likelihood = 0.0  # Σ log λ of the rows associated without an id (association.hypotheses)
@@ -617,6 +634,33 @@ class EKFSLAM:
         self._chain(np.zeros((1, 3)), np.zeros((1, 3, 3)), None, None, anchor_shift=c)
         self._carry = None
 
+    def _refresh_anchors(self, slots: np.ndarray, R: np.ndarray) -> None:
+        """FEJ / OC: set again the linearisation point m̆_i of every landmark slot (k,) (observed with noise R (k, 2, 2))
+        that is no longer a state the filter holds plausible.
+
+        The test treats the measurement the linearisation points predict, z̆_i = h(x̆, m̆_i) (x̆ the robot's point before
+        the set), as a measurement of landmark i and gates it as one: d² = (z̆_i − h(x̂, m̂_i))ᵀ S_i⁻¹ (…) with
+        S_i = H_i P H_iᵀ + R_i at the current estimate (:func:`.association.pair_d2`). Beyond χ²₂(anchor_confidence) the
+        Jacobians taken there point elsewhere than the geometry the estimate holds (a first estimate made from a pose the
+        filter has since corrected by more than its uncertainty), and an update through them moves the state along the
+        wrong directions while its innovations stay small; the point is set by the rule of :meth:`_add_landmark`
+        (FEJ: m̆ = m̂; OC: m̆ = x̆ + (m̂ − x̂)), counted in ``anchors_reset``. A landmark whose point passes keeps it, so
+        on data its points describe the filter is the published FEJ / OC-EKF.
+        """
+        if slots.size == 0 or not np.isfinite(self.gate_anchor):
+            return
+        x = self._s.x
+        predicted = observe(self._robot_prior, self._first[slots])
+        try:
+            d2 = assoc.pair_d2(x, self._s.view, R, predicted, slots)
+        except CovarianceError:  # an S that is not positive definite: the set's own gating reports it
+            return
+        stale = np.unique(slots[d2 > self.gate_anchor])
+        if stale.size:
+            offset = self._robot_prior[:2] - x[:2] if self.params.jacobians == Linearisation.OC else 0.0
+            self._first[stale] = self._landmarks()[stale] + offset
+            self.anchors_reset += int(stale.size)
+
     def _linearisation_pose(self) -> np.ndarray:
         if self.params.jacobians == Linearisation.IDEAL:
             if self._truth_pose is None:
@@ -650,6 +694,9 @@ class EKFSLAM:
         ids = given if self.params.use_ids else np.full(len(z), -1)
         Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz, decide or {})
+        if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
+            matched = decision == _MATCHED
+            self._refresh_anchors(slot[matched], Rz[matched])
         if self.params.jacobians == Linearisation.OC:
             self._reanchor(slot[decision == _MATCHED])
         try:

@@ -229,6 +229,7 @@ def _estimate(ekf, sequence: Sequence, record: _Record, looked_ahead: list, reje
         "sequence": sequence.name,
         "n_landmarks": n,
         "tentative": ekf.n_landmarks - n,
+        "anchors_reset": ekf.anchors_reset,
         "looked_ahead": len(looked_ahead),
         "looked_ahead_matched": sum(m for _, m in looked_ahead),
         "removed_unconfirmed": ekf.book.removed["unconfirmed"],

@@ -663,3 +663,60 @@ def test_a_lockout_is_reported_in_the_diagnostics():
     t_rejected = est.diagnostics["assoc_t"][dec == Decision.REJECTED]
     assert float(est.diagnostics["lockout_s"]) == t_rejected[-1] - t_rejected[0] > 0.5 * (seq.t1 - seq.t0)
     assert float(est.diagnostics["lockout_t0"]) == t_rejected[0]
+
+
+def _stale_first_estimate(jacobians: str, anchor_confidence: float | None) -> tuple[np.ndarray, int, EKFSLAM]:
+    """A constructed case of a stale linearisation point (research/notebook/2026-11-28-landmark-real-data.md): landmark B is
+    first seen from a pose whose heading the odometry got wrong by 0.5 rad (inside its stated σ), the loop is closed on
+    landmark A (known from the start), which moves B's estimate by metres away from its first estimate, and the robot
+    then orbits B at 1.3 m seeing B alone (noise-free observations). Returns the error of the robot's position relative
+    to B (observable) after each orbit set, the re-observations of B rejected by the gate, and the filter."""
+    A, B = np.array([2.0, 0.0]), np.array([4.0, 4.0])
+    ekf = EKFSLAM(
+        jacobians=jacobians,
+        anchor_confidence=anchor_confidence,
+        twist_cov=[0.01, 0.5],
+        range_bearing_cov=[0.01, 0.0004],
+        known_confidence=0.999,
+    )
+    true = np.zeros(3)
+
+    def move(v, w, odometry_error=0.0, dt=0.1):
+        nonlocal true
+        true = true + np.array([v * dt * np.cos(true[2]), v * dt * np.sin(true[2]), w * dt])
+        ekf.predict([v, w + odometry_error], dt)
+
+    def see(*ids):
+        ekf.update(np.column_stack([observe(true, np.array([A, B])[list(ids)]), ids]))
+
+    see(0)
+    for _ in range(10):
+        move(0.0, np.pi / 4, odometry_error=0.5)
+    for _ in range(40):
+        move(1.0, 0.0)
+    see(1)
+    for _ in range(10):
+        move(0.0, -np.pi / 2)
+    for _ in range(5):
+        see(0, 1)
+    errors, gated = [], 0
+    for k in range(300):
+        move(0.5, 0.0 if k == 0 else 0.5 / 1.5)
+        see(1)
+        gated += ekf.assoc_log[-1][0] == Decision.REJECTED
+        errors.append(np.linalg.norm((ekf.x[:2] - ekf.x[5:7]) - (true[:2] - B)))
+    return np.array(errors), gated, ekf
+
+
+def test_a_stale_first_estimate_locks_fej_out_and_is_set_again():
+    """FEJ's Jacobians at a first estimate the loop closure has left metres behind point the wrong way: the published
+    filter (anchor_confidence=None) drifts relative to the one landmark it sees by more than 1.5 m and its gate refuses
+    that landmark's re-observations; with the anchor test at 0.99999 B's point is set again once the closure has moved it
+    (the d² of the point's predicted measurement beyond χ²₂(0.99999)), and the filter holds B within 0.2 m, no row
+    refused. The OC-EKF chooses its robot point by least squares and holds in this case either way."""
+    published, gated, ekf = _stale_first_estimate("fej", None)
+    assert published.max() > 1.5 and gated >= 15 and ekf.anchors_reset == 0
+    refreshed, gated, ekf = _stale_first_estimate("fej", 0.99999)
+    assert refreshed.max() < 0.2 and gated == 0 and ekf.anchors_reset >= 1
+    oc, gated, ekf = _stale_first_estimate("oc", 0.99999)
+    assert oc.max() < 0.2 and gated == 0
