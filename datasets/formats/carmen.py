@@ -291,7 +291,9 @@ class CarmenParams(Params):
     @model_validator(mode="after")
     def _odometry_of_corrected(self):
         if self.odometry_scan_pose and not self.corrected:
-            raise ValueError("odometry_scan_pose applies to a corrected log (corrected: true); a raw log's scan poses are its odometry")
+            raise ValueError(
+                "odometry_scan_pose applies to a corrected log (corrected: true); a raw log's scan poses are its odometry"
+            )
         return self
 
 

@@ -100,7 +100,6 @@ def test_corrected_intel():
     assert np.isclose(s.scans.ranges[-1, 0], 1.01) and len(s.motion) == 909
 
 
-
 def test_corrected_intel_on_odometry():
     """odometry_scan_pose: each scan carries the last raw ODOM pose before it (lines 175 and 185 of the file, by awk),
     the corrected poses stay the ground truth; a raw log has no such option."""
@@ -110,6 +109,7 @@ def test_corrected_intel_on_odometry():
     assert np.allclose(accumulate(s.scans.pose[0], s.motion.delta), s.scans.pose, atol=1e-9)
     with pytest.raises(ValueError, match="odometry_scan_pose applies to a corrected log"):
         carmen.CarmenParams(odometry_scan_pose=True)
+
 
 @pytest.mark.parametrize(
     "name, scans, beams, time_source",
