@@ -5,7 +5,8 @@ result, not ground truth. From it, two sets of relations ``(i, j, δ*_ij = x_i�
 path length up to scan k:
 
 - **local**: for every ``stride``-th scan i (but those in the last ``local_travel`` metres), j = the last scan with
-  ``0 < s_j − s_i ≤ local_travel`` (the scan about ``local_travel`` metres of path further). They measure the front end: motion over a metre or two.
+  ``0 < s_j − s_i ≤ local_travel`` (the scan about ``local_travel`` metres of path further).
+  They measure the front end: motion over a metre or two.
 - **loop**: for every ``stride``-th scan i, the later scans j with ``s_j − s_i ≥ min_travel`` and
   ``‖x_j.xy − x_i.xy‖ ≤ radius``; of these the nearest in position, kept when the two scans **see the same place**:
   at least ``min_overlap`` of scan i's usable end points (placed at ``x_i``) lie within ``overlap_distance`` of an end
