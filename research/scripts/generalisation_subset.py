@@ -1,0 +1,22 @@
+"""notebook/2026-11-28-generalisation.md: the shipped ``generalisation`` config on a part of its methods.
+
+Run from the repository root: ``python research/scripts/generalisation_subset.py LABEL …`` (estimator labels of the
+config, e.g. ``odometry grid_slam_w10 grid_slam_w100``). The cells go to ``results/generalisation``, the shipped config's
+directory, with the same cache keys as a full run: ``slamarena run generalisation`` afterwards runs only the cells left
+and writes the held-out table over every method.
+"""
+
+import sys
+from pathlib import Path
+
+from slamarena.experiments.config import load_config
+from slamarena.experiments.runner import run_experiment
+
+
+def main(labels: list[str]) -> int:
+    config = load_config("generalisation").reduced(estimators=labels)
+    return run_experiment(config, Path("results/generalisation"), jobs=1)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
