@@ -1,9 +1,9 @@
-"""notebook/2026-11-28-generalisation.md: the shipped ``generalisation`` config on a part of its methods.
+"""notebook/2026-11-28-generalisation.md: the shipped ``generalisation`` config on a part of its grid.
 
-Run from the repository root: ``python research/scripts/generalisation_subset.py LABEL …`` (estimator labels of the
-config, e.g. ``odometry grid_slam_w10 grid_slam_w100``). The cells go to ``results/generalisation``, the shipped config's
-directory, with the same cache keys as a full run: ``slamarena run generalisation`` afterwards runs only the cells left
-and writes the held-out table over every method.
+Run from the repository root: ``python research/scripts/generalisation_subset.py LABEL … [--datasets D1,D2,…]``
+(estimator labels of the config, e.g. ``odometry grid_slam_w10``; dataset labels, default all). The cells go to
+``results/generalisation``, the shipped config's directory, with the same cache keys as a full run: ``slamarena run
+generalisation`` afterwards runs only the cells left and writes the held-out table over every method.
 """
 
 import sys
@@ -13,8 +13,12 @@ from slamarena.experiments.config import load_config
 from slamarena.experiments.runner import run_experiment
 
 
-def main(labels: list[str]) -> int:
-    config = load_config("generalisation").reduced(estimators=labels)
+def main(args: list[str]) -> int:
+    datasets = None
+    if "--datasets" in args:
+        at = args.index("--datasets")
+        datasets, args = args[at + 1].split(","), args[:at] + args[at + 2 :]
+    config = load_config("generalisation").reduced(datasets=datasets, estimators=args)
     return run_experiment(config, Path("results/generalisation"), jobs=1)
 
 
