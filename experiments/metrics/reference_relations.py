@@ -14,7 +14,7 @@ path length up to scan k:
 
 The error of an estimate on a relation is Kümmerle's, ``ε_ij = δ*_ij⁻¹ (p_i⁻¹ p_j)``
 (:func:`~slamarena.experiments.metrics.relations.relation_error`); reported as mean ± std over all relations and the
-mean of each set.
+mean of each set; relations whose scans have no estimate pose are not scored and are counted (``dropped``).
 
 What they can show: a front end that drifts over metres (local), a map that is torn or stretched where the reference
 closes a loop (loop), independently of the frame the estimate is in. What they cannot: an error smaller than the
@@ -36,7 +36,7 @@ from slamarena.mapping.evaluation import _end_points
 from slamarena.params import Params
 
 from .reference import MetricUnavailable, Reference
-from .relations import RelationsParams, relation_error, revisit_relations
+from .relations import RelationsParams, _poses_at, relation_error, revisit_relations
 
 __all__ = [
     "ReferenceRelationsParams",
@@ -62,8 +62,9 @@ REFERENCE_RELATION_OUTPUTS = {
     "rot_mean": ("lower", "mean rotational error of the local and loop relations [rad]"),
     "local_trans_mean": ("lower", "mean translational error of the local relations [m]"),
     "loop_trans_mean": ("lower", "mean translational error of the loop relations (scans seeing the same place) [m]"),
-    "local": (None, "local relations"),
-    "loop": (None, "loop relations"),
+    "local": (None, "local relations scored"),
+    "loop": (None, "loop relations scored"),
+    "dropped": ("lower", "reference relations whose scans had no estimate pose (not scored)"),
 }
 
 
@@ -120,17 +121,19 @@ def reference_relation_error(
     t = scans.t
     match = RelationsParams(match="nearest", tolerance=1e-6)
     scores, series = relation_error(estimate, t[rel.i], t[rel.j], rel.delta, match)
-    if scores["dropped"]:
-        raise MetricUnavailable(f"{scores['dropped']} reference relations have no estimate pose at their scans")
+    _, ok_i = _poses_at(estimate, t[rel.i], match.match, match.tolerance)
+    _, ok_j = _poses_at(estimate, t[rel.j], match.match, match.tolerance)
+    loop = rel.loop[ok_i & ok_j]  # the relations scored, as relation_error kept them
     trans = series["trans_error"]
     nan = float("nan")
     out = {
         "trans_mean": scores["trans_mean"],
         "trans_std": scores["trans_std"],
         "rot_mean": scores["rot_mean"],
-        "local_trans_mean": float(trans[~rel.loop].mean()) if (~rel.loop).any() else nan,
-        "loop_trans_mean": float(trans[rel.loop].mean()) if rel.loop.any() else nan,
-        "local": int((~rel.loop).sum()),
-        "loop": int(rel.loop.sum()),
+        "local_trans_mean": float(trans[~loop].mean()) if (~loop).any() else nan,
+        "loop_trans_mean": float(trans[loop].mean()) if loop.any() else nan,
+        "local": int((~loop).sum()),
+        "loop": int(loop.sum()),
+        "dropped": scores["dropped"],
     }
-    return out, {**series, "loop": rel.loop}
+    return out, {**series, "loop": loop}

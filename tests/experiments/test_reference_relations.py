@@ -66,10 +66,16 @@ def test_error_is_zero_in_any_frame_and_known_for_a_jump(two_laps):
     assert np.isclose(scores["loop_trans_mean"], d * straddle[rel.loop].mean())
 
 
-def test_an_estimate_missing_scans_is_unavailable(two_laps):
+def test_relations_without_estimate_poses_are_counted_not_scored(two_laps):
     seq, truth = two_laps
-    with pytest.raises(MetricUnavailable, match="no estimate pose"):
-        reference_relation_error(Estimate("x", seq.scans.t[::2], truth[::2]), seq, reference_of(seq))
+    full, _ = reference_relation_error(Estimate("x", seq.scans.t, truth), seq, reference_of(seq))
+    part, _ = reference_relation_error(Estimate("x", seq.scans.t[1:], truth[1:]), seq, reference_of(seq))
+    rel = reference_relations(seq.scans, truth)
+    at_first = int(np.sum((rel.i == 0) | (rel.j == 0)))  # scan 0 starts a local and a loop relation
+    assert full["dropped"] == 0 and part["dropped"] == at_first > 0
+    assert part["local"] + part["loop"] == full["local"] + full["loop"] - at_first
+    with pytest.raises(MetricUnavailable, match="no relation's stamps match"):
+        reference_relation_error(Estimate("x", seq.scans.t[:1] - 1.0, truth[:1]), seq, reference_of(seq))
 
 
 def test_intel_corrected_by_hand():
