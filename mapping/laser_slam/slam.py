@@ -159,9 +159,8 @@ class _Run:
     recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
     pairs: list = field(default_factory=list)  # pairwise registrations (a, k, z, Σ)
     active: list[Submap] = field(default_factory=list)
-    dense: OrderedDict = field(
-        default_factory=OrderedDict
-    )  # finished submaps read last by the loop search, oldest first
+    # finished submaps the loop search read last (kept dense), oldest first
+    dense: OrderedDict = field(default_factory=OrderedDict)
     seconds: dict = field(
         default_factory=lambda: {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
     )
