@@ -9,6 +9,8 @@ matched on level k sees smooth, wide basins, the fine level gives accuracy.
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 from pydantic import PositiveFloat, PositiveInt
 
@@ -107,10 +109,13 @@ class MapPyramid:
 class PackedPyramid:
     """A pyramid no scan will change again, stored by its observed tiles: per level the grid's shape, origin and
     counters, the indices of the ``tile`` × ``tile`` blocks of cells holding a log-odds other than the prior ``l0``,
-    and those blocks (n, tile, tile); every other cell is ``l0``. :meth:`unpack` rebuilds the pyramid exactly.
+    and those blocks (n, tile, tile), compressed (zlib, lossless); every other cell is ``l0``. :meth:`unpack` rebuilds
+    the pyramid exactly.
 
     Laser graph SLAM keeps every finished submap for the loop search; a submap's grids cover every beam of its scans
-    (up to the laser's 80 m), and ~15 % of their cells are observed (FR-Clinic), so most of a dense submap is ``l0``.
+    (up to the laser's 80 m), and ~15 % of their cells are observed (FR-Clinic), so most of a dense submap is ``l0``;
+    the observed tiles still hold ``l0`` between the rays, and the log-odds take few distinct values (sums of
+    ``l_hit`` and ``l_miss``, clamped), which compress well.
     """
 
     def __init__(self, maps: MapPyramid, tile: int = 16):
@@ -133,7 +138,8 @@ class PackedPyramid:
             "version": grid.version,
             "cell_updates": grid.cell_updates,
             "index": np.flatnonzero(observed).astype(np.int32),
-            "blocks": blocks[observed].copy(),
+            "dtype": grid.log_odds.dtype,
+            "blocks": zlib.compress(np.ascontiguousarray(blocks[observed]).tobytes(), 1),
         }
 
     def unpack(self) -> MapPyramid:
@@ -146,7 +152,8 @@ class PackedPyramid:
             grid = OccupancyGrid(p, width=-(-W // T) * T, height=-(-H // T) * T, origin=tuple(level["origin"]))
             ny, nx = grid.shape[0] // T, grid.shape[1] // T
             iy, ix = np.divmod(level["index"], nx)
-            grid.log_odds.reshape(ny, T, nx, T).swapaxes(1, 2)[iy, ix] = level["blocks"]
+            blocks = np.frombuffer(zlib.decompress(level["blocks"]), dtype=level["dtype"]).reshape(-1, T, T)
+            grid.log_odds.reshape(ny, T, nx, T).swapaxes(1, 2)[iy, ix] = blocks
             grid.log_odds = np.ascontiguousarray(grid.log_odds[:H, :W])
             grid.origin = level["origin"].copy()
             grid.version, grid.cell_updates = level["version"], level["cell_updates"]
@@ -154,4 +161,4 @@ class PackedPyramid:
         return out
 
     def nbytes(self) -> int:
-        return sum(level["blocks"].nbytes + level["index"].nbytes for level in self._levels)
+        return sum(len(level["blocks"]) + level["index"].nbytes for level in self._levels)

@@ -222,6 +222,9 @@ class LaserSLAM:
             if progress is not None:
                 progress(k + 1, run.K)
         finish_start = time.process_time()
+        run.tracking = None  # no scan is matched again: the final solve, the refinement and the map need neither the
+        for submap in self.submaps:  # tracking map nor dense submaps (memory at the end of a long log)
+            submap.release()
         with run.timed("optimisation"):
             G, report = run.backend.finish()
         poses, refinement = self._scan_poses(run, G)

@@ -1,13 +1,14 @@
 """notebook/2026-11-28-generalisation.md (scale): what laser graph SLAM's memory holds while it maps a log.
 
-Run from the repository root: ``python research/scripts/laser_slam_memory_parts.py [LOG]`` (default ``fr-clinic``).
-Every 500 scans: the process's resident memory, and the bytes of the tracking map, of the active and of the finished
-submaps' pyramids (log-odds and tracing scratch), of the loop search's cached likelihood grids and of the pairwise
-registrations kept for the refinement.
+Run from the repository root: ``python research/scripts/laser_slam_memory_parts.py [LOG [SCANS]]`` (default
+``fr-clinic``, every scan). Every 500 scans: the process's resident memory, and the bytes of the tracking map, of the
+active submaps' pyramids (log-odds and tracing scratch), of the finished submaps (dense where held dense; packed),
+of the loop search's cached likelihood grids and of the pairwise registrations kept for the refinement.
 """
 
-import resource
+import dataclasses
 import sys
+import time
 
 import numpy as np
 
@@ -25,10 +26,9 @@ def _pyramid_bytes(maps) -> int:
     return sum(g.log_odds.nbytes + (0 if s is None else s.nbytes) for g, s in zip(maps.levels, scratch))
 
 
-def _known(maps) -> float:
-    """Fraction of the finest level's cells observed (log-odds ≠ the prior's)."""
-    g = maps.levels[0]
-    return float(np.mean(g.log_odds != g.l0))
+def _hwm_mb() -> float:
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) for line in fh if line.startswith("VmHWM")) / 1024
 
 
 class _Probe(LaserSLAM):
@@ -37,8 +37,10 @@ class _Probe(LaserSLAM):
         return self.state
 
 
-def main(log: str = "fr-clinic") -> None:
+def main(log: str = "fr-clinic", scans: str = "") -> None:
     seq = datasets.load(f"carmen:{log}")
+    if scans:
+        seq = dataclasses.replace(seq, scans=seq.scans.select(slice(0, int(scans))))
     slam = _Probe()
 
     def progress(k, K):
@@ -51,14 +53,16 @@ def main(log: str = "fr-clinic") -> None:
         print(
             f"scan {k}/{K}: rss {_rss_mb():.0f} MB; tracking {_mb(_pyramid_bytes(run.tracking)) if run.tracking else 0:.0f} MB; "
             f"active {_mb(sum(_pyramid_bytes(s.maps) for s in run.active)):.0f} MB; finished {len(finished)} submaps "
-            f"{_mb(sum(_pyramid_bytes(s.maps) for s in finished)):.0f} MB; loop cache {_mb(cache):.0f} MB; "
-            f"pairs {len(run.pairs)} {_mb(pairs):.0f} MB; finished submaps' cells observed "
-            f"{np.mean([_known(s.maps) for s in finished]) if finished else float('nan'):.2f}",
+            f"dense {_mb(sum(_pyramid_bytes(s._maps) for s in finished if s._maps is not None)):.0f} MB, packed "
+            f"{_mb(sum(s.packed.nbytes() for s in finished if s.packed is not None)):.0f} MB; loop cache {_mb(cache):.0f} MB; "
+            f"pairs {len(run.pairs)} {_mb(pairs):.0f} MB; peak so far {_hwm_mb():.0f} MB",
             flush=True,
         )
 
+    cpu = time.process_time()
     slam.run(seq, progress=progress)
-    print(f"peak rss {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+    print(f"CPU time of the run: {time.process_time() - cpu:.1f} s (the probe's accounting included)")
+    print(f"after the run (final solve, refinement, map rendered): peak {_hwm_mb():.0f} MB, rss {_rss_mb():.0f} MB")
 
 
 def _arrays(obj):
