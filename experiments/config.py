@@ -32,6 +32,9 @@ cell, the tables and figures to write, where to write them and a per-cell timeou
         column: ate.rmse
         rows: lm50/dead_reckoning     # DATASET/ESTIMATOR shell patterns
         below: 1.0                    # or {estimator: LABEL, times: F} (another row); above: likewise
+    protocol:                         # optional: leave-one-log-out choice of parameters (slamarena.experiments.protocol)
+      score: [relations.trans_mean, refrel.trans_mean]
+      candidates: {grid_slam: [grid_slam_w10, grid_slam_w100]}   # method → its candidates' estimator labels
 
 Every mistake — an unknown key, a wrong type or value, an unregistered dataset or method, a
 parameter the simulator/reader/estimator does not take or rejects, a claim on a column or row the run will not
@@ -61,6 +64,7 @@ from slamarena.targets import import_target
 
 from .claims import Claim
 from .metrics import METRICS, output_columns
+from .protocol import ProtocolSpec
 
 __all__ = [
     "ExperimentConfig",
@@ -316,6 +320,9 @@ class ExperimentConfig(BaseModel):
         description="run every cell with BLAS, OpenMP and numba limited to one thread, so that cost "
         "measurements compare algorithms, not thread counts (cost studies)",
     )
+    protocol: ProtocolSpec | None = Field(
+        None, description="leave-one-log-out choice of each method's parameters among its candidate entries"
+    )
 
     @field_validator("metrics", mode="before")
     @classmethod
@@ -395,7 +402,35 @@ class ExperimentConfig(BaseModel):
                 raise ValueError(
                     f"tables.{k} ({table.name}) uses metrics that are not enabled under metrics: {', '.join(missing)}"
                 )
+        if self.protocol is not None:
+            self._check_protocol(enabled)
         return self
+
+    def _check_protocol(self, enabled: set[str]) -> None:
+        """The protocol's score columns are known, lower-is-better outputs of enabled metrics; each method's candidates
+        are at least two estimator labels of that method, none in two groups, each run on every dataset."""
+        known = output_columns()
+        for c in self.protocol.score:
+            if c not in known or known[c][0] != "lower":
+                raise ValueError(f"protocol.score: {c!r} is not a lower-is-better column <metric>.<output>")
+            if c.split(".")[0] not in enabled:
+                raise ValueError(f"protocol.score: {c!r} needs metric {c.split('.')[0]!r} enabled under metrics")
+        by_label = dict(zip(self.estimator_labels(), self.estimators))
+        seen: set[str] = set()
+        for method, labels in self.protocol.candidates.items():
+            where = f"protocol.candidates.{method}"
+            if len(labels) < 2 or len(set(labels)) != len(labels):
+                raise ValueError(f"{where}: at least two distinct candidate labels")
+            for label in labels:
+                if label not in by_label:
+                    raise ValueError(f"{where}: {label!r} is no estimator label; labels are: {', '.join(by_label)}")
+                if label in seen:
+                    raise ValueError(f"{where}: {label!r} is a candidate of two methods")
+                if by_label[label].name != method:
+                    raise ValueError(f"{where}: {label!r} is method {by_label[label].name!r}, not {method!r}")
+                if by_label[label].datasets is not None:
+                    raise ValueError(f"{where}: {label!r} must run on every dataset (no 'datasets:' list)")
+            seen.update(labels)
 
     # ------------------------------------------------------------------ derived
     def seed_list(self) -> list[int]:
@@ -442,6 +477,11 @@ class ExperimentConfig(BaseModel):
             row["values"] = {d: v for d, v in row["values"].items() if d in keep_ds}
         kept = {f"{d}/{e}" for d, e in (k.split("/") for k in self.cell_keys()) if d in keep_ds and e in keep_es}
         raw["claims"] = [c.model_dump(mode="json") for c in self.claims if c.applies(kept)]
+        if raw.get("protocol") is not None:
+            labels = {e.get("label") or sanitize(e["name"]) for e in raw["estimators"]}
+            groups = {m: [c for c in cs if c in labels] for m, cs in raw["protocol"]["candidates"].items()}
+            groups = {m: cs for m, cs in groups.items() if len(cs) >= 2}
+            raw["protocol"] = {**raw["protocol"], "candidates": groups} if groups else None
         if seeds is not None:
             raw["seeds"] = seeds
         return ExperimentConfig.model_validate(raw)

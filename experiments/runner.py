@@ -57,6 +57,7 @@ from .execute import execute
 from .manifest import finish_manifest, record_interruption, start_manifest
 from .outdir import DiskFull, disk_full_message, results_lock
 from .plan import Cell, cell_env, cell_spec, check_recompute, forced_cells, plan
+from .protocol import write_protocol
 from .results import SUMMARY, atomic_write_text
 from .tables import collect, monte_carlo_table, table_specs, write_frame, write_tables
 
@@ -91,7 +92,8 @@ def run_cells(
 
 
 def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path) -> list[Path]:
-    """``summary.csv``, the configured tables (or the default one) and the Monte Carlo table."""
+    """``summary.csv``, the configured tables (or the default one), the Monte Carlo table and, for a config with a
+    protocol, its held-out table (:mod:`~slamarena.experiments.protocol`)."""
     atomic_write_text(out / SUMMARY, frame.to_csv(index=False))
     written = write_tables(
         frame, table_specs(config.tables, config.enabled_metrics()), out / "tables", config.published
@@ -99,6 +101,8 @@ def write_outputs(config: ExperimentConfig, cells: list[Cell], frame, out: Path)
     mc_frame = monte_carlo_table(config, cells)
     if len(mc_frame):
         written += write_frame(mc_frame, out / "tables" / "monte_carlo")
+    if config.protocol is not None:
+        written += write_protocol(frame, config, out)
     return written
 
 

@@ -43,7 +43,8 @@ The :class:`Sequence` of a **raw** log:
 
 A **corrected** log (``corrected=True``) carries the SLAM-corrected pose in the FLASER pose fields
 and repeats it in an ODOM line with timestamp 0 after each scan; those ODOM lines are skipped
-(counted). ``Scans.pose`` and ``ground_truth`` are the corrected poses
+(counted). ``Scans.pose`` and ``ground_truth`` are the corrected poses (with ``odometry_scan_pose``, ``Scans.pose`` is
+the raw odometry pose before each scan instead, so that a mapper sees the odometry only)
 (``meta["ground_truth_kind"] = "slam-reference"``: a reference, not independent truth); ``motion``
 is the raw odometry between consecutive scans (the last raw ODOM pose before each scan).
 
@@ -74,7 +75,7 @@ from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
-from pydantic import PositiveFloat, PositiveInt
+from pydantic import PositiveFloat, PositiveInt, model_validator
 
 from slamarena.params import Field, Params, with_params
 
@@ -266,6 +267,11 @@ class CarmenParams(Params):
     corrected: bool = Field(
         False, description="a SLAM-corrected log: its scan poses are the ground truth, echo ODOM lines are skipped"
     )
+    odometry_scan_pose: bool = Field(
+        False,
+        description="a corrected log: each scan's pose (Scans.pose) is the raw odometry pose before it, not the corrected "
+        "pose, so that a mapper runs on the odometry only; the corrected poses stay the ground truth",
+    )
     beams: PositiveInt | None = Field(
         None,
         description="keep only the most common layout with this many beams (no interlacing); None: the most common layout",
@@ -282,6 +288,14 @@ class CarmenParams(Params):
         "None: the catalogue's staged one, if any",
     )
 
+    @model_validator(mode="after")
+    def _odometry_of_corrected(self):
+        if self.odometry_scan_pose and not self.corrected:
+            raise ValueError(
+                "odometry_scan_pose applies to a corrected log (corrected: true); a raw log's scan poses are its odometry"
+            )
+        return self
+
 
 @with_params(CarmenParams)
 def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) -> Sequence:
@@ -296,7 +310,11 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
     ranges, angles, angle_offset, beam_count = _ranges(laser, layouts, keep)
     mounts = between(laser.robot[keep], laser.pose[keep])
     mount = np.median(mounts, axis=0)
-    motion, truth, initial = _motion(laser, odom, keep, scan_t, odo_t, params.corrected, meta)
+    motion, truth, initial, scan_odom = _motion(laser, odom, keep, scan_t, odo_t, params.corrected, meta)
+    if params.odometry_scan_pose:
+        if scan_odom is None:
+            raise DataFormatError(lines.path, None, "raw ODOM lines (odometry_scan_pose)", "none")
+        meta["scan_pose_source"] = "raw ODOM pose before each scan (odometry_scan_pose)"
     max_range = _max_range(laser, keep, ranges, params.max_range, meta)
     scans = Scans(
         t=scan_t,
@@ -304,7 +322,7 @@ def read(path: str | Path, name: str | None = None, /, *, params: CarmenParams) 
         angles=angles,
         max_range=max_range,
         mount=mount,
-        pose=laser.robot[keep],
+        pose=scan_odom if params.odometry_scan_pose else laser.robot[keep],
         angle_offset=angle_offset,
         beam_count=beam_count,
     )
@@ -580,19 +598,19 @@ def _ranges(laser: _Laser, layouts: _Layouts, keep: np.ndarray):
 
 
 def _motion(laser: _Laser, odom: _Odometry, keep, scan_t, odo_t, corrected: bool, meta: dict):
-    """The odometry increments, the ground truth (a corrected log's scan poses, else None) and the initial pose;
-    meta's ``ground_truth_kind`` and ``motion_source``."""
+    """The odometry increments, the ground truth (a corrected log's scan poses, else None), the initial pose and a
+    corrected log's raw odometry pose at each scan (else None); meta's ``ground_truth_kind`` and ``motion_source``."""
     odo, robot = odom.values, laser.robot[keep]
     if corrected:
         # each scan's odometry = last raw ODOM pose before it in the file (else the first one)
         last = np.searchsorted(odom.rows, laser.rows[keep]) - 1
-        motion = None
+        motion = scan_odom = None
         if odo.shape[0]:
             scan_odom = odo[np.clip(last, 0, None), :3]
             motion = Increments(t=scan_t[1:], delta=between(scan_odom[:-1], scan_odom[1:]))
         meta["ground_truth_kind"] = "slam-reference"
         meta["motion_source"] = "raw ODOM pose before each scan, between consecutive scans"
-        return motion, Trajectory(t=scan_t, poses=robot), laser.robot[keep][0]
+        return motion, Trajectory(t=scan_t, poses=robot), laser.robot[keep][0], scan_odom
     if odo.shape[0] >= 2:
         motion = Increments(t=odo_t[1:], delta=between(odo[:-1, :3], odo[1:, :3]))
         initial = odo[0, :3]
@@ -602,7 +620,7 @@ def _motion(laser: _Laser, odom: _Odometry, keep, scan_t, odo_t, corrected: bool
         initial = robot[0]
         meta["motion_source"] = "odometry pose of each scan message (the log has no ODOM)"
     meta["ground_truth_kind"] = "none"
-    return motion, None, initial
+    return motion, None, initial, None
 
 
 def _max_range(laser: _Laser, keep: np.ndarray, ranges: np.ndarray, given: float | None, meta: dict) -> float:

@@ -37,6 +37,7 @@ BENCHMARKS: dict[str, str] = {
     "scan-matching": "slamarena.experiments.benchmarks.scan_matching:main",
     "laser-slam": "slamarena.experiments.benchmarks.laser_slam:main",
     "rbpf": "slamarena.experiments.benchmarks.rbpf:main",
+    "scale": "slamarena.experiments.benchmarks.scale:main",
     "fastslam": "slamarena.experiments.benchmarks.fastslam:main",
     "gtsam": "slamarena.experiments.benchmarks.gtsam:main",
     "vision": "slamarena.experiments.benchmarks.vision:main",

@@ -12,7 +12,8 @@ Modules: :mod:`.alignment` (Umeyama in 2D), :mod:`.reference` (ground truth at e
 times), :mod:`.trajectory` (ATE, RPE), :mod:`.trajectory3d` (camera trajectories: 3-D ATE after SE(3)/Sim(3)
 alignment, KITTI's relative error and drift), :mod:`.consistency` (NEES, NIS, χ² bands, Monte Carlo),
 :mod:`.landmarks` (map error), :mod:`.relations` (Kümmerle et al.; ``loop``: their error on the ground truth's
-revisits, a measure of loop closure), :mod:`.cost`, :mod:`.estimate` (what the
+revisits, a measure of loop closure), :mod:`.reference_relations` (``refrel``: local and loop relations derived from a
+SLAM reference and its scans, for the corrected logs), :mod:`.cost`, :mod:`.estimate` (what the
 estimate reports of itself: landmark count, rejected rows, an optimiser's final error), :mod:`.occupancy` (the quality
 of the occupancy map a laser trajectory implies, without ground truth: :mod:`slamarena.mapping.evaluation`).
 """
@@ -32,6 +33,7 @@ from .estimate import ESTIMATE_OUTPUTS, EstimateParams, estimate_counts
 from .landmarks import MAP_OUTPUTS, MapParams, landmark_error
 from .occupancy import OCCUPANCY_OUTPUTS, OccupancyParams, occupancy_quality
 from .reference import MetricUnavailable, Reference, reference_of
+from .reference_relations import REFERENCE_RELATION_OUTPUTS, ReferenceRelationsParams, reference_relation_error
 from .relations import (
     LOOP_OUTPUTS,
     RELATION_OUTPUTS,
@@ -74,6 +76,11 @@ METRICS: dict[str, Metric] = {
         RelationsParams, RELATION_OUTPUTS, lambda c, p: relation_error_from_file(c.estimate, c.data, p)
     ),
     "loop": Metric(LoopParams, LOOP_OUTPUTS, lambda c, p: loop_relation_error(c.estimate, c.reference, p)),
+    "refrel": Metric(
+        ReferenceRelationsParams,
+        REFERENCE_RELATION_OUTPUTS,
+        lambda c, p: reference_relation_error(c.estimate, c.data, c.reference, p),
+    ),
     "cost": Metric(
         CostParams, COST_OUTPUTS, lambda c, p: cost(c.estimate, c.wall, c.peak_rss, p, duration=_duration(c.data))
     ),

@@ -44,6 +44,7 @@ its scan, the final batch solve and refinement to the last scan), summing to ``m
 from __future__ import annotations
 
 import time
+from collections import OrderedDict
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Literal
@@ -58,7 +59,7 @@ from slamarena.params import Field, Params
 from slamarena.robust import RobustKernelParams
 
 from ..frontend import FrontEnd, FrontEndParams
-from ..map_pyramid import MapPyramid, PyramidParams
+from ..map_pyramid import MapPyramid, PackedPyramid, PyramidParams
 from ..occupancy_grid import OccupancyGrid
 from ..scan_matching.point_to_line import PointToLineICPMatcher
 from .backend import Backend
@@ -97,13 +98,35 @@ class LaserSLAMParams(Params):
 
 
 class Submap:
-    """One submap: its index, its grids in the front-end frame, the nodes inserted into it (the first is its anchor)."""
+    """One submap: its index, its grids in the front-end frame, the nodes inserted into it (the first is its anchor).
+
+    A finished submap is stored packed (:class:`~slamarena.mapping.map_pyramid.PackedPyramid`: its observed tiles);
+    reading ``maps`` unpacks it, and :meth:`release` drops the dense copy again (the loop search keeps the last
+    ``loop.cache_submaps`` it read dense)."""
 
     def __init__(self, index: int, maps: MapPyramid):
         self.index = index
-        self.maps = maps
+        self._maps: MapPyramid | None = maps
+        self.packed: PackedPyramid | None = None
         self.nodes: list[int] = []
         self.finished = False
+
+    @property
+    def maps(self) -> MapPyramid:
+        if self._maps is None:
+            self._maps = self.packed.unpack()
+        return self._maps
+
+    def finish(self) -> None:
+        """Never integrated again: packed, and the dense pyramid (with its tracing scratch) dropped."""
+        self.finished = True
+        self.packed = PackedPyramid(self._maps)
+        self._maps = None
+
+    def release(self) -> None:
+        """Drop the dense copy of a finished submap (it is unpacked again when read)."""
+        if self.packed is not None:
+            self._maps = None
 
 
 @dataclass
@@ -136,6 +159,8 @@ class _Run:
     recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
     pairs: list = field(default_factory=list)  # pairwise registrations (a, k, z, Σ)
     active: list[Submap] = field(default_factory=list)
+    # finished submaps the loop search read last (kept dense), oldest first
+    dense: OrderedDict = field(default_factory=OrderedDict)
     seconds: dict = field(
         default_factory=lambda: {"front_end": 0.0, "loop_search": 0.0, "optimisation": 0.0, "pairwise": 0.0}
     )
@@ -197,6 +222,9 @@ class LaserSLAM:
             if progress is not None:
                 progress(k + 1, run.K)
         finish_start = time.process_time()
+        run.tracking = None  # no scan is matched again: the final solve, the refinement and the map need neither the
+        for submap in self.submaps:  # tracking map nor dense submaps (memory at the end of a long log)
+            submap.release()
         with run.timed("optimisation"):
             G, report = run.backend.finish()
         poses, refinement = self._scan_poses(run, G)
@@ -289,10 +317,7 @@ class LaserSLAM:
         for submap in active:
             submap.nodes.append(i)
         if len(active[0].nodes) >= 2 * p.submap_scans:
-            finished = active.pop(0)
-            finished.finished = True
-            for grid in finished.maps.levels:  # never integrated again: its tracing scratch would double its memory
-                grid.release_scratch()
+            active.pop(0).finish()
         run.front.inserted(pose)
         run.L.append(pose.copy())
         run.node_scan.append(k)
@@ -322,6 +347,10 @@ class LaserSLAM:
             )
             if constraint is not None:
                 found.append(constraint)
+            run.dense.pop(s, None)  # the last loop.cache_submaps submaps read stay dense, the others packed only
+            run.dense[s] = None
+            while len(run.dense) > self.params.loop.cache_submaps:
+                self.submaps[run.dense.popitem(last=False)[0]].release()
         return found
 
     def _close_loops(self, run: _Run, i: int, k: int, found: list) -> None:

@@ -100,6 +100,17 @@ def test_corrected_intel():
     assert np.isclose(s.scans.ranges[-1, 0], 1.01) and len(s.motion) == 909
 
 
+def test_corrected_intel_on_odometry():
+    """odometry_scan_pose: each scan carries the last raw ODOM pose before it (lines 175 and 185 of the file, by awk),
+    the corrected poses stay the ground truth; a raw log has no such option."""
+    s = load_staged("carmen-corrected:intel", odometry_scan_pose=True)
+    assert np.allclose(s.scans.pose[:2], [[0.698035, -0.0132843, -0.460915], [0.60258, -0.034798, -0.920053]])
+    assert np.allclose(s.ground_truth.poses[0], [0.600266, -0.0320327, -0.354665])
+    assert np.allclose(accumulate(s.scans.pose[0], s.motion.delta), s.scans.pose, atol=1e-9)
+    with pytest.raises(ValueError, match="odometry_scan_pose applies to a corrected log"):
+        carmen.CarmenParams(odometry_scan_pose=True)
+
+
 @pytest.mark.parametrize(
     "name, scans, beams, time_source",
     [
