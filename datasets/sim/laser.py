@@ -12,7 +12,10 @@ corridor's centre line, 165 m a lap, from (28, 2) heading +x; an alcove, pillar 
 every 8 m on average), a loop long enough that scan matching drifts by metres before it closes
 (research/notebook/2026-11-23-rbpf-loop-rounds-1-3.md "A loop with something to close"). ``"rooms"``: an office floor
 (32 m × 22 m) — a ring corridor around a central block, with ten rooms off the corridor behind
-1 m doors and some furniture in the rooms.
+1 m doors and some furniture in the rooms. ``"aliased_rooms"``: perceptual aliasing — the long_loop's corridor ring
+with a row of identical 4 m rooms behind its outer wall (:func:`room_corridor`), so a place looks like the places
+4 m along; ``"distinct_rooms"``: the same walls with every room's door and cabinet shifted differently (the same drive
+without aliasing).
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
 :func:`true_occupancy` rasterises them for map IoU.
 
@@ -67,6 +70,7 @@ __all__ = [
     "WORLDS",
     "LaserWorldParams",
     "corridor_loop",
+    "room_corridor",
     "segments",
     "raycast",
     "true_occupancy",
@@ -221,8 +225,69 @@ def corridor_loop(width: float, height: float, name: str | None = None) -> World
     )
 
 
+def room_corridor(width: float, height: float, aliased: bool, name: str | None = None) -> World:
+    """A 4 m corridor ring around a block with a row of 4 m rooms behind its outer wall: perceptual aliasing.
+
+    Corridor, block and route as :func:`corridor_loop` (outer corridor wall ``[0, width] × [0, height]``, block
+    ``[4, width − 4] × [4, height − 4]``, the route the centre line from ``(width/2, 2)`` heading +x), the block wall
+    plain. Behind the outer wall of each side of length L, walked counter-clockwise from its corner: rooms 4 m wide
+    and 3 m deep from u = 6 m while u ≤ L − 6, partitions between them, each room with a 1 m door in the corridor
+    wall and a 0.6 m square cabinet. ``aliased``: every room identical (the door at its centre, the cabinet in its
+    back right corner), so the corridor repeats every 4 m and only its corners (all alike) break the period — a scan
+    fits a place 4 m along as well as its own. Otherwise room j (counted over the whole ring) has its door offset
+    by ((3 j) mod 5 − 2) · 0.35 m and its cabinet at ((7 j) mod 5 − 2) · 0.6 m from the centre: the same walls,
+    doors and cabinets, each room different (the same drive without aliasing).
+    """
+    if width < 20 or height < 20:
+        raise ValueError(f"room_corridor needs width and height >= 20 m, got {width} × {height}")
+    sides = (
+        ((0.0, 0.0), (1.0, 0.0), width),
+        ((width, 0.0), (0.0, 1.0), height),
+        ((width, height), (-1.0, 0.0), width),
+        ((0.0, height), (0.0, -1.0), height),
+    )
+    walls, block, room = [], [], 0
+    for (ox, oy), (tx, ty), length in sides:
+        at = lambda u, v: (ox + u * tx - v * ty, oy + u * ty + v * tx)  # side frame: u along, v inward
+        block.append(at(4.0, 4.0))
+        starts = np.arange(6.0, length - 6.0 - 4.0 + 1e-9, 4.0)
+        edge = 0.0
+        for u in starts:
+            door = 0.0 if aliased else ((3 * room) % 5 - 2) * 0.35
+            cabinet = 1.2 if aliased else ((7 * room) % 5 - 2) * 0.6
+            centre = u + 2.0
+            walls.append((at(edge, 0.0), at(centre + door - 0.5, 0.0)))
+            edge = centre + door + 0.5
+            walls.append((at(u, 0.0), at(u, -3.0)))
+            c0, c1 = centre + cabinet - 0.3, centre + cabinet + 0.3
+            walls.append((at(c0, -2.9), at(c1, -2.9), at(c1, -2.3), at(c0, -2.3), at(c0, -2.9)))
+            room += 1
+        if len(starts):
+            end = starts[-1] + 4.0
+            walls += [(at(end, 0.0), at(end, -3.0)), (at(starts[0], -3.0), at(end, -3.0))]
+        walls.append((at(edge, 0.0), at(length, 0.0)))
+    w2, h2 = width - 2.0, height - 2.0
+    kind = "identical" if aliased else "different"
+    return World(
+        name=name or f"room_corridor({width:g}x{height:g},{kind})",
+        walls=(*walls, tuple(block + block[:1])),
+        route=((0.5 * width, 2.0), (w2, 2.0), (w2, h2), (2.0, h2), (2.0, 2.0)),
+        corner_radius=1.5,
+        description=f"4 m corridor ring around a {width - 8:g} m × {height - 8:g} m block, {kind} 4 m rooms behind its outer wall",
+    )
+
+
 #: world name → World
-WORLDS: dict[str, World] = {w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS)}
+WORLDS: dict[str, World] = {
+    w.name: w
+    for w in (
+        _LOOP,
+        corridor_loop(56.0, 36.0, "long_loop"),
+        _ROOMS,
+        room_corridor(56.0, 36.0, aliased=True, name="aliased_rooms"),
+        room_corridor(56.0, 36.0, aliased=False, name="distinct_rooms"),
+    )
+}
 
 
 def _world(world: str | World) -> World:
@@ -367,7 +432,7 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "long_loop", "rooms"] | World = Field(
+    world: Literal["loop", "long_loop", "rooms", "aliased_rooms", "distinct_rooms"] | World = Field(
         "loop", description="a world of WORLDS by name, or a World"
     )
     n_beams: int = Field(361, ge=1, description="beams per scan")
