@@ -18,7 +18,8 @@ frame: right perturbations X Exp(ε)), X_c⁻¹ X_m = T_cm Exp(−Ad_{T_mc} ε_c
 
 in m's frame. The factorisation is computed when a search needs it after the loops changed, with m the newest node
 then; a node n added since is reached along the sequential factors added since (no loop joins them, so they are
-independent of J): P_cn = Ad_{T_mn⁻¹} C_cm Ad_{T_mn⁻¹}ᵀ + Cov(T_mn), the chain's (:mod:`.consistency`). :meth:`Backend.finish` runs one batch
+independent of J): P_cn = Ad_{T_mn⁻¹} C_cm Ad_{T_mn⁻¹}ᵀ + Cov(T_mn), the chain's (:mod:`.consistency`).
+:meth:`Backend.finish` runs one batch
 Levenberg-Marquardt over the whole graph from iSAM2's estimate — or, with ``gnc``, GTSAM's graduated non-convexity
 (Yang et al., RA-L 2020: truncated least squares on the loop factors, every other factor a known inlier), whose final
 weights say which loops it kept —; a non-finite or increasing error is an :class:`OptimizationError`.

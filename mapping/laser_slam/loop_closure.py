@@ -14,8 +14,8 @@ tried. The window thus widens with the path travelled since the last closure and
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound
-(:class:`~slamarena.mapping.scan_matching.correlative.BranchAndBoundMatcher`) searches ± ``linear_window`` and
-± ``angular_window`` around it on pyramid level ``level`` of the submap, against the submap's likelihood grid and
+(:class:`~slamarena.mapping.scan_matching.correlative.BranchAndBoundMatcher`) searches the window around it on
+pyramid level ``level`` of the submap, against the submap's likelihood grid and
 max-pyramid — computed once per submap for its whole extent and kept in a small least-recently-used cache —;
 Gauss-Newton on the submap's pyramid refines the lattice pose to M. The branch-and-bound search uses the end
 points within ``max_range`` (the angular step is set by the farthest point), thinned to one per ``voxel``
@@ -293,7 +293,9 @@ class LoopCloser:
             self._cache.move_to_end(submap.index)
             return self._cache[submap.index]
         grid = submap.maps.levels[min(self.p.level, len(submap.maps.levels) - 1)]
-        w = self.bnb._w(grid)
+        w = int(
+            np.ceil(self.p.linear_window / grid.params.resolution - 1e-9)
+        )  # the widest window's, whatever this one's
         depth = int(np.ceil(np.log2(2 * w + 1))) if w > 0 else 0
         cache = dict(BranchAndBoundMatcher._grids(self.bnb, submap.maps, depth, np.zeros(3), 1e12))  # the whole submap
         self._cache[submap.index] = cache

@@ -17,17 +17,18 @@ front-end frame, R_i the rotation of node i's front-end pose L_i — the frame o
 BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
 covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
 searched within windows from the graph's marginal covariance, required to be unique there, robustified, and verified
-(``loop.verify``): with ``"pcm"`` every gated loop joins the pairwise consistency test against the others and the
+(``loop.verify``): with ``"pcm"`` every unique match joins the pairwise consistency test against the others and the
 front end's chain (:mod:`.consistency`) and the graph holds exactly the current largest consistent set (loops leave
-it when a larger set excludes them); with ``"gnc"`` every gated loop joins the graph and the final solve is GTSAM's
+it when a larger set excludes them); with ``"gnc"`` (the default) every unique match joins the graph and the final solve is GTSAM's
 GNC, whose weights reject loops; ``"none"`` leaves them to the robust kernel. A robustness study
-(``loop.false_loops`` > 0) injects deliberately false loop closures: at the first search after scan ⌊K·j/(F+1)⌋ (j = 1 … F) node n is claimed to sit at the position of the node c of a finished
+(``loop.false_loops`` > 0) injects deliberately false loop closures: at the first search after scan ⌊K·j/(F+1)⌋
+(j = 1 … F) node n is claimed to sit at the position of the node c of a finished
 submap whose estimated distance to it is nearest to ``loop.false_loop_distance`` (a wrong place that looks alike, e.g.
 the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest covariance a real loop can get
 (the floors ``loop.sigma_*``²), and meet the verification as a matched loop would; they are listed in
 ``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
 iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
-G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
+G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt (or GNC).
 
 Local refinement (:mod:`.refine`; ``refine.neighbours`` = m > 0): as each scan k is matched, its end points within
 ``refine.max_range`` are registered onto those of the m scans before it by point-to-line ICP
