@@ -217,7 +217,7 @@ class Backend:
 
     def pose_graph(self, name: str, poses: np.ndarray) -> PoseGraph:
         """The graph as the data model's :class:`PoseGraph` (for the g2o writer), with ``poses`` as its vertices: the
-        sequential factors, then the loops in the graph."""
+        sequential factors, then the loops in ``loop_edges`` (the caller drops those GNC rejected)."""
         edges = self.edges + list(self.loop_edges.values())
         i, j, z, cov = zip(*edges) if edges else ((), (), (), ())
         info = np.linalg.inv(np.asarray(cov).reshape(-1, 3, 3)) if edges else np.zeros((0, 3, 3))

@@ -136,17 +136,12 @@ class _Run:
     false_at: list[int]  # scans after which a false loop is due
     pair_floor: np.ndarray
     diag: dict
-    chain: OdometryChain = field(default_factory=OdometryChain)  # the front end's chain, for the consistency test
-    consistent: ConsistentSet | None = (
-        None  # loop.verify = "pcm": the loops met so far and their largest consistent set
-    )
-    vertex_key: list = field(
-        default_factory=list
-    )  # per vertex of ``consistent``: its loop's key (record index or ("false", j))
+    chain: OdometryChain = field(default_factory=OdometryChain)  # the sequential factors, for the windows and PCM
+    consistent: ConsistentSet | None = None  # loop.verify = "pcm": the loops met so far, their largest consistent set
+    vertex_key: list = field(default_factory=list)  # per vertex of ``consistent``: record index or ("false", j)
     L: list[np.ndarray] = field(default_factory=list)  # node poses, front end
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # node poses, world (current estimate)
     node_scan: list[int] = field(default_factory=list)
-    travelled: list[float] = field(default_factory=lambda: [0.0])
     false_loops: list[tuple[int, int]] = field(default_factory=list)
     recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
     pairs: list = field(default_factory=list)  # pairwise registrations (a, k, z, Σ)
@@ -215,8 +210,9 @@ class LaserSLAM:
         with run.timed("optimisation"):
             G, report = run.backend.finish(gnc=p.loop.verify == "gnc")
         for key, weight in report.pop("loop_weights", {}).items():
-            if weight < 0.5:
+            if weight < 0.5:  # GNC's verdict: out of the record's accepted loops and of the graph written
                 self._set_test(run, key, "gnc")
+                del run.backend.loop_edges[key]
         poses, refinement = self._scan_poses(run, G)
         run.step_time[-1] += time.process_time() - finish_start  # the final solve (and refinement) is the last scan's
         return self._estimate(sequence, run, G, poses, report, refinement)
@@ -335,7 +331,6 @@ class LaserSLAM:
         run.chain.add(L[i], cov)
         run.G = np.vstack([run.G, compose(run.G[i - 1], z)])
         run.backend.add_node(i, run.G[i], z, cov)
-        run.travelled.append(run.travelled[-1] + float(np.hypot(*z[:2])))
 
     def _search_loops(self, run: _Run, i: int, k: int, beams) -> list:
         """The loop closures (record index, c, z (3,), Σ (3, 3)) found for node i (scan k) against the finished
