@@ -12,7 +12,8 @@ bag folder; short for ``bag:<path>``, which takes the one LaserScan and Odometry
     map.png             the finest grid, 1 − p in grey (white free, black occupied)
     map.pgm, map.yaml   the same map for ROS map_server (trinary)
     pose_graph.g2o      the pose graph, for methods that build one (laser_slam)
-    loop_closures.csv   every loop-closure candidate: node, submap, scores, accepted, time (laser_slam)
+    loop_closures.csv   every loop-closure candidate: node, submap, scores, accepted or the test that rejected it,
+                        window, time (laser_slam)
     result.mcap         with ``--mcap``: /tf per pose, /trajectory (nav_msgs/Path), /map (nav_msgs/OccupancyGrid), for
                         Foxglove or RViz 2 (:mod:`slamarena.datasets.formats.ros_results`)
     summary.json        timing: wall, the one-off numba compilation apart (``compile_s``), per scan and the real-time
@@ -204,6 +205,13 @@ def map_command(
         + f"); map {slam.map.shape[1]}×{slam.map.shape[0]} cells at {slam.map.params.resolution} m"
         + (f"; {extra}" if extra else "")
     )
+    if "loop_rejected_by" in estimate.meta:
+        m = estimate.meta
+        rejected = ", ".join(f"{n} by {t}" for t, n in m["loop_rejected_by"].items() if n) or "none"
+        console.print(
+            f"loop closures ({m['loop_verify']}): {m['loop_candidates']} candidates tried, {m['loop_closures']} accepted, "
+            f"{m['loop_rejected']} rejected ({rejected})"
+        )
     if "relations" in summary:
         r = summary["relations"]
         console.print(
@@ -215,13 +223,15 @@ def map_command(
 
 
 def write_loop_closures(path: Path, diagnostics: dict) -> None:
-    """The loop-closure candidates as CSV: node, submap, anchor node, search and refined scores, accepted, seconds, z."""
+    """The loop-closure candidates as CSV: node, submap, anchor node, search and refined scores, accepted, the test
+    that rejected it (empty when accepted), the search window's half-width [m], seconds, z."""
     d = diagnostics
-    rows = ["node,submap,anchor,search_score,search_nodes,score,accepted,seconds,z_x,z_y,z_theta"]
+    rows = ["node,submap,anchor,search_score,search_nodes,score,accepted,rejected_by,window,seconds,z_x,z_y,z_theta"]
     for k in range(d["loop_node"].size):
         z = d["loop_z"][k]
         rows.append(
             f"{d['loop_node'][k]},{d['loop_submap'][k]},{d['loop_anchor'][k]},{d['loop_search_score'][k]:.6g},{d['loop_search_nodes'][k]},"
-            f"{d['loop_score'][k]:.6g},{int(d['loop_accepted'][k])},{d['loop_seconds'][k]:.6g},{z[0]:.9g},{z[1]:.9g},{z[2]:.9g}"
+            f"{d['loop_score'][k]:.6g},{int(d['loop_accepted'][k])},{d['loop_test'][k]},{d['loop_window'][k]:.4g},"
+            f"{d['loop_seconds'][k]:.6g},{z[0]:.9g},{z[1]:.9g},{z[2]:.9g}"
         )
     Path(path).write_text("\n".join(rows) + "\n")

@@ -16,7 +16,10 @@ every 8 m on average), a loop long enough that scan matching drifts by metres be
 block [4, 76] × [4, 8], two plain 4 m corridors joined at their ends, the route their centre lines (168 m a lap, from
 (40, 2) heading +x); with the default 12 m range a scan between x ≈ 16 and 64 m sees two parallel walls and nothing
 else, so motion along the corridor is observable from the odometry only (the degeneracy test of
-research/method/laser_degeneracy.md).
+research/method/laser_degeneracy.md). ``"aliased_rooms"``: perceptual aliasing — the long_loop's corridor ring
+with a row of identical 4 m rooms behind its outer wall (:func:`room_corridor`), so a place looks like the places
+4 m along; ``"distinct_rooms"``: the same walls with every room's door and cabinet shifted differently (the same drive
+without aliasing).
 :func:`segments` gives a world's walls as ``(S, 4)`` rows ``(x0, y0, x1, y1)``;
 :func:`true_occupancy` rasterises them for map IoU.
 
@@ -85,6 +88,7 @@ __all__ = [
     "corridor_loop",
     "pole_field",
     "raycast_poles",
+    "room_corridor",
     "segments",
     "raycast",
     "true_occupancy",
@@ -287,9 +291,71 @@ _CORRIDOR = World(
     description="two featureless 4 m × 80 m corridors joined at their ends: along them only the odometry sees motion",
 )
 
+
+def room_corridor(width: float, height: float, aliased: bool, name: str | None = None) -> World:
+    """A 4 m corridor ring around a block with a row of 4 m rooms behind its outer wall: perceptual aliasing.
+
+    Corridor, block and route as :func:`corridor_loop` (outer corridor wall ``[0, width] × [0, height]``, block
+    ``[4, width − 4] × [4, height − 4]``, the route the centre line from ``(width/2, 2)`` heading +x), the block wall
+    plain. Behind the outer wall of each side of length L, walked counter-clockwise from its corner: rooms 4 m wide
+    and 3 m deep from u = 6 m while u ≤ L − 6, partitions between them, each room with a 1 m door in the corridor
+    wall and a 0.6 m square cabinet. ``aliased``: every room identical (the door at its centre, the cabinet in its
+    back right corner), so the corridor repeats every 4 m and only its corners (all alike) break the period — a scan
+    fits a place 4 m along as well as its own. Otherwise room j (counted over the whole ring) has its door offset
+    by ((3 j) mod 5 − 2) · 0.35 m and its cabinet at ((7 j) mod 5 − 2) · 0.6 m from the centre: the same walls,
+    doors and cabinets, each room different (the same drive without aliasing).
+    """
+    if width < 20 or height < 20:
+        raise ValueError(f"room_corridor needs width and height >= 20 m, got {width} × {height}")
+    sides = (
+        ((0.0, 0.0), (1.0, 0.0), width),
+        ((width, 0.0), (0.0, 1.0), height),
+        ((width, height), (-1.0, 0.0), width),
+        ((0.0, height), (0.0, -1.0), height),
+    )
+    walls, block, room = [], [], 0
+    for (ox, oy), (tx, ty), length in sides:
+        at = lambda u, v: (ox + u * tx - v * ty, oy + u * ty + v * tx)  # side frame: u along, v inward
+        block.append(at(4.0, 4.0))
+        starts = np.arange(6.0, length - 6.0 - 4.0 + 1e-9, 4.0)
+        edge = 0.0
+        for u in starts:
+            door = 0.0 if aliased else ((3 * room) % 5 - 2) * 0.35
+            cabinet = 1.2 if aliased else ((7 * room) % 5 - 2) * 0.6
+            centre = u + 2.0
+            walls.append((at(edge, 0.0), at(centre + door - 0.5, 0.0)))
+            edge = centre + door + 0.5
+            walls.append((at(u, 0.0), at(u, -3.0)))
+            c0, c1 = centre + cabinet - 0.3, centre + cabinet + 0.3
+            walls.append((at(c0, -2.9), at(c1, -2.9), at(c1, -2.3), at(c0, -2.3), at(c0, -2.9)))
+            room += 1
+        if len(starts):
+            end = starts[-1] + 4.0
+            walls += [(at(end, 0.0), at(end, -3.0)), (at(starts[0], -3.0), at(end, -3.0))]
+        walls.append((at(edge, 0.0), at(length, 0.0)))
+    w2, h2 = width - 2.0, height - 2.0
+    kind = "identical" if aliased else "different"
+    return World(
+        name=name or f"room_corridor({width:g}x{height:g},{kind})",
+        walls=(*walls, tuple(block + block[:1])),
+        route=((0.5 * width, 2.0), (w2, 2.0), (w2, h2), (2.0, h2), (2.0, 2.0)),
+        corner_radius=1.5,
+        description=f"4 m corridor ring around a {width - 8:g} m × {height - 8:g} m block, {kind} 4 m rooms behind its outer wall",
+    )
+
+
 #: world name → World
 WORLDS: dict[str, World] = {
-    w.name: w for w in (_LOOP, corridor_loop(56.0, 36.0, "long_loop"), _ROOMS, _CORRIDOR, pole_field())
+    w.name: w
+    for w in (
+        _LOOP,
+        corridor_loop(56.0, 36.0, "long_loop"),
+        _ROOMS,
+        _CORRIDOR,
+        pole_field(),
+        room_corridor(56.0, 36.0, aliased=True, name="aliased_rooms"),
+        room_corridor(56.0, 36.0, aliased=False, name="distinct_rooms"),
+    )
 }
 
 
@@ -463,8 +529,8 @@ class LaserWorldParams(Params):
 
     model_config = ConfigDict(allow_inf_nan=False)
 
-    world: Literal["loop", "long_loop", "rooms", "corridor", "poles"] | World = Field(
-        "loop", description="a world of WORLDS by name, or a World"
+    world: Literal["loop", "long_loop", "rooms", "corridor", "poles", "aliased_rooms", "distinct_rooms"] | World = (
+        Field("loop", description="a world of WORLDS by name, or a World")
     )
     n_beams: int = Field(361, ge=1, description="beams per scan")
     fov: float = Field(1.5 * math.pi, gt=0, le=2 * math.pi, description="field of view of a scan, centred ahead [rad]")

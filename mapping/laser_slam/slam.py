@@ -16,13 +16,19 @@ covariance R_iᵀ C_i R_i + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's co
 front-end frame, R_i the rotation of node i's front-end pose L_i — the frame of z's end, in which GTSAM's
 BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
 covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
-robustified. A robustness study (``loop.false_loops`` > 0) injects deliberately false loop closures: at the first
-search after scan ⌊K·j/(F+1)⌋ (j = 1 … F) node n is claimed to sit at the position of the node c of a finished
+searched within windows from the graph's marginal covariance, required to be unique there, robustified, and verified
+(``loop.verify``): with ``"pcm"`` every unique match joins the pairwise consistency test against the others and the
+front end's chain (:mod:`.consistency`) and the graph holds exactly the current largest consistent set (loops leave
+it when a larger set excludes them); with ``"gnc"`` (the default) every unique match joins the graph and the final solve is GTSAM's
+GNC, whose weights reject loops; ``"none"`` leaves them to the robust kernel. A robustness study
+(``loop.false_loops`` > 0) injects deliberately false loop closures: at the first search after scan ⌊K·j/(F+1)⌋
+(j = 1 … F) node n is claimed to sit at the position of the node c of a finished
 submap whose estimated distance to it is nearest to ``loop.false_loop_distance`` (a wrong place that looks alike, e.g.
 the next door along a corridor), z = (0, 0, θ_n − θ_c), with the tightest covariance a real loop can get
-(the floors ``loop.sigma_*``²); they are listed in ``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
+(the floors ``loop.sigma_*``²), and meet the verification as a matched loop would; they are listed in
+``diagnostics["false_loop_node"]`` / ``["false_loop_anchor"]``.
 iSAM2 keeps the estimate current as nodes and loops arrive; a new node's world pose is
-G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt.
+G_i = G_{i−1} ⊕ z_i until the next loop refreshes all. At the end one batch Levenberg-Marquardt (or GNC).
 
 Local refinement (:mod:`.refine`; ``refine.neighbours`` = m > 0): as each scan k is matched, its end points within
 ``refine.max_range`` are registered onto those of the m scans before it by point-to-line ICP
@@ -51,6 +57,7 @@ from typing import Literal
 
 import numpy as np
 from pydantic import PositiveFloat, PositiveInt
+from scipy.stats import chi2
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.geometry import between, compose, wrap_angle
@@ -63,6 +70,7 @@ from ..map_pyramid import MapPyramid, PackedPyramid, PyramidParams
 from ..occupancy_grid import OccupancyGrid
 from ..scan_matching.point_to_line import PointToLineICPMatcher
 from .backend import Backend
+from .consistency import ConsistentSet, OdometryChain
 from .loop_closure import LoopCloser, LoopClosureParams
 from .refine import RefineParams, refine_scans
 
@@ -151,10 +159,12 @@ class _Run:
     false_at: list[int]  # scans after which a false loop is due
     pair_floor: np.ndarray
     diag: dict
+    chain: OdometryChain = field(default_factory=OdometryChain)  # the sequential factors, for the windows and PCM
+    consistent: ConsistentSet | None = None  # loop.verify = "pcm": the loops met so far, their largest consistent set
+    vertex_key: list = field(default_factory=list)  # per vertex of ``consistent``: record index or ("false", j)
     L: list[np.ndarray] = field(default_factory=list)  # node poses, front end
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # node poses, world (current estimate)
     node_scan: list[int] = field(default_factory=list)
-    travelled: list[float] = field(default_factory=lambda: [0.0])
     false_loops: list[tuple[int, int]] = field(default_factory=list)
     recent: list = field(default_factory=list)  # the last refine.neighbours scans with their prepared ICP references
     pairs: list = field(default_factory=list)  # pairwise registrations (a, k, z, Σ)
@@ -226,7 +236,11 @@ class LaserSLAM:
         for submap in self.submaps:  # tracking map nor dense submaps (memory at the end of a long log)
             submap.release()
         with run.timed("optimisation"):
-            G, report = run.backend.finish()
+            G, report = run.backend.finish(gnc=p.loop.verify == "gnc")
+        for key, weight in report.pop("loop_weights", {}).items():
+            if weight < 0.5:  # GNC's verdict: out of the record's accepted loops and of the graph written
+                self._set_test(run, key, "gnc")
+                del run.backend.loop_edges[key]
         poses, refinement = self._scan_poses(run, G)
         run.step_time[-1] += time.process_time() - finish_start  # the final solve (and refinement) is the last scan's
         return self._estimate(sequence, run, G, poses, report, refinement)
@@ -242,6 +256,7 @@ class LaserSLAM:
         front = FrontEnd(p.frontend, scans)
         self.submaps = []
         pose = front.start_pose(sequence.start_pose)
+        chain = OdometryChain()
         return _Run(
             scans=scans,
             K=K,
@@ -259,6 +274,10 @@ class LaserSLAM:
             pair_floor=np.diag(
                 np.square([p.refine.sigma_translation, p.refine.sigma_translation, p.refine.sigma_rotation])
             ),
+            chain=chain,
+            consistent=ConsistentSet(chain, float(chi2.ppf(p.loop.consistency_confidence, 3)))
+            if p.loop.verify == "pcm"
+            else None,
             diag={
                 "matched": np.zeros(K, bool),
                 "score": np.full(K, np.nan),
@@ -329,22 +348,27 @@ class LaserSLAM:
         if i == 0:
             run.G = run.pose[None, :].copy()
             run.backend.add_node(0, run.pose)
+            run.chain.add(run.pose, None)
             return
         L = run.L
         z = between(L[i - 1], L[i])
         cov = self._front_end_cov(L[i], run.match_cov[k])
+        run.chain.add(L[i], cov)
         run.G = np.vstack([run.G, compose(run.G[i - 1], z)])
         run.backend.add_node(i, run.G[i], z, cov)
-        run.travelled.append(run.travelled[-1] + float(np.hypot(*z[:2])))
 
     def _search_loops(self, run: _Run, i: int, k: int, beams) -> list:
-        """The loop closures (c, z (3,), Σ (3, 3)) found for node i (scan k) against the finished submaps."""
+        """The loop closures (record index, c, z (3,), Σ (3, 3)) found for node i (scan k) against the finished
+        submaps within the marginal windows."""
         found = []
         diag, Ln = run.diag, np.asarray(run.L)
-        for s in run.loops.candidates(self.submaps, i, run.G, np.asarray(run.travelled)):
-            constraint = run.loops.try_close(
-                self.submaps[s], i, beams.points, Ln, run.G, diag["score"][k] if diag["matched"][k] else 1.0
-            )
+
+        def relative(c: int, n: int) -> np.ndarray:
+            return run.backend.relative_cov(c, n, run.chain)
+
+        for s, c, P in run.loops.candidates(self.submaps, i, run.G, relative):
+            own = diag["score"][k] if diag["matched"][k] else 1.0
+            constraint = run.loops.try_close(self.submaps[s], i, c, P, beams.points, Ln, run.G, own)
             if constraint is not None:
                 found.append(constraint)
             run.dense.pop(s, None)  # the last loop.cache_submaps submaps read stay dense, the others packed only
@@ -354,15 +378,45 @@ class LaserSLAM:
         return found
 
     def _close_loops(self, run: _Run, i: int, k: int, found: list) -> None:
-        """The ``found`` loops (and a false loop, when one is due by scan k) added to the graph; ``run.G`` (N, 3)
-        refreshed by iSAM2."""
+        """The ``found`` loops (and a false loop, when one is due by scan k) verified (``loop.verify``) and the graph's
+        loops updated; ``run.G`` (N, 3) refreshed by iSAM2."""
         if len(run.false_loops) < len(run.false_at) and k >= run.false_at[len(run.false_loops)]:
             false = self._false_loop(i, run.G)
             if false is not None:
-                found.append(false)
+                found.append((("false", len(run.false_loops)), *false))
                 run.false_loops.append((i, false[0]))
-        for c, z, cov in found:
-            run.G = run.backend.add_loop(c, i, z, cov)
+        if not found:
+            return
+        loops = {key: (c, i, z, cov) for key, c, z, cov in found}
+        if run.consistent is None:
+            run.G = run.backend.set_loops(loops, [])
+            return
+        for key, (c, _, z, cov) in loops.items():
+            run.consistent.add(c, i, z, cov)
+            run.vertex_key.append(key)
+            self._set_test(run, key, "consistency")
+        clique = {run.vertex_key[v] for v in run.consistent.clique}
+        committed = set(run.backend.loops)
+        add, remove = clique - committed, committed - clique
+        for key in remove:
+            self._set_test(run, key, "consistency")
+        for key in add:
+            self._set_test(run, key, "")
+        if add or remove:
+            edges = {key: loops.get(key) or self._vertex_loop(run, key) for key in add}
+            run.G = run.backend.set_loops(edges, sorted(remove, key=str))
+
+    @staticmethod
+    def _set_test(run: _Run, key, test: str) -> None:
+        """The test that rejects the loop ``key`` ('' accepted); the injected false loops are not in the record."""
+        if isinstance(key, int):
+            run.loops.record.test[key] = test
+
+    @staticmethod
+    def _vertex_loop(run: _Run, key) -> tuple:
+        """(a, n, z, Σ) of the loop ``key`` met earlier by the consistency test."""
+        v, pcm = run.vertex_key.index(key), run.consistent
+        return int(pcm.a[v]), int(pcm.n[v]), pcm.z[v], pcm.cov[v]
 
     def _scan_poses(self, run: _Run, G: np.ndarray):
         """One world pose per scan (K, 3), G_{i(k)} ⊕ (L_{i(k)}⁻¹ ⊕ L_k) from the optimised node poses G (N, 3), then
@@ -409,6 +463,8 @@ class LaserSLAM:
             "loop_candidates": int(accepted.size),
             "loop_closures": int(accepted.sum()),
             "loop_rejected": int((~accepted).sum()),
+            "loop_rejected_by": run.loops.record.rejected_by(),
+            "loop_verify": p.loop.verify,
             "false_loops": len(run.false_loops),
             "seconds": run.seconds,
             "optimisation": report,

@@ -17,6 +17,7 @@ from slamarena.datasets.sim.laser import (
     World,
     corridor_loop,
     raycast,
+    room_corridor,
     route_controls,
     segments,
     simulate,
@@ -274,3 +275,21 @@ def test_the_pole_field_gives_intensities_and_its_poles_as_landmarks():
     assert bright.any() and np.all(seq.scans.ranges[bright] < 30.0)
     assert set(np.unique(seq.scans.intensities)) <= {0.0, 1.0}
     assert datasets.load("sim:laser", n_beams=16, seed=0).scans.intensities is None  # no reflective poles: none
+
+
+def test_aliased_rooms_look_the_same_4_m_along_and_distinct_rooms_do_not():
+    """Perceptual aliasing: from the bottom corridor's centre line, an 8 m scan at x and at x + 4 m reads the same
+    ranges in ``aliased_rooms`` (identical rooms every 4 m) and not in ``distinct_rooms`` (each room's door and
+    cabinet shifted differently); both share the ring, its route and the number of rooms."""
+    angles = np.linspace(-0.75 * np.pi, 0.75 * np.pi, 271)
+    origins = np.array([[18.0, 2.0], [22.0, 2.0], [30.0, 2.0]])
+    for world, same in (("aliased_rooms", True), ("distinct_rooms", False)):
+        r = raycast(origins, np.broadcast_to(angles, (3, angles.size)), segments(world), max_range=8.0)
+        seen_into_rooms = np.isfinite(r[0]) & (r[0] * np.sin(-angles) > 2.5)  # beams through a door
+        assert seen_into_rooms.any()
+        for other in (1, 2):
+            assert np.allclose(r[0], r[other], rtol=0, atol=1e-9, equal_nan=True) == same, (world, other)
+    a, d = WORLDS["aliased_rooms"], WORLDS["distinct_rooms"]
+    assert a.route == d.route == WORLDS["long_loop"].route and len(a.walls) == len(d.walls)
+    with pytest.raises(ValueError, match="20 m"):
+        room_corridor(12.0, 30.0, aliased=True)

@@ -100,6 +100,10 @@ def test_map_command_with_laser_slam_writes_the_pose_graph_and_loop_list(carmen_
     assert graph.n_nodes == summary["nodes"] and summary["method"] == "laser_slam"
     lines = (out / "loop_closures.csv").read_text().splitlines()
     assert lines[0].startswith("node,submap") and len(lines) - 1 == summary["loop_candidates"]
+    # every candidate is accepted or rejected by one named test, and the run counts them
+    assert "rejected_by" in lines[0].split(",") and summary["loop_verify"] == "gnc"
+    assert sum(summary["loop_rejected_by"].values()) == summary["loop_rejected"]
+    assert summary["loop_closures"] + summary["loop_rejected"] == summary["loop_candidates"]
     assert len(tum.read_trajectory(out / "trajectory.tum")) == len(seq.scans.t)
 
 
