@@ -27,7 +27,7 @@ def test_laser_slam_prints_its_nested_defaults_with_units_and_descriptions():
     assert result.exit_code == 0, result.output
     rows = _rows(result.output)
     assert rows["loop.level"] == ["1", "pyramid level of the branch-and-bound loop search"]
-    assert rows["loop.linear_window"] == ["5.0", "m", "half-width of the loop search in translation"]
+    assert rows["loop.linear_window"] == ["5.0", "m", "most half-width of the loop search in translation (cost)"]
     assert rows["refine.sigma_rotation"][:2] == ["0.002", "rad"]
     assert rows["pyramid.cells.clamp"][0] == "[0.12, 0.97]"
     assert rows["robust_kernel.robust"][0] == '"cauchy"'  # the method's default, not the kernel model's "none"
