@@ -11,9 +11,10 @@ Gauss-Newton step of the camera path is on the left: ``T ← exp(ξ^) T`` with �
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
-__all__ = ["skew", "so3_exp", "so3_log", "se3_exp", "rotation_angle"]
+__all__ = ["skew", "so3_exp", "so3_log", "se3_exp", "se3_exp_kernel", "rotation_angle"]
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -66,6 +67,21 @@ def se3_exp(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     W = skew(phi)
     V = np.eye(3) + b * W + c * W @ W
     return so3_exp(phi), V @ rho
+
+
+@numba.njit(cache=True)
+def se3_exp_kernel(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`se3_exp` of one ξ (6,) compiled, for the loops of :mod:`.pnp` (the same Rodrigues formulas)."""
+    phi = xi[3:]
+    theta = np.sqrt(np.sum(phi**2))
+    if theta < 1e-4:
+        a, b, c = 1 - theta**2 / 6, 0.5 - theta**2 / 24, 1 / 6 - theta**2 / 120
+    else:
+        a, b, c = np.sin(theta) / theta, (1 - np.cos(theta)) / theta**2, (theta - np.sin(theta)) / theta**3
+    W = np.array([[0.0, -phi[2], phi[1]], [phi[2], 0.0, -phi[0]], [-phi[1], phi[0], 0.0]])
+    W2 = W @ W
+    I = np.eye(3)
+    return I + a * W + b * W2, (I + b * W + c * W2) @ xi[:3]
 
 
 def rotation_angle(R: np.ndarray) -> np.ndarray:

@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import math
 
+import numba
+
 __all__ = ["iterations_needed"]
 
 
+@numba.njit(cache=True)
 def iterations_needed(inlier_fraction: float, sample_size: int, confidence: float, max_iterations: int) -> int:
-    """N(w) above, in [1, max_iterations]."""
+    """N(w) above, in [1, max_iterations] (compiled: the hypothesis loops of :mod:`.pnp` call it)."""
     good = inlier_fraction**sample_size
     if good >= 1.0:
         return 1
