@@ -33,7 +33,8 @@ orientation of Σ_j α_ij c_j onto X_i, and the start of the smallest mean repro
 temporary per point); ``tests/estimators/test_vision_pnp_kernels.py`` holds their literal numpy forms.
 
 **RANSAC** (:func:`pnp_ransac`): minimal samples of 3 (P3P, each of its solutions scored) or 6 (EPnP), inliers by
-reprojection error in pixels, adaptive number of samples (:mod:`.ransac`), EPnP on all inliers (non-planar points),
+reprojection error in pixels, adaptive number of samples (:mod:`.ransac`), EPnP (non-planar points) or DLS
+(:mod:`.dls`, ``nonminimal="dls"``, planar points too) on all inliers, kept if its reprojection error is smaller,
 then :func:`refine_pose` on the inliers and re-classification, repeated until the inlier set is stable (≤ 5 rounds).
 
 **Refinement** (:func:`refine_pose`): Levenberg-Marquardt on SE(3), residuals and Jacobians of :mod:`.projection`,
@@ -47,6 +48,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .dls import dls
 from .lie import se3_exp_kernel
 from .projection import normalise, residuals
 from .ransac import iterations_needed
@@ -473,7 +475,7 @@ def pnp_ransac(
         raise ValueError(f"pnp_ransac found no pose with {size + 1} inliers among {n} correspondences")
     best_inliers = _inliers(K, R, t, X, u, threshold)
     Xi, ui = X[best_inliers], u[best_inliers]
-    if len(Xi) >= 6 and not planar(Xi):
+    if len(Xi) >= 6 and (nonminimal == "dls" or not planar(Xi)):  # DLS takes planar points, EPnP does not
         R_all, t_all = solver(Xi, x[best_inliers])
         if _reprojection_cost(K, R_all, t_all, Xi, ui) < _reprojection_cost(K, R, t, Xi, ui):
             R, t = R_all, t_all
@@ -487,4 +489,4 @@ def pnp_ransac(
     return PnPResult(R, t, best_inliers, rms, int(drawn))
 
 
-_NONMINIMAL = {"epnp": epnp}
+_NONMINIMAL = {"epnp": epnp, "dls": dls}
