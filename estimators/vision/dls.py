@@ -152,9 +152,8 @@ def _stationary_points(F: np.ndarray) -> np.ndarray:
     return s
 
 
-def dls_solutions(p: np.ndarray, f: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Every real stationary pose (R, t, J) of one Cayley frame (no rotation of the world points), J = rᵀ M r."""
-    M, T = _cost_matrices(p, f)
+def dls_solutions(M: np.ndarray, T: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Every real stationary pose (R, t, J) of the cost rᵀ M r (M (9, 9), t = T r, T (3, 9)) in one Cayley frame."""
     F = np.einsum("ab,kabm->km", _C.T @ M @ _C, _G)
     s = _stationary_points(F)
     r = np.prod(s[:, None, :] ** _E2, axis=2) @ _C.T / (1 + np.sum(s * s, axis=1, keepdims=True))  # (m, 9): vec R
@@ -173,10 +172,12 @@ def dls(X: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"DLS needs at least 4 points, got {len(X)}")
     f = np.column_stack([x, np.ones(len(x))])
     f /= np.linalg.norm(f, axis=1, keepdims=True)
+    M, T = _cost_matrices(X, f)
     best, best_cost = None, np.inf
-    for Q in _FRAMES:
-        for R, t, cost in dls_solutions(X @ Q.T, f):
-            R = R @ Q  # R' p' = R' Q p
+    for Q in _FRAMES:  # world points Q p: R' = R Qᵀ, vec R' = P vec R with P = I₃ ⊗ Q, so M' = P M Pᵀ, T' = T Pᵀ
+        P = np.kron(np.eye(3), Q)
+        for R, t, cost in dls_solutions(P @ M @ P.T, T @ P.T):
+            R = R @ Q
             if cost < best_cost and np.mean(np.einsum("ni,ni->n", f, X @ R.T + t) > 0) > 0.5:
                 best, best_cost = (R, t), cost
     if best is None:

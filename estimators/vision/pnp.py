@@ -103,11 +103,6 @@ def _transform(R: np.ndarray, t: np.ndarray, X: np.ndarray) -> tuple[float, floa
     )
 
 
-def _bearings(x: np.ndarray) -> np.ndarray:
-    f = np.column_stack([np.asarray(x, float).reshape(-1, 2), np.ones(len(x))])
-    return f / np.linalg.norm(f, axis=1, keepdims=True)
-
-
 @numba.njit(cache=True)
 def _real_roots(c: np.ndarray) -> np.ndarray:
     """The real roots of the polynomial with coefficients c (high → low), |Im| ≤ 1e-6 max(1, |Re|) (``np.roots``'
@@ -171,10 +166,20 @@ def _p3p_kernel(X: np.ndarray, f: np.ndarray, Rs: np.ndarray, ts: np.ndarray) ->
     return count
 
 
+@numba.njit(cache=True)
+def _bearings(x: np.ndarray) -> np.ndarray:
+    """Unit bearings (n, 3) of normalised points x (n, 2)."""
+    f = np.empty((x.shape[0], 3))
+    for i in range(x.shape[0]):
+        norm = np.sqrt(x[i, 0] ** 2 + x[i, 1] ** 2 + 1.0)
+        f[i, 0], f[i, 1], f[i, 2] = x[i, 0] / norm, x[i, 1] / norm, 1.0 / norm
+    return f
+
+
 def p3p(X: np.ndarray, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Every pose (R, t) (at most four) that projects the three world points X (3, 3) to the normalised x (3, 2)."""
     Rs, ts = np.empty((4, 3, 3)), np.empty((4, 3))
-    count = _p3p_kernel(np.ascontiguousarray(X, dtype=float), _bearings(x), Rs, ts)
+    count = _p3p_kernel(np.ascontiguousarray(X, dtype=float), _bearings(np.ascontiguousarray(x, dtype=float)), Rs, ts)
     return [(Rs[k], ts[k]) for k in range(count)]
 
 
@@ -208,6 +213,31 @@ def planar(X: np.ndarray, ratio: float = PLANAR_RATIO) -> bool:
 _PAIRS = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 #: the ten products β_kβ_l of EPnP's L (6, 10), in Lepetit's order B11 B12 B22 B13 B23 B33 B14 B24 B34 B44
 _PRODUCTS = np.array([(0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2), (0, 3), (1, 3), (2, 3), (3, 3)])
+
+
+@numba.njit(cache=True)
+def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """argmin ||A z − b|| for a small A (m, n), m ≥ n, of full column rank: Householder QR, then back substitution
+    (as Lepetit's ``qr_solve``; no LAPACK call for EPnP's 6 × 3 … 6 × 5 systems)."""
+    A, b = A.copy(), b.copy()
+    m, n = A.shape
+    for k in range(n):
+        norm = np.sqrt(np.sum(A[k:, k] ** 2))
+        if norm == 0.0:
+            continue
+        alpha = -norm if A[k, k] > 0 else norm
+        v = A[k:, k].copy()
+        v[0] -= alpha
+        vv = np.sum(v**2)
+        if vv == 0.0:
+            continue
+        for j in range(k, n):  # A ← (I − 2 v vᵀ / vᵀv) A, b likewise
+            A[k:, j] -= 2.0 * (v @ A[k:, j]) / vv * v
+        b[k:] -= 2.0 * (v @ b[k:]) / vv * v
+    z = np.zeros(n)
+    for k in range(n - 1, -1, -1):
+        z[k] = (b[k] - A[k, k + 1 : n] @ z[k + 1 :]) / A[k, k] if A[k, k] != 0.0 else 0.0
+    return z
 
 
 @numba.njit(cache=True)
@@ -258,12 +288,12 @@ def _epnp_kernel(X: np.ndarray, x: np.ndarray) -> tuple[bool, np.ndarray, np.nda
     for N in (1, 2, 3):  # Lepetit's three linearisations, each refined by Gauss-Newton on the four β
         betas = np.zeros(4)
         if N == 1:  # B11 B12 B13 B14
-            s = np.linalg.lstsq(L[:, np.array([0, 1, 3, 6])], rho)[0]
+            s = _least_squares(L[:, np.array([0, 1, 3, 6])], rho)
             betas[0] = np.sqrt(abs(s[0]))
             sign = -1.0 if s[0] < 0 else 1.0
             betas[1:] = sign * s[1:] / betas[0]
         else:  # B11 B12 B22 (N = 2), + B13 B23 (N = 3)
-            s = np.linalg.lstsq(L[:, :3] if N == 2 else L[:, :5], rho)[0]
+            s = _least_squares(L[:, :3] if N == 2 else L[:, :5], rho)
             if s[0] < 0:
                 betas[0], betas[1] = np.sqrt(-s[0]), np.sqrt(-s[2]) if s[2] < 0 else 0.0
             else:
@@ -279,7 +309,7 @@ def _epnp_kernel(X: np.ndarray, x: np.ndarray) -> tuple[bool, np.ndarray, np.nda
                 r -= L[:, q] * betas[k] * betas[m]
                 J[:, k] += L[:, q] * betas[m]
                 J[:, m] += L[:, q] * betas[k]
-            betas += np.linalg.lstsq(J, r)[0]
+            betas += _least_squares(J, r)
         control = (betas @ V).reshape(4, 3)
         Y = alphas @ control
         if np.sum(Y[:, 2]) < 0:
@@ -409,10 +439,7 @@ def _ransac_kernel(K, X, x, u, minimal_p3p, threshold, confidence, max_iteration
     np.random.seed(seed)
     n = X.shape[0]
     size = 3 if minimal_p3p else 6
-    f = np.empty((n, 3))
-    for i in range(n):
-        f[i, 0], f[i, 1], f[i, 2] = x[i, 0], x[i, 1], 1.0
-        f[i] /= np.sqrt(np.sum(f[i] ** 2))
+    f = _bearings(x)
     Rs, ts = np.empty((4, 3, 3)), np.empty((4, 3))
     sample = np.empty(size, np.int64)
     best_R, best_t, best_count = np.eye(3), np.zeros(3), 0
