@@ -174,10 +174,24 @@ def cheirality_counts(x1: np.ndarray, x2: np.ndarray, candidates) -> np.ndarray:
     return np.array(counts)
 
 
+def _paired_cheirality_counts(x1: np.ndarray, x2: np.ndarray, candidates) -> np.ndarray:
+    """:func:`cheirality_counts` of the four decompositions ((R_a, ±t), (R_b, ±t)) with two triangulations: the
+    DLT rows of camera 2 are linear in (t, w), so (R, −t) has the solution (X, −w) of (R, t) — the same points
+    mirrored through camera 1, both depths negated."""
+    identity = (np.eye(3), np.zeros(3))
+    counts = []
+    for R, t in candidates[0::2]:
+        X = triangulate_dlt(x1, x2, identity, (R, t))
+        with np.errstate(invalid="ignore"):
+            z1, z2 = depths(X, identity), depths(X, (R, t))
+        counts += [int(np.sum((z1 > 0) & (z2 > 0))), int(np.sum((z1 < 0) & (z2 < 0)))]
+    return np.array(counts)
+
+
 def relative_pose(E: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """The (R, t, points in front) of the decomposition of E that passes the cheirality check best."""
     candidates = decompose_essential(E)
-    counts = cheirality_counts(x1, x2, candidates)
+    counts = _paired_cheirality_counts(x1, x2, candidates)
     best = int(np.argmax(counts))
     return candidates[best][0], candidates[best][1], int(counts[best])
 
@@ -194,6 +208,13 @@ def _sampson(E: np.ndarray, h1: np.ndarray, h2: np.ndarray) -> np.ndarray:
     """:func:`sampson_distance` of homogeneous points h1, h2 (n, 3)."""
     Ex1, Etx2 = h1 @ E.T, h2 @ E
     num = np.einsum("ij,ij->i", h2, Ex1) ** 2
+    return num / (Ex1[:, 0] ** 2 + Ex1[:, 1] ** 2 + Etx2[:, 0] ** 2 + Etx2[:, 1] ** 2)
+
+
+def _sampson_all(Es: np.ndarray, h1: np.ndarray, h2: np.ndarray) -> np.ndarray:
+    """:func:`_sampson` of several E (m, 3, 3) at once: (m, n)."""
+    Ex1, Etx2 = Es @ h1.T, np.swapaxes(Es, 1, 2) @ h2.T  # (m, 3, n)
+    num = np.sum(h2.T * Ex1, axis=1) ** 2
     return num / (Ex1[:, 0] ** 2 + Ex1[:, 1] ** 2 + Etx2[:, 0] ** 2 + Etx2[:, 1] ** 2)
 
 
@@ -229,11 +250,15 @@ def essential_ransac(
     while drawn < needed:
         drawn += 1
         sample = rng.choice(n, 5, replace=False)
-        for E in five_point(x1[sample], x2[sample]):
-            inliers = _sampson(E, h1, h2) <= threshold**2
-            if inliers.sum() > best_inliers.sum():
-                best_E, best_inliers = E, inliers
-                needed = iterations_needed(inliers.mean(), 5, confidence, max_iterations)
+        Es = five_point(x1[sample], x2[sample])
+        if not len(Es):
+            continue
+        inliers = _sampson_all(Es, h1, h2) <= threshold**2  # (m, n), all the sample's solutions at once
+        counts = inliers.sum(axis=1)
+        k = int(np.argmax(counts))
+        if counts[k] > best_inliers.sum():
+            best_E, best_inliers = Es[k], inliers[k]
+            needed = iterations_needed(inliers[k].mean(), 5, confidence, max_iterations)
     if best_E is None:
         raise ValueError("essential_ransac found no essential matrix")
     refined = five_point(x1[best_inliers], x2[best_inliers])

@@ -273,3 +273,27 @@ def test_the_two_backends_match_triangulate_and_solve_alike(rng):
         assert rotation_angle(pose.R.T @ R) < 1e-6 and pose.inliers.all()
         two_view = backend.essential(x1, x2, 1e-3, 0)
         assert rotation_angle(two_view.R.T @ R) < 1e-6 and two_view.t @ t > 1 - 1e-9
+
+
+def test_paired_cheirality_and_batched_sampson_equal_their_literal_forms(rng):
+    from slamarena.estimators.vision.two_view import (
+        _homogeneous,
+        _paired_cheirality_counts,
+        _sampson_all,
+        sampson_distance,
+    )
+
+    for _ in range(10):
+        R, t, _, x1, x2 = scene(rng)
+        x2 = x2 + rng.normal(size=x2.shape) * 1e-3  # some points fall behind under the wrong decompositions
+        candidates = decompose_essential(essential_of(R, t))
+        np.testing.assert_array_equal(
+            _paired_cheirality_counts(x1, x2, candidates), cheirality_counts(x1, x2, candidates)
+        )
+        Es = five_point(x1[:5], x2[:5])
+        np.testing.assert_allclose(
+            _sampson_all(Es, _homogeneous(x1), _homogeneous(x2)),
+            [sampson_distance(E, x1, x2) for E in Es],
+            rtol=1e-9,
+            atol=1e-20,
+        )
