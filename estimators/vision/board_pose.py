@@ -55,8 +55,12 @@ class BoardPoses:
     iterations: np.ndarray
 
 
-def board_poses(camera: Camera, world: np.ndarray, pattern: tuple[int, int], threshold: float = 2.0) -> BoardPoses:
-    """PnP poses of every frame of ``camera`` from the board corners ``world`` ((nx·ny, 3), x fastest)."""
+def board_poses(
+    camera: Camera, world: np.ndarray, pattern: tuple[int, int], threshold: float = 2.0, nonminimal: str = "epnp"
+) -> BoardPoses:
+    """PnP poses of every frame of ``camera`` from the board corners ``world`` ((nx·ny, 3), x fastest);
+    ``nonminimal`` is :func:`~.pnp.pnp_ransac`'s solver on the inliers (EPnP refuses the planar board: then the
+    best P3P pose starts LM; DLS takes it)."""
     n = len(camera)
     found = np.zeros(n, bool)
     R, t = np.full((n, 3, 3), np.nan), np.full((n, 3), np.nan)
@@ -69,7 +73,7 @@ def board_poses(camera: Camera, world: np.ndarray, pattern: tuple[int, int], thr
         u = undistort(camera, corners)
         if previous is None and np.linalg.norm(u[-1]) < np.linalg.norm(u[0]):
             u = u[::-1]  # corner 0 nearest the top-left on the first frame
-        results = [pnp_ransac(camera.K, world, u, threshold), pnp_ransac(camera.K, world, u[::-1], threshold)]
+        results = [pnp_ransac(camera.K, world, v, threshold, nonminimal=nonminimal) for v in (u, u[::-1])]
         if previous is not None:
             centres = [np.linalg.norm(-r.R.T @ r.t - previous) for r in results]
             result = results[int(np.argmin(centres))]
