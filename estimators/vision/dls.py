@@ -116,9 +116,9 @@ def _cost_matrices(p: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray
     A = np.zeros((n, 3, 9))
     for k in range(3):
         A[:, k, 3 * k : 3 * k + 3] = p
-    T = -np.linalg.solve(V.sum(axis=0), np.einsum("nij,njk->ik", V, A))
-    B = A + T
-    return np.einsum("nki,nkl,nlj->ij", B, V, B), T
+    T = -np.linalg.solve(V.sum(axis=0), (V @ A).sum(axis=0))
+    B = A + T  # (n, 3, 9)
+    return B.reshape(-1, 9).T @ (V @ B).reshape(-1, 9), T  # Σ_i B_iᵀ (V_i B_i)
 
 
 def _monomial_values(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
