@@ -486,7 +486,8 @@ def pnp_ransac(
 ) -> PnPResult:
     """The pose from world points X (n, 3) and pixels u (n, 2): RANSAC over ``minimal`` solutions (``p3p`` or
     ``epnp``), inliers within ``threshold`` [px], ``nonminimal`` (``epnp`` or ``dls``) on all inliers, then LM
-    (``refine``). ValueError when no pose has at least ``sample size + 1`` inliers."""
+    (``refine``). ``seed`` (mod 2³²) seeds the kernel's sampler. ValueError when no pose has at least
+    ``sample size + 1`` inliers."""
     X, u = np.ascontiguousarray(X, dtype=float), np.ascontiguousarray(u, dtype=float)
     K = np.asarray(K, float)
     size = {"p3p": 3, "epnp": 6}[minimal]
@@ -496,7 +497,7 @@ def pnp_ransac(
         raise ValueError(f"pnp_ransac ({minimal}) needs at least {size + 1} correspondences, got {n}")
     x = normalise(K, u)
     R, t, count, drawn = _ransac_kernel(
-        K, X, x, u, minimal == "p3p", float(threshold), float(confidence), int(max_iterations), int(seed)
+        K, X, x, u, minimal == "p3p", float(threshold), float(confidence), int(max_iterations), int(seed) % 2**32
     )
     if count < size + 1:
         raise ValueError(f"pnp_ransac found no pose with {size + 1} inliers among {n} correspondences")
