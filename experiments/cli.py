@@ -28,7 +28,8 @@ from .cli_data import data_app
 
 class _Commands(TyperGroup):
     """The command group: a :class:`~slamarena.errors.UserError` (a bad file, a missing dataset, a bad config or
-    option) prints its message and exits with code 2; any other exception is a bug and keeps its traceback."""
+    option) prints its message and exits with code 2; any other exception is a bug and keeps its traceback. The message
+    is printed unwrapped (``soft_wrap``): a path in it stays one piece to copy, however narrow the console."""
 
     def invoke(self, ctx):
         from slamarena.errors import UserError
@@ -39,7 +40,7 @@ class _Commands(TyperGroup):
             from rich.console import Console
             from rich.markup import escape
 
-            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+            Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
             raise typer.Exit(2) from None
 
 

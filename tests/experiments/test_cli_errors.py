@@ -85,6 +85,15 @@ def test_unknown_dataset_name(tmp_path):
     )
 
 
+def test_a_long_path_in_an_error_is_printed_in_one_piece(tmp_path):
+    """Rich wraps at 80 columns without a terminal; a wrapped path cannot be copied (and broke the test above when
+    pytest's temporary directory was longer)."""
+    deep = tmp_path / ("a_directory_name_long_enough_to_pass_the_console_width_" * 3)
+    deep.mkdir()
+    result = _cli("data", "info", "utias:7/robot1", cwd=deep)
+    assert str(deep / "7/Robot1_Odometry.dat") in result.stderr, result.stderr
+
+
 def test_data_info_reads_a_recording_at_a_path(tmp_path):
     directory = tmp_path / "MRCLAM_Dataset7"
     directory.mkdir()
