@@ -179,7 +179,7 @@ _SAME_INITIAL = 1e-9
 
 
 @contextmanager
-def _plain_text(path: Path):
+def plain_text(path: Path):
     """``path`` as a plain-text file (GTSAM's reader reads no gzip: a ``.gz`` is decompressed into a temporary file)."""
     if path.suffix != ".gz":
         yield path
@@ -206,7 +206,7 @@ def read_pose_graph(
     if path is None:
         return None
     try:
-        with _plain_text(path) as plain:
+        with plain_text(path) as plain:
             factors, values = gtsam.readG2o(str(plain), False)
     except RuntimeError:
         return None
