@@ -16,10 +16,17 @@ Vertices and landmarks share one id space. A file without VERTEX lines (CSAIL, m
 ``poses = None``: the initial guess is the odometry chain. Landmark initial positions
 (VERTEX_XY) are kept in ``meta["landmark_ids"]`` / ``meta["landmark_xy"]``. Any other record
 type is an error (the reader does not silently ignore data).
+
+``meta["content"]`` records the file's size and modification time and a digest of the arrays read from it
+(:func:`fingerprint`), so that a consumer can tell whether a graph still holds exactly the file's content
+(:func:`source_file`: the GTSAM pose-graph optimiser then lets GTSAM's C++ reader build its factor graph from the
+file this reader has validated).
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +38,7 @@ from ..posegraph import PoseGraph
 from . import isam
 from ._text import check_unique, integer_ids, record_values, records, symmetric_from_upper
 
-__all__ = ["read", "write", "load", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
+__all__ = ["read", "write", "load", "fingerprint", "source_file", "G2oSource", "RECORDS_2D", "RECORDS_3D"]
 
 RECORDS_2D = {"VERTEX_SE2": 4, "VERTEX_XY": 3, "EDGE_SE2": 11, "EDGE_SE2_XY": 7}
 RECORDS_3D = {"VERTEX_SE3:QUAT": 8, "EDGE_SE3:QUAT": 30}
@@ -128,7 +135,57 @@ def read(path: str | Path, name: str | None = None, ground_truth: str | Path | N
         graph = PoseGraph(
             **{**graph.__dict__, "true_poses": true_poses, "meta": {**graph.meta, "ground_truth": str(ground_truth)}}
         )
+    graph.meta["content"] = {"stat": _stat(lines.path), "fingerprint": fingerprint(graph)}
     return graph
+
+
+#: the PoseGraph fields a g2o file holds (what an optimiser reads of it)
+_CONTENT = (
+    "node_ids",
+    "poses",
+    "edge_i",
+    "edge_j",
+    "edge_z",
+    "edge_information",
+    "landmark_pose",
+    "landmark_id",
+    "landmark_z",
+    "landmark_information",
+)
+
+
+def fingerprint(graph: PoseGraph) -> str:
+    """A digest (BLAKE2b) of what a g2o file gives a graph: its dimension, landmark kind, and the dtype, shape and bytes
+    of each of its node, edge and landmark arrays; equal fingerprints mean equal arrays."""
+    digest = hashlib.blake2b(f"{graph.dim} {graph.landmark_kind}".encode(), digest_size=16)
+    for name in _CONTENT:
+        a = getattr(graph, name)
+        digest.update(name.encode())
+        if a is not None:
+            a = np.ascontiguousarray(a)
+            digest.update(f"{a.dtype.str} {a.shape}".encode())
+            digest.update(a.tobytes())
+    return digest.hexdigest()
+
+
+def _stat(path: str) -> list[int]:
+    st = os.stat(path)
+    return [st.st_size, st.st_mtime_ns]
+
+
+def source_file(graph: PoseGraph) -> Path | None:
+    """The g2o file ``graph`` was read from (:func:`read`) if the graph still holds exactly that file's content and the
+    file is unchanged since (same size and modification time, same :func:`fingerprint`); None otherwise (a graph
+    built or edited in memory, another format, a file changed or gone)."""
+    content = graph.meta.get("content")
+    if graph.meta.get("format") != "g2o" or not isinstance(content, dict) or "file" not in graph.meta:
+        return None
+    try:
+        if _stat(graph.meta["file"]) != content.get("stat"):
+            return None
+    except OSError:
+        return None
+    return Path(graph.meta["file"]) if fingerprint(graph) == content.get("fingerprint") else None
 
 
 def _graph(path, name, dim, vertex_ids, vertex_poses, vrows, edge_ids, z, info, erows, meta, **landmarks) -> PoseGraph:

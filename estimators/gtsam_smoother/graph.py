@@ -347,12 +347,14 @@ def finite_error(graph, values, where: str, error: float | None = None) -> float
 
 def poses_of(values, keys) -> np.ndarray:
     """Poses (K, 3) of the given pose keys: read at once (``gtsam.utilities.extractPose2``: every Pose2 of ``values``
-    in key order) when the keys are exactly the ``x`` keys of ``values`` and those are all its poses, else one by
-    one."""
+    in key order) when the keys are exactly the poses of ``values`` — all its keys when it holds only poses (a graph
+    keyed by node ids: :func:`~.pose_graph.read_pose_graph`), else its ``x`` keys when those are all its poses —
+    else one by one."""
     wanted = np.asarray(keys, dtype=np.uint64)
     held = np.asarray(values.keys(), dtype=np.uint64)
-    held = held[held >> np.uint64(56) == ord("x")]
     every = gtsam.utilities.extractPose2(values)
+    if len(every) != len(held):  # other variables beside the poses: the poses are the x keys
+        held = held[held >> np.uint64(56) == ord("x")]
     if len(every) == len(held) and np.array_equal(np.sort(wanted), held):
         out = np.empty((len(keys), 3))
         out[np.argsort(wanted, kind="stable")] = every

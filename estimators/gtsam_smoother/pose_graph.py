@@ -14,6 +14,18 @@ Initial values: ``initial="file"`` uses the file's vertices when it has them, el
 chain (:meth:`PoseGraph.initial_poses`); ``initial="chain"`` always composes the chain. Landmarks
 start from their first observation.
 
+Who builds the factor graph (:func:`pose_graph_factors`): GTSAM's own C++ reader, ``gtsam.readG2o``, on the g2o file
+the graph was read from when the graph still holds exactly that file's content (:func:`~slamarena.datasets.formats.g2o.source_file`:
+the project's reader has validated it — information positive definite, ids, fields — and nothing was edited since)
+and the result is :func:`build_pose_graph`'s problem: a 2D graph without landmark records, no robust kernel, initial
+values the file's vertices or (a file without them) the odometry chain, and GTSAM's graph checked to have the same
+factor count, node ids and initial poses (:func:`read_pose_graph`; its keys are the node ids). Otherwise one Python
+call per factor and per variable builds it from the arrays (:func:`build_pose_graph`; keys ``x_i``, ``l_j``). Both
+give one ``BetweenFactorPose2`` per edge with ``Gaussian.Information(Ω)`` (GTSAM's reader makes the same model) and
+the same anchor; on the staged graphs both reach the same optimum bit for bit where the initial values are the
+file's (intel, city10000); without vertices (manhattan) GTSAM's reader composes the chain in its own arithmetic (within
+1e-11 of :meth:`PoseGraph.chain_initialisation`), so the optimum agrees to round-off.
+
 Parameters: :class:`PoseGraphOptimizerParams` — the optimiser's (:class:`~.graph.OptimizerParams`,
 tolerances 1e-8 by default), the robust kernel (:class:`~.graph.RobustKernelParams`), the initial
 values, the anchor and whether to compute marginals.
@@ -31,7 +43,12 @@ robust-kernel and covariance settings (its motion and observations are a pose gr
 
 from __future__ import annotations
 
+import gzip
+import shutil
+import tempfile
 import time
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Literal
 
 import gtsam
@@ -39,7 +56,8 @@ import numpy as np
 from pydantic import PositiveFloat
 
 from slamarena.datasets.estimate import Estimate
-from slamarena.datasets.geometry import transform_points
+from slamarena.datasets.formats import g2o
+from slamarena.datasets.geometry import transform_points, wrap_angle
 from slamarena.datasets.posegraph import PoseGraph
 from slamarena.datasets.sequence import Sequence
 from slamarena.estimators.models import inverse_observe
@@ -66,7 +84,13 @@ from .graph import (
     world_pose_covariances,
 )
 
-__all__ = ["PoseGraphOptimizer", "PoseGraphOptimizerParams", "build_pose_graph"]
+__all__ = [
+    "PoseGraphOptimizer",
+    "PoseGraphOptimizerParams",
+    "build_pose_graph",
+    "read_pose_graph",
+    "pose_graph_factors",
+]
 
 
 class PoseGraphOptimizerParams(OptimizerParams, RobustKernelParams):
@@ -110,16 +134,18 @@ def build_pose_graph(
         raise NotImplementedError(f"{graph.name}: only 2D pose graphs are optimised (got dim={graph.dim})")
     poses = graph.initial_poses() if params.initial == "file" else graph.chain_initialisation()
     factors = gtsam.NonlinearFactorGraph()
-    factors.add(
-        gtsam.PriorFactorPose2(
-            X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)
-        )
-    )
     models = information_models(graph.edge_information, ~graph.odometry_mask(), params)
     for i, j, (dx, dy, dth), model in zip(
         symbols("x", graph.edge_i), symbols("x", graph.edge_j), graph.edge_z.tolist(), models
     ):
         factors.add(gtsam.BetweenFactorPose2(i, j, gtsam.Pose2(dx, dy, dth), model))
+    # the anchor after the edges, where GTSAM's reader leaves it (read_pose_graph): the factor order sets the order of
+    # the sums in the linear systems, so both give the same optimum bit for bit
+    factors.add(
+        gtsam.PriorFactorPose2(
+            X(graph.node_ids[0]), gtsam.Pose2(*poses[0]), noise_model(np.eye(3) * params.anchor_sigma**2)
+        )
+    )
     values = gtsam.Values()
     for key, (x, y, th) in zip(symbols("x", graph.node_ids), np.asarray(poses, dtype=float).tolist()):
         values.insert(key, gtsam.Pose2(x, y, th))
@@ -147,6 +173,70 @@ def build_pose_graph(
     return factors, values
 
 
+#: initial poses GTSAM's reader gives are those of the arrays when they agree to this [m, rad] (the vertices: exactly
+#: up to atan2's last bit; a chain: to its composition's round-off, ≈ 1e-11 over manhattan's 3500 steps)
+_SAME_INITIAL = 1e-9
+
+
+@contextmanager
+def plain_text(path: Path):
+    """``path`` as a plain-text file (GTSAM's reader reads no gzip: a ``.gz`` is decompressed into a temporary file)."""
+    if path.suffix != ".gz":
+        yield path
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        plain = Path(tmp) / path.stem
+        with gzip.open(path, "rb") as src, open(plain, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+        yield plain
+
+
+def read_pose_graph(
+    graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGraphOptimizerParams()
+) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values] | None:
+    """:func:`build_pose_graph`'s factor graph and initial values made by GTSAM's C++ reader (``gtsam.readG2o``) from
+    the g2o file the graph was read from, keyed by the node ids (module docstring); None when that is not the same
+    problem: not a 2D graph holding exactly its file's validated content, landmark records, a robust kernel, initial
+    values other than the file's, or GTSAM's reading differs in factor count, node ids or initial poses (or fails)."""
+    if graph.dim != 2 or graph.landmark_pose is not None or "landmark_ids" in graph.meta or params.robust != "none":
+        return None
+    if params.initial == "chain" and graph.poses is not None:
+        return None
+    path = g2o.source_file(graph)
+    if path is None:
+        return None
+    try:
+        with plain_text(path) as plain:
+            factors, values = gtsam.readG2o(str(plain), False)
+    except RuntimeError:
+        return None
+    ids = graph.node_ids
+    keys = np.asarray(values.keys(), dtype=np.int64)
+    if factors.size() != graph.n_edges or not np.array_equal(keys, np.sort(ids)):
+        return None
+    order = np.argsort(ids, kind="stable")
+    expected = graph.initial_poses()[order]
+    got = gtsam.utilities.extractPose2(values)
+    diff = np.abs(np.column_stack([got[:, :2] - expected[:, :2], wrap_angle(got[:, 2] - expected[:, 2])]))
+    if not np.all(diff <= _SAME_INITIAL * np.maximum(1.0, np.abs(expected))):
+        return None
+    first = int(ids[0])
+    factors.add(gtsam.PriorFactorPose2(first, values.atPose2(first), noise_model(np.eye(3) * params.anchor_sigma**2)))
+    return factors, values
+
+
+def pose_graph_factors(
+    graph: PoseGraph, params: PoseGraphOptimizerParams = PoseGraphOptimizerParams()
+) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, list[int], str]:
+    """The factor graph, initial values and pose keys (in ``graph.node_ids`` order) of a 2D pose graph, and who built
+    them: ``"gtsam.readG2o"`` (:func:`read_pose_graph`) where it gives the same problem, else ``"arrays"``
+    (:func:`build_pose_graph`)."""
+    read = read_pose_graph(graph, params)
+    if read is not None:
+        return *read, graph.node_ids.tolist(), "gtsam.readG2o"
+    return *build_pose_graph(graph, params), symbols("x", graph.node_ids), "arrays"
+
+
 class PoseGraphOptimizer:
     """Nonlinear least squares on a 2D pose graph (:class:`PoseGraphOptimizerParams`)."""
 
@@ -167,10 +257,9 @@ class PoseGraphOptimizer:
         if not isinstance(data, PoseGraph):
             raise TypeError(f"PoseGraphOptimizer.run takes a PoseGraph or a Sequence, not {type(data).__name__}")
         tic = time.perf_counter()
-        graph, initial = build_pose_graph(data, self.params)
+        graph, initial, pose_keys, built_by = pose_graph_factors(data, self.params)
         time_build = time.perf_counter() - tic
         result = optimize(graph, initial, self.params)
-        pose_keys = symbols("x", data.node_ids)
         poses = poses_of(result.values, pose_keys)
         ids = landmarks = pose_cov = landmark_cov = None
         if data.landmark_id is not None:
@@ -204,5 +293,6 @@ class PoseGraphOptimizer:
                 "nodes": data.n_nodes,
                 "edges": data.n_edges,
                 "initial": "file" if (self.params.initial == "file" and data.poses is not None) else "chain",
+                "built_by": built_by,
             },
         )

@@ -128,6 +128,36 @@ def test_g2o_round_trip(tmp_path):
         assert np.array_equal(getattr(back, key), getattr(g, key)), key
 
 
+def test_g2o_source_file_names_the_file_only_for_its_unedited_content(tmp_path):
+    """``g2o.source_file``: the file a graph was read from while the graph holds exactly its content and the file is
+    unchanged (the GTSAM pose-graph optimiser then lets GTSAM's reader build its graph from it); None otherwise."""
+    import dataclasses
+    import os
+
+    from slamarena.datasets.posegraph import PoseGraph
+
+    path = tmp_path / "t.g2o"
+    path.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 10 0 0 10 0 20\n")
+    graph = g2o.read(path)
+    assert g2o.source_file(graph) == path
+    assert g2o.source_file(g2o.read(path)) == path and g2o.fingerprint(g2o.read(path)) == g2o.fingerprint(graph)
+    same = PoseGraph(**{**graph.__dict__, "name": "renamed"})
+    assert g2o.source_file(same) == path  # the same arrays
+    moved = dataclasses.replace(graph, edge_z=graph.edge_z + [[0.0, 0.0, 1e-12]])  # keeps the meta, not the content
+    assert g2o.source_file(moved) is None
+    assert g2o.source_file(PoseGraph(**{**graph.__dict__, "meta": {}})) is None
+    graph.poses[1, 0] = 2.0  # edited in place
+    assert g2o.source_file(graph) is None
+    graph = g2o.read(path)
+    os.utime(path, ns=(0, 0))  # the file changed since it was read
+    assert g2o.source_file(graph) is None
+    path.unlink()
+    assert g2o.source_file(graph) is None
+    toro_file = tmp_path / "t.graph"
+    toro_file.write_text("VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 10 0 10 20 0 0\n")
+    assert g2o.source_file(toro.read(toro_file)) is None
+
+
 def test_g2o_round_trip_with_landmarks(tmp_path):
     g = load_staged("victoria_park", as_graph=True)
     g2o.write(tmp_path / "vp.g2o", g)
