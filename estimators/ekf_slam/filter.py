@@ -177,12 +177,19 @@ __all__ = [
     "Linearisation",
     "OnIndefinite",
     "DEFAULT_TWIST_COV",
+    "UNSTATED_TWIST_COV",
     "DEFAULT_RANGE_BEARING_COV",
     "NEW_ID_BASE",
 ]
 
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
+
+#: M, the twist noise when neither the parameters nor the sequence state one: MRCLAM's, identified against Vicon
+#: (experiments/configs/mrclam.yaml; σ_v 0.108 m/s, σ_ω 0.417 rad/s per row) — chosen there, never on the data it is
+#: scored on (the car park: research/notebook/2026-11-28-ekf-defaults.md). DEFAULT_TWIST_COV (σ_v 0.1, σ_ω 0.05), the
+#: other methods' fallback, locks EKF-SLAM without ids out where the car park returns to its start.
+UNSTATED_TWIST_COV = np.diag([0.0117624, 0.174])
 
 
 class MotionNoise(StrEnum):
@@ -253,7 +260,8 @@ class EKFSLAMParams(Params):
     )
     twist_cov: Covariance2 | None = Field(
         None,
-        description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else DEFAULT_TWIST_COV",
+        description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else UNSTATED_TWIST_COV "
+        "(MRCLAM's identified noise)",
     )
     Cx: Covariance3 | None = Field(
         None,
@@ -459,7 +467,7 @@ class EKFSLAM:
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
-        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", UNSTATED_TWIST_COV)
         self.R = noise_in_force(self._range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
         self.increment_cov = noise_in_force(self._increment_cov, sequence, "increment_cov")
         pose = (
