@@ -81,7 +81,7 @@ def test_huber_weight_is_one_inside_the_width_and_bounds_the_influence_beyond():
 
 def _mapped(**kw) -> EKFSLAM:
     """A filter that has mapped landmarks 0 and 1 and moved since (labelled rows, no gate)."""
-    ekf = EKFSLAM(initial_cov=[0.01, 0.01, 0.001], known_confidence=None, **kw)
+    ekf = EKFSLAM(initial_cov=[0.01, 0.01, 0.001], twist_cov=[0.01, 0.0025], known_confidence=None, **kw)
     ekf.update(np.array([[5.0, 0.3, 0], [4.0, -0.5, 1]]))
     ekf.predict((1.0, 0.1), 0.5)
     return ekf
