@@ -1,4 +1,4 @@
-"""EKF-SLAM without ids, one parameter set per JSON argument, on Victoria Park and on the ACFR Car Park's extracted
+"""EKF-SLAM without ids (unless the JSON says use_ids), one parameter set per JSON argument, on Victoria Park and on the ACFR Car Park's extracted
 beacons (research/notebook/2026-11-28-ekf-defaults.md): landmarks made, Victoria Park's final position against iSAM2's
 with ids (−13.99, 0.53), the car park's ATE against GPS and map against the surveyed beacons (scored as the carpark
 config scores), the decisions and the CPU time.
@@ -27,13 +27,13 @@ def decisions(est) -> str:
 
 
 def victoria_park(seq, params: dict) -> str:
-    est = create("ekf_slam", use_ids=False, **params).run(seq)
+    est = create("ekf_slam", **{"use_ids": False, **params}).run(seq)
     end = np.linalg.norm(est.poses[-1][:2] - ISAM2_END)
     return f"landmarks {len(est.landmark_ids)}, final position {end:.1f} m from iSAM2, {decisions(est)}"
 
 
 def carpark(seq, params: dict) -> str:
-    est = create("ekf_slam", use_ids=False, **params).run(seq)
+    est = create("ekf_slam", **{"use_ids": False, **params}).run(seq)
     ref = reference_of(seq)
     trajectory, _ = ate(est, ref, ATEParams(align="se2", max_gap=0.25))
     m, _ = landmark_error(est, ref, MapParams(by="nearest", max_distance=2.0, max_gap=0.25))
