@@ -41,6 +41,12 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
     P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
+R is each row's own: the parameter's (``range_bearing_noise`` polar, or Cartesian ``diag(σ², σ²/r_j²)``), or the
+``R`` given to :meth:`EKFSLAM.update` per row (``run`` passes the sequence's per-observation covariances). With
+``robust_update`` ("huber", "student_t") a matched row is applied with ``R_j / w_j``, w_j the IRLS weight of its
+posterior residual on the estimate before the set (:func:`slamarena.robust.kalman_weights`: Huber's M-estimate, or the
+Student-t noise's variational fixed point); w = 1 is the update above.
+
 The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S`` into rank-2d symmetric terms
 (see ``_correct``); there is no N×N×N product and no N×N inverse anywhere. With
 ``update="batch"`` all matched observations of a set are stacked (H 2m×N, S 2m×2m) and applied
