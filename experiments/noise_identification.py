@@ -45,17 +45,20 @@ class _Scoring(EKFSLAM):
         super().reset(sequence)
         self.scored: list[tuple[float, float]] = []  # (d², log N(ν; 0, S)) per labelled re-observation
 
-    def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
+    def update(
+        self, z, t: float | None = None, decide: dict[int, int] | None = None, R: np.ndarray | None = None
+    ) -> None:
         rows = np.asarray(z, dtype=float).reshape(-1, 3)
         ok = np.all(np.isfinite(rows), axis=1) & (rows[:, 0] >= 0) & np.isin(rows[:, 2], self.landmark_ids)
         if ok.any():
             mapped = rows[ok]
             where = {int(i): k for k, i in enumerate(self.landmark_ids)}
             slot = np.array([where[int(i)] for i in mapped[:, 2]])
-            _, S, d2 = compatibility(self.x, self.P, self.observation_cov(mapped), mapped[:, :2])
+            Rz = self.observation_cov(mapped) if R is None else np.asarray(R, dtype=float)[ok]
+            _, S, d2 = compatibility(self.x, self.P, Rz, mapped[:, :2])
             pick = np.arange(len(mapped))
             self.scored.extend(zip(d2[pick, slot].tolist(), log_density(S[pick, slot], d2[pick, slot]).tolist()))
-        super().update(z, t, decide)
+        super().update(z, t, decide, R)
 
 
 def innovation_score(sequence, params: dict) -> InnovationScore:

@@ -78,6 +78,7 @@ __all__ = [
     "Association",
     "LandmarkBook",
     "compatibility",
+    "innovation_cov",
     "pair_d2",
     "nearest_neighbour",
     "jcbb",
@@ -104,7 +105,7 @@ class Association:
     d2: np.ndarray
 
 
-def _innovation_cov(x: np.ndarray, P: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def innovation_cov(x: np.ndarray, P: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Predicted observations (k, 2) and H P Hᵀ (k, 2, 2) of landmark slots (k,), O(k)."""
     xr = x[:3]
     base = 3 + 2 * slots
@@ -138,7 +139,7 @@ def compatibility(
     M = z.shape[0]
     if n == 0:
         return np.zeros((M, 0, 2)), np.zeros((M, 0, 2, 2)), np.zeros((M, 0))
-    zhat, HPHt = _innovation_cov(x, P, np.arange(n))
+    zhat, HPHt = innovation_cov(x, P, np.arange(n))
     S = HPHt[None] + R[:, None]
     nu = z[:, None, :] - zhat[None, :, :]
     nu[..., 1] = wrap_angle(nu[..., 1])

@@ -41,6 +41,12 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
     P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
+R is each row's own: the parameter's (``range_bearing_noise`` polar, or Cartesian ``diag(σ², σ²/r_j²)``), or the
+``R`` given to :meth:`EKFSLAM.update` per row (``run`` passes the sequence's per-observation covariances). With
+``robust_update`` ("huber", "student_t") a matched row is applied with ``R_j / w_j``, w_j the IRLS weight of its
+posterior residual on the estimate before the set (:func:`slamarena.robust.kalman_weights`: Huber's M-estimate, or the
+Student-t noise's variational fixed point); w = 1 is the update above.
+
 The Joseph form is expanded with ``HP = (PHᵀ)ᵀ`` and ``HPHᵀ + R = S`` into rank-2d symmetric terms
 (see ``_correct``); there is no N×N×N product and no N×N inverse anywhere. With
 ``update="batch"`` all matched observations of a set are stacked (H 2m×N, S 2m×2m) and applied
@@ -136,10 +142,11 @@ from enum import StrEnum
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import FiniteFloat, model_validator
+from pydantic import FiniteFloat, PositiveFloat, model_validator
 
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Covariance2, Covariance3, Field, Params
+from slamarena.robust import KalmanKernel, kalman_weights
 
 from ..inputs import next_stamp, valid_rows
 from ..kernels import twist_motion
@@ -176,12 +183,19 @@ __all__ = [
     "Linearisation",
     "OnIndefinite",
     "DEFAULT_TWIST_COV",
+    "UNSTATED_TWIST_COV",
     "DEFAULT_RANGE_BEARING_COV",
     "NEW_ID_BASE",
 ]
 
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
+
+#: M, the twist noise when neither the parameters nor the sequence state one: MRCLAM's, identified against Vicon
+#: (experiments/configs/mrclam.yaml; σ_v 0.108 m/s, σ_ω 0.417 rad/s per row) — chosen there, never on the data it is
+#: scored on (the car park: research/notebook/2026-11-28-ekf-defaults.md). DEFAULT_TWIST_COV (σ_v 0.1, σ_ω 0.05), the
+#: other methods' fallback, locks EKF-SLAM without ids out where the car park returns to its start.
+UNSTATED_TWIST_COV = np.diag([0.0117624, 0.174])
 
 
 class MotionNoise(StrEnum):
@@ -252,7 +266,8 @@ class EKFSLAMParams(Params):
     )
     twist_cov: Covariance2 | None = Field(
         None,
-        description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else DEFAULT_TWIST_COV",
+        description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else UNSTATED_TWIST_COV "
+        "(MRCLAM's identified noise)",
     )
     Cx: Covariance3 | None = Field(
         None,
@@ -345,16 +360,34 @@ class EKFSLAMParams(Params):
         description="the sensor's field of view, centred ahead [rad] (the quality counter's field)",
     )
     window: int = Field(
-        0,
+        20,
         ge=0,
         description="look-ahead of an ambiguous row without a trusted id [observation sets]: its hypotheses (landmarks, or not in "
         "the map) are each run through the next `window` sets and the one that explains them best is applied "
-        "(association.hypotheses; run() only); 0: every row decided on its own set",
+        "(association.hypotheses; run() only); 0: every row decided on its own set. Default 20: Victoria Park's working "
+        "configuration (chosen there; no row is ambiguous on the car park, labelled rows never are)",
     )
     window_hypotheses: int = Field(
         3,
         ge=1,
         description="most landmarks an ambiguous row is tried against (the most probable inside the match gate)",
+    )
+    robust_update: KalmanKernel = Field(
+        "none",
+        description="measurement update of a matched row: 'none' Gaussian; 'huber' or 'student_t' — the row applied with noise "
+        "R / w, w the IRLS weight of its posterior residual (slamarena.robust.kalman_weights), decided on the estimate before "
+        "the set as the association is",
+    )
+    robust_k: PositiveFloat = Field(
+        2.4477,
+        description="Huber width [σ of the whitened 2-vector residual]; default √χ²₂(0.95): a row whose posterior residual "
+        "lies inside it is applied as by the Gaussian update",
+    )
+    robust_dof: PositiveFloat = Field(5.0, description="degrees of freedom ν of the Student-t measurement noise")
+    per_observation_cov: bool = Field(
+        True,
+        description="run(): when range_bearing_cov is not given and the sequence states a covariance per observation "
+        "(meta['range_bearing_cov_per_observation'], e.g. the landmark extractor's), each row is updated with its own R_j",
     )
     anchor_confidence: Confidence | None = Field(
         None,
@@ -441,7 +474,7 @@ class EKFSLAM:
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
-        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", UNSTATED_TWIST_COV)
         self.R = noise_in_force(self._range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
         self.increment_cov = noise_in_force(self._increment_cov, sequence, "increment_cov")
         pose = (
@@ -468,10 +501,13 @@ class EKFSLAM:
             p.confirm_sightings, p.confirm_window, p.miss_limit, p.sensor_range, p.sensor_fov
         )
         self._sets, self._t = 0, None  # the number of update sets and the last one's stamp
-        self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0}
+        self.rejected = {"nonfinite": 0, "negative_range": 0, "indefinite": 0, "covariance": 0}
         self.anchors_reset = 0  # FEJ / OC: landmark linearisation points set again (anchor_confidence)
         self.nis_log: list[tuple[float, int]] = []
         self.assoc_log: list[tuple[int, int, float, int]] = []
+        self.weight_log: list[
+            float
+        ] = []  # per logged row: the robust weight of a matched row (1 without), NaN if not matched
         self.log_likelihood = 0.0  # Σ log λ of the rows associated without an id (association.hypotheses)
 
     @property
@@ -670,20 +706,23 @@ class EKFSLAM:
 
     # ------------------------------------------------------------------ update
     @_OVERFLOW_IS_CHECKED
-    def update(self, z, t: float | None = None, decide: dict[int, int] | None = None) -> None:
+    def update(
+        self, z, t: float | None = None, decide: dict[int, int] | None = None, R: np.ndarray | None = None
+    ) -> None:
         """Apply an observation set z (M, 3) = [range, bearing, landmark_id] (id −1: unknown) taken at time t [s]
         (None: the number of sets so far; the landmark management's clock). ``decide``: {row of the valid rows: landmark
         slot, or −1 for a new landmark}, decisions made elsewhere for rows associated without an id (:meth:`ambiguity`).
+        ``R`` (M, 2, 2): each row's own noise covariance (None: :meth:`observation_cov`).
 
-        Rows with a non-finite value or a negative range are counted and dropped. Every other row gets a
+        Rows with a non-finite value or a negative range are counted and dropped, as are rows whose own R is not a finite
+        positive definite matrix (``rejected["covariance"]``). Every other row gets a
         decision (``assoc_log``, decided on the estimate before the set); a row that is not applied —
         ambiguous, outside a gate, or whose update would not be finite (counted in ``rejected["nonfinite"]``)
         or would make P indefinite (``on_indefinite="record"``) — is logged as rejected and changes nothing.
+        With ``robust_update`` a matched row is applied with R_j / w_j (:meth:`_robust_weights`; ``weight_log``).
         """
         t = next_stamp(self._sets + 1 if t is None else t, self._t)
-        z, finite, negative = valid_rows(z)
-        self.rejected["nonfinite"] += int((~finite).sum())
-        self.rejected["negative_range"] += int(negative.sum())
+        z, Rz = self._valid(z, R)
         self._sets += 1
         self._t = t
         if not len(z):
@@ -692,24 +731,64 @@ class EKFSLAM:
         predicted = observe(self._s.x[:3], self._landmarks()) if counting else None  # (n, 2), for the quality counter
         given = z[:, 2].astype(np.int64)
         ids = given if self.params.use_ids else np.full(len(z), -1)
-        Rz = self.observation_cov(z)
         decision, slot, d2 = self._associate(z[:, :2], ids, Rz, decide or {})
         if self.params.jacobians in (Linearisation.FEJ, Linearisation.OC):
             matched = decision == _MATCHED
             self._refresh_anchors(slot[matched], Rz[matched])
         if self.params.jacobians == Linearisation.OC:
             self._reanchor(slot[decision == _MATCHED])
+        weight = self._robust_weights(z[:, :2], Rz, decision, slot)
         try:
-            self._apply(z, ids, Rz, decision, slot)
+            self._apply(z, ids, Rz / weight[:, None, None], decision, slot)
         finally:  # the deferred covariance update of what was applied, also when a CovarianceError is raised
             self._s.flush()
         landmark = [self._ids[s] if s >= 0 else -1 for s in slot.tolist()]
         self.assoc_log.extend(zip(decision.tolist(), landmark, d2.tolist(), given.tolist()))
+        self.weight_log.extend(np.where(decision == _MATCHED, weight, np.nan).tolist())
         if counting:
             predicted = np.concatenate([predicted, np.full((self.n_landmarks - len(predicted), 2), np.nan)])
         gone = self.book.observe(t, slot[decision == _MATCHED], predicted)
         if gone.size:
             self._remove_landmarks(gone)
+
+    def _valid(self, z, R: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The rows of z (M, 3) that are finite with a non-negative range and, when their own covariances R (M, 2, 2) are
+        given, a finite symmetric positive definite R_j; those rows and their R (k, 2, 2). The others are counted."""
+        rows, finite, negative = valid_rows(z)
+        self.rejected["nonfinite"] += int((~finite).sum())
+        self.rejected["negative_range"] += int(negative.sum())
+        if R is None:
+            return rows, self.observation_cov(rows)
+        R = np.asarray(R, dtype=float)
+        if R.shape != (len(finite), 2, 2):
+            raise ValueError(f"R must hold one 2 × 2 covariance per row of z ({len(finite)}, 2, 2), got {R.shape}")
+        R = R[finite & ~negative]
+        with np.errstate(invalid="ignore", over="ignore"):
+            scale = np.sqrt(np.abs(R[:, 0, 0] * R[:, 1, 1]))
+            ok = (
+                np.isfinite(R).all(axis=(1, 2))
+                & (np.abs(R[:, 0, 1] - R[:, 1, 0]) <= 1e-9 * scale)  # symmetric up to the rounding of J Σ Jᵀ
+                & (R[:, 0, 0] > 0)
+                & (R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] > 0)
+            )
+        R = 0.5 * (R + R.transpose(0, 2, 1))
+        self.rejected["covariance"] += int((~ok).sum())
+        return rows[ok], R[ok]
+
+    def _robust_weights(self, z: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> np.ndarray:
+        """The weight w_j (M,) each row's R_j is divided by: 1, and with ``robust_update`` the matched rows' IRLS weights
+        (:func:`slamarena.robust.kalman_weights`) from ν_j = z_j − h(x̂, m̂_i) and A_j = H_j P H_jᵀ on the estimate before
+        the set (each row as if updated alone)."""
+        weight = np.ones(len(z))
+        matched = np.flatnonzero(decision == _MATCHED)
+        if self.params.robust_update == "none" or not matched.size:
+            return weight
+        zhat, A = assoc.innovation_cov(self._s.x, self._s.view, slot[matched])
+        nu = z[matched] - zhat
+        nu[:, 1] = wrap_angle(nu[:, 1])
+        p = self.params
+        weight[matched] = kalman_weights(nu, A, Rz[matched], p.robust_update, p.robust_k, p.robust_dof)
+        return weight
 
     def _apply(self, z: np.ndarray, ids: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> None:
         """Apply the rows of a set in order (batch: the matched ones first, stacked); rows not applied are marked rejected.
@@ -760,16 +839,21 @@ class EKFSLAM:
         (:func:`~slamarena.estimators.models.observation_covariances`)."""
         return observation_covariances(self.R, z[:, 0], self.params.range_bearing_noise)
 
-    def ambiguity(self, z, decided: dict[int, int] | None = None) -> tuple[int, np.ndarray] | None:
+    def ambiguity(
+        self, z, decided: dict[int, int] | None = None, R: np.ndarray | None = None
+    ) -> tuple[int, np.ndarray] | None:
         """The first row of set z (M, 3) (an index into its valid rows, as :meth:`update` numbers them) associated without an
         id that is ambiguous on the current estimate, and its hypotheses (landmark slots, −1: not in the map), or None
-        (association.hypotheses); rows in ``decided`` are not asked about. The state is not changed."""
-        z = valid_rows(z)[0]
+        (association.hypotheses); rows in ``decided`` are not asked about; ``R`` as in :meth:`update`. The state and the
+        counts are not changed."""
+        rejected = dict(self.rejected)
+        z, Rz = self._valid(z, R)
+        self.rejected = rejected
         unknown = np.flatnonzero(np.full(len(z), not self.params.use_ids) | (z[:, 2] < 0))
         unknown = unknown[~np.isin(unknown, list(decided or ()))]
         if not unknown.size or not self.n_landmarks:
             return None
-        Rz = self.observation_cov(z[unknown])
+        Rz = Rz[unknown]
         _, S, d2 = assoc.compatibility(self._s.x, self._s.view, Rz, z[unknown, :2])
         found = assoc.hypotheses(
             *assoc.log_densities(S, d2, Rz, self.gate_new),

@@ -10,7 +10,10 @@ Motion and range-bearing events are processed (other streams are not used by EKF
   covariance: the ``increment_cov`` parameter if given, else ``Increments.cov``, else
   ``Noise.increment_cov``);
 * a range-bearing event applies its whole observation set with :meth:`EKFSLAM.update`; rows whose range is beyond
-  the physical range are left out and counted (``rejected_out_of_range``), so a corrupt row never aborts the run.
+  the physical range are left out and counted (``rejected_out_of_range``), so a corrupt row never aborts the run;
+  when the sequence states a covariance per observation (``meta["range_bearing_cov_per_observation"]``: the landmark
+  extractor's, Victoria Park's reader) and ``range_bearing_cov`` is not given, each row is updated with its own
+  (``per_observation_cov``).
 
 The motion between two observation sets is applied as one chain
 (:meth:`EKFSLAM.predict_twists` / :meth:`EKFSLAM.predict_increments`: vectorised poses, the
@@ -42,8 +45,11 @@ Diagnostics (arrays):
     assoc_landmark              id of the landmark matched or created (−1 if rejected)
     assoc_d2                    Mahalanobis d² to the labelled landmark, or to the nearest one (NaN for a new labelled landmark)
     assoc_given_id              the id in the data (also when withheld with use_ids=False)
+    assoc_weight                a matched row's robust weight (R_j / w_j applied; 1 with robust_update "none"), NaN if not
+                                matched
     looked_ahead_t              the stamp of every row decided by the look-ahead (``window`` > 0)
-    rejected_nonfinite, rejected_negative_range, rejected_out_of_range, rejected_motion, rejected_indefinite   counts
+    rejected_nonfinite, rejected_negative_range, rejected_out_of_range, rejected_motion, rejected_indefinite,
+    rejected_covariance         counts (the last: rows whose own covariance is not finite and positive definite)
     lockout_rows, lockout_s, lockout_t0
                                 the longest run of consecutive observations that were not new landmarks and were ALL rejected
                                 (a gated filter whose covariance no longer admits its observations: it has stopped
@@ -78,6 +84,7 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
     ekf.reset(sequence)
     truth = _truth(ekf, sequence)
     z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))
+    R_all = _row_covariances(ekf, sequence, len(z_all))
     walk = blocks(sequence, row_cov=ekf.params.increment_cov is None)
     record = _Record(CLOCKS[ekf.params.step_clock])
     looked_ahead: list[tuple[float, bool]] = []  # per row decided by the look-ahead: its stamp, whether it was matched
@@ -88,13 +95,13 @@ def run_sequence(ekf, sequence: Sequence) -> Estimate:
         rejected["motion"] += block.motion.rejected
         record.chain(block, start, done)
         if block.observation is not None:
-            z, t, far = _observations(block, z_all)
+            z, t, far, R = _observations(block, z_all, R_all)
             rejected["out_of_range"] += far
             if truth is not None:
                 ekf.set_truth(pose=truth([t])[0])
-            decided = _look_ahead(ekf, walk, b, z_all, truth, looked_ahead) if ekf.params.window else None
+            decided = _look_ahead(ekf, walk, b, z_all, R_all, truth, looked_ahead) if ekf.params.window else None
             n_nis, n_assoc = len(ekf.nis_log), len(ekf.assoc_log)
-            ekf.update(z, t, decided)
+            ekf.update(z, t, decided, R)
             record.observation(ekf, t, len(ekf.nis_log) - n_nis, len(ekf.assoc_log) - n_assoc)
     return _estimate(ekf, sequence, record, looked_ahead, rejected)
 
@@ -120,32 +127,53 @@ def _predict(filt, block: Block, truth: Truth | None) -> tuple[np.ndarray, np.nd
     return motion.predict(filt, true_poses=truth(motion.start) if truth is not None else None)
 
 
-def _observations(block: Block, z_all: np.ndarray) -> tuple[np.ndarray, float, int]:
-    """The block's observation set (M, 3) without the rows beyond the physical range, its stamp, and how many were left
-    out."""
+def _row_covariances(ekf, sequence: Sequence, rows: int) -> np.ndarray | None:
+    """The sequence's covariance per observation (rows, 2, 2) when it states one (``meta["range_bearing_cov_per_observation"]``,
+    e.g. the landmark extractor's) and the filter takes it (``per_observation_cov``, no ``range_bearing_cov`` given);
+    else None (the filter's R for every row)."""
+    cov = sequence.meta.get("range_bearing_cov_per_observation")
+    if cov is None or not ekf.params.per_observation_cov or ekf.params.range_bearing_cov is not None:
+        return None
+    cov = np.asarray(cov, dtype=float)
+    if cov.shape != (rows, 2, 2):
+        raise ValueError(
+            f"{sequence.name}: meta['range_bearing_cov_per_observation'] must hold one 2 × 2 covariance per "
+            f"range-bearing row ({rows}, 2, 2), got {cov.shape}"
+        )
+    return cov
+
+
+def _observations(
+    block: Block, z_all: np.ndarray, R_all: np.ndarray | None
+) -> tuple[np.ndarray, float, int, np.ndarray | None]:
+    """The block's observation set (M, 3) without the rows beyond the physical range, its stamp, how many were left
+    out, and the rows' own covariances (M, 2, 2) if the sequence states them (else None)."""
     rows, far = observation_rows(block.observation, z_all[:, 0])
-    return z_all[rows], block.observation.t, far
+    return z_all[rows], block.observation.t, far, None if R_all is None else R_all[rows]
 
 
-def _look_ahead(ekf, walk: list[Block], b: int, z_all: np.ndarray, truth: Truth | None, looked_ahead: list) -> dict:
+def _look_ahead(
+    ekf, walk: list[Block], b: int, z_all: np.ndarray, R_all: np.ndarray | None, truth: Truth | None, looked_ahead: list
+) -> dict:
     """The look-ahead (``window`` > 0, association.hypotheses): for each ambiguous row of block b's set in turn, the
     hypothesis whose copy of the filter has the largest log-likelihood over this set and the next ``window`` sets
     (if the filter can carry none of a row's hypotheses through the window, that row and the rest of the set are left
     to the plain association). Appends (stamp, matched) of every decided row to ``looked_ahead``."""
     decided: dict[int, int] = {}
-    z, t, _ = _observations(walk[b], z_all)
-    while (found := ekf.ambiguity(z, decided)) is not None:
+    z, t, _, R = _observations(walk[b], z_all, R_all)
+    while (found := ekf.ambiguity(z, decided, R)) is not None:
         row, options = found
         score = np.full(len(options), -np.inf)
         for k, option in enumerate(options.tolist()):
             trial = copy.deepcopy(ekf)
             start = trial.log_likelihood
             try:
-                trial.update(z, t, {**decided, row: option})
+                trial.update(z, t, {**decided, row: option}, R)
                 for block in walk[b + 1 : b + 1 + ekf.params.window]:
                     _predict(trial, block, truth)
                     if block.observation is not None:
-                        trial.update(*_observations(block, z_all)[:2])
+                        z_w, t_w, _, R_w = _observations(block, z_all, R_all)
+                        trial.update(z_w, t_w, None, R_w)
             except (CovarianceError, ValueError):  # a hypothesis the filter cannot carry through the window
                 continue
             score[k] = trial.log_likelihood - start
@@ -217,6 +245,8 @@ def _estimate(ekf, sequence: Sequence, record: _Record, looked_ahead: list, reje
         "rejected_out_of_range": np.array(rejected["out_of_range"]),
         "rejected_motion": np.array(rejected["motion"]),
         "rejected_indefinite": np.array(ekf.rejected["indefinite"]),
+        "rejected_covariance": np.array(ekf.rejected["covariance"]),
+        "assoc_weight": np.asarray(ekf.weight_log, dtype=float),
     }
     decisions = log[:, 0]
     diagnostics["looked_ahead_t"] = np.array([t for t, _ in looked_ahead], dtype=float)
