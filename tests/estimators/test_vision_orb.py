@@ -44,7 +44,7 @@ def test_bucketed_features_spread_over_the_grid(frame):
         cells, counts = np.unique(np.floor(u / [1241 / 12, 376 / 4]).astype(int), axis=0, return_counts=True)
         return set(map(tuple, cells)), counts.max()
 
-    plain, _ = detect(frame, FeatureParams(n_features=500))
+    plain, _ = detect(frame, FeatureParams(n_features=500, grid=(0, 0)))
     spread, d = detect(frame, FeatureParams(n_features=500, grid=(12, 4)))
     every, e = orb(frame, 1000)
     assert len(spread) == 500 and buckets(spread)[1] < 0.5 * buckets(plain)[1]
