@@ -101,8 +101,9 @@ def draw(tracks: dict, groups: dict[str, list[str]], directory: Path) -> list[Pa
         for name in names:
             p, truth = _aligned(tracks[name])
             ax.plot(p[:, 0], p[:, 2], label=labels[name], lw=1, color=colour[labels[name]])
-        ax.plot(truth[:, 0], truth[:, 2], "k-", lw=1.5, label="ground truth")
-        ax.set(title=title, xlabel="x [m]", ylabel="z [m]", aspect="equal")
+        ax.plot(truth[:, 0], truth[:, 2], "k-", lw=1.5, label="ground truth", zorder=1)  # under the estimates
+        ax.set(title=title, xlabel="x [m]", ylabel="z [m]")
+        ax.set_aspect("equal", adjustable="datalim")  # a straight drive keeps a readable panel width
     paths += save(fig, directory, "vo_top_view", "Camera positions from above, each estimate after its alignment.")
 
     fig, grid = panels(2.6)
