@@ -145,9 +145,13 @@ def depth() -> None:
     )
 
 
-if __name__ == "__main__":
-    command, *args = sys.argv[1:]
+def main(argv: list[str]) -> None:
+    command, *args = argv
     if command == "run":
         run(args[0], int(args[1]), int(args[2]), json.loads(args[3]) if len(args) > 3 else {})
     else:
         {"rotation": rotation, "steps": steps, "depth": depth}[command]()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
