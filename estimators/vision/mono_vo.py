@@ -28,12 +28,15 @@ Back end (``window`` ≥ 3): after each new keyframe, :func:`.window_ba.bundle_a
 factors, Huber) over the last ``window`` keyframes and the points at least two of them see, the two oldest held
 fixed — seven degrees of gauge freedom, the scale among them, fixed by two poses —; frames tracked against a moved
 keyframe move with it. A failed adjustment leaves the estimate as it was and is recorded in ``meta``.
+
+``pnp_threshold``, ``min_inliers``, ``keyframe_inliers``, ``seed`` and ``geometry`` are the fields of ``tracking``
+(:class:`.stereo_vo.TrackingParams`, shared with the stereo pipeline); ``map_keyframes`` is each pipeline's own (2
+stereo, 3 mono: a partial ``tracking`` override takes the class defaults, so a default that differs stays outside).
 """
 
 from __future__ import annotations
 
 import time
-from typing import Literal
 
 import numpy as np
 from pydantic import field_validator
@@ -45,7 +48,7 @@ from slamarena.params import Field, Params
 from .backends import BACKENDS, Backend
 from .features import FeatureParams, detect
 from .projection import normalise, residuals
-from .stereo_vo import VOResult, pose_matrix
+from .stereo_vo import TrackingParams, VOResult, pose_matrix
 from .window_ba import Observation, bundle_adjust
 
 __all__ = ["MonoVOParams", "mono_vo", "triangulate_pair"]
@@ -59,13 +62,11 @@ class MonoVOParams(Params):
     features: FeatureParams = Field(FeatureParams(), description="ORB features and their matching")
     init_parallax: float = Field(10.0, gt=0, description="median displacement that starts the map [px]")
     essential_threshold: float = Field(1.0, gt=0, description="Sampson threshold of the essential RANSAC [px]")
-    pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC and triangulation threshold [px]")
     min_parallax_deg: float = Field(0.5, ge=0, description="smallest parallax angle of a new map point [deg]")
-    min_inliers: int = Field(20, ge=4, description="PnP inliers below which a frame is lost")
-    keyframe_inliers: float = Field(0.6, gt=0, lt=1, description="new keyframe below this × the first inliers")
-    map_keyframes: int = Field(3, ge=1, description="the keyframe pairs whose points form the local map")
-    seed: int = Field(0, ge=0, description="RANSAC's random seed")
-    geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
+    tracking: TrackingParams = Field(
+        TrackingParams(), description="PnP tracking, keyframes, whose geometry (pnp_threshold also gates triangulation)"
+    )
+    map_keyframes: int = Field(3, ge=1, description="the keyframes whose points form the local map")
     window: int = Field(0, ge=0, description="keyframes of the windowed bundle adjustment (0: none; else ≥ 3)")
 
     @field_validator("window")
@@ -107,7 +108,7 @@ def triangulate_pair(
 def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
     """Run monocular VO over every frame of ``camera`` (see the module docstring); ValueError when the start fails."""
     params = MonoVOParams.of(params)
-    backend = BACKENDS[params.geometry]
+    backend = BACKENDS[params.tracking.geometry]
     K, n = camera.K, len(camera)
     poses = np.tile(np.eye(4), (n, 1, 1))
     reference = np.zeros(n, np.int64)  # the keyframe each frame was tracked against
@@ -177,7 +178,9 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         raise ValueError(f"mono VO: no essential matrix between frames 0 and {k1}")
     first, second = (np.eye(3), np.zeros(3)), (two_view.R, two_view.t)
     a, b = a[two_view.inliers], b[two_view.inliers]
-    X, keep = triangulate_pair(backend, K, u0[a], u1[b], first, second, params.pnp_threshold, params.min_parallax_deg)
+    X, keep = triangulate_pair(
+        backend, K, u0[a], u1[b], first, second, params.tracking.pnp_threshold, params.min_parallax_deg
+    )
     poses[k1] = pose_matrix(*second)
     keyframes = [0, k1]
     add_points(0, k1, a[keep], b[keep], X)
@@ -191,12 +194,12 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         u, d = features_of(k)
         local = np.flatnonzero(np.isin(last_seen, keyframes[-params.map_keyframes :]))
         i, j = backend.match(d, descriptors[local], params.features.ratio, params.features.max_distance)
-        result = backend.pnp(K, points[local[j]], u[i], params.pnp_threshold, params.seed + k)
+        result = backend.pnp(K, points[local[j]], u[i], params.tracking.pnp_threshold, params.tracking.seed + k)
         count = 0 if result is None else int(result.inliers.sum())
         inliers[k] = count
         if k > k1:
             reference[k] = keyframes[-1]
-        if result is None or count < params.min_inliers:
+        if result is None or count < params.tracking.min_inliers:
             poses[k] = poses[k - 1]
             lost += 1
         else:
@@ -206,8 +209,8 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         if (
             k > k1
             and result is not None
-            and count >= params.min_inliers
-            and (count < params.keyframe_inliers * first_inliers or count < 2 * params.min_inliers)
+            and count >= params.tracking.min_inliers
+            and (count < params.tracking.keyframe_inliers * first_inliers or count < 2 * params.tracking.min_inliers)
         ):
             previous = keyframes[-1]
             up, dp = features_of(previous)
@@ -219,10 +222,10 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
             moved = len(a) >= 8 and np.median(np.linalg.norm(u[b] - up[a], axis=1)) >= params.init_parallax
             X, keep = triangulate_pair(
                 backend, K, up[a], u[b], (T_prev[:3, :3], T_prev[:3, 3]), (T_now[:3, :3], T_now[:3, 3]),
-                params.pnp_threshold, params.min_parallax_deg,
+                params.tracking.pnp_threshold, params.min_parallax_deg,
             )  # fmt: skip
-            keep &= moved or count < 2 * params.min_inliers  # about to be lost: any baseline will do
-            if keep.sum() >= params.min_inliers:
+            keep &= moved or count < 2 * params.tracking.min_inliers  # about to be lost: any baseline will do
+            if keep.sum() >= params.tracking.min_inliers:
                 keyframes.append(k)
                 observations[k] = [Observation(k, int(p), *u[f]) for p, f in zip(ids, tracked)]
                 mapped[k] = np.sort(tracked)

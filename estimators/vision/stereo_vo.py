@@ -33,7 +33,9 @@ its anchor), Huber kernel, the oldest keyframe held fixed; the frames tracked ag
 is recorded in ``meta``.
 
 Every frame of the sequence must have a right image (a rectified pair). ``geometry`` picks whose matching,
-triangulation and PnP run (:mod:`.backends`: ``ours`` or ``opencv``, the OpenCV-only baseline).
+triangulation and PnP run (:mod:`.backends`: ``ours`` or ``opencv``, the OpenCV-only baseline). ``pnp_threshold``,
+``min_inliers``, ``keyframe_inliers``, ``seed`` and ``geometry`` are the fields of ``tracking`` (:class:`TrackingParams`,
+shared with the monocular pipeline).
 """
 
 from __future__ import annotations
@@ -64,18 +66,24 @@ __all__ = [
 ]
 
 
+class TrackingParams(Params):
+    """Tracking by PnP against the local map and the keyframe rule, shared by the stereo and monocular pipelines."""
+
+    pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC inlier threshold [px]")
+    min_inliers: int = Field(20, ge=4, description="PnP inliers below which a frame is lost")
+    keyframe_inliers: float = Field(0.6, gt=0, lt=1, description="new keyframe below this × the first inliers")
+    seed: int = Field(0, ge=0, description="RANSAC's random seed")
+    geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
+
+
 class StereoVOParams(Params):
     """Stereo VO parameters (set a priori, not fitted to the scored frames)."""
 
     features: FeatureParams = Field(FeatureParams(), description="ORB features and their matching")
     row_tolerance: float = Field(1.0, ge=0, description="|v_l − v_r| of a stereo match on the rectified pair [px]")
     min_disparity: float = Field(2.0, gt=0, description="smallest disparity triangulated [px] (depth ≤ fx b / d)")
-    pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC inlier threshold [px]")
-    min_inliers: int = Field(20, ge=4, description="PnP inliers below which a frame is lost")
-    keyframe_inliers: float = Field(0.6, gt=0, lt=1, description="new keyframe below this × the first inliers")
+    tracking: TrackingParams = Field(TrackingParams(), description="PnP tracking, keyframes, whose geometry")
     map_keyframes: int = Field(2, ge=1, description="the keyframes whose points form the local map")
-    seed: int = Field(0, ge=0, description="RANSAC's random seed")
-    geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
     window: int = Field(0, ge=0, description="keyframes of the windowed bundle adjustment (0: none)")
     subpixel: bool = Field(True, description="refine each stereo match's disparity to a fraction of a pixel")
     search_radius: float = Field(
@@ -147,7 +155,7 @@ def stereo_matches(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame k's stereo points among its left ORB features (pixels u (n, 2), descriptors d (n, 32)): the indices
     (m,) of the features matched in the right image, their right columns u_R (m,) and camera-frame points (m, 3)."""
-    backend = BACKENDS[params.geometry]
+    backend = BACKENDS[params.tracking.geometry]
     left, right = camera.image(k), camera.image(k, "right")
     ur, dr = detect(right, params.features)
     i, j = stereo_candidates(u, ur, params.row_tolerance, params.min_disparity)
@@ -180,7 +188,7 @@ def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:
     params = StereoVOParams.of(params)
     if camera.right is None or not camera.stereo.all():
         raise ValueError(f"stereo VO needs a right image for every frame; {int((~camera.stereo).sum())} lack one")
-    backend = BACKENDS[params.geometry]
+    backend = BACKENDS[params.tracking.geometry]
     n = len(camera)
     poses = np.tile(np.eye(4), (n, 1, 1))
     reference = np.zeros(n, np.int64)  # the keyframe each frame was tracked against
@@ -271,20 +279,22 @@ def stereo_vo(camera: Camera, params: StereoVOParams | None = None) -> VOResult:
                 )
             else:
                 i, j = backend.match(d, descriptors[local], params.features.ratio, params.features.max_distance)
-            result = backend.pnp(camera.K, points[local[j]], u[i], params.pnp_threshold, params.seed + k)
+            result = backend.pnp(
+                camera.K, points[local[j]], u[i], params.tracking.pnp_threshold, params.tracking.seed + k
+            )
             count = 0 if result is None else int(result.inliers.sum())
-            if count >= params.min_inliers:
+            if count >= params.tracking.min_inliers:
                 break
         inliers[k] = count
         reference[k] = keyframes[-1]
-        if result is None or count < params.min_inliers:
+        if result is None or count < params.tracking.min_inliers:
             poses[k] = poses[k - 1]
             lost += 1
             add_keyframe(k, u, d, None)
         else:
             poses[k] = pose_matrix(result.R, result.t)
             first_inliers = count if first_inliers is None else first_inliers
-            if count < params.keyframe_inliers * first_inliers or count < 2 * params.min_inliers:
+            if count < params.tracking.keyframe_inliers * first_inliers or count < 2 * params.tracking.min_inliers:
                 add_keyframe(k, u, d, (i[result.inliers], local[j[result.inliers]]))
         cpu[k] = time.process_time() - start
     return VOResult(

@@ -38,7 +38,7 @@ def test_stereo_vo_tracks_the_first_30_frames():
 def test_the_opencv_baseline_and_ours_agree_on_the_first_30_frames():
     camera = load_staged("kitti:00", frames=30).camera
     ours = stereo_vo(camera)
-    theirs = stereo_vo(camera, StereoVOParams(geometry="opencv"))
+    theirs = stereo_vo(camera, StereoVOParams(tracking={"geometry": "opencv"}))
     assert theirs.lost == 0
     gap = np.linalg.norm(ours.poses[:, :3, 3] - theirs.poses[:, :3, 3], axis=1)
     assert gap.max() < 0.05 * np.linalg.norm(camera.ground_truth[-1, :3, 3])
