@@ -2,7 +2,7 @@
 
 Measured on frames 0–99 (84 m; `slamarena run kitti_vo`, research/notebook/2026-11-28-vision-pipeline.md): ATE
 0.53 % of the path after SE(3) alignment, KITTI t_rel 2.68 % (2.45 % with the windowed BA) over segments of 10, 20,
-40, 80 m, end-point drift 3.5 % (3.4 %), 15.5 (11.1) frames per CPU second; the OpenCV-only baseline in the same
+40, 80 m, end-point drift 3.5 % (3.4 %), 15.6 (12.8) frames per CPU second; the OpenCV-only baseline in the same
 pipeline 2.92 % and 3.5 %. The default tests run the first 30 frames; the slow one all 100."""
 
 from __future__ import annotations
