@@ -53,8 +53,8 @@ def plot_runs(results_dir: Path, out: Path) -> list[Path]:
     import slamarena
     from slamarena.experiments.metrics.trajectory3d import camera_reference
 
-    runs = [r for r in load_runs(results_dir) if r.seed == load_runs(results_dir)[0].seed]
-    runs = [r for r in runs if r.estimate.poses_3d is not None]
+    every = load_runs(results_dir)
+    runs = [r for r in every if r.seed == every[0].seed and r.estimate.poses_3d is not None]
     if not runs:
         raise FigureSkipped("no run holds a 3-D camera trajectory (Estimate.poses_3d)")
     specs = dict(config_entries(results_dir, "datasets"))
