@@ -83,7 +83,7 @@ __all__ = [
 ]
 
 #: figure kinds a config may ask for (implemented one module each in ``paper_figures``)
-FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
+FIGURES = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps", "vo")
 
 
 class ConfigError(UserError, ValueError):

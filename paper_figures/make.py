@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from . import errors, maps, nees, neff, relations, scaling, trajectories
+from . import errors, maps, nees, neff, relations, scaling, trajectories, vision
 from .runs import FigureSkipped
 
 __all__ = ["FIGURES", "make_all"]
@@ -24,6 +24,7 @@ FIGURES: dict[str, Callable[[Path, Path], list[Path]]] = {
     "relations": relations.plot,
     "neff": neff.plot,
     "maps": maps.plot,
+    "vo": vision.plot_runs,
 }
 
 

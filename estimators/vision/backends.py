@@ -16,6 +16,10 @@ essential     :func:`.two_view.essential_ransac` (5-point)       ``cv2.findEssen
 
 Shapes: descriptors (n, 32) uint8; normalised points x (n, 2); pixels u (n, 2); world points X (n, 3); a pose
 (R, t) is ``T_cam←world``. ``allowed`` (n₁, n₂) bool, optional, rules descriptor pairs out of a match (stereo rows).
+``match_candidates`` is the same match restricted to the candidate pairs (i (c,), j (c,)) — the pairs a rectified
+pair allows, a few per row out of n₁ n₂ —: ours computes the c distances alone and takes, per row and per column,
+the nearest candidate (ties to the lower index, as ``argmin``) and the second nearest (absent: the largest
+distance), which is ``match`` with ``allowed`` true exactly on the candidates (test); OpenCV's builds that mask.
 """
 
 from __future__ import annotations
@@ -55,6 +59,26 @@ class Backend:
         if allowed is not None:
             D = np.where(allowed, D, np.iinfo(D.dtype).max)
         return match_table(D, ratio, True, max_distance)
+
+    def match_candidates(
+        self, a: np.ndarray, b: np.ndarray, i: np.ndarray, j: np.ndarray, ratio: float, max_distance: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        if len(i) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        wa, wb = (np.ascontiguousarray(d, dtype=np.uint8).view(np.uint64) for d in (a, b))
+        D = np.bitwise_count(wa[i] ^ wb[j]).sum(axis=1, dtype=np.int64)  # (c,)
+        by_row = np.lexsort((j, D, i))  # each row's candidates, nearest first, ties to the lower column
+        first = np.r_[True, i[by_row][1:] != i[by_row][:-1]]
+        at = np.flatnonzero(first)
+        after = np.minimum(at + 1, len(by_row) - 1)
+        best, runner_up = by_row[at], by_row[after]  # candidate indices, one per row that has candidates
+        second = np.where((after > at) & (i[runner_up] == i[best]), D[runner_up], np.iinfo(np.uint16).max)
+        by_column = np.lexsort((i, D, j))
+        column_first = by_column[np.r_[True, j[by_column][1:] != j[by_column][:-1]]]
+        nearest_row = np.full(len(b), -1)
+        nearest_row[j[column_first]] = i[column_first]
+        keep = (D[best] <= max_distance) & (D[best] < ratio * second) & (nearest_row[j[best]] == i[best])
+        return i[best][keep], j[best][keep]
 
     def triangulate(self, x1: np.ndarray, x2: np.ndarray, pose1, pose2) -> np.ndarray:
         return triangulate_dlt(x1, x2, pose1, pose2)
@@ -101,6 +125,11 @@ class OpenCVBackend(Backend):
         i = np.flatnonzero(forward >= 0)
         i = i[backward[forward[i]] == i]
         return i, forward[i]
+
+    def match_candidates(self, a, b, i, j, ratio, max_distance) -> tuple[np.ndarray, np.ndarray]:
+        allowed = np.zeros((len(a), len(b)), bool)
+        allowed[i, j] = True
+        return self.match(a, b, ratio, max_distance, allowed)
 
     def triangulate(self, x1, x2, pose1, pose2) -> np.ndarray:
         import cv2

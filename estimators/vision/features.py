@@ -16,7 +16,7 @@ from slamarena.params import Field, Params
 
 from .matching import match
 
-__all__ = ["FeatureParams", "orb", "warp_match_rate"]
+__all__ = ["FeatureParams", "detect", "orb", "warp_match_rate"]
 
 
 class FeatureParams(Params):
@@ -26,6 +26,38 @@ class FeatureParams(Params):
     n_features: int = Field(2000, ge=50, description="ORB features per image")
     ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")
     max_distance: int = Field(64, ge=0, le=256, description="largest Hamming distance of a match [bits]")
+    grid: tuple[int, int] = Field(
+        (12, 4), description="buckets (columns, rows) over the image (0, 0: none); see :func:`detect`"
+    )
+
+
+def detect(image: np.ndarray, params: FeatureParams) -> tuple[np.ndarray, np.ndarray]:
+    """A pipeline's features: :func:`orb` with ``n_features``, or, with a ``grid`` of c × r buckets, ``n_features``
+    of ``2 n_features`` detected taken in turns from the buckets (each bucket's strongest by FAST response, then each
+    one's second, …) — the spread a PnP and a bundle adjustment need, where ORB's own ranking crowds the features
+    into the most textured part of the image."""
+    columns, rows = params.grid
+    if columns * rows == 0:
+        return orb(image, params.n_features)
+    detector = cv2.ORB_create(nfeatures=2 * params.n_features)
+    keypoints = detector.detect(image, None)
+    if not keypoints:
+        return np.zeros((0, 2)), np.zeros((0, 32), np.uint8)
+    u = np.array([k.pt for k in keypoints], dtype=float)
+    response = np.array([k.response for k in keypoints])
+    h, w = image.shape
+    cell = np.minimum((u[:, 0] * columns / w).astype(int), columns - 1) * rows + np.minimum(
+        (u[:, 1] * rows / h).astype(int), rows - 1
+    )
+    order = np.lexsort((-response, cell))
+    start = np.searchsorted(cell[order], cell[order])  # first position of each keypoint's bucket
+    rank = np.empty(len(order), np.int64)
+    rank[order] = np.arange(len(order)) - start  # 0 for the strongest of its bucket
+    keep = np.sort(np.lexsort((-response, rank))[: params.n_features])
+    kept, descriptors = detector.compute(image, [keypoints[k] for k in keep])  # descriptors of the kept ones only
+    if descriptors is None:
+        return np.zeros((0, 2)), np.zeros((0, 32), np.uint8)
+    return np.array([k.pt for k in kept], dtype=float), descriptors
 
 
 def orb(image: np.ndarray, n_features: int = 2000, **options) -> tuple[np.ndarray, np.ndarray]:

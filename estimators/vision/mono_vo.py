@@ -18,22 +18,38 @@ front of both cameras, reproject within ``pnp_threshold`` px in both, and are se
 least ``min_parallax_deg`` — provided the median displacement of those features since the previous keyframe is at
 least ``init_parallax`` px (a keyframe needs a baseline), unless the frame is about to be lost (fewer than
 2 × ``min_inliers`` inliers). A frame whose PnP fails keeps the previous pose and is counted as lost.
+
+The map: points (N, 3), each with its latest descriptor and the latest keyframe that saw it; the local map is the
+points seen by the last ``map_keyframes`` keyframes. A keyframe observes its PnP inliers (monocular ``(u, v)``) and
+the new points it triangulates with the previous keyframe (from features neither keyframe has mapped yet).
+Features: ORB spread over a grid of buckets (:func:`.features.detect`).
+
+Back end (``window`` ≥ 3): after each new keyframe, :func:`.window_ba.bundle_adjust` (no baseline: projection
+factors, Huber) over the last ``window`` keyframes and the points at least two of them see, the two oldest held
+fixed — seven degrees of gauge freedom, the scale among them, fixed by two poses —; frames tracked against a moved
+keyframe move with it. A failed adjustment leaves the estimate as it was and is recorded in ``meta``.
+
+``pnp_threshold``, ``min_inliers``, ``keyframe_inliers``, ``seed`` and ``geometry`` are the fields of ``tracking``
+(:class:`.stereo_vo.TrackingParams`, shared with the stereo pipeline); ``map_keyframes`` is each pipeline's own (2
+stereo, 3 mono: a partial ``tracking`` override takes the class defaults, so a default that differs stays outside).
 """
 
 from __future__ import annotations
 
 import time
-from typing import Literal
 
 import numpy as np
+from pydantic import field_validator
 
 from slamarena.datasets.sequence import Camera
+from slamarena.estimators.gtsam_smoother.graph import OptimizationError
 from slamarena.params import Field, Params
 
 from .backends import BACKENDS, Backend
-from .features import FeatureParams, orb
+from .features import FeatureParams, detect
 from .projection import normalise, residuals
-from .stereo_vo import VOResult, pose_matrix
+from .stereo_vo import TrackingParams, VOResult, pose_matrix
+from .window_ba import Observation, bundle_adjust
 
 __all__ = ["MonoVOParams", "mono_vo", "triangulate_pair"]
 
@@ -46,13 +62,19 @@ class MonoVOParams(Params):
     features: FeatureParams = Field(FeatureParams(), description="ORB features and their matching")
     init_parallax: float = Field(10.0, gt=0, description="median displacement that starts the map [px]")
     essential_threshold: float = Field(1.0, gt=0, description="Sampson threshold of the essential RANSAC [px]")
-    pnp_threshold: float = Field(2.0, gt=0, description="PnP RANSAC and triangulation threshold [px]")
     min_parallax_deg: float = Field(0.5, ge=0, description="smallest parallax angle of a new map point [deg]")
-    min_inliers: int = Field(20, ge=4, description="PnP inliers below which a frame is lost")
-    keyframe_inliers: float = Field(0.6, gt=0, lt=1, description="new keyframe below this × the first inliers")
-    map_keyframes: int = Field(3, ge=1, description="the keyframe pairs whose points form the local map")
-    seed: int = Field(0, ge=0, description="RANSAC's random seed")
-    geometry: Literal["ours", "opencv"] = Field("ours", description="whose matching, triangulation and PnP")
+    tracking: TrackingParams = Field(
+        TrackingParams(), description="PnP tracking, keyframes, whose geometry (pnp_threshold also gates triangulation)"
+    )
+    map_keyframes: int = Field(3, ge=1, description="the keyframes whose points form the local map")
+    window: int = Field(0, ge=0, description="keyframes of the windowed bundle adjustment (0: none; else ≥ 3)")
+
+    @field_validator("window")
+    @classmethod
+    def _window(cls, window: int) -> int:
+        if window in (1, 2):
+            raise ValueError("a monocular window holds its two oldest keyframes fixed: 0 (none) or at least 3")
+        return window
 
 
 def triangulate_pair(
@@ -86,17 +108,56 @@ def triangulate_pair(
 def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
     """Run monocular VO over every frame of ``camera`` (see the module docstring); ValueError when the start fails."""
     params = MonoVOParams.of(params)
-    backend = BACKENDS[params.geometry]
+    backend = BACKENDS[params.tracking.geometry]
     K, n = camera.K, len(camera)
     poses = np.tile(np.eye(4), (n, 1, 1))
+    reference = np.zeros(n, np.int64)  # the keyframe each frame was tracked against
     inliers = np.full(n, -1, np.int64)
     cpu = np.zeros(n)
     features: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    # every map point (world), its descriptor (its latest inlier view), the latest keyframe that saw it; each
+    # keyframe's observations and the features it has mapped
+    points, descriptors, last_seen = np.zeros((0, 3)), np.zeros((0, 32), np.uint8), np.zeros(0, np.int64)
+    observations: dict[int, list[Observation]] = {}
+    mapped: dict[int, np.ndarray] = {}
+    ba_runs, ba_failures = 0, []
 
     def features_of(k: int):
         if k not in features:
-            features[k] = orb(camera.image(k), params.features.n_features)
+            features[k] = detect(camera.image(k), params.features)
         return features[k]
+
+    def add_points(k0: int, k1: int, a: np.ndarray, b: np.ndarray, X: np.ndarray) -> None:
+        """New points X (m, 3) seen by keyframes k0 at its features a (m,) and k1 at its features b (m,)."""
+        nonlocal points, descriptors, last_seen
+        ids = len(points) + np.arange(len(X))
+        points = np.vstack([points, X])
+        descriptors = np.vstack([descriptors, features_of(k1)[1][b]])
+        last_seen = np.concatenate([last_seen, np.full(len(X), k1)])
+        for k, f in ((k0, a), (k1, b)):
+            observations.setdefault(k, []).extend(Observation(k, int(p), *features_of(k)[0][i]) for p, i in zip(ids, f))
+            mapped[k] = np.union1d(mapped.get(k, np.zeros(0, np.int64)), f)
+
+    def adjust(keyframes: list[int]) -> None:
+        """Bundle adjustment over the last ``window`` keyframes, the oldest two fixed (the gauge and the scale)."""
+        nonlocal ba_runs
+        window = keyframes[-params.window :]
+        try:
+            new_poses, new_points = bundle_adjust(
+                K, None, {k: poses[k] for k in window}, points, [o for k in window for o in observations[k]],
+                tuple(window[:2]), min_views=2, max_iterations=100,
+            )  # fmt: skip
+        except (OptimizationError, RuntimeError) as failure:
+            ba_failures.append(f"window {window}: {failure}"[:200])
+            return
+        ba_runs += 1
+        for k in window[2:]:  # frames tracked against a moved keyframe move with it
+            move = new_poses[k] @ np.linalg.inv(poses[k])
+            later = np.flatnonzero((reference == k) & (np.arange(n) > k) & (np.arange(n) <= keyframes[-1]))
+            poses[later] = move @ poses[later]
+            poses[k] = new_poses[k]
+        for p, X in new_points.items():
+            points[p] = X
 
     # ---- start: keyframes 0 and k1
     start = time.process_time()
@@ -117,10 +178,13 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         raise ValueError(f"mono VO: no essential matrix between frames 0 and {k1}")
     first, second = (np.eye(3), np.zeros(3)), (two_view.R, two_view.t)
     a, b = a[two_view.inliers], b[two_view.inliers]
-    X, keep = triangulate_pair(backend, K, u0[a], u1[b], first, second, params.pnp_threshold, params.min_parallax_deg)
+    X, keep = triangulate_pair(
+        backend, K, u0[a], u1[b], first, second, params.tracking.pnp_threshold, params.min_parallax_deg
+    )
     poses[k1] = pose_matrix(*second)
     keyframes = [0, k1]
-    maps = [(X, d1[b][keep])]
+    add_points(0, k1, a[keep], b[keep], X)
+    reference[1:] = k1
     cpu[k1] += time.process_time() - start
 
     # ---- tracking: the frames between the two keyframes, then the rest
@@ -128,41 +192,48 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
     for k in [*range(1, k1), *range(k1 + 1, n)]:
         start = time.process_time()
         u, d = features_of(k)
-        X_map = np.concatenate([m[0] for m in maps])
-        d_map = np.concatenate([m[1] for m in maps])
-        i, j = backend.match(d, d_map, params.features.ratio, params.features.max_distance)
-        result = backend.pnp(K, X_map[j], u[i], params.pnp_threshold, params.seed + k)
+        local = np.flatnonzero(np.isin(last_seen, keyframes[-params.map_keyframes :]))
+        i, j = backend.match(d, descriptors[local], params.features.ratio, params.features.max_distance)
+        result = backend.pnp(K, points[local[j]], u[i], params.tracking.pnp_threshold, params.tracking.seed + k)
         count = 0 if result is None else int(result.inliers.sum())
         inliers[k] = count
-        if result is None or count < params.min_inliers:
+        if k > k1:
+            reference[k] = keyframes[-1]
+        if result is None or count < params.tracking.min_inliers:
             poses[k] = poses[k - 1]
             lost += 1
         else:
             poses[k] = pose_matrix(result.R, result.t)
             first_inliers = count if first_inliers is None else first_inliers
-            d_map[j[result.inliers]] = d[i[result.inliers]]  # a map point looks like its latest inlier view
-            maps = [(X, dm) for (X, _), dm in zip(maps, np.split(d_map, np.cumsum([len(m[0]) for m in maps])[:-1]))]
+            descriptors[local[j[result.inliers]]] = d[i[result.inliers]]  # a map point looks like its latest view
         if (
             k > k1
             and result is not None
-            and count >= params.min_inliers
-            and (count < params.keyframe_inliers * first_inliers or count < 2 * params.min_inliers)
+            and count >= params.tracking.min_inliers
+            and (count < params.tracking.keyframe_inliers * first_inliers or count < 2 * params.tracking.min_inliers)
         ):
             previous = keyframes[-1]
             up, dp = features_of(previous)
+            tracked, ids = i[result.inliers], local[j[result.inliers]]
             a, b = backend.match(dp, d, params.features.ratio, params.features.max_distance)
+            fresh = ~np.isin(a, mapped.get(previous, [])) & ~np.isin(b, tracked)  # not yet map points
+            a, b = a[fresh], b[fresh]
             T_prev, T_now = np.linalg.inv(poses[previous]), np.linalg.inv(poses[k])
             moved = len(a) >= 8 and np.median(np.linalg.norm(u[b] - up[a], axis=1)) >= params.init_parallax
             X, keep = triangulate_pair(
                 backend, K, up[a], u[b], (T_prev[:3, :3], T_prev[:3, 3]), (T_now[:3, :3], T_now[:3, 3]),
-                params.pnp_threshold, params.min_parallax_deg,
+                params.tracking.pnp_threshold, params.min_parallax_deg,
             )  # fmt: skip
-            keep &= moved or count < 2 * params.min_inliers  # about to be lost: any baseline will do
-            if keep.sum() >= params.min_inliers:
+            keep &= moved or count < 2 * params.tracking.min_inliers  # about to be lost: any baseline will do
+            if keep.sum() >= params.tracking.min_inliers:
                 keyframes.append(k)
-                maps.append((X, d[b][keep]))
-                del maps[: -params.map_keyframes]
+                observations[k] = [Observation(k, int(p), *u[f]) for p, f in zip(ids, tracked)]
+                mapped[k] = np.sort(tracked)
+                last_seen[ids] = k
+                add_points(previous, k, a[keep], b[keep], X)
                 first_inliers = None
+                if params.window >= 3:
+                    adjust(keyframes)
             for old in [f for f in features if f < keyframes[-1] and f not in keyframes[-1:]]:
                 del features[old]
         cpu[k] += time.process_time() - start
@@ -174,5 +245,5 @@ def mono_vo(camera: Camera, params: MonoVOParams | None = None) -> VOResult:
         keyframes=keyframes,
         cpu_time=cpu,
         lost=lost,
-        meta={"params": params.model_dump(), "start_keyframe": k1},
+        meta={"params": params.model_dump(), "start_keyframe": k1, "ba_runs": ba_runs, "ba_failures": ba_failures},
     )

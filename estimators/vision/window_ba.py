@@ -11,7 +11,8 @@ Factors, each with a Huber kernel (width ``robust_k`` whitened units) on isotrop
 - a prior holding the oldest keyframe of the window where it is (σ 1e-6): the window's gauge (and, monocular, its
   scale comes from the points' positions: the window keeps two fixed keyframes in that case).
 
-A point enters the window when it has a stereo observation in it, or monocular observations from two keyframes of it.
+A point enters the window when it has a stereo observation in it, or monocular observations from two keyframes of it,
+and at least ``min_views`` keyframes of the window see it.
 Levenberg-Marquardt through :func:`slamarena.estimators.gtsam_smoother.graph.optimize` (a failure is an error).
 """
 
@@ -46,9 +47,13 @@ def bundle_adjust(
     fixed: tuple[int, ...],
     sigma_px: float = 1.0,
     robust_k: float = 1.345,
+    min_views: int = 1,
+    max_iterations: int = 20,
 ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
     """Optimise the keyframe poses ``poses`` (keyframe → T_world←cam (4, 4)) and the points (ids → rows of
-    ``points`` (N, 3)) they observe; keyframes ``fixed`` are held by priors. Returns the new poses and the new
+    ``points`` (N, 3)) they observe; keyframes ``fixed`` are held by priors. ``min_views`` = 2 leaves out the
+    points a single keyframe sees (their optimum is that keyframe's triangulation whatever its pose: they change no
+    pose, only the size of the problem). Returns the new poses and the new
     positions of the points that entered the window."""
     import gtsam
 
@@ -69,7 +74,7 @@ def bundle_adjust(
         seen.setdefault(o.point, set()).add(o.keyframe)
         if np.isfinite(o.u_right):
             stereo_points.add(o.point)
-    used = {p for p, frames in seen.items() if p in stereo_points or len(frames) >= 2}
+    used = {p for p, frames in seen.items() if len(frames) >= max(min_views, 1 if p in stereo_points else 2)}
     graph, initial = gtsam.NonlinearFactorGraph(), gtsam.Values()
     for k, T in poses.items():
         initial.insert(X(k), gtsam.Pose3(T))
@@ -92,7 +97,7 @@ def bundle_adjust(
                     gtsam.Point2(o.u, o.v), mono_noise, X(o.keyframe), L(o.point), calibration
                 )
             )
-    values = optimize(graph, initial, OptimizerParams(max_iterations=20, relative_error_tol=1e-6)).values
+    values = optimize(graph, initial, OptimizerParams(max_iterations=max_iterations, relative_error_tol=1e-6)).values
     return (
         {k: values.atPose3(X(k)).matrix() for k in poses},
         {p: np.asarray(values.atPoint3(L(p))) for p in used},

@@ -67,9 +67,19 @@ def measure(quick: bool = False) -> dict:
     runs = [
         ("stereo VO (ours)", "se3", stereo, lambda c: stereo_vo(c)),
         ("stereo VO + window BA (ours, GTSAM)", "se3", stereo, lambda c: stereo_vo(c, StereoVOParams(window=5))),
-        ("stereo VO (OpenCV geometry)", "se3", stereo, lambda c: stereo_vo(c, StereoVOParams(geometry="opencv"))),
+        (
+            "stereo VO (OpenCV geometry)",
+            "se3",
+            stereo,
+            lambda c: stereo_vo(c, StereoVOParams(tracking={"geometry": "opencv"})),
+        ),
         ("mono VO (ours)", "sim3", mono, lambda c: mono_vo(c)),
-        ("mono VO (OpenCV geometry)", "sim3", mono, lambda c: mono_vo(c, MonoVOParams(geometry="opencv"))),
+        (
+            "mono VO (OpenCV geometry)",
+            "sim3",
+            mono,
+            lambda c: mono_vo(c, MonoVOParams(tracking={"geometry": "opencv"})),
+        ),
     ]
     rows, tracks = [], {}
     for name, align, cam, run in runs:

@@ -1,11 +1,9 @@
 """Stereo VO on the staged KITTI 00 frames (parameters set a priori: StereoVOParams' defaults).
 
-Measured on frames 0–99 (84 m; research/notebook/2026-11-28-vision.md): ATE 0.56 m after SE(3) alignment (0.66 % of
-the path), KITTI t_rel 2.68 % and r_rel 2.47 deg/100 m over segments of 10, 20, 40, 80 m, end-point drift 3.5 %,
-11–12 frames per CPU second; the OpenCV-only baseline in the same pipeline 0.44 m, 2.21 %, 3.0 %
-(`slamarena bench vision-vo`). The default tests run
-the first 30 frames; the slow one all 100.
-"""
+Measured on frames 0–99 (84 m; `slamarena run kitti_vo`, research/notebook/2026-11-28-vision-pipeline.md): ATE
+0.53 % of the path after SE(3) alignment, KITTI t_rel 2.68 % (2.45 % with the windowed BA) over segments of 10, 20,
+40, 80 m, end-point drift 3.5 % (3.4 %), 15.6 (12.8) frames per CPU second; the OpenCV-only baseline in the same
+pipeline 2.92 % and 3.5 %. The default tests run the first 30 frames; the slow one all 100."""
 
 from __future__ import annotations
 
@@ -40,7 +38,7 @@ def test_stereo_vo_tracks_the_first_30_frames():
 def test_the_opencv_baseline_and_ours_agree_on_the_first_30_frames():
     camera = load_staged("kitti:00", frames=30).camera
     ours = stereo_vo(camera)
-    theirs = stereo_vo(camera, StereoVOParams(geometry="opencv"))
+    theirs = stereo_vo(camera, StereoVOParams(tracking={"geometry": "opencv"}))
     assert theirs.lost == 0
     gap = np.linalg.norm(ours.poses[:, :3, 3] - theirs.poses[:, :3, 3], axis=1)
     assert gap.max() < 0.05 * np.linalg.norm(camera.ground_truth[-1, :3, 3])

@@ -27,10 +27,14 @@ def test_kitti_vo_on_a_prefix(tmp_path):
     raw["estimators"] = [e for e in raw["estimators"] if e.get("label") is None]  # stereo_vo, mono_vo
     raw["metrics"]["kitti_rel"] = {"lengths": [5.0], "step": 1}
     config = ExperimentConfig.model_validate(raw)
-    assert run_experiment(config, tmp_path, jobs=1) == 0
+    from slamarena.paper_figures.make import make_all
+
+    assert run_experiment(config, tmp_path, jobs=1, make_figures=make_all) == 0
     summary = pd.read_csv(tmp_path / "summary.csv").set_index("estimator")
     stereo, mono = summary.loc["stereo_vo"], summary.loc["mono_vo"]
     assert stereo["ate3d.path_m"] == pytest.approx(9.45, abs=0.1)  # 11 steps of 0.86 m
     assert stereo["ate3d.percent"] < 5 and stereo["kitti_rel.segments"] > 0
     assert mono["ate3d.sim3_percent"] < 5 and mono["ate3d.sim3_scale"] > 0
     assert stereo["cost.step_total"] > 0 and stereo["cost.steps"] == 12
+    for stem in ("vo_top_view", "vo_error_over_distance", "vo_tracked_features"):  # figures: [vo]
+        assert (tmp_path / "figures" / f"{stem}.png").stat().st_size > 1000, stem

@@ -21,7 +21,7 @@ from slamarena.paper_figures.scaling import crossovers, find_sweeps, fit_slope
 from slamarena.paper_figures.style import COLUMN, PAGE, MethodStyles
 from slamarena.paper_figures.trajectories import CHI2_2_95, ellipse_points, merged_groups, overlapping
 
-KINDS = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps")
+KINDS = ("trajectories", "errors", "nees", "scaling", "relations", "neff", "maps", "vo")
 
 
 def _world(n_steps):
@@ -315,7 +315,7 @@ def drawn(results, sweep, laser):
 
 def test_every_figure_kind_is_drawn_with_its_caption(drawn, results, sweep, laser):
     seen, files = drawn
-    assert files[results][1].keys() == {"scaling", "maps"}  # no sweep, no laser mapping method
+    assert files[results][1].keys() == {"scaling", "maps", "vo"}  # no sweep, no laser mapping method, no camera
     assert files[sweep][1] == files[laser][1] == {}
     names = {p.name for written, _ in files.values() for p in written}
     for stem in (
