@@ -45,7 +45,9 @@ the found pose, maximised over θ, is thresholded at its maximum minus ``ambigui
 when the translations above the threshold form one connected region (8-connected cells). A long corridor gives
 one elongated region (the covariance then says which way the match is weak); repeated rooms give one island per
 room in the window, and the candidate is rejected (``ambiguous``). Once a unique place (a corner) closes a loop the
-windows shrink below the period and the rooms become unique too.
+windows shrink below the period and the rooms become unique too. Only the superlevel set is needed, so the response is
+evaluated only in the tiles of 8 × 8 shifts whose max-pyramid bound (the branch and bound's) reaches S(found pose) −
+``ambiguity`` · (points) (:func:`_best_over_angles`): the set, and so the verdict, is the exhaustive one's exactly.
 
 Which matches then join the graph is decided by the verification (:mod:`.consistency`, :mod:`.slam`). There is no
 χ² gate of the match against the estimate's prediction inside the window: the sequential factors' covariance
@@ -69,6 +71,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+from numba import njit
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 from scipy.ndimage import label
 from scipy.stats import chi2
@@ -76,7 +79,7 @@ from scipy.stats import chi2
 from slamarena.datasets.geometry import between, compose
 from slamarena.params import Field, Params
 
-from ..scan_matching.correlative import BranchAndBoundMatcher, CorrelativeMatcher
+from ..scan_matching.correlative import BranchAndBoundMatcher, CorrelativeMatcher, _node_score
 from ..scan_matching.gauss_newton import GaussNewtonMatcher
 
 __all__ = ["TESTS", "LoopCloser", "LoopClosureParams", "LoopRecord"]
@@ -219,6 +222,36 @@ class LoopRecord:
         }
 
 
+#: the uniqueness test bounds tiles of (2^depth)² translations by the max-pyramid level of this depth
+_TILE_DEPTH = 3
+
+
+@njit(cache=True)
+def _best_over_angles(pyramid, depth, ix, iy, w, slack):
+    """best[b + w, a + w] = max_k S(k, a, b) (2w + 1, 2w + 1), S the summed likelihood of the points' cells ix, iy
+    (K, N) at angle k shifted by (a, b), |a|, |b| ≤ w — exact wherever it reaches max S − ``slack``, −inf in the
+    tiles of 2^depth × 2^depth shifts whose max-pyramid bound (``pyramid[depth]``, each cell the maximum of the
+    2^depth × 2^depth cells from it) lies below S(centre angle, 0, 0) − slack: no shift in them can reach max S −
+    slack (bound ≥ S term by term, and float sums in the same order keep it). The superlevel set is the exhaustive
+    response's, at a fraction of the lookups."""
+    K = ix.shape[0]
+    n = 2 * w + 1
+    best = np.full((n, n), -np.inf)
+    floor = _node_score(pyramid[0], ix[K // 2], iy[K // 2], 0, 0) - slack
+    step = 2**depth
+    for k in range(K):
+        for tb in range(-w, w + 1, step):
+            for ta in range(-w, w + 1, step):
+                if _node_score(pyramid[depth], ix[k], iy[k], ta, tb) < floor:
+                    continue
+                for b in range(tb, min(tb + step, w + 1)):
+                    for a in range(ta, min(ta + step, w + 1)):
+                        v = _node_score(pyramid[0], ix[k], iy[k], a, b)
+                        if v > best[b + w, a + w]:
+                            best[b + w, a + w] = v
+    return best
+
+
 def voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
     """One point per ``size`` × ``size`` cell (the first of each), in the points' order."""
     if size <= 0 or len(points) == 0:
@@ -322,9 +355,10 @@ class LoopCloser:
         cache = m._grids(submap.maps, 0, pose, 0.0)
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = m._cells(grid, cache["pad"] - cache["corner"], points, pose, pose[2] + offsets)
-        S, _, _ = m._response(cache["pyramid"][0], ix, iy, range(offsets.size), m._w(grid), m._w(grid))
-        best = S.max(axis=0)
-        return int(label(best >= best.max() - self.p.ambiguity * len(points), structure=np.ones((3, 3)))[1])
+        slack = self.p.ambiguity * len(points)
+        pyramid = cache["pyramid"]
+        best = _best_over_angles(pyramid, min(_TILE_DEPTH, len(pyramid) - 1), ix, iy, m._w(grid), slack)
+        return int(label(best >= best.max() - slack, structure=np.ones((3, 3)))[1])
 
     def try_close(
         self,
