@@ -12,8 +12,8 @@ when its node c nearest to node n (in the estimate) could be within ``overlap`` 
 beyond ``overlap`` is inside the window (‖Δ‖ − overlap ≤ linear half-width); the nearest ``max_candidates`` are
 tried. The window thus widens with the path travelled since the last closure and collapses once a loop closes —
 down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window): on the simulated corridor loop
-the sequential factors' covariance is so overconfident that windows from it missed the true place (ATE 0.64 → 1.87 m
-over 20 drives), so the marginal windows wait for an honest front-end covariance.
+the windows missed the true place (ATE 0.64 → 1.87 m over 20 drives), and still do with the interval covariance
+(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md).
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound

@@ -15,7 +15,11 @@ Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L
 covariance R_iᵀ C_i R_i + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match in the
 front-end frame, R_i the rotation of node i's front-end pose L_i — the frame of z's end, in which GTSAM's
 BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
-covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
+covariance ignores the map's own error). With ``odometry_noise`` set, R_iᵀ C_i R_i is replaced by the odometry's
+covariance accumulated over the interval fused with the node scan's match information, Q (I₃ + R_iᵀ I_i R_i Q)⁻¹
+(:mod:`.interval`), and the refinement's pairwise factors keep the front end's relative pose along a direction the
+scan does not constrain (the front end's ``degeneracy_threshold``; :meth:`LaserSLAM._pairwise_kept`).
+Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
 searched within windows from the graph's marginal covariance, required to be unique there, robustified, and verified
 (``loop.verify``): with ``"pcm"`` every unique match joins the pairwise consistency test against the others and the
 front end's chain (:mod:`.consistency`) and the graph holds exactly the current largest consistent set (loops leave
@@ -98,9 +102,10 @@ class LaserSLAMParams(Params):
         "active submap (Cartographer)",
     )
     odometry_noise: OdometryNoiseParams | None = Field(
-        OdometryNoiseParams(),
-        description="the odometry's noise: a front-end relative pose's covariance is the odometry's accumulated over "
-        "its interval fused with its end's match (mapping/laser_slam/interval.py); None: the match's alone",
+        None,
+        description="the odometry's noise: a front-end relative pose's covariance is then the odometry's accumulated "
+        "over its interval fused with its end's match (mapping/laser_slam/interval.py; meant with the front end's "
+        "degeneracy_threshold > 0); None, the default: the match's covariance alone, as with degeneracy off",
     )
     sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")

@@ -63,7 +63,8 @@ scan's information kept where the scan has it,
     Σ = T (K Tᵀ (H/σ̂²) T K + Tᵀ Λ T)⁻¹ Tᵀ,   K = diag(0, 1, 1)                                      (3, 3)
 
 (σ̂² and H at the match): along u_0 the odometry's variance σ̂²/w_t, elsewhere the scan's and the odometry's
-information summed. ``info["degenerate"]`` is 1 for such a match.
+information summed. ``info["degenerate"]`` is 1 for such a match. ``info["information"]`` (every match) is the
+scan's information without the prior, H/σ̂² projected onto the kept directions (:func:`match_information`).
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """

@@ -1,8 +1,8 @@
 """NEES of laser graph SLAM's sequential factors against the simulated truth (research/notebook/2026-11-28-degeneracy-2.md).
 
 Usage: ``python research/scripts/degeneracy_nees.py WORLD TAU [SEED] [NOISE]`` with WORLD a ``sim:laser`` world, TAU the
-front end's ``degeneracy_threshold`` and NOISE ``interval`` (the shipped rule: odometry accumulated over the interval,
-fused with the match) or ``match`` (``odometry_noise: None``, the match's covariance alone). Prints the mean NEES
+front end's ``degeneracy_threshold`` and NOISE ``interval`` (``odometry_noise`` at its defaults: the odometry accumulated
+over the interval, fused with the match) or ``match`` (the default ``odometry_noise: None``, the match's covariance). Prints the mean NEES
 eᵀΣ⁻¹e (dof 3) of the sequential factors, e = Log(z⁻¹ T_{i−1}⁻¹ T_i) at the true poses, the fraction inside χ²₃'s
 central 95 %, the mean 1-dof NEES along the world's x axis in the factor frame, the ATE and the CPU time.
 """
@@ -41,8 +41,8 @@ def main(argv: list[str]) -> None:
     noise = argv[3] if len(argv) > 3 else "interval"
     seq = simulate(world=world, seed=seed)
     params = {"frontend": {"matcher_params": {"degeneracy_threshold": tau}}}
-    if noise == "match":
-        params["odometry_noise"] = None
+    if noise == "interval":
+        params["odometry_noise"] = {}
     slam = LaserSLAM(**params)
     cpu = time.process_time()
     est = slam.run(seq)
