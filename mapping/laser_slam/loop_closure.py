@@ -13,7 +13,8 @@ beyond ``overlap`` is inside the window (‖Δ‖ − overlap ≤ linear half-wi
 tried. The window thus widens with the path travelled since the last closure and collapses once a loop closes —
 down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window): on the simulated corridor loop
 the windows missed the true place (ATE 0.64 → 1.87 m over 20 drives), and still do with the interval covariance
-(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md).
+(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md). While the floors reach the caps
+(:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound
@@ -303,17 +304,26 @@ class LoopCloser:
         self._cache: OrderedDict[int, dict] = OrderedDict()
         self.record = LoopRecord()
 
-    def window(self, P: np.ndarray) -> tuple[float, float]:
-        """The branch-and-bound half-widths (translation [m], rotation [rad]) of the relative covariance P (3, 3)."""
+    @property
+    def fixed(self) -> bool:
+        """Whether the floors reach the caps (as shipped): every window is then the caps, and no marginal is needed."""
         p = self.p
+        return p.min_linear_window >= p.linear_window and p.min_angular_window >= p.angular_window
+
+    def window(self, P: np.ndarray | None) -> tuple[float, float]:
+        """The branch-and-bound half-widths (translation [m], rotation [rad]) of the relative covariance P (3, 3);
+        the caps when the windows are :attr:`fixed` (P None)."""
+        p = self.p
+        if P is None:
+            return p.linear_window, p.angular_window
         sigma = np.sqrt(max(np.linalg.eigvalsh(P[:2, :2])[-1], 0.0))
         linear = float(np.clip(self.kappa * sigma, p.min_linear_window, p.linear_window))
         angular = float(np.clip(self.kappa * np.sqrt(max(P[2, 2], 0.0)), p.min_angular_window, p.angular_window))
         return linear, angular
 
-    def candidates(self, submaps, n: int, G: np.ndarray, relative) -> list[tuple[int, int, np.ndarray]]:
+    def candidates(self, submaps, n: int, G: np.ndarray, relative) -> list[tuple[int, int, np.ndarray | None]]:
         """The finished submaps to try for node n, nearest first: (submap index, its node c nearest to node n,
-        P_cn (3, 3)); ``relative(c, n)`` is P_cn."""
+        P_cn (3, 3), None when the windows are :attr:`fixed`); ``relative(c, n)`` is P_cn."""
         p = self.p
         finished = [s for s in submaps if s.finished]
         pool = finished[: max(len(finished) - p.exclude_recent, 0)]
@@ -324,7 +334,7 @@ class LoopCloser:
             if d.min() - p.overlap > p.linear_window:  # beyond any window: no marginal needed
                 continue
             c = int(nodes[np.argmin(d)])
-            P = relative(c, n)
+            P = None if self.fixed else relative(c, n)  # the joint marginal costs a factorisation of the graph
             if d.min() - p.overlap <= self.window(P)[0]:
                 out.append((d.min(), s.index, c, P))
         out.sort(key=lambda t: t[0])

@@ -214,3 +214,51 @@ def test_search_windows_from_the_marginals_widen_with_drift_and_collapse_after_a
     assert widths[10] <= 0.6 and widths[40] > params.min_linear_window
     backend.set_loops({"loop": (0, 120, np.array([48.0, 0.0, 0.0]), np.diag([0.05**2, 0.05**2, 0.01**2]))}, [])
     assert closer.window(backend.relative_cov(0, 120, chain))[0] < 0.5 * widths[120]
+
+
+def test_a_pairwise_registration_in_a_corridor_keeps_the_front_ends_pose_along_it():
+    """The refinement's pairwise factor (``LaserSLAM._pairwise_kept``): for a corridor scan with the degeneracy test on
+    it keeps the front end's relative pose along the corridor and states no information there (σ = 10³ m), the
+    across and heading parts as registered; a room scan, or the test off, leaves the registration as it was."""
+    from test_degeneracy import _scan
+
+    from slamarena.mapping.laser_slam.slam import LaserSLAM
+
+    pts = np.ascontiguousarray(_scan("corridor", np.array([40.3, 2.0, 0.0]))[0])
+    guess, z = np.array([0.30, 0.01, 0.002]), np.array([0.42, 0.012, 0.003])  # the ICP slid 12 cm along
+    cov = np.diag([0.05**2, 0.002**2, 0.001**2])
+    on = LaserSLAM(frontend={"matcher_params": {"degeneracy_threshold": 0.003}})
+    kept_z, kept_cov = on._pairwise_kept(pts, guess, z, cov)
+    assert kept_z[0] == pytest.approx(0.30, abs=0.005) and kept_z[1:] == pytest.approx(z[1:], abs=0.005)
+    info = np.linalg.inv(kept_cov)  # (its marginal across is wide: u_0 is tilted by the normals' noise)
+    assert info[0, 0] < 0.05 / cov[0, 0] and info[1, 1] > 0.5 / cov[1, 1] and info[2, 2] > 0.5 / cov[2, 2]
+    off_z, off_cov = LaserSLAM()._pairwise_kept(pts, guess, z, cov)
+    assert off_z is z and off_cov is cov
+    room = np.ascontiguousarray(_scan("rooms", np.array([11.0, 6.45, 0.02]))[0])
+    room_z, room_cov = on._pairwise_kept(room, guess, z, cov)
+    assert room_z is z and room_cov is cov
+
+
+def test_fixed_windows_need_no_marginal():
+    """With the floors at the caps (shipped) every window is the caps whatever the covariance, so the candidates are
+    chosen without asking for the joint marginal; with floors below the caps it is asked for."""
+    from types import SimpleNamespace
+
+    from slamarena.mapping.laser_slam.loop_closure import LoopCloser, LoopClosureParams
+
+    submaps = [SimpleNamespace(index=s, finished=True, nodes=list(range(10 * s, 10 * s + 10))) for s in range(3)]
+    G = np.column_stack([np.arange(31) * 0.4, np.zeros(31), np.zeros(31)])
+    G[30] = [1.0, 0.5, 0.0]  # node 30 back near the start
+
+    def no_marginal(c, n):
+        raise AssertionError("the marginal was asked for")
+
+    shipped = LoopCloser(LoopClosureParams())
+    assert shipped.fixed and shipped.window(None) == (5.0, 0.5)
+    found = shipped.candidates(submaps, 30, G, no_marginal)
+    assert [s for s, _, P in found] == [0, 1] and all(P is None for *_, P in found)
+    asked = []
+    floors = LoopCloser(LoopClosureParams(min_linear_window=0.5, min_angular_window=0.05))
+    assert not floors.fixed
+    floors.candidates(submaps, 30, G, lambda c, n: asked.append((c, n)) or np.eye(3) * 1e-4)
+    assert asked
