@@ -323,7 +323,8 @@ class LoopCloser:
 
     def candidates(self, submaps, n: int, G: np.ndarray, relative) -> list[tuple[int, int, np.ndarray | None]]:
         """The finished submaps to try for node n, nearest first: (submap index, its node c nearest to node n,
-        P_cn (3, 3), None when the windows are :attr:`fixed`); ``relative(c, n)`` is P_cn."""
+        P_cn (3, 3), None when the windows are :attr:`fixed`); ``relative(c, n, covariance)`` is P_cn (None when
+        ``covariance`` is False)."""
         p = self.p
         finished = [s for s in submaps if s.finished]
         pool = finished[: max(len(finished) - p.exclude_recent, 0)]
@@ -334,7 +335,7 @@ class LoopCloser:
             if d.min() - p.overlap > p.linear_window:  # beyond any window: no marginal needed
                 continue
             c = int(nodes[np.argmin(d)])
-            P = None if self.fixed else relative(c, n)  # the joint marginal costs a factorisation of the graph
+            P = relative(c, n, not self.fixed)  # None when fixed: the joint marginal costs a factorisation of the graph
             if d.min() - p.overlap <= self.window(P)[0]:
                 out.append((d.min(), s.index, c, P))
         out.sort(key=lambda t: t[0])

@@ -408,8 +408,8 @@ class LaserSLAM:
         found = []
         diag, Ln = run.diag, np.asarray(run.L)
 
-        def relative(c: int, n: int) -> np.ndarray:
-            return run.backend.relative_cov(c, n, run.chain)
+        def relative(c: int, n: int, covariance: bool) -> np.ndarray | None:
+            return run.backend.relative_cov(c, n, run.chain, covariance)
 
         for s, c, P in run.loops.candidates(self.submaps, i, run.G, relative):
             own = diag["score"][k] if diag["matched"][k] else 1.0
