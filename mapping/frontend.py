@@ -127,6 +127,7 @@ class FrontEnd:
         )
         self._fresh = 0
         self.odometry_guess = False
+        self.motion: np.ndarray | None = None
         self.stalled = np.zeros(len(scans), dtype=bool)
         self.last_insert: np.ndarray | None = None
         self.insertions = 0
@@ -148,19 +149,23 @@ class FrontEnd:
 
     def guess(self, k: int, estimates: np.ndarray, previous: np.ndarray) -> np.ndarray:
         """x̂_k from the estimates of the scans before k (indexable by scan) and the previous pose; ``odometry_guess``
-        becomes whether it applied an odometry motion."""
+        becomes whether it applied an odometry motion, ``motion`` (3,) the odometry's motion since scan k − 1 (zero
+        when the reading is stalled; None when the odometry says nothing: none, non-finite, or k = 0)."""
         odom = self.odom
         self.odometry_guess = False
+        self.motion = None
         if k == 0 or odom is None or not (np.all(np.isfinite(odom[k])) and np.all(np.isfinite(odom[k - 1]))):
             return previous
         if np.array_equal(odom[k], odom[k - 1]):
             self.stalled[k] = True
+            self.motion = np.zeros(3)
             return previous
         j, self._fresh = self._fresh, k
         if not np.all(np.isfinite(odom[j])):
             j = k - 1
         self.odometry_guess = True
-        return compose(estimates[j], between(odom[j], odom[k]))
+        self.motion = between(odom[j], odom[k])
+        return compose(estimates[j], self.motion)
 
     def match(self, reference, beams: ScanBeams, guess: np.ndarray) -> MatchResult | None:
         """The matcher's result against ``reference`` (a map pyramid, or end points for point matchers); None

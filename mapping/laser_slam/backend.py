@@ -127,11 +127,19 @@ class Backend:
         self._kept += 1
         return self.set_loops({("kept", self._kept): (a, n, z, cov)}, [])
 
-    def relative_cov(self, c: int, n: int, chain) -> np.ndarray:
+    def relative_cov(self, c: int, n: int, chain, covariance: bool = True) -> np.ndarray | None:
         """Covariance (3, 3) of X_c⁻¹ X_n in n's frame (module docstring), c < n; ``chain``: the sequential factors'
-        :class:`~.consistency.OdometryChain`."""
+        :class:`~.consistency.OdometryChain`. ``covariance`` False (fixed windows, which need none): None, and only
+        iSAM2's buffered factors are handed over where the marginal would be refreshed, so that iSAM2's updates, and
+        with them every estimate, are those of a run that computes it."""
         g = self._g
-        if self._marginals is None or c >= self._marginals[1]:
+        stale = self._marginals is None or c >= self._marginals[1]
+        if not covariance:
+            if stale:
+                self.flush()
+                self._marginals = (None, self.n - 1, None)
+            return None
+        if stale or self._marginals[0] is None:
             graph, values = self.graph()
             full = g.NonlinearFactorGraph()
             for k in range(graph.size()):

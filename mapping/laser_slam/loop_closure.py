@@ -12,8 +12,9 @@ when its node c nearest to node n (in the estimate) could be within ``overlap`` 
 beyond ``overlap`` is inside the window (‖Δ‖ − overlap ≤ linear half-width); the nearest ``max_candidates`` are
 tried. The window thus widens with the path travelled since the last closure and collapses once a loop closes —
 down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window): on the simulated corridor loop
-the sequential factors' covariance is so overconfident that windows from it missed the true place (ATE 0.64 → 1.87 m
-over 20 drives), so the marginal windows wait for an honest front-end covariance.
+the windows missed the true place (ATE 0.64 → 1.87 m over 20 drives), and still do with the interval covariance
+(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md). While the floors reach the caps
+(:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound
@@ -45,7 +46,9 @@ the found pose, maximised over θ, is thresholded at its maximum minus ``ambigui
 when the translations above the threshold form one connected region (8-connected cells). A long corridor gives
 one elongated region (the covariance then says which way the match is weak); repeated rooms give one island per
 room in the window, and the candidate is rejected (``ambiguous``). Once a unique place (a corner) closes a loop the
-windows shrink below the period and the rooms become unique too.
+windows shrink below the period and the rooms become unique too. Only the superlevel set is needed, so the response is
+evaluated only in the tiles of 8 × 8 shifts whose max-pyramid bound (the branch and bound's) reaches S(found pose) −
+``ambiguity`` · (points) (:func:`_best_over_angles`): the set, and so the verdict, is the exhaustive one's exactly.
 
 Which matches then join the graph is decided by the verification (:mod:`.consistency`, :mod:`.slam`). There is no
 χ² gate of the match against the estimate's prediction inside the window: the sequential factors' covariance
@@ -69,6 +72,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+from numba import njit
 from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
 from scipy.ndimage import label
 from scipy.stats import chi2
@@ -76,7 +80,7 @@ from scipy.stats import chi2
 from slamarena.datasets.geometry import between, compose
 from slamarena.params import Field, Params
 
-from ..scan_matching.correlative import BranchAndBoundMatcher, CorrelativeMatcher
+from ..scan_matching.correlative import BranchAndBoundMatcher, CorrelativeMatcher, _node_score
 from ..scan_matching.gauss_newton import GaussNewtonMatcher
 
 __all__ = ["TESTS", "LoopCloser", "LoopClosureParams", "LoopRecord"]
@@ -219,6 +223,36 @@ class LoopRecord:
         }
 
 
+#: the uniqueness test bounds tiles of (2^depth)² translations by the max-pyramid level of this depth
+_TILE_DEPTH = 3
+
+
+@njit(cache=True)
+def _best_over_angles(pyramid, depth, ix, iy, w, slack):
+    """best[b + w, a + w] = max_k S(k, a, b) (2w + 1, 2w + 1), S the summed likelihood of the points' cells ix, iy
+    (K, N) at angle k shifted by (a, b), |a|, |b| ≤ w — exact wherever it reaches max S − ``slack``, −inf in the
+    tiles of 2^depth × 2^depth shifts whose max-pyramid bound (``pyramid[depth]``, each cell the maximum of the
+    2^depth × 2^depth cells from it) lies below S(centre angle, 0, 0) − slack: no shift in them can reach max S −
+    slack (bound ≥ S term by term, and float sums in the same order keep it). The superlevel set is the exhaustive
+    response's, at a fraction of the lookups."""
+    K = ix.shape[0]
+    n = 2 * w + 1
+    best = np.full((n, n), -np.inf)
+    floor = _node_score(pyramid[0], ix[K // 2], iy[K // 2], 0, 0) - slack
+    step = 2**depth
+    for k in range(K):
+        for tb in range(-w, w + 1, step):
+            for ta in range(-w, w + 1, step):
+                if _node_score(pyramid[depth], ix[k], iy[k], ta, tb) < floor:
+                    continue
+                for b in range(tb, min(tb + step, w + 1)):
+                    for a in range(ta, min(ta + step, w + 1)):
+                        v = _node_score(pyramid[0], ix[k], iy[k], a, b)
+                        if v > best[b + w, a + w]:
+                            best[b + w, a + w] = v
+    return best
+
+
 def voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
     """One point per ``size`` × ``size`` cell (the first of each), in the points' order."""
     if size <= 0 or len(points) == 0:
@@ -270,17 +304,27 @@ class LoopCloser:
         self._cache: OrderedDict[int, dict] = OrderedDict()
         self.record = LoopRecord()
 
-    def window(self, P: np.ndarray) -> tuple[float, float]:
-        """The branch-and-bound half-widths (translation [m], rotation [rad]) of the relative covariance P (3, 3)."""
+    @property
+    def fixed(self) -> bool:
+        """Whether the floors reach the caps (as shipped): every window is then the caps, and no marginal is needed."""
         p = self.p
+        return p.min_linear_window >= p.linear_window and p.min_angular_window >= p.angular_window
+
+    def window(self, P: np.ndarray | None) -> tuple[float, float]:
+        """The branch-and-bound half-widths (translation [m], rotation [rad]) of the relative covariance P (3, 3);
+        the caps when the windows are :attr:`fixed` (P None)."""
+        p = self.p
+        if P is None:
+            return p.linear_window, p.angular_window
         sigma = np.sqrt(max(np.linalg.eigvalsh(P[:2, :2])[-1], 0.0))
         linear = float(np.clip(self.kappa * sigma, p.min_linear_window, p.linear_window))
         angular = float(np.clip(self.kappa * np.sqrt(max(P[2, 2], 0.0)), p.min_angular_window, p.angular_window))
         return linear, angular
 
-    def candidates(self, submaps, n: int, G: np.ndarray, relative) -> list[tuple[int, int, np.ndarray]]:
+    def candidates(self, submaps, n: int, G: np.ndarray, relative) -> list[tuple[int, int, np.ndarray | None]]:
         """The finished submaps to try for node n, nearest first: (submap index, its node c nearest to node n,
-        P_cn (3, 3)); ``relative(c, n)`` is P_cn."""
+        P_cn (3, 3), None when the windows are :attr:`fixed`); ``relative(c, n, covariance)`` is P_cn (None when
+        ``covariance`` is False)."""
         p = self.p
         finished = [s for s in submaps if s.finished]
         pool = finished[: max(len(finished) - p.exclude_recent, 0)]
@@ -291,7 +335,7 @@ class LoopCloser:
             if d.min() - p.overlap > p.linear_window:  # beyond any window: no marginal needed
                 continue
             c = int(nodes[np.argmin(d)])
-            P = relative(c, n)
+            P = relative(c, n, not self.fixed)  # None when fixed: the joint marginal costs a factorisation of the graph
             if d.min() - p.overlap <= self.window(P)[0]:
                 out.append((d.min(), s.index, c, P))
         out.sort(key=lambda t: t[0])
@@ -322,9 +366,10 @@ class LoopCloser:
         cache = m._grids(submap.maps, 0, pose, 0.0)
         offsets = np.arange(-na, na + 1) * dth
         ix, iy = m._cells(grid, cache["pad"] - cache["corner"], points, pose, pose[2] + offsets)
-        S, _, _ = m._response(cache["pyramid"][0], ix, iy, range(offsets.size), m._w(grid), m._w(grid))
-        best = S.max(axis=0)
-        return int(label(best >= best.max() - self.p.ambiguity * len(points), structure=np.ones((3, 3)))[1])
+        slack = self.p.ambiguity * len(points)
+        pyramid = cache["pyramid"]
+        best = _best_over_angles(pyramid, min(_TILE_DEPTH, len(pyramid) - 1), ix, iy, m._w(grid), slack)
+        return int(label(best >= best.max() - slack, structure=np.ones((3, 3)))[1])
 
     def try_close(
         self,

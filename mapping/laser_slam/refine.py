@@ -14,7 +14,10 @@ on, Pose2):
     pairwise  X_a⁻¹ X_k = z_ak for a = k − 1 … k − m: scan k's end points registered onto scan a's by point-to-line
               ICP (:mod:`~slamarena.mapping.scan_matching.point_to_line`) from L_a⁻¹ ⊕ L_k, with the ICP's Laplace
               covariance rotated into scan k's frame (z's end, where GTSAM measures the error) plus
-              diag(ρ_t², ρ_t², ρ_θ²), robustified as the loops are
+              diag(ρ_t², ρ_t², ρ_θ²), robustified as the loops are; where scan k's geometry does not constrain a
+              direction (the front end's degeneracy test), z keeps the front end's relative pose along it and
+              states no information there, so the hanging factor (the odometry) places the scan along a corridor
+              (``LaserSLAM._pairwise_kept``)
 
 With the nodes fixed the problem splits into the runs of scans between consecutive nodes, each tied to the node
 before it (hanging) and, through the pairwise chain, to the nodes on either side. The nodes are held because

@@ -15,7 +15,11 @@ Graph (:mod:`.backend`). Nodes X_i (world poses G_i). Sequential factors z_i = L
 covariance R_iᵀ C_i R_i + diag(σ_t², σ_t², σ_θ²) (C_i: the matcher's covariance of node i's match in the
 front-end frame, R_i the rotation of node i's front-end pose L_i — the frame of z's end, in which GTSAM's
 BetweenFactorPose2 measures its error, Log(z⁻¹ X_{i−1}⁻¹ X_i); the floor σ because a Gauss-Newton Laplace
-covariance ignores the map's own error). Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
+covariance ignores the map's own error). With ``odometry_noise`` set, R_iᵀ C_i R_i is replaced by the odometry's
+covariance accumulated over the interval fused with the node scan's match information, Q (I₃ + R_iᵀ I_i R_i Q)⁻¹
+(:mod:`.interval`), and the refinement's pairwise factors keep the front end's relative pose along a direction the
+scan does not constrain (the front end's ``degeneracy_threshold``; :meth:`LaserSLAM._pairwise_kept`).
+Loop closures (:mod:`.loop_closure`) every ``loop.search_every`` nodes,
 searched within windows from the graph's marginal covariance, required to be unique there, robustified, and verified
 (``loop.verify``): with ``"pcm"`` every unique match joins the pairwise consistency test against the others and the
 front end's chain (:mod:`.consistency`) and the graph holds exactly the current largest consistent set (loops leave
@@ -68,9 +72,11 @@ from slamarena.robust import RobustKernelParams
 from ..frontend import FrontEnd, FrontEndParams
 from ..map_pyramid import MapPyramid, PackedPyramid, PyramidParams
 from ..occupancy_grid import OccupancyGrid
+from ..scan_matching.gauss_newton import scan_information
 from ..scan_matching.point_to_line import PointToLineICPMatcher
 from .backend import Backend
 from .consistency import ConsistentSet, OdometryChain
+from .interval import IntervalCovariance, OdometryNoiseParams, fuse
 from .loop_closure import LoopCloser, LoopClosureParams
 from .refine import RefineParams, refine_scans
 
@@ -94,6 +100,12 @@ class LaserSLAMParams(Params):
         "global",
         description="what the front end matches each scan against: one map of every node (Hector), or the older "
         "active submap (Cartographer)",
+    )
+    odometry_noise: OdometryNoiseParams | None = Field(
+        None,
+        description="the odometry's noise: a front-end relative pose's covariance is then the odometry's accumulated "
+        "over its interval fused with its end's match (mapping/laser_slam/interval.py; meant with the front end's "
+        "degeneracy_threshold > 0); None, the default: the match's covariance alone, as with degeneracy off",
     )
     sigma_translation: PositiveFloat = Field(0.02, description="floor of a sequential factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.005, description="floor of a sequential factor's rotation σ [rad]")
@@ -155,6 +167,9 @@ class _Run:
     local: np.ndarray
     node_of_scan: np.ndarray  # i(k): the last node at or before scan k
     match_cov: np.ndarray  # C_k, zero where scan k was not matched
+    match_info: np.ndarray  # I_k (K, 3, 3): the match's information (front-end frame), zero where not matched
+    odo_cov: np.ndarray  # Q_k (K, 3, 3): the odometry's covariance since the last node (scan k's frame), NaN: none
+    interval: IntervalCovariance | None
     step_time: np.ndarray  # CPU time of each scan's steps, its loop search and optimisation included
     false_at: list[int]  # scans after which a false loop is due
     pair_floor: np.ndarray
@@ -269,6 +284,9 @@ class LaserSLAM:
             local=np.zeros((K, 3)),
             node_of_scan=np.full(K, -1, dtype=np.int64),
             match_cov=np.zeros((K, 3, 3)),
+            match_info=np.zeros((K, 3, 3)),
+            odo_cov=np.full((K, 3, 3), np.nan),
+            interval=IntervalCovariance(p.odometry_noise) if p.odometry_noise is not None else None,
             step_time=np.zeros(K),
             false_at=[K * j // (p.loop.false_loops + 1) for j in range(1, p.loop.false_loops + 1)],
             pair_floor=np.diag(
@@ -293,12 +311,17 @@ class LaserSLAM:
         beams = front.beams(k)
         diag["usable_beams"][k], diag["bad_beams"][k] = beams.usable.sum(), beams.bad.sum()
         run.pose = front.guess(k, run.local, run.pose)
+        if run.interval is not None:
+            run.interval.step(front.motion)
+            if run.interval.Q is not None:
+                run.odo_cov[k] = run.interval.Q
         if run.active:
             res = front.match(run.active[0].maps if run.tracking is None else run.tracking, beams, run.pose)
             if res is not None:
                 run.pose = res.pose
                 diag["matched"][k], diag["score"][k] = True, res.score
                 run.match_cov[k] = _finite(res.cov)
+                run.match_info[k] = _information(res)
         run.local[k] = run.pose
         return beams
 
@@ -310,11 +333,31 @@ class LaserSLAM:
         if len(pts) < p.frontend.min_beams:
             return
         for a, reference in run.recent:
-            r = run.icp.match(reference, pts, between(run.local[a], run.pose))
+            guess = between(run.local[a], run.pose)
+            r = run.icp.match(reference, pts, guess)
             if r.score >= p.refine.min_paired and np.all(np.isfinite(r.cov)):
-                run.pairs.append((a, k, r.pose, _in_end_frame(r.cov, r.pose[2]) + run.pair_floor))
+                z, cov = self._pairwise_kept(pts, guess, r.pose, r.cov)
+                run.pairs.append((a, k, z, _in_end_frame(cov, z[2]) + run.pair_floor))
         run.recent = run.recent[-(p.refine.neighbours - 1) :] if p.refine.neighbours > 1 else []
         run.recent.append((k, run.icp.prepare(pts)))
+
+    def _pairwise_kept(self, pts: np.ndarray, guess: np.ndarray, z: np.ndarray, cov: np.ndarray):
+        """A pairwise registration z (3,) with covariance Σ (3, 3, the start scan's frame) of the end points ``pts``
+        from ``guess`` (the front end's relative pose), degeneracy-aware as the front end's match (the front end's
+        ``degeneracy_threshold`` τ): where the translation information of the scan's geometry is below τ times its
+        largest along u_0, z keeps the guess along u_0 and its information there is dropped (Σ's variance along u_0
+        (10³ m)²): the hanging factor, the odometry's, carries that direction. Else (z, Σ) unchanged."""
+        tau = getattr(self.params.frontend.matcher_model, "degeneracy_threshold", 0.0)
+        if tau == 0:
+            return z, cov
+        lam, U = np.linalg.eigh(scan_information(pts, z)[:2, :2])
+        if not lam[0] < tau * lam[1]:
+            return z, cov
+        u = np.array([U[0, 0], U[1, 0], 0.0])
+        P = np.eye(3) - np.outer(u, u)
+        kept = P @ np.linalg.pinv(cov, hermitian=True) @ P + np.outer(u, u) / _UNCONSTRAINED**2
+        z = z + u * (u @ (guess - z))
+        return z, np.linalg.inv(kept)
 
     def _insert_node(self, run: _Run, k: int, beams) -> int:
         """Scan k becomes node i (returned): a new submap when the newest is full, the scan integrated into every
@@ -338,6 +381,8 @@ class LaserSLAM:
         if len(active[0].nodes) >= 2 * p.submap_scans:
             active.pop(0).finish()
         run.front.inserted(pose)
+        if run.interval is not None:
+            run.interval.reset()
         run.L.append(pose.copy())
         run.node_scan.append(k)
         return i
@@ -352,7 +397,7 @@ class LaserSLAM:
             return
         L = run.L
         z = between(L[i - 1], L[i])
-        cov = self._front_end_cov(L[i], run.match_cov[k])
+        cov = self._front_end_cov(L[i], run.match_cov[k], run.match_info[k], run.odo_cov[k])
         run.chain.add(L[i], cov)
         run.G = np.vstack([run.G, compose(run.G[i - 1], z)])
         run.backend.add_node(i, run.G[i], z, cov)
@@ -363,8 +408,8 @@ class LaserSLAM:
         found = []
         diag, Ln = run.diag, np.asarray(run.L)
 
-        def relative(c: int, n: int) -> np.ndarray:
-            return run.backend.relative_cov(c, n, run.chain)
+        def relative(c: int, n: int, covariance: bool) -> np.ndarray | None:
+            return run.backend.relative_cov(c, n, run.chain, covariance)
 
         for s, c, P in run.loops.candidates(self.submaps, i, run.G, relative):
             own = diag["score"][k] if diag["matched"][k] else 1.0
@@ -434,7 +479,7 @@ class LaserSLAM:
                         int(nodes[i_k[k]]),
                         k,
                         between(Ln[i_k[k]], run.local[k]),
-                        self._front_end_cov(run.local[k], run.match_cov[k]),
+                        self._front_end_cov(run.local[k], run.match_cov[k], run.match_info[k], run.odo_cov[k]),
                     )
                     for k in range(nodes[0] + 1, run.K)
                     if nodes[i_k[k]] != k
@@ -482,13 +527,15 @@ class LaserSLAM:
             meta=meta,
         )
 
-    def _front_end_cov(self, matched: np.ndarray, C: np.ndarray) -> np.ndarray:
+    def _front_end_cov(self, matched: np.ndarray, C: np.ndarray, info: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """Covariance of a front-end relative pose ending at the scan ``matched`` (its front-end pose), matched with
-        covariance C (front-end frame): C rotated into the matched scan's frame — where GTSAM's BetweenFactorPose2
-        measures its error, z⁻¹ x_a⁻¹ x_b — plus the floors (module docstring)."""
+        covariance C and information I (front-end frame), its interval's odometry covariance Q (the scan's frame; NaN:
+        none): fuse(Q, Rᵀ I R) (:mod:`.interval`), or without Q, C rotated into the matched scan's frame — where
+        GTSAM's BetweenFactorPose2 measures its error, z⁻¹ x_a⁻¹ x_b —; plus the floors (module docstring)."""
         p = self.params
         R = _rotation(matched[2])
-        return R.T @ C @ R + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
+        cov = fuse(Q, R.T @ info @ R) if np.all(np.isfinite(Q)) else R.T @ C @ R
+        return cov + np.diag(np.square([p.sigma_translation, p.sigma_translation, p.sigma_rotation]))
 
     def _false_loop(self, n: int, G: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
         """A deliberately false loop for node n (module docstring): (node c, z, Σ), or None while no finished
@@ -522,6 +569,10 @@ class LaserSLAM:
         return grid
 
 
+#: σ [m] a pairwise factor states along a degenerate direction (no information: the hanging factor decides)
+_UNCONSTRAINED = 1e3
+
+
 def _rotation(theta: float) -> np.ndarray:
     c, s = np.cos(theta), np.sin(theta)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -532,6 +583,16 @@ def _in_end_frame(cov: np.ndarray, theta: float) -> np.ndarray:
     relative to the start), where GTSAM's BetweenFactorPose2 measures its error: blockdiag(R(θ), 1)ᵀ Σ blockdiag(R(θ), 1)."""
     R = _rotation(theta)
     return R.T @ cov @ R
+
+
+def _information(res) -> np.ndarray:
+    """The match's information (3, 3): the matcher's own (``info["information"]``, Gauss-Newton: without its prior,
+    the degenerate direction projected out), else its covariance's inverse, zero where that is not finite."""
+    if "information" in res.info:
+        return res.info["information"]
+    if not np.all(np.isfinite(res.cov)):
+        return np.zeros((3, 3))
+    return np.linalg.pinv(res.cov, hermitian=True)
 
 
 def _finite(cov: np.ndarray) -> np.ndarray:

@@ -63,7 +63,8 @@ scan's information kept where the scan has it,
     Σ = T (K Tᵀ (H/σ̂²) T K + Tᵀ Λ T)⁻¹ Tᵀ,   K = diag(0, 1, 1)                                      (3, 3)
 
 (σ̂² and H at the match): along u_0 the odometry's variance σ̂²/w_t, elsewhere the scan's and the odometry's
-information summed. ``info["degenerate"]`` is 1 for such a match.
+information summed. ``info["degenerate"]`` is 1 for such a match. ``info["information"]`` (every match) is the
+scan's information without the prior, H/σ̂² projected onto the kept directions (:func:`match_information`).
 
 The per-level solver is one numba kernel (the loop over points is inherent).
 """
@@ -367,7 +368,7 @@ class GaussNewtonMatcher:
         # change of the guess moves by millimetres, and on MIT-CSAIL that became 1.30 m (research/method/
         # laser_degeneracy.md, "The branch cut"); the one convention waits for a matcher that converges
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        info = {"points_on_map": n}
+        info = {"points_on_map": n, "information": match_information(H, ssr, n, fusion)}
         if fusion is None:
             cov = _laplace_covariance(H, ssr, n)
         else:
@@ -400,6 +401,22 @@ class Fusion:
         K = np.diag(self.keep)
         Hc = K @ self.T.T @ (H / s2) @ self.T @ K
         return self.T @ np.linalg.inv(Hc + self.T.T @ self.info @ self.T) @ self.T.T
+
+    def kept(self, information: np.ndarray) -> np.ndarray:
+        """``information`` (3, 3, world frame) projected onto the kept directions: P I Pᵀ, P = T K Tᵀ."""
+        P = self.T @ np.diag(self.keep) @ self.T.T
+        return P @ information @ P.T
+
+
+def match_information(H: np.ndarray, ssr: float, n: int, fusion: Fusion | None) -> np.ndarray:
+    """The information (3, 3, world frame) the scan's match carries about the pose, without the prior: H/σ̂² at the
+    match (σ̂² = ssr / (n − 3)), projected onto the kept directions for a degenerate match (:meth:`Fusion.kept`);
+    zero with fewer than four points on the map or a perfect fit. Laser graph SLAM fuses it with the odometry's
+    covariance accumulated between its nodes (:mod:`slamarena.mapping.laser_slam.interval`)."""
+    if n <= 3 or not ssr > 0:
+        return np.zeros((3, 3))
+    information = H / (ssr / (n - 3))
+    return information if fusion is None else fusion.kept(information)
 
 
 def scan_information(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
