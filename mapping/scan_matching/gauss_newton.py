@@ -1,4 +1,4 @@
-"""Gauss-Newton scan-to-map matching on an interpolated occupancy map (Hector SLAM), with a line search.
+"""Gauss-Newton scan-to-map matching on an interpolated occupancy map (Hector SLAM).
 
 Objective (Kohlbrecher et al. 2011, eq. 6): with scan end points s_i (robot frame),
 pose ξ = (p_x, p_y, ψ) and the transformed points
@@ -44,20 +44,21 @@ from coarse to fine, each level starting from the previous result, with at most 
 directions per level, each clamped to ``(max_step_translation · level resolution / finest resolution,
 max_step_rotation)``.
 
-Iteration. JᵀJ leaves out Σ r_i ∇²r_i, which is positive where points sit on the concave shoulder of a wall's peak, so
-the full step overshoots the minimum along d (by 1.5–1.9× on MIT-CSAIL); by more than 2× it does not converge, and
-Hector's undamped iteration then alternates between two poses centimetres apart up to the cap (a two-cycle). The step
-is therefore α d with a line search on the actual F: with F(ξ + αd) ≈ F(ξ) + F'α + κα², F' = −bᵀd < 0, κ from the
-trial F(ξ + αd), starting at α = 1,
+Iteration. By default Hector's: every step is the full (clamped) Gauss-Newton step d. JᵀJ leaves out Σ r_i ∇²r_i,
+which is positive where points sit on the concave shoulder of a wall's peak, so the full step overshoots the minimum
+along d (by 1.5–1.9× on MIT-CSAIL); by more than 2× it does not converge and alternates between two poses
+centimetres apart up to the cap (a two-cycle), the result then the cycle's phase. With ``line_search`` the step is
+α d with a line search on the actual F: with F(ξ + αd) ≈ F(ξ) + F'α + κα², F' = −bᵀd < 0, κ from the trial
+F(ξ + αd), starting at α = 1,
 
     F(ξ + αd) < F(ξ):  take it, or α* = −F'/(2κ) ∈ [α/10, 0.9 α) if F is lower there still (the parabola's minimum);
     otherwise:         retry at α ← clamp(α*, α/10, α/2), and stop the level below α = 10⁻³.
 
-The level stops after a step below ``(tol_translation, tol_rotation)``. On the C¹ bicubic map this is a descent
-whose result is a smooth function of the guess: a last-bit change of the guess (another angle wrap) moves it by
-10⁻¹¹ m, where the bilinear map's kinks turn the line search's decisions into metres on MIT-CSAIL
-(research/method/laser_degeneracy.md, "The branch cut"). Score: the mean of M over the scan points on the finest
-level (0 … 1).
+A level stops after a step below ``(tol_translation, tol_rotation)``. The line search on the C¹ bicubic map is a
+descent whose result is a smooth function of the guess: a last-bit change of the guess (another angle wrap) moves it
+by 10⁻¹¹ m on MIT-CSAIL, where on the bilinear map's kinks any iteration's decisions turn it into metres. It is not the
+default: it moved laser graph SLAM's simulated rows the wrong way (research/method/laser_degeneracy.md, "The branch
+cut"). Score: the mean of M over the scan points on the finest level (0 … 1).
 
 Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
 (``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
@@ -95,7 +96,6 @@ import numpy as np
 from numba import njit
 from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt, model_validator
 
-from slamarena.datasets.geometry import wrap_angle
 from slamarena.params import Field, Params
 
 from . import MatchResult
@@ -301,13 +301,32 @@ def _parabola_minimum(f0, slope, alpha, fa):
 
 
 @njit(cache=True)
-def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, kind, prior, W, T, keep):
-    """Gauss-Newton with a line search on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations).
+def solve_level(
+    L,
+    ox,
+    oy,
+    res,
+    pts,
+    pose,
+    iterations,
+    tol_t,
+    tol_r,
+    max_step_t,
+    max_step_r,
+    kind,
+    prior,
+    W,
+    T,
+    keep,
+    line_search=False,
+):
+    """Gauss-Newton on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations).
 
     Minimises F = ½ Σ r² + ½ eᵀWe (e = ξ̂ − ξ towards ``prior`` ξ̂, W (3, 3)). The direction d = T c solves
     (TᵀAT) c = Tᵀb (A = H + W, b = g + We; where ``keep[0]`` is 0 over (c_1, c_2) only, c_0 = 0: module docstring,
-    "Degeneracy"), clamped to (max_step_t, max_step_r); the step is α d with α from the line search of the module
-    docstring ("Iteration"). The level stops after a step below (tol_t, tol_r), or when no α ≥ ``ALPHA_MIN`` lowers F.
+    "Degeneracy"), clamped to (max_step_t, max_step_r). Without ``line_search`` the step is d (Hector's iteration);
+    with it α d, α from the line search of the module docstring ("Iteration"), and the level also stops when no
+    α ≥ ``ALPHA_MIN`` lowers F. The level stops after a step below (tol_t, tol_r).
     """
     x, y, th = pose[0], pose[1], pose[2]
     H, g, ssr, msum, n, f, We = _evaluate(L, ox, oy, res, pts, x, y, th, kind, W, prior)
@@ -315,17 +334,26 @@ def solve_level(L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t,
     for it in range(1, iterations + 1):
         if n < 3:
             break
-        A = T.T @ (H + W) @ T
-        b = T.T @ (g + We)
         if keep[0] == 0.0:
+            A = T.T @ (H + W) @ T
+            b = T.T @ (g + We)
             A[0, :] = 0.0
             A[:, 0] = 0.0
             A[0, 0] = 1.0
             b[0] = 0.0
-        c, ok = _solve3(A, b)
+            c, ok = _solve3(A, b)
+            d = T @ c
+        else:
+            d, ok = _solve3(H + W, g + We)
         if not ok:
             break
-        nx, ny, nth, _ = take_step(T @ c, x, y, th, max_step_t, max_step_r, 0.0, 0.0)
+        if not line_search:  # Hector's undamped step
+            x, y, th, converged = take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r)
+            H, g, ssr, msum, n, f, We = _evaluate(L, ox, oy, res, pts, x, y, th, kind, W, prior)
+            if converged:
+                break
+            continue
+        nx, ny, nth, _ = take_step(d, x, y, th, max_step_t, max_step_r, 0.0, 0.0)
         d = np.array([nx - x, ny - y, nth - th])
         slope = -((g + We) @ d)  # dF(ξ + αd)/dα at α = 0, < 0 (A positive definite)
         alpha = 1.0
@@ -382,6 +410,11 @@ class GaussNewtonMatcherParams(Params):
         0.1, description="step clamp on the finest level [m], scaled with each level's resolution"
     )
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
+    line_search: bool = Field(
+        False,
+        description="step along the Gauss-Newton direction by a line search on the objective (a descent that "
+        "converges; module docstring, 'Iteration'); False: Hector's undamped step",
+    )
     interpolation: Literal["bilinear", "bicubic"] = Field(
         "bilinear", description="the map's interpolant: bilinear (Hector) or bicubic (Catmull-Rom, as Cartographer)"
     )
@@ -460,9 +493,13 @@ class GaussNewtonMatcher:
                 W,
                 T,
                 keep,
+                p.line_search,
             )
             total += it
-        pose[2] = wrap_angle(pose[2])
+        # not wrap_angle, whose last bit differs: with Hector's undamped iteration (the default) a last-bit change of
+        # the guess moves laser graph SLAM on MIT-CSAIL from 0.031 to 1.30 m; with line_search and the bicubic map
+        # the match does not depend on it (research/method/laser_degeneracy.md, "The branch cut")
+        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         info = {"points_on_map": n}
         if fusion is None:
             cov = _laplace_covariance(H, ssr, n)

@@ -103,6 +103,7 @@ def test_a_degenerate_step_and_covariance_are_their_literal_forms(corridor):
         W,
         fusion.T,
         fusion.keep,
+        0,
     )
     J, r = jacobian(xi), 1.0 - occupancy(xi)
     A, b = J.T @ J + W, J.T @ r + W @ (guess - xi)
