@@ -1,4 +1,4 @@
-"""Gauss-Newton scan-to-map matching on a bilinearly interpolated occupancy map (Hector SLAM).
+"""Gauss-Newton scan-to-map matching on an interpolated occupancy map (Hector SLAM).
 
 Objective (Kohlbrecher et al. 2011, eq. 6): with scan end points s_i (robot frame),
 pose ξ = (p_x, p_y, ψ) and the transformed points
@@ -18,28 +18,47 @@ gives the Gauss-Newton step (eq. 12)
 
     H = Σ J_iᵀ J_i  (3, 3),     Δξ = H⁻¹ Σ J_iᵀ [1 − M(S_i(ξ))]   (3,)
 
-Bilinear interpolation on the cell-centre lattice (integer grid coordinates at cell
-centres; f_x, f_y the fractions within the 2 × 2 neighbourhood m00, m10, m01, m11):
+Interpolation on the cell-centre lattice (integer grid coordinates at cell centres; f_x, f_y the fractions of the
+point within its cell; m_ij = 1/(1 + exp(−l_ij)) the cells' occupancy probabilities). Bicubic, the default (as
+Cartographer's Ceres matcher, Ceres' BiCubicInterpolator): the Catmull-Rom spline through the 4 × 4 cells
+m_ij, i, j ∈ {−1, 0, 1, 2}, along x in each row and then along y,
+
+    C(p_{−1}, p_0, p_1, p_2; f) = p_0 + f (c + f (b + f a)),   c = (p_1 − p_{−1})/2,
+    b = p_{−1} − 5p_0/2 + 2p_1 − p_2/2,   a = (−p_{−1} + 3p_0 − 3p_1 + p_2)/2
+    M = C(r_{−1}, …, r_2; f_y),  r_j = C(m_{−1j}, …, m_{2j}; f_x);   ∂M/∂x = C(∂r_j/∂f_x; f_y)/res,  ∂M/∂y = C'(r_j; f_y)/res
+
+M passes through the cell values and is C¹: value and gradient are continuous where the patches meet, on the lines
+through the cell centres. Bilinear (``interpolation="bilinear"``, Hector's; the 2 × 2 neighbourhood m00 … m11):
 
     M      = (1−f_y)[(1−f_x) m00 + f_x m10] + f_y[(1−f_x) m01 + f_x m11]
     ∂M/∂x  = [(1−f_y)(m10 − m00) + f_y (m11 − m01)] / res
     ∂M/∂y  = [(1−f_x)(m01 − m00) + f_x (m11 − m10)] / res
 
-Hector's published code (GridMapUtil::interpMapValueWithDerivatives) weights the x
-differences with the x fractions and the y differences with the y fractions,
+is only C⁰: ∇M jumps on every line through the cell centres. Hector's published code
+(GridMapUtil::interpMapValueWithDerivatives) weights the x differences with the x fractions and the y differences with the y fractions,
 ``(1−f_x)(m10 − m00) + f_x (m11 − m01)`` and ``(1−f_y)(m01 − m00) + f_y (m11 − m10)``; the flag
-``hector_gradient_bug=True`` reproduces it (research/method/grid_mapping.md shows the difference).
+``hector_gradient_bug=True`` (bilinear only) reproduces it (research/method/grid_mapping.md shows the difference).
 
 Multi-resolution: the match runs on each level of a :class:`~slamarena.mapping.map_pyramid.MapPyramid`
-from coarse to fine, each level starting from the previous result. Each level iterates
-at most ``iterations`` times, stops when a step is below ``(tol_translation, tol_rotation)``,
-and clamps every step to ``(max_step_translation · level resolution / finest resolution,
-max_step_rotation)``. The bilinear map is not smooth, and the undamped step can settle into a two-cycle on its kinks up
-to the iteration cap, the result then the cycle's phase: a change of the guess's last bit (e.g. another angle wrap)
-moved laser graph SLAM on MIT-CSAIL from 0.031 to 1.30 m (research/method/laser_degeneracy.md, "The branch cut").
-With ``step_halvings`` > 0 a step that does not lower the objective is halved up to that many times and the level
-stops where none does (a descent, which stops at kinks short of the optimum along weak directions). Score: the mean
-of M over the scan points on the finest level (0 … 1).
+from coarse to fine, each level starting from the previous result, with at most ``iterations`` Gauss-Newton
+directions per level, each clamped to ``(max_step_translation · level resolution / finest resolution,
+max_step_rotation)``.
+
+Iteration. By default Hector's: every step is the full (clamped) Gauss-Newton step d. JᵀJ leaves out Σ r_i ∇²r_i,
+which is positive where points sit on the concave shoulder of a wall's peak, so the full step overshoots the minimum
+along d (by 1.5–1.9× on MIT-CSAIL); by more than 2× it does not converge and alternates between two poses
+centimetres apart up to the cap (a two-cycle), the result then the cycle's phase. With ``line_search`` the step is
+α d with a line search on the actual F: with F(ξ + αd) ≈ F(ξ) + F'α + κα², F' = −bᵀd < 0, κ from the trial
+F(ξ + αd), starting at α = 1,
+
+    F(ξ + αd) < F(ξ):  take it, or α* = −F'/(2κ) ∈ [α/10, 0.9 α) if F is lower there still (the parabola's minimum);
+    otherwise:         retry at α ← clamp(α*, α/10, α/2), and stop the level below α = 10⁻³.
+
+A level stops after a step below ``(tol_translation, tol_rotation)``. The line search on the C¹ bicubic map is a
+descent whose result is a smooth function of the guess: a last-bit change of the guess (another angle wrap) moves it
+by 10⁻¹¹ m on MIT-CSAIL, where on the bilinear map's kinks any iteration's decisions turn it into metres. It is not the
+default: it moved laser graph SLAM's simulated rows the wrong way (research/method/laser_degeneracy.md, "The branch
+cut"). Score: the mean of M over the scan points on the finest level (0 … 1).
 
 Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
 (``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
@@ -72,10 +91,11 @@ The per-level solver is one numba kernel (the loop over points is inherent).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numba import njit
-from pydantic import NonNegativeFloat, NonNegativeInt, PositiveFloat, PositiveInt
+from pydantic import NonNegativeFloat, PositiveFloat, PositiveInt, model_validator
 
 from slamarena.params import Field, Params
 
@@ -90,19 +110,58 @@ def _p(l):
 
 
 @njit(cache=True)
-def _interp(L, ox, oy, res, wx, wy, bug):
-    """(M, ∂M/∂x, ∂M/∂y) at world point (wx, wy); zero outside the grid (as Hector)."""
+def _interp(L, ox, oy, res, wx, wy, kind):
+    """(M, ∂M/∂x, ∂M/∂y, inside) at world point (wx, wy): ``kind`` 0 bilinear, 1 bilinear with Hector's gradient weights,
+    2 bicubic (module docstring); zero and not inside where the 2 × 2 (4 × 4) neighbourhood leaves the grid (as Hector)."""
     h, w = L.shape
     gx = (wx - ox) / res - 0.5
     gy = (wy - oy) / res - 0.5
     x0 = int(np.floor(gx))
     y0 = int(np.floor(gy))
-    if x0 < 0 or y0 < 0 or x0 + 1 >= w or y0 + 1 >= h:
-        return 0.0, 0.0, 0.0, False
     fx = gx - x0
     fy = gy - y0
-    M, dx, dy = bilinear(L[y0, x0], L[y0, x0 + 1], L[y0 + 1, x0], L[y0 + 1, x0 + 1], fx, fy, res, bug)
+    if kind == BICUBIC:
+        if x0 < 1 or y0 < 1 or x0 + 2 >= w or y0 + 2 >= h:
+            return 0.0, 0.0, 0.0, False
+        M, dx, dy = bicubic(L, x0, y0, fx, fy, res)
+        return M, dx, dy, True
+    if x0 < 0 or y0 < 0 or x0 + 1 >= w or y0 + 1 >= h:
+        return 0.0, 0.0, 0.0, False
+    M, dx, dy = bilinear(L[y0, x0], L[y0, x0 + 1], L[y0 + 1, x0], L[y0 + 1, x0 + 1], fx, fy, res, kind == 1)
     return M, dx, dy, True
+
+
+#: ``kind`` of :func:`_interp`
+BILINEAR, HECTOR_BILINEAR, BICUBIC = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _catmull_rom(p0, p1, p2, p3, f):
+    """The cubic Hermite spline through p1 (f = 0) and p2 (f = 1) with slopes (p2 − p0)/2, (p3 − p1)/2, and its
+    derivative in f (Ceres' CubicHermiteSpline)."""
+    a = 0.5 * (-p0 + 3.0 * p1 - 3.0 * p2 + p3)
+    b = 0.5 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3)
+    c = 0.5 * (p2 - p0)
+    return p1 + f * (c + f * (b + f * a)), c + f * (2.0 * b + 3.0 * f * a)
+
+
+@njit(cache=True, inline="always")
+def _catmull_rom_row(L, y, x0, fx):
+    """:func:`_catmull_rom` along row y through the probabilities of cells x0 − 1 … x0 + 2."""
+    return _catmull_rom(_p(L[y, x0 - 1]), _p(L[y, x0]), _p(L[y, x0 + 1]), _p(L[y, x0 + 2]), fx)
+
+
+@njit(cache=True)
+def bicubic(L, x0, y0, fx, fy, res):
+    """(M, ∂M/∂x, ∂M/∂y) from the log-odds of the 4 × 4 cells (x0 − 1 … x0 + 2, y0 − 1 … y0 + 2) around a point at
+    fractions (fx, fy) of cell (x0, y0): Catmull-Rom along x in each row, then along y (module docstring)."""
+    r0, d0 = _catmull_rom_row(L, y0 - 1, x0, fx)
+    r1, d1 = _catmull_rom_row(L, y0, x0, fx)
+    r2, d2 = _catmull_rom_row(L, y0 + 1, x0, fx)
+    r3, d3 = _catmull_rom_row(L, y0 + 2, x0, fx)
+    M, dy = _catmull_rom(r0, r1, r2, r3, fy)
+    dx, _ = _catmull_rom(d0, d1, d2, d3, fy)
+    return M, dx / res, dy / res
 
 
 @njit(cache=True, inline="always")
@@ -123,11 +182,13 @@ def bilinear(l00, l10, l01, l11, fx, fy, res, bug):
 
 
 @njit(cache=True)
-def interpolate(L, ox, oy, res, xy, bug=False):
-    """Vectorised :func:`_interp` over world points ``xy`` (N, 2) → (N, 3) [M, ∂M/∂x, ∂M/∂y]."""
+def interpolate(L, ox, oy, res, xy, bug=False, cubic=False):
+    """Vectorised :func:`_interp` over world points ``xy`` (N, 2) → (N, 3) [M, ∂M/∂x, ∂M/∂y]; bicubic with ``cubic``,
+    else bilinear (with Hector's gradient weights with ``bug``)."""
+    kind = BICUBIC if cubic else (HECTOR_BILINEAR if bug else BILINEAR)
     out = np.zeros((xy.shape[0], 3))
     for i in range(xy.shape[0]):
-        M, dx, dy, _ = _interp(L, ox, oy, res, xy[i, 0], xy[i, 1], bug)
+        M, dx, dy, _ = _interp(L, ox, oy, res, xy[i, 0], xy[i, 1], kind)
         out[i, 0] = M
         out[i, 1] = dx
         out[i, 2] = dy
@@ -135,7 +196,7 @@ def interpolate(L, ox, oy, res, xy, bug=False):
 
 
 @njit(cache=True)
-def _normal_equations(L, ox, oy, res, pts, x, y, th, bug):
+def _normal_equations(L, ox, oy, res, pts, x, y, th, kind):
     c = np.cos(th)
     s = np.sin(th)
     H = np.zeros((3, 3))
@@ -146,7 +207,7 @@ def _normal_equations(L, ox, oy, res, pts, x, y, th, bug):
     for i in range(pts.shape[0]):
         sx = pts[i, 0]
         sy = pts[i, 1]
-        M, dMx, dMy, inside = _interp(L, ox, oy, res, x + c * sx - s * sy, y + s * sx + c * sy, bug)
+        M, dMx, dMy, inside = _interp(L, ox, oy, res, x + c * sx - s * sy, y + s * sx + c * sy, kind)
         if not inside:
             continue
         ssr += accumulate_point(H, g, M, dMx, dMy, sx, sy, c, s)
@@ -226,19 +287,50 @@ def _objective(ssr, W, prior, x, y, th):
 
 
 @njit(cache=True)
+def _evaluate(L, ox, oy, res, pts, x, y, th, kind, W, prior):
+    """H, g, Σ r², Σ M, n (:func:`_normal_equations`), F and We (:func:`_objective`) at the pose (x, y, th)."""
+    H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, kind)
+    f, We = _objective(ssr, W, prior, x, y, th)
+    return H, g, ssr, msum, n, f, We
+
+
+@njit(cache=True, inline="always")
+def _parabola_minimum(f0, slope, alpha, fa):
+    """The minimiser of the parabola through F(0) = f0 with F'(0) = slope < 0 and F(α) = fa; +∞ when it is not convex."""
+    curvature = (fa - f0 - slope * alpha) / (alpha * alpha)
+    return -slope / (2.0 * curvature) if curvature > 0.0 else np.inf
+
+
+@njit(cache=True)
 def solve_level(
-    L, ox, oy, res, pts, pose, iterations, tol_t, tol_r, max_step_t, max_step_r, bug, prior, W, T, keep, halvings
+    L,
+    ox,
+    oy,
+    res,
+    pts,
+    pose,
+    iterations,
+    tol_t,
+    tol_r,
+    max_step_t,
+    max_step_r,
+    kind,
+    prior,
+    W,
+    T,
+    keep,
+    line_search=False,
 ):
     """Gauss-Newton on one grid from ``pose``; returns (pose, H, ssr, Σ M, n, iterations).
 
-    Minimises ½ Σ r² + ½ eᵀWe (e = ξ̂ − ξ towards ``prior`` ξ̂, W (3, 3)); where ``keep[0]`` is 0 over the poses
-    ξ = ξ₀ + T c with c_0 = 0 (module docstring, "Degeneracy"), each step solving (TᵀAT) c = Tᵀb over (c_1, c_2)
-    (A = H + W, b = g + We). With ``halvings`` > 0 a step that does not lower the objective is halved up to that many
-    times, and the level stops where none does.
+    Minimises F = ½ Σ r² + ½ eᵀWe (e = ξ̂ − ξ towards ``prior`` ξ̂, W (3, 3)). The direction d = T c solves
+    (TᵀAT) c = Tᵀb (A = H + W, b = g + We; where ``keep[0]`` is 0 over (c_1, c_2) only, c_0 = 0: module docstring,
+    "Degeneracy"), clamped to (max_step_t, max_step_r). Without ``line_search`` the step is d (Hector's iteration);
+    with it α d, α from the line search of the module docstring ("Iteration"), and the level also stops when no
+    α ≥ ``ALPHA_MIN`` lowers F. The level stops after a step below (tol_t, tol_r).
     """
     x, y, th = pose[0], pose[1], pose[2]
-    H, g, ssr, msum, n = _normal_equations(L, ox, oy, res, pts, x, y, th, bug)
-    f, We = _objective(ssr, W, prior, x, y, th)
+    H, g, ssr, msum, n, f, We = _evaluate(L, ox, oy, res, pts, x, y, th, kind, W, prior)
     it = 0
     for it in range(1, iterations + 1):
         if n < 3:
@@ -256,21 +348,44 @@ def solve_level(
             d, ok = _solve3(H + W, g + We)
         if not ok:
             break
-        accepted = False
-        for _ in range(halvings + 1):
-            nx, ny, nth, converged = take_step(d.copy(), x, y, th, max_step_t, max_step_r, tol_t, tol_r)
-            nH, ng, nssr, nmsum, nn = _normal_equations(L, ox, oy, res, pts, nx, ny, nth, bug)
-            nf, nWe = _objective(nssr, W, prior, nx, ny, nth)
-            if halvings == 0 or (nn >= 3 and nf <= f):
-                accepted = True
+        if not line_search:  # Hector's undamped step
+            x, y, th, converged = take_step(d, x, y, th, max_step_t, max_step_r, tol_t, tol_r)
+            H, g, ssr, msum, n, f, We = _evaluate(L, ox, oy, res, pts, x, y, th, kind, W, prior)
+            if converged:
                 break
-            d *= 0.5
-        if not accepted:
+            continue
+        nx, ny, nth, _ = take_step(d, x, y, th, max_step_t, max_step_r, 0.0, 0.0)
+        d = np.array([nx - x, ny - y, nth - th])
+        slope = -((g + We) @ d)  # dF(ξ + αd)/dα at α = 0, < 0 (A positive definite)
+        alpha = 1.0
+        while True:
+            trial = _evaluate(
+                L, ox, oy, res, pts, x + alpha * d[0], y + alpha * d[1], th + alpha * d[2], kind, W, prior
+            )
+            best = _parabola_minimum(f, slope, alpha, trial[5])
+            if trial[4] >= 3 and trial[5] < f:
+                if best < 0.9 * alpha:  # F is lower, and lower still towards the parabola's minimum: try it
+                    shorter = max(best, 0.1 * alpha)
+                    other = _evaluate(
+                        L, ox, oy, res, pts, x + shorter * d[0], y + shorter * d[1], th + shorter * d[2], kind, W, prior
+                    )
+                    if other[4] >= 3 and other[5] < trial[5]:
+                        alpha, trial = shorter, other
+                break
+            if alpha < ALPHA_MIN:
+                break
+            alpha = min(max(best, 0.1 * alpha), 0.5 * alpha)
+        if not trial[5] < f or trial[4] < 3:
             break
-        x, y, th, H, g, ssr, msum, n, f, We = nx, ny, nth, nH, ng, nssr, nmsum, nn, nf, nWe
-        if converged:
+        x, y, th = x + alpha * d[0], y + alpha * d[1], th + alpha * d[2]
+        H, g, ssr, msum, n, f, We = trial
+        if np.hypot(alpha * d[0], alpha * d[1]) < tol_t and abs(alpha * d[2]) < tol_r:
             break
     return np.array([x, y, th]), H, ssr, msum, n, it
+
+
+#: the shortest step (as a fraction of the Gauss-Newton step) the line search tries before the level stops
+ALPHA_MIN = 1e-3
 
 
 class GaussNewtonMatcherParams(Params):
@@ -296,8 +411,16 @@ class GaussNewtonMatcherParams(Params):
         0.1, description="step clamp on the finest level [m], scaled with each level's resolution"
     )
     max_step_rotation: PositiveFloat = Field(0.2, description="step clamp [rad]")
+    line_search: bool = Field(
+        False,
+        description="step along the Gauss-Newton direction by a line search on the objective (a descent that "
+        "converges; module docstring, 'Iteration'); False: Hector's undamped step",
+    )
+    interpolation: Literal["bilinear", "bicubic"] = Field(
+        "bilinear", description="the map's interpolant: bilinear (Hector) or bicubic (Catmull-Rom, as Cartographer)"
+    )
     hector_gradient_bug: bool = Field(
-        False, description="reproduce the gradient weights of Hector's published code (module docstring)"
+        False, description="bilinear only: reproduce the gradient weights of Hector's published code (module docstring)"
     )
     prior_translation_weight: NonNegativeFloat = Field(
         100.0,
@@ -307,17 +430,27 @@ class GaussNewtonMatcherParams(Params):
         100.0,
         description="w_r of the prior towards the guess [1/rad²] when no odometry prior is given; 0: Hector's objective",
     )
-    step_halvings: NonNegativeInt = Field(
-        0,
-        description="a step that does not lower the objective is halved up to this many times, and a level stops where "
-        "none does (0: every step is taken, Hector's iteration; module docstring)",
-    )
     degeneracy_threshold: NonNegativeFloat = Field(
         0.0,
         description="τ: when the guess carries odometry and the translation information of the scan's geometry is "
         "below τ times its largest along a direction, that direction keeps the guess (module docstring, "
         "'Degeneracy'); 0, the default: off (0.003 separates the simulated corridor from the simulated rooms)",
     )
+
+    @model_validator(mode="after")
+    def _bug_is_bilinear(self):
+        if self.hector_gradient_bug and self.interpolation != "bilinear":
+            raise ValueError(
+                "hector_gradient_bug: the published gradient weights are bilinear's (interpolation: bilinear)"
+            )
+        return self
+
+    @property
+    def kind(self) -> int:
+        """The interpolant as :func:`_interp`'s ``kind``."""
+        if self.interpolation == "bicubic":
+            return BICUBIC
+        return HECTOR_BILINEAR if self.hector_gradient_bug else BILINEAR
 
 
 class GaussNewtonMatcher:
@@ -356,17 +489,17 @@ class GaussNewtonMatcher:
                 p.tol_rotation,
                 p.max_step_translation * res / fine,
                 p.max_step_rotation,
-                p.hector_gradient_bug,
+                p.kind,
                 guess,
                 W,
                 T,
                 keep,
-                p.step_halvings,
+                p.line_search,
             )
             total += it
-        # not wrap_angle, whose last bit differs: the undamped iteration can end in a two-cycle whose phase a last-bit
-        # change of the guess moves by millimetres, and on MIT-CSAIL that became 1.30 m (research/method/
-        # laser_degeneracy.md, "The branch cut"); the one convention waits for a matcher that converges
+        # not wrap_angle, whose last bit differs: with Hector's undamped iteration (the default) a last-bit change of
+        # the guess moves laser graph SLAM on MIT-CSAIL from 0.031 to 1.30 m; with line_search and the bicubic map
+        # the match does not depend on it (research/method/laser_degeneracy.md, "The branch cut")
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         info = {"points_on_map": n, "information": match_information(H, ssr, n, fusion)}
         if fusion is None:
@@ -447,7 +580,7 @@ def degenerate_basis(grid, pts: np.ndarray, guess: np.ndarray, params) -> Fusion
     if not lam[0] < params.degeneracy_threshold * lam[1]:
         return None
     _, _, ssr, _, n = _normal_equations(
-        grid.log_odds, grid.origin[0], grid.origin[1], grid.params.resolution, pts, *guess, params.hector_gradient_bug
+        grid.log_odds, grid.origin[0], grid.origin[1], grid.params.resolution, pts, *guess, params.kind
     )
     if n <= 3 or not ssr > 0:
         return None

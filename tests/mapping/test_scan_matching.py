@@ -11,7 +11,7 @@ from pydantic import ValidationError
 from slamarena.datasets.geometry import between, transform_points
 from slamarena.mapping.map_pyramid import MapPyramid
 from slamarena.mapping.scan_matching import MATCHERS, make_matcher, matcher_class
-from slamarena.mapping.scan_matching.gauss_newton import interpolate
+from slamarena.mapping.scan_matching.gauss_newton import GaussNewtonMatcher, interpolate, solve_level
 from slamarena.mapping.scan_matching.point_to_line import residuals_and_jacobian
 
 ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
@@ -68,6 +68,37 @@ def test_bug_and_correct_gradients_agree_on_the_diagonal_of_a_cell():
     assert not np.allclose(interpolate(*args, off, False), interpolate(*args, off, True))
 
 
+def test_bicubic_passes_through_the_cells_and_is_c1_with_the_finite_difference_gradient(room_map):
+    """Catmull-Rom: M at a cell centre is the cell's probability; ∇M is M's central difference; value and gradient are
+    continuous where the interpolation patches meet, on the lines through the cell centres (bilinear's gradient is not)."""
+    L, ox, oy, res = grid_of(room_map)
+    rng = np.random.default_rng(1)
+    pts, _ = scan_points(ROOM_POSES[1])
+    xy = transform_points(ROOM_POSES[1], pts)[::5] + rng.uniform(-0.04, 0.04, (len(pts[::5]), 2))
+    h = 1e-6
+    fd = np.column_stack(
+        [
+            (interpolate(L, ox, oy, res, xy + d, False, True) - interpolate(L, ox, oy, res, xy - d, False, True))[:, 0]
+            / (2 * h)
+            for d in ([h, 0], [0, h])
+        ]
+    )
+    assert np.allclose(interpolate(L, ox, oy, res, xy, False, True)[:, 1:], fd, atol=1e-4 * np.abs(fd).max())
+    cells = np.floor((xy - [ox, oy]) / res).astype(int)  # the points' cells (column, row)
+    centres = [ox, oy] + (cells + 0.5) * res
+    assert np.allclose(
+        interpolate(L, ox, oy, res, centres, False, True)[:, 0], 1 / (1 + np.exp(-L[cells[:, 1], cells[:, 0]]))
+    )
+    edges = centres + [0.0, 0.3 * res]  # on a line x = const through cell centres, where the patches meet
+    eps = np.array([1e-9, 0.0])
+    for cubic, continuous in ((True, True), (False, False)):
+        jump = interpolate(L, ox, oy, res, edges + eps, False, cubic) - interpolate(
+            L, ox, oy, res, edges - eps, False, cubic
+        )
+        assert np.abs(jump[:, 0]).max() < 1e-6
+        assert (np.abs(jump[:, 1:]).max() < 1e-5) == continuous
+
+
 # --------------------------------------------------------------------------- objective
 def _objective(L, ox, oy, res, pts, pose):
     M = interpolate(L, ox, oy, res, transform_points(pose, pts))[:, 0]
@@ -114,6 +145,8 @@ def test_notes_update_rule_walks_away_from_the_map(room_map):
 # --------------------------------------------------------------------------- recover offsets
 GRID_MATCHERS = [
     ("gauss_newton", {}),
+    ("gauss_newton", {"line_search": True}),
+    ("gauss_newton", {"line_search": True, "interpolation": "bicubic"}),
     ("gauss_newton", {"hector_gradient_bug": True}),
     ("correlative", {}),
     ("branch_and_bound", {}),
@@ -355,6 +388,11 @@ def test_parameters_bad_values_unknown_keys_and_the_model_form(name, good, bad):
     assert cls(cls.Params(**good)).params == m.params
 
 
+def test_the_hector_gradient_bug_is_bilinear_only():
+    with pytest.raises(ValidationError, match="hector_gradient_bug"):
+        make_matcher("gauss_newton", interpolation="bicubic", hector_gradient_bug=True)
+
+
 def test_the_covariance_window_belongs_to_branch_and_bound_only():
     """The exhaustive search takes its covariance from the whole response: ``covariance_cells`` is no parameter of it."""
     assert make_matcher("branch_and_bound", covariance_cells=1).params.covariance_cells == 1
@@ -374,3 +412,123 @@ def test_refined_correlative_match_leaves_the_lattice(room_map):
     assert np.abs(steps - np.round(steps)).max() > 0.05  # off the lattice of whole cells
     e = between(truth, fine.pose)
     assert np.hypot(e[0], e[1]) < 0.03 and abs(e[2]) < 0.01
+
+
+# --------------------------------------------------------------------------- convergence
+def _cycle_case():
+    """A scan of the room (181 beams, 1 cm range noise) and a guess 3 cm / 1° off where Hector's undamped iteration on the
+    bilinear map two-cycles (found by a search over random poses; research/notebook/2026-11-28-matcher-convergence.md)."""
+    rng = np.random.default_rng(0)
+    truth = np.array([rng.uniform(-5, 0), rng.uniform(-4, 4), rng.uniform(-np.pi, np.pi)])
+    angles = np.linspace(-np.pi / 2, np.pi / 2, 181)
+    r = raycast(truth, angles)
+    ok = r < 20.0
+    r = r + 0.01 * rng.standard_normal(r.shape)
+    pts = np.column_stack([r[ok] * np.cos(angles[ok]), r[ok] * np.sin(angles[ok])])
+    return truth, pts, truth + rng.normal(0.0, [0.03, 0.03, 0.02])
+
+
+def _hector_iterates(L, ox, oy, res, pts, guess, W, n):
+    """n undamped Gauss-Newton steps of ½Σ(1 − M)² + ½eᵀWe on the bilinear map, clamped as the matcher clamps (literal)."""
+    xi = guess.copy()
+    out = [xi]
+    for _ in range(n):
+        c, s = np.cos(xi[2]), np.sin(xi[2])
+        V = interpolate(L, ox, oy, res, transform_points(xi, pts))
+        J = np.column_stack(
+            [V[:, 1], V[:, 2], V[:, 1] * (-s * pts[:, 0] - c * pts[:, 1]) + V[:, 2] * (c * pts[:, 0] - s * pts[:, 1])]
+        )
+        d = np.linalg.solve(J.T @ J + W, J.T @ (1.0 - V[:, 0]) + W @ (guess - xi))
+        d[:2] *= min(1.0, 0.1 / np.hypot(d[0], d[1]))
+        d[2] = np.clip(d[2], -0.2, 0.2)
+        xi = xi + d
+        out.append(xi)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("interpolation", ["bilinear", "bicubic"])
+def test_where_hectors_iteration_two_cycles_the_matcher_converges(room_map, interpolation):
+    """On the finest level from the same guess: the undamped iteration alternates between two poses centimetres apart
+    up to any cap; the matcher's iteration (line search) stops on its tolerance, at a stationary point of F."""
+    L, ox, oy, res = grid_of(room_map)
+    truth, pts, guess = _cycle_case()
+    p = GaussNewtonMatcher(interpolation=interpolation, line_search=True).params
+    W = np.diag([p.prior_translation_weight, p.prior_translation_weight, p.prior_rotation_weight])
+    hector = _hector_iterates(L, ox, oy, res, pts, guess, W, 40)
+    assert np.hypot(*(hector[-1] - hector[-2])[:2]) > 0.01  # still stepping by centimetres …
+    assert np.abs(hector[-1] - hector[-3]).max() < 1e-6  # … back and forth
+    args = (L, ox, oy, res, np.ascontiguousarray(pts), guess)
+    tail = (
+        p.tol_translation,
+        p.tol_rotation,
+        p.max_step_translation,
+        p.max_step_rotation,
+        p.kind,
+        guess,
+        W,
+        np.eye(3),
+        np.ones(3),
+        p.line_search,
+    )
+    pose, H, ssr, _, n, iterations = solve_level(*args, 100, *tail)
+    assert iterations < 30
+    more, *_ = solve_level(L, ox, oy, res, np.ascontiguousarray(pts), pose, 100, *tail)
+    assert np.hypot(*(more - pose)[:2]) < 2 * p.tol_translation
+    assert np.hypot(*(pose - truth)[:2]) < 0.02
+
+
+def test_a_last_bit_or_a_turn_of_the_guess_does_not_move_the_bicubic_match(room_map):
+    """On the C¹ map the match is a smooth function of its guess: 10⁻¹² on every component, or the heading a turn away
+    (±2π), moves it by less than 10⁻⁹ (the cells are 5 cm), in the scene where Hector's iteration two-cycles and in the
+    room."""
+    m = GaussNewtonMatcher(interpolation="bicubic", line_search=True)
+    truth, pts, guess = _cycle_case()
+    room_truth = np.array([0.5, -3.2, 0.1])
+    room_pts, _ = scan_points(room_truth, angles=np.linspace(-np.pi / 2, np.pi / 2, 181))
+    for pts, guess in ((pts, guess), (room_pts, room_truth + [0.12, -0.08, 0.05])):
+        ref = m.match(room_map, pts, guess).pose
+        for other in (guess + 1e-12, guess - 1e-12, guess + [0, 0, 2 * np.pi], guess - [0, 0, 2 * np.pi]):
+            e = between(ref, m.match(room_map, pts, other).pose)
+            assert np.hypot(e[0], e[1]) < 1e-9 and abs(e[2]) < 1e-9
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_on_mit_csail_the_bicubic_front_end_converges_and_a_last_bit_of_the_guess_does_not_move_it(monkeypatch):
+    """Grid SLAM's front end on the staged MIT-CSAIL log, scans up to 700, bicubic map: Hector's iteration ran matches
+    575–640 to the cap (61 of 66) and a last-bit change of a guess grew threefold per scan there (research/method/
+    laser_degeneracy.md, "The branch cut"); now most stop on the tolerance, and 10⁻¹² added to every guess moves no
+    front-end pose by 10⁻⁶ m (on the bilinear map the same runs part by metres: the notebook)."""
+    from checks import load_staged
+
+    from slamarena.mapping.grid_slam import GridSLAM
+
+    seq = load_staged("carmen:mit-csail")
+    match = GaussNewtonMatcher.match
+
+    def front_end(perturbation):
+        out = []
+
+        def perturbed(self, maps, points, guess, odometry=False):
+            result = match(self, maps, points, np.asarray(guess) + perturbation, odometry)
+            out.append((result.pose, result.iterations))
+            return result
+
+        def stop(k, _):
+            if k >= 700:
+                raise _Stop
+
+        monkeypatch.setattr(GaussNewtonMatcher, "match", perturbed)
+        with pytest.raises(_Stop):
+            GridSLAM(frontend={"matcher_params": {"interpolation": "bicubic", "line_search": True}}).run(
+                seq, progress=stop
+            )
+        return np.array([p for p, _ in out]), np.array([i for _, i in out])
+
+    poses, iterations = front_end(0.0)
+    again, _ = front_end(1e-12)
+    cap = 3 * GaussNewtonMatcher().params.iterations  # main's matcher: 61 of 66
+    assert np.sum(iterations[575:641] == cap) < 15
+    assert len(again) == len(poses) and np.abs(again - poses).max() < 1e-6
