@@ -108,7 +108,7 @@ from ..models import (
     observation_covariances,
 )
 from ..stepping import StepClock
-from .kernels import predictive_d2, sqrt_psd, update_particles
+from .kernels import huber_rho, predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
 
 __all__ = ["FastSLAM", "FastSLAMParams"]
@@ -148,6 +148,12 @@ class FastSLAMParams(Params):
         0.9999,
         description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
         "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate",
+    )
+    huber_k: PositiveFloat | None = Field(
+        None,
+        description="Huber width k [σ of the whitened innovation]: a row's log-likelihood takes −ρ_k(d) for −d²/2 (the same "
+        "inside k, linear in d beyond), and an outlier's noise is inflated by d / k in the proposal and the landmark "
+        "update; None: Gaussian",
     )
     confirm_sightings: PositiveInt = Field(
         1,
@@ -202,6 +208,7 @@ class FastSLAM:
         self.model = MOTION_MODELS[self.params.motion_model]
         self.gate = chi2_gate(self.params.association_confidence, 2)
         self.gate_known = chi2_gate(self.params.known_confidence, 2)
+        self.huber_k = math.inf if self.params.huber_k is None else float(self.params.huber_k)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -377,8 +384,8 @@ class FastSLAM:
             top = int(slots.max()) if p.use_ids else int(self.n_slots.max()) + len(z)
             self.store.reserve(top, self.M * (len(z) + (0 if p.use_ids else int(self.n_slots.max()))))
             log_p0 = (
-                -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)
-            )  # (k,): each row's own R_j
+                -huber_rho(self.gate, self.huber_k) - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)
+            )  # (k,): each row's own R_j; −ρ(γ) = −γ/2 without the Huber weight
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
             update_particles(
@@ -395,6 +402,7 @@ class FastSLAM:
                 R,
                 self.gate,
                 log_p0,
+                self.huber_k,
                 max_range,
                 half_fov,
                 p.confirm_sightings,
