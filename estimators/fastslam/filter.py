@@ -155,6 +155,11 @@ class FastSLAMParams(Params):
         "inside k, linear in d beyond), and an outlier's noise is inflated by d / k in the proposal and the landmark "
         "update; None: Gaussian",
     )
+    association_pose: Literal["proposal", "predicted"] = Field(
+        "proposal",
+        description="FastSLAM 2.0 without ids: gate and choose each row's landmark at the proposal conditioned on the rows "
+        "before it (proposal), or at the predicted pose and its covariance, the same for every row (predicted)",
+    )
     confirm_sightings: PositiveInt = Field(
         1,
         description="unknown association: a landmark a particle starts is tentative "
@@ -403,6 +408,7 @@ class FastSLAM:
                 self.gate,
                 log_p0,
                 self.huber_k,
+                p.association_pose == "predicted",
                 max_range,
                 half_fov,
                 p.confirm_sightings,

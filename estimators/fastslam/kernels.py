@@ -219,6 +219,7 @@ def update_particles(
     gate,
     log_p0,
     huber_k,
+    assoc_predicted,
     max_range,
     half_fov,
     confirm,
@@ -305,10 +306,15 @@ def update_particles(
                     best_d2 = _quad(nu, Li)
                     best_ll = -huber_rho(best_d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
             else:
+                # candidates at the proposal so far (x̄, Σx), or (2.0, assoc_predicted) at the predicted pose (x̂, P): then
+                # every row's association is independent of the order of the rows and of the conditioning on the others
+                at_prediction = assoc_predicted and version == 2
+                ax = xhat[m] if at_prediction else xbar
+                aS = P[m] if at_prediction else Sx
                 for s in range(n):
                     if states[s] == 0 or taken[s]:
                         continue
-                    nu, L, H, Q = _predictive(xbar, Sx, mus[s], Ss[s], z[j], R[j], version == 2)
+                    nu, L, H, Q = _predictive(ax, aS, mus[s], Ss[s], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
                     d2 = _quad(nu, Li)
                     if d2 > gate:
@@ -316,6 +322,11 @@ def update_particles(
                     ll = -huber_rho(d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
                     if ll > best_ll:
                         best, best_ll, best_d2, best_nu, best_L, best_Hx, best_Q = s, ll, d2, nu, L, H, Q
+                if best >= 0 and at_prediction:  # weight and conditioning at the proposal so far, as with known ids
+                    best_nu, best_L, best_Hx, best_Q = _predictive(xbar, Sx, mus[best], Ss[best], z[j], R[j], True)
+                    Li, det = _inv2(best_L)
+                    best_d2 = _quad(best_nu, Li)
+                    best_ll = -huber_rho(best_d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
             if best >= 0 and not known and seens[best] < confirm:  # a tentative landmark: no evidence about the path
                 target[j] = best
                 taken[best] = True

@@ -414,6 +414,7 @@ def test_one_update_matches_a_literal_reference(version):
         0.0,
         np.zeros(len(z)),
         np.inf,
+        False,
         0.0,
         np.pi,
         1,
@@ -569,6 +570,7 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
         gate,
         log_p0,
         np.inf,
+        False,
         0.0,
         np.pi,
         confirm,
@@ -712,3 +714,41 @@ def test_the_huber_weight_of_an_outlier_falls_linearly_and_bounds_its_pull(versi
     assert res[k][2] < 0.5 * move_g
     if version == 2:  # 1.0 draws from the motion model, whatever the row
         assert np.abs(res[k][3] - xhat).max() < np.abs(x_g - xhat).max()
+
+
+# ---------------------------------------------------------------------------- association at the predicted pose
+@pytest.mark.parametrize("pose", ["proposal", "predicted"])
+def test_association_at_the_predicted_pose_does_not_depend_on_the_conditioning_on_other_rows(pose):
+    """Two mapped landmarks, a heading known to 0.014 rad, and a set whose bearings are each 0.02 rad off (inside the gate
+    alone, d² ≈ 2) but in opposite directions. Conditioned on the first row (proposal), the heading moves by 0.02 and
+    the second row lies at d² ≈ 180: a new landmark in every particle (the car park's duplicates). At the predicted
+    pose both rows are matched."""
+    f = FastSLAM(
+        version=2,
+        particles=10,
+        seed=0,
+        use_ids=False,
+        association_pose=pose,
+        twist_cov=[1e-4, 0.014**2],
+        range_bearing_cov=[0.03**2, 0.002**2],
+    )
+    f.update([[4.3, -0.33, -1], [7.2, 0.87, -1]])
+    f.predict([0.0, 0.0], 1.0)
+    f.update([[4.3, -0.35, -1], [7.2, 0.894, -1]])
+    assert np.all(f.landmark_counts() == (3 if pose == "proposal" else 2)), f.landmark_counts()
+
+
+def test_association_at_the_predicted_pose_is_the_proposal_for_a_single_row():
+    """One row per set: the predicted pose is the proposal, so both settings give the same run."""
+    runs = []
+    for pose in ("proposal", "predicted"):
+        f = FastSLAM(
+            version=2, particles=10, seed=3, use_ids=False, association_pose=pose, range_bearing_cov=[0.01, 1e-4]
+        )
+        rng = np.random.default_rng(0)
+        for i in range(30):
+            f.predict([0.5, 0.1], 0.5)
+            f.update([[5.0 + 0.1 * rng.standard_normal(), (i % 7) * 0.4 - 1.2, -1]])
+        runs.append((f.log_w.copy(), f.x0.copy(), f.landmark_counts()))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
