@@ -211,9 +211,9 @@ class FastSLAM:
     def __init__(self, params: FastSLAMParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         self.model = MOTION_MODELS[self.params.motion_model]
-        self.gate = chi2_gate(self.params.association_confidence, 2)
-        self.gate_known = chi2_gate(self.params.known_confidence, 2)
         self.huber_k = math.inf if self.params.huber_k is None else float(self.params.huber_k)
+        self.gate = huber_gate(self.params.association_confidence, self.huber_k)
+        self.gate_known = chi2_gate(self.params.known_confidence, 2)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -531,6 +531,28 @@ class FastSLAM:
 
     # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
     # runner)
+
+
+def huber_tail(d: float, k: float) -> float:
+    """P(‖e‖ > d) for a 2-D whitened innovation e of density ∝ exp(−ρ_k(‖e‖)) (Gaussian inside k, Laplace-like beyond):
+    with the radial density d exp(−ρ_k(d)), whose integral is 1 − e^{−k²/2} inside k and e^{−k²/2}(1 + 1/k²) beyond,
+    Z = 1 + e^{−k²/2} / k²; k = ∞ gives the χ²₂ tail e^{−d²/2}."""
+    if d <= k:
+        return (math.exp(-0.5 * d * d) - math.exp(-0.5 * k * k) + math.exp(-0.5 * k * k) * (1 + 1 / (k * k))) / (
+            1 + math.exp(-0.5 * k * k) / (k * k)
+        )
+    return math.exp(0.5 * k * k - k * d) * (d / k + 1 / (k * k)) / (1 + math.exp(-0.5 * k * k) / (k * k))
+
+
+def huber_gate(confidence: float, k: float) -> float:
+    """The gate γ on d² with P(d² ≤ γ) = confidence under the Huber density of width k (:func:`huber_tail`); k = ∞: the
+    χ²₂ quantile. The association's gate and, through p₀, the new-landmark density are the sensor model's own."""
+    if math.isinf(k) or confidence == 1.0:
+        return chi2_gate(confidence, 2)
+    from scipy.optimize import brentq
+
+    d = brentq(lambda d: huber_tail(d, k) - (1.0 - confidence), 0.0, 1e3, xtol=1e-12, rtol=1e-14)
+    return d * d
 
 
 def _sqrt_batch(P: np.ndarray) -> np.ndarray:

@@ -752,3 +752,28 @@ def test_association_at_the_predicted_pose_is_the_proposal_for_a_single_row():
         runs.append((f.log_w.copy(), f.x0.copy(), f.landmark_counts()))
     for a, b in zip(*runs):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("k", [1.0, 2.0, 3.0, np.inf])
+def test_the_huber_gate_holds_the_confidence_of_the_huber_density(k):
+    """P(d² > γ) = 1 − confidence under the 2-D density ∝ exp(−ρ_k(d)), by numerical integration of its radial density
+    d exp(−ρ_k(d)) (scipy's quad); k = ∞ is the χ²₂ gate."""
+    from scipy.integrate import quad
+
+    from slamarena.estimators.fastslam.filter import huber_gate
+    from slamarena.estimators.fastslam.kernels import huber_rho
+    from slamarena.estimators.models import chi2_gate
+
+    def radial(d):
+        return d * np.exp(-huber_rho(d * d, k))
+
+    for confidence in (0.99, 0.9999):
+        gate = huber_gate(confidence, k)
+        kink = [] if np.isinf(k) else [k]
+        total = quad(radial, 0.0, 400.0, points=kink, limit=200)[0]
+        tail = quad(radial, np.sqrt(gate), 400.0, limit=200)[0]
+        assert tail / total == pytest.approx(1.0 - confidence, rel=1e-6)
+        if np.isinf(k):
+            assert gate == pytest.approx(chi2_gate(confidence, 2), rel=1e-12)
+        else:
+            assert gate > chi2_gate(confidence, 2)  # heavier tails, a wider gate
