@@ -46,6 +46,13 @@ its path — its sightings take the new-landmark likelihood and do not condition
 been seen k times within ``confirm_window`` seconds of its start, and is removed if it has not (per particle,
 the analogue of EKF-SLAM's ``LandmarkBook``).
 
+Heavy-tailed sensor (``huber_k`` = k)
+------------------------------------
+A row's log-likelihood −ρ_k(d) − ½ log det S − log 2π, ρ_k(d) = d²/2 (d ≤ k), k d − k²/2 (d > k), an outlier's noise
+inflated by d / k in the proposal and the landmark update (:mod:`.kernels`); the association gate γ is the Huber
+density's quantile, P(d² > γ) = 1 − ``association_confidence`` (:func:`huber_gate`), and p₀ = −ρ_k(√γ) − ½ log det R_j
+− log 2π. None: the Gaussian (ρ = d²/2, γ the χ²₂ quantile).
+
 Resampling
 ----------
     ŵ = exp(log w − logsumexp(log w)),   N_eff = 1 / Σ ŵ²

@@ -32,6 +32,14 @@ under the row's own noise, log p₀_j = −γ/2 − ½ log det R_j − log 2π. 
 matched, −1 when predicted inside the field from the sampled pose and not matched, removed at −1;
 new landmarks start at counter 1.
 
+Heavy-tailed sensor (``huber_k`` = k < ∞): every matched row's log-likelihood takes Huber's ρ_k of d = √(νᵀ S⁻¹ ν)
+for d²/2 (the same inside k, linear in d beyond), and a row with d > k is applied with its noise inflated by
+1/w = d / k (Q in the 2.0 proposal's K_x step, R in the landmark's EKF). The gate and ``log_p0`` are the caller's
+(:func:`.filter.huber_gate`: the Huber density's quantile). k = ∞: the Gaussian model above.
+
+Association at the predicted pose (2.0, ``assoc_predicted``): the candidates are gated and ranked at (x̂, P) for every
+row; the chosen landmark is then weighed and conditions the proposal at (x̄, Σx), as with known association.
+
 Tentative landmarks (unknown association, ``confirm`` = k > 1 sightings within ``window`` seconds): a
 landmark started at time t₀ is tentative while it has fewer than k sightings (the starting one included).
 It is a candidate of the association like any other and its EKF is updated when matched, but the row

@@ -6,7 +6,7 @@ DATASET: ``vp_ids`` / ``vp_no_ids`` (the victoria_park config's ``fastslam_ident
 rows; error = distance from the with-ids iSAM2 smoother on the identified model, computed once into /tmp), ``vp_file_ids``
 (the ``fastslam`` row, the file's noise), ``carpark`` (the carpark config's ``fastslam2`` row; ``carpark1``: ``fastslam1``;
 ATE against GPS and the map against the survey, as the config scores), ``mrclam6`` (the mrclam config's ``fastslam`` row
-on Dataset 6 robots 1-5 against Vicon, with dead reckoning's ATE beside it). The JSON object is added to the row's
+on Dataset 6 robots 1-5 (``mrclam6:K``: robot K) against Vicon, with dead reckoning's ATE beside it). The JSON object is added to the row's
 parameters. Prints one line per seed (and robot), then mean ± sd over the seeds.
 """
 
@@ -59,7 +59,7 @@ def run_vp(label: str, extra: dict, seeds: list[int]) -> list[tuple]:
         vals = (float(np.sqrt(np.mean(d**2))), float(d.max()), float(d[-1]), len(est.landmark_ids))
         print(
             f"{label} {extra} seed {seed}: RMSE {vals[0]:.1f} max {vals[1]:.1f} final {vals[2]:.1f} m, "
-            f"{vals[3]} landmarks, resamplings {est.diagnostics.get('resamplings', np.nan)}, "
+            f"{vals[3]} landmarks, resamplings {(est.meta or {}).get('resamplings')}, "
             f"cpu {time.process_time() - tic:.0f} s",
             flush=True,
         )
@@ -108,8 +108,9 @@ def main() -> None:
     elif dataset.startswith("carpark"):
         vals = np.array(run_carpark("fastslam1" if dataset == "carpark1" else "fastslam2", extra, seeds))
         names = ("ATE", "map", "matched", "spurious", "landmarks")
-    elif dataset == "mrclam6":
-        res = np.array(run_mrclam(extra, seeds))
+    elif dataset.startswith("mrclam6"):  # mrclam6:4 — robot 4 only
+        robots = [int(dataset.split(":")[1])] if ":" in dataset else [1, 2, 3, 4, 5]
+        res = np.array(run_mrclam(extra, seeds, robots))
         for k in np.unique(res[:, 0]):
             r = res[res[:, 0] == k]
             print(
