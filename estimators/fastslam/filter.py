@@ -160,7 +160,7 @@ class FastSLAMParams(Params):
         None,
         description="Huber width k [σ of the whitened innovation]: a row's log-likelihood takes −ρ_k(d) for −d²/2 (the same "
         "inside k, linear in d beyond), and an outlier's noise is inflated by d / k in the proposal and the landmark "
-        "update; None: Gaussian",
+        "update, and the association gate is the Huber density's quantile (huber_gate); None: Gaussian",
     )
     association_pose: Literal["proposal", "predicted"] = Field(
         "proposal",
