@@ -46,6 +46,13 @@ its path — its sightings take the new-landmark likelihood and do not condition
 been seen k times within ``confirm_window`` seconds of its start, and is removed if it has not (per particle,
 the analogue of EKF-SLAM's ``LandmarkBook``).
 
+Heavy-tailed sensor (``huber_k`` = k)
+------------------------------------
+A row's log-likelihood −ρ_k(d) − ½ log det S − log 2π, ρ_k(d) = d²/2 (d ≤ k), k d − k²/2 (d > k), an outlier's noise
+inflated by d / k in the proposal and the landmark update (:mod:`.kernels`); the association gate γ is the Huber
+density's quantile, P(d² > γ) = 1 − ``association_confidence`` (:func:`huber_gate`), and p₀ = −ρ_k(√γ) − ½ log det R_j
+− log 2π. None: the Gaussian (ρ = d²/2, γ the χ²₂ quantile).
+
 Resampling
 ----------
     ŵ = exp(log w − logsumexp(log w)),   N_eff = 1 / Σ ŵ²
@@ -108,7 +115,7 @@ from ..models import (
     observation_covariances,
 )
 from ..stepping import StepClock
-from .kernels import predictive_d2, sqrt_psd, update_particles
+from .kernels import huber_rho, predictive_d2, sqrt_psd, update_particles
 from .storage import LandmarkStore
 
 __all__ = ["FastSLAM", "FastSLAMParams"]
@@ -148,6 +155,17 @@ class FastSLAMParams(Params):
         0.9999,
         description="χ²₂ gate of a maximum-likelihood match (a true re-observation falls beyond it with probability 1 − confidence); "
         "an observation with no landmark inside it starts a landmark, weighted by the sensor density at the gate",
+    )
+    huber_k: PositiveFloat | None = Field(
+        None,
+        description="Huber width k [σ of the whitened innovation]: a row's log-likelihood takes −ρ_k(d) for −d²/2 (the same "
+        "inside k, linear in d beyond), and an outlier's noise is inflated by d / k in the proposal and the landmark "
+        "update, and the association gate is the Huber density's quantile (huber_gate); None: Gaussian",
+    )
+    association_pose: Literal["proposal", "predicted"] = Field(
+        "proposal",
+        description="FastSLAM 2.0 without ids: gate and choose each row's landmark at the proposal conditioned on the rows "
+        "before it (proposal), or at the predicted pose and its covariance, the same for every row (predicted)",
     )
     confirm_sightings: PositiveInt = Field(
         1,
@@ -200,7 +218,8 @@ class FastSLAM:
     def __init__(self, params: FastSLAMParams | None = None, /, **overrides):
         self.params = self.Params.of(params, overrides)
         self.model = MOTION_MODELS[self.params.motion_model]
-        self.gate = chi2_gate(self.params.association_confidence, 2)
+        self.huber_k = math.inf if self.params.huber_k is None else float(self.params.huber_k)
+        self.gate = huber_gate(self.params.association_confidence, self.huber_k)
         self.gate_known = chi2_gate(self.params.known_confidence, 2)
         self.reset()
 
@@ -377,8 +396,8 @@ class FastSLAM:
             top = int(slots.max()) if p.use_ids else int(self.n_slots.max()) + len(z)
             self.store.reserve(top, self.M * (len(z) + (0 if p.use_ids else int(self.n_slots.max()))))
             log_p0 = (
-                -0.5 * self.gate - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)
-            )  # (k,): each row's own R_j
+                -huber_rho(self.gate, self.huber_k) - 0.5 * np.log(np.linalg.det(R)) - math.log(2 * math.pi)
+            )  # (k,): each row's own R_j; −ρ(γ) = −γ/2 without the Huber weight
             max_range = p.max_range if (p.max_range is not None and not p.use_ids) else 0.0
             half_fov = 0.5 * (p.fov if p.fov is not None else 2 * math.pi)
             update_particles(
@@ -395,6 +414,8 @@ class FastSLAM:
                 R,
                 self.gate,
                 log_p0,
+                self.huber_k,
+                p.association_pose == "predicted",
                 max_range,
                 half_fov,
                 p.confirm_sightings,
@@ -517,6 +538,28 @@ class FastSLAM:
 
     # ``run(sequence) -> Estimate`` is :func:`.run.run_sequence`, bound by the package (this module does not import its
     # runner)
+
+
+def huber_tail(d: float, k: float) -> float:
+    """P(‖e‖ > d) for a 2-D whitened innovation e of density ∝ exp(−ρ_k(‖e‖)) (Gaussian inside k, Laplace-like beyond):
+    with the radial density d exp(−ρ_k(d)), whose integral is 1 − e^{−k²/2} inside k and e^{−k²/2}(1 + 1/k²) beyond,
+    Z = 1 + e^{−k²/2} / k²; k = ∞ gives the χ²₂ tail e^{−d²/2}."""
+    if d <= k:
+        return (math.exp(-0.5 * d * d) - math.exp(-0.5 * k * k) + math.exp(-0.5 * k * k) * (1 + 1 / (k * k))) / (
+            1 + math.exp(-0.5 * k * k) / (k * k)
+        )
+    return math.exp(0.5 * k * k - k * d) * (d / k + 1 / (k * k)) / (1 + math.exp(-0.5 * k * k) / (k * k))
+
+
+def huber_gate(confidence: float, k: float) -> float:
+    """The gate γ on d² with P(d² ≤ γ) = confidence under the Huber density of width k (:func:`huber_tail`); k = ∞: the
+    χ²₂ quantile. The association's gate and, through p₀, the new-landmark density are the sensor model's own."""
+    if math.isinf(k) or confidence == 1.0:
+        return chi2_gate(confidence, 2)
+    from scipy.optimize import brentq
+
+    d = brentq(lambda d: huber_tail(d, k) - (1.0 - confidence), 0.0, 1e3, xtol=1e-12, rtol=1e-14)
+    return d * d
 
 
 def _sqrt_batch(P: np.ndarray) -> np.ndarray:

@@ -32,6 +32,14 @@ under the row's own noise, log p₀_j = −γ/2 − ½ log det R_j − log 2π. 
 matched, −1 when predicted inside the field from the sampled pose and not matched, removed at −1;
 new landmarks start at counter 1.
 
+Heavy-tailed sensor (``huber_k`` = k < ∞): every matched row's log-likelihood takes Huber's ρ_k of d = √(νᵀ S⁻¹ ν)
+for d²/2 (the same inside k, linear in d beyond), and a row with d > k is applied with its noise inflated by
+1/w = d / k (Q in the 2.0 proposal's K_x step, R in the landmark's EKF). The gate and ``log_p0`` are the caller's
+(:func:`.filter.huber_gate`: the Huber density's quantile). k = ∞: the Gaussian model above.
+
+Association at the predicted pose (2.0, ``assoc_predicted``): the candidates are gated and ranked at (x̂, P) for every
+row; the chosen landmark is then weighed and conditions the proposal at (x̄, Σx), as with known association.
+
 Tentative landmarks (unknown association, ``confirm`` = k > 1 sightings within ``window`` seconds): a
 landmark started at time t₀ is tentative while it has fewer than k sightings (the starting one included).
 It is a candidate of the association like any other and its EKF is updated when matched, but the row
@@ -112,8 +120,26 @@ def _inv2(S):
 
 
 @njit(cache=True)
-def _landmark_update(x, mu, S, z, R, out_mu, out_S):
-    """The 2 × 2 EKF of one landmark at pose x (Joseph form); returns the innovation's (d², log-likelihood)."""
+def huber_rho(d2, k):
+    """Huber's ρ of the whitened innovation size d = √d²: d²/2 for d ≤ k, k d − k²/2 beyond (k = ∞: d²/2, the
+    Gaussian). −ρ replaces −d²/2 in a row's log-likelihood, so inliers weigh as under the Gaussian and an outlier's
+    log-likelihood falls linearly in d, not quadratically."""
+    if d2 <= k * k:
+        return 0.5 * d2
+    return k * math.sqrt(d2) - 0.5 * k * k
+
+
+@njit(cache=True)
+def huber_scale(d2, k):
+    """1 / w of Huber's iteratively reweighted least squares, w = min(1, k / d): the factor by which a row's noise
+    is inflated in a Gaussian step so that the step's influence is Huber's (1 for an inlier)."""
+    return 1.0 if d2 <= k * k else math.sqrt(d2) / k
+
+
+@njit(cache=True)
+def _landmark_update(x, mu, S, z, R, k, out_mu, out_S):
+    """The 2 × 2 EKF of one landmark at pose x (Joseph form), the row's noise R inflated by Huber's 1 / w for a row
+    beyond k (k = ∞: the plain EKF); returns the innovation's d² under the stated R."""
     zhat = np.empty(2)
     Hx = np.empty((2, 3))
     Hm = np.empty((2, 2))
@@ -123,6 +149,10 @@ def _landmark_update(x, mu, S, z, R, out_mu, out_S):
     Qi, det = _inv2(Q)
     nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
     d2 = _quad(nu, Qi)
+    c = huber_scale(d2, k)
+    if c > 1.0:
+        R = R * c
+        Qi, det = _inv2(_sandwich(Hm, Sig) + R)
     K = _mm(_mm(Sig, Hm.T), Qi)
     new_mu = mu + _mm(K, nu)
     A = np.eye(2) - _mm(K, Hm)
@@ -132,7 +162,7 @@ def _landmark_update(x, mu, S, z, R, out_mu, out_S):
     out_S[0] = new_S[0, 0]
     out_S[1] = 0.5 * (new_S[0, 1] + new_S[1, 0])
     out_S[2] = new_S[1, 1]
-    return d2, -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
+    return d2
 
 
 @njit(cache=True)
@@ -196,6 +226,8 @@ def update_particles(
     R,
     gate,
     log_p0,
+    huber_k,
+    assoc_predicted,
     max_range,
     half_fov,
     confirm,
@@ -271,6 +303,7 @@ def update_particles(
             best_L = np.eye(2)
             best_Hx = np.zeros((2, 3))
             best_Q = np.eye(2)
+            best_d2 = 0.0
             if known:
                 s = slots[j]
                 if s < n:
@@ -278,19 +311,30 @@ def update_particles(
                     nu, L, H, Q = _predictive(xbar, Sx, leaf_mu[leaf, off], leaf_S[leaf, off], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
                     best, best_nu, best_L, best_Hx, best_Q = s, nu, L, H, Q
-                    best_ll = -0.5 * _quad(nu, Li) - 0.5 * math.log(det) - _LOG_2PI
+                    best_d2 = _quad(nu, Li)
+                    best_ll = -huber_rho(best_d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
             else:
+                # candidates at the proposal so far (x̄, Σx), or (2.0, assoc_predicted) at the predicted pose (x̂, P): then
+                # every row's association is independent of the order of the rows and of the conditioning on the others
+                at_prediction = assoc_predicted and version == 2
+                ax = xhat[m] if at_prediction else xbar
+                aS = P[m] if at_prediction else Sx
                 for s in range(n):
                     if states[s] == 0 or taken[s]:
                         continue
-                    nu, L, H, Q = _predictive(xbar, Sx, mus[s], Ss[s], z[j], R[j], version == 2)
+                    nu, L, H, Q = _predictive(ax, aS, mus[s], Ss[s], z[j], R[j], version == 2)
                     Li, det = _inv2(L)
                     d2 = _quad(nu, Li)
                     if d2 > gate:
                         continue
-                    ll = -0.5 * d2 - 0.5 * math.log(det) - _LOG_2PI
+                    ll = -huber_rho(d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
                     if ll > best_ll:
-                        best, best_ll, best_nu, best_L, best_Hx, best_Q = s, ll, nu, L, H, Q
+                        best, best_ll, best_d2, best_nu, best_L, best_Hx, best_Q = s, ll, d2, nu, L, H, Q
+                if best >= 0 and at_prediction:  # weight and conditioning at the proposal so far, as with known ids
+                    best_nu, best_L, best_Hx, best_Q = _predictive(xbar, Sx, mus[best], Ss[best], z[j], R[j], True)
+                    Li, det = _inv2(best_L)
+                    best_d2 = _quad(best_nu, Li)
+                    best_ll = -huber_rho(best_d2, huber_k) - 0.5 * math.log(det) - _LOG_2PI
             if best >= 0 and not known and seens[best] < confirm:  # a tentative landmark: no evidence about the path
                 target[j] = best
                 taken[best] = True
@@ -300,7 +344,13 @@ def update_particles(
                 if not known:
                     taken[best] = True
                 log_w[m] += best_ll
-                if version == 2:  # condition the proposal on this observation
+                if (
+                    version == 2
+                ):  # condition the proposal on this observation (an outlier's noise inflated by Huber's 1 / w)
+                    c = huber_scale(best_d2, huber_k)
+                    if c > 1.0:
+                        best_Q = best_Q * c
+                        best_L = _sandwich(best_Hx, Sx) + best_Q
                     Li, _ = _inv2(best_L)
                     Kx = _mm(_mm(Sx, best_Hx.T), Li)
                     xbar = xbar + _mm(Kx, best_nu)
@@ -318,7 +368,9 @@ def update_particles(
             s = target[j]
             if s >= 0:
                 leaf, off = find(roots[m], s, depth, inner_child)
-                _landmark_update(x, leaf_mu[leaf, off].copy(), leaf_S[leaf, off].copy(), z[j], R[j], new_mu, new_S)
+                _landmark_update(
+                    x, leaf_mu[leaf, off].copy(), leaf_S[leaf, off].copy(), z[j], R[j], huber_k, new_mu, new_S
+                )
                 state = leaf_state[leaf, off] + 1
                 seen = leaf_seen[leaf, off] + 1
                 born = leaf_born[leaf, off]

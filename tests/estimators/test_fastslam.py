@@ -12,7 +12,7 @@ from slamarena import datasets
 from slamarena.estimators import create
 from slamarena.estimators.dead_reckoning import DeadReckoning
 from slamarena.estimators.fastslam import FastSLAM
-from slamarena.estimators.fastslam.kernels import update_particles
+from slamarena.estimators.fastslam.kernels import predictive_d2, update_particles
 from slamarena.estimators.fastslam.storage import FANOUT, LEAF, LandmarkStore, writable
 from slamarena.experiments.metrics import reference_of
 from slamarena.experiments.metrics.landmarks import MapParams, landmark_error
@@ -413,6 +413,8 @@ def test_one_update_matches_a_literal_reference(version):
         np.tile(R, (len(z), 1, 1)),
         0.0,
         np.zeros(len(z)),
+        np.inf,
+        False,
         0.0,
         np.pi,
         1,
@@ -567,6 +569,8 @@ def test_unknown_association_with_tentative_landmarks_matches_a_literal_referenc
         np.tile(R, (len(z), 1, 1)),
         gate,
         log_p0,
+        np.inf,
+        False,
         0.0,
         np.pi,
         confirm,
@@ -625,3 +629,151 @@ def test_a_new_landmark_weighs_the_sensor_density_of_its_own_row():
     log_p0_far = -0.5 * slam.gate - 0.5 * np.log(sigma2**2 / 30.0**2) - np.log(2 * np.pi)
     expected = (-0.5 * np.log(np.linalg.det(Q)) - np.log(2 * np.pi)) - log_p0_far
     assert slam.log_w[0] - slam.log_w[1] == pytest.approx(expected, abs=1e-9)
+
+
+# ---------------------------------------------------------------------------- Huber weight
+@pytest.mark.parametrize("k", [0.5, 1.345, 3.0])
+def test_huber_rho_and_scale_are_gtsams_huber(k):
+    """ρ_k and 1 / w against GTSAM's Huber m-estimator (an independent implementation): loss(e) and 1 / weight(e)."""
+    gtsam = pytest.importorskip("gtsam")
+    from slamarena.estimators.fastslam.kernels import huber_rho, huber_scale
+
+    huber = gtsam.noiseModel.mEstimator.Huber.Create(k)
+    for e in np.linspace(0.0, 10.0, 41):
+        assert huber_rho(e * e, k) == pytest.approx(huber.loss(e), rel=1e-12, abs=1e-15)
+        if e > 0:
+            assert huber_scale(e * e, k) == pytest.approx(1.0 / huber.weight(e), rel=1e-12)
+    assert huber_rho(4.0, np.inf) == 2.0 and huber_scale(1e6, np.inf) == 1.0
+
+
+def _huber_filter(version, k, known):
+    f = FastSLAM(
+        version=version,
+        particles=20,
+        seed=1,
+        huber_k=k,
+        use_ids=known,
+        resample_threshold=1e-9,  # no resampling: the particles' weights are compared
+        range_bearing_cov=[0.01, 1e-4],
+        initial_cov=[1e-4, 1e-4, 1e-5],
+    )
+    ids = (7, 8) if known else (-1, -1)
+    f.update([[5.0, 0.0, ids[0]], [4.0, 1.0, ids[1]]])
+    f.predict([0.5, 0.05], 0.2)
+    return f, ids
+
+
+@pytest.mark.parametrize("known", [True, False])
+@pytest.mark.parametrize("version", [1, 2])
+def test_the_huber_weight_equals_the_gaussian_on_inliers(version, known):
+    """Rows whose d² stays below k² in every particle: the same weights, poses and maps as the Gaussian filter."""
+    z = [[4.9, -0.01, 7], [3.9, 0.98, 8]]
+    runs = []
+    for k in (None, 50.0):
+        f, ids = _huber_filter(version, k, known)
+        f.update([[r, b, i] for (r, b, _), i in zip(z, ids)])
+        runs.append((f.log_w.copy(), f.x0.copy(), f.landmarks(0)[1]))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_the_huber_weight_of_an_outlier_falls_linearly_and_bounds_its_pull(version):
+    """A labelled row 3 m off its landmark (d ≈ 30 σ): under the Gaussian one particle's weight differs from another's
+    by ½ (d_a² − d_b²); under Huber by k (d_a − d_b) (the log det terms are the same), and the row moves the landmark
+    and the drawn poses less."""
+    k = 2.0
+    res = {}
+    for huber in (None, k):
+        f, _ = _huber_filter(version, huber, True)
+        xhat, P = f.predicted()
+        d2 = predictive_d2(
+            xhat,
+            P,
+            np.array([[8.0, 0.0]]),
+            np.array([0]),
+            f.n_slots,
+            f._noise(np.array([[8.0, 0.0, 7]])),
+            f.store.depth,
+            f.store.roots,
+            f.store.inner_child,
+            f.store.leaf_mu,
+            f.store.leaf_S,
+        )[:, 0]
+        before = f.log_w.copy()
+        _, mu0, _ = f.landmarks(0)
+        f.update([[8.0, 0.0, 7]])
+        res[huber] = (d2, f.log_w - before, np.abs(f.landmarks(0)[1][0] - mu0[0]).max(), f.x0.copy(), xhat)
+    d2, dlog, move_g, x_g, xhat = res[None]
+    if version == 2:  # the weight is the proposal's normaliser at x̂: d² is the kernel's
+        dd = dlog - dlog[0]
+        np.testing.assert_allclose(dd, -0.5 * (d2 - d2[0]), rtol=1e-6, atol=1e-6)
+        d2h, dlog_h = res[k][0], res[k][1]
+        np.testing.assert_allclose(dlog_h - dlog_h[0], -k * (np.sqrt(d2h) - np.sqrt(d2h[0])), rtol=1e-6, atol=1e-6)
+    assert np.min(d2) > 100
+    assert res[k][2] < 0.5 * move_g
+    if version == 2:  # 1.0 draws from the motion model, whatever the row
+        assert np.abs(res[k][3] - xhat).max() < np.abs(x_g - xhat).max()
+
+
+# ---------------------------------------------------------------------------- association at the predicted pose
+@pytest.mark.parametrize("pose", ["proposal", "predicted"])
+def test_association_at_the_predicted_pose_does_not_depend_on_the_conditioning_on_other_rows(pose):
+    """Two mapped landmarks, a heading known to 0.014 rad, and a set whose bearings are each 0.02 rad off (inside the gate
+    alone, d² ≈ 2) but in opposite directions. Conditioned on the first row (proposal), the heading moves by 0.02 and
+    the second row lies at d² ≈ 180: a new landmark in every particle (the car park's duplicates). At the predicted
+    pose both rows are matched."""
+    f = FastSLAM(
+        version=2,
+        particles=10,
+        seed=0,
+        use_ids=False,
+        association_pose=pose,
+        twist_cov=[1e-4, 0.014**2],
+        range_bearing_cov=[0.03**2, 0.002**2],
+    )
+    f.update([[4.3, -0.33, -1], [7.2, 0.87, -1]])
+    f.predict([0.0, 0.0], 1.0)
+    f.update([[4.3, -0.35, -1], [7.2, 0.894, -1]])
+    assert np.all(f.landmark_counts() == (3 if pose == "proposal" else 2)), f.landmark_counts()
+
+
+def test_association_at_the_predicted_pose_is_the_proposal_for_a_single_row():
+    """One row per set: the predicted pose is the proposal, so both settings give the same run."""
+    runs = []
+    for pose in ("proposal", "predicted"):
+        f = FastSLAM(
+            version=2, particles=10, seed=3, use_ids=False, association_pose=pose, range_bearing_cov=[0.01, 1e-4]
+        )
+        rng = np.random.default_rng(0)
+        for i in range(30):
+            f.predict([0.5, 0.1], 0.5)
+            f.update([[5.0 + 0.1 * rng.standard_normal(), (i % 7) * 0.4 - 1.2, -1]])
+        runs.append((f.log_w.copy(), f.x0.copy(), f.landmark_counts()))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("k", [1.0, 2.0, 3.0, np.inf])
+def test_the_huber_gate_holds_the_confidence_of_the_huber_density(k):
+    """P(d² > γ) = 1 − confidence under the 2-D density ∝ exp(−ρ_k(d)), by numerical integration of its radial density
+    d exp(−ρ_k(d)) (scipy's quad); k = ∞ is the χ²₂ gate."""
+    from scipy.integrate import quad
+
+    from slamarena.estimators.fastslam.filter import huber_gate
+    from slamarena.estimators.fastslam.kernels import huber_rho
+    from slamarena.estimators.models import chi2_gate
+
+    def radial(d):
+        return d * np.exp(-huber_rho(d * d, k))
+
+    for confidence in (0.99, 0.9999):
+        gate = huber_gate(confidence, k)
+        kink = [] if np.isinf(k) else [k]
+        total = quad(radial, 0.0, 400.0, points=kink, limit=200)[0]
+        tail = quad(radial, np.sqrt(gate), 400.0, limit=200)[0]
+        assert tail / total == pytest.approx(1.0 - confidence, rel=1e-6)
+        if np.isinf(k):
+            assert gate == pytest.approx(chi2_gate(confidence, 2), rel=1e-12)
+        else:
+            assert gate > chi2_gate(confidence, 2)  # heavier tails, a wider gate
