@@ -132,7 +132,7 @@ class RBPFParams(Params):
     degeneracy_threshold: NonNegativeFloat = Field(
         0.0,
         description="τ: a translation direction where the scan's geometric information is below τ times that of the "
-        "other is degenerate, and the proposal keeps the motion model there (.proposal docstring; 0, the default: off; "
+        "other is degenerate, and the particles keep their odometry guess along it (.proposal docstring; 0, the default: off; "
         "0.003 separates the simulated corridor from the simulated rooms)",
     )
     pyramid: PyramidParams = Field(
