@@ -62,9 +62,9 @@ the map's frontier pulling the scan back onto the mapped walls), so along c_0 th
 * every Gauss-Newton step moves in the kept directions only (ξ = ξ₀ + T_p c, c_0 = 0), and the mode proposal's motion
   draw has no component along t_0 (the first column of T_p): x_p = ĝ_p + (I − t_0 t_0ᵀ) L_u ε (L_u L_uᵀ = Σ_u);
 * the weight integrates the motion model out along c_0 with the likelihood held at the guess's c_0,
-  ``η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĝ_p, S_p) dc_1 dc_2`` (S_p the motion covariance of
-  the kept coordinates; 9 points of the same rule in 2-D, :func:`_kept_quadrature`), so no particle is weighted by
-  where along the corridor it is.
+  ``η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĉ_p, S_p) dc_1 dc_2`` (ĉ_p the guess's kept
+  coordinates, S_p their motion covariance; 9 points of the same rule in 2-D, :func:`_kept_quadrature`), so no
+  particle is weighted by where along the corridor it is.
 
 Drawing along c_0 from Σ_u instead (its σ_t ≥ 0.1 m is a search width, ten times a wheel odometry's noise per step) is
 a random walk the scan never corrects: research/notebook/2026-11-28-rbpf-scale.md.
@@ -415,12 +415,12 @@ def _kept_quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma:
     to be constant along c_0 at the guess's c_0: the centre ξ°_p is the mode ξ*_p moved along u_0 to the guess ĝ_p,
     ξ°_p = ξ*_p + t_0 t_0ᵀ (ĝ_p − ξ*_p) (t_0 the first column of T_p). Then (the motion Gaussian integrates out along c_0)
 
-        η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĝ_p°, S_p) dc_1 dc_2          S_p = (T_pᵀ Σ_u T_p)[1:, 1:]
+        η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĉ_p, S_p) dc_1 dc_2          S_p = (T_pᵀ Σ_u T_p)[1:, 1:]
 
-    (ĝ_p° the guess's kept coordinates) by the 9-point 2-D rule on the Laplace covariance of the kept coordinates,
-    (H_kk/σ_z² + S_p⁻¹)⁻¹ with H_kk = (T_pᵀ H T_p)[1:, 1:], H at ξ°_p: the weight does not depend on where along the
-    corridor the mode is. μ_p = ξ°_p + T_p (0, m_1, m_2) and Σ_p = T_p blockdiag(0, C) T_pᵀ with m, C (2,), (2, 2) the
-    points' moments: along the corridor the proposal is the guess."""
+    (ĉ_p = [T_pᵀ (ĝ_p − ξ°_p)]_{1:}, the guess's kept coordinates) by the 9-point 2-D rule on the Laplace covariance
+    of the kept coordinates, (H_kk/σ_z² + S_p⁻¹)⁻¹ with H_kk = (T_pᵀ H T_p)[1:, 1:], H at ξ°_p: the weight does not
+    depend on where along the corridor the mode is. μ_p = ξ°_p + T_p (0, m_1, m_2) and Σ_p = T_p blockdiag(0, C) T_pᵀ
+    with m, C (2,), (2, 2) the points' moments: along the corridor the proposal is the guess."""
     Ts, _ = _particle_bases(basis, guesses)  # as the Gauss-Newton steps: T_p at the guess
     Tt = np.swapaxes(Ts, 1, 2)
     t0 = Ts[:, :, 0]  # degenerate_direction
