@@ -113,7 +113,10 @@ class LaserSLAMParams(Params):
         RobustKernelParams(robust="cauchy", robust_k=1.0),
         description="m-estimator of the loop factors (and of the refinement's pairwise factors)",
     )
-    loop: LoopClosureParams = Field(LoopClosureParams(), description="the loop-closure search")
+    loop: LoopClosureParams = Field(
+        LoopClosureParams(cache_submaps=3),
+        description="the loop-closure search (3 submaps cached: a search reads at most a few; memory on a long log)",
+    )
     refine: RefineParams = Field(RefineParams(), description="the local refinement of the scans between the nodes")
 
 
@@ -248,8 +251,11 @@ class LaserSLAM:
                 progress(k + 1, run.K)
         finish_start = time.process_time()
         run.tracking = None  # no scan is matched again: the final solve, the refinement and the map need neither the
-        for submap in self.submaps:  # tracking map nor dense submaps (memory at the end of a long log)
+        for submap in run.active:  # tracking map, nor dense submaps, nor the loop search's cached grids (memory at the
+            submap.finish()  # end of a long log)
+        for submap in self.submaps:
             submap.release()
+        run.loops._cache.clear()
         with run.timed("optimisation"):
             G, report = run.backend.finish(gnc=p.loop.verify == "gnc")
         for key, weight in report.pop("loop_weights", {}).items():
@@ -566,6 +572,7 @@ class LaserSLAM:
                 max_range=limit,
                 clear_range=p.frontend.clear_range,
             )
+        grid.release_scratch()  # the tracing's int64 scratch, twice the map's size
         return grid
 
 

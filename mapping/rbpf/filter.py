@@ -51,7 +51,7 @@ from ..beams import classify, scan_counts
 from ..map_pyramid import PyramidParams, initial_side
 from ..occupancy_grid import CellModelParams, OccupancyGrid
 from ..odometry import fresh_readings
-from .proposal import degeneracy, gauss_newton, quadrature, residuals
+from .proposal import degeneracy, degenerate_direction, gauss_newton, quadrature, residuals
 from .tiled_grid import TiledPyramid
 
 __all__ = ["RBPF", "RBPFParams", "MotionNoiseParams", "systematic_resampling"]
@@ -132,7 +132,7 @@ class RBPFParams(Params):
     degeneracy_threshold: NonNegativeFloat = Field(
         0.0,
         description="τ: a translation direction where the scan's geometric information is below τ times that of the "
-        "other is degenerate, and the proposal keeps the motion model there (.proposal docstring; 0, the default: off; "
+        "other is degenerate, and the particles keep their odometry guess along it (.proposal docstring; 0, the default: off; "
         "0.003 separates the simulated corridor from the simulated rooms)",
     )
     pyramid: PyramidParams = Field(
@@ -466,7 +466,11 @@ class RBPF:
         info = np.linalg.inv(motion_cov)
         gn = dict(self._gauss_newton_options(), basis=self._basis(pts))
         eps = rng.standard_normal((P, 3))
-        from_motion = guesses + eps @ np.linalg.cholesky(motion_cov).T
+        step = eps @ np.linalg.cholesky(motion_cov).T
+        if gn["basis"] is not None:  # no draw along the degenerate direction (.proposal docstring, "Degeneracy")
+            t0 = degenerate_direction(gn["basis"], guesses)
+            step -= t0 * np.einsum("pi,pi->p", t0, step)[:, None]
+        from_motion = guesses + step
         modes, iterations = gauss_newton(
             self.maps, pts, guesses, info, start=from_motion if p.proposal == "mode" else None, **gn
         )

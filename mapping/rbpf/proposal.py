@@ -53,13 +53,21 @@ says nothing, almost none where it pins the pose. The weight is the target's η_
 exact importance weight η_i N(ξ_i; ξ*, A⁻¹) / N(ξ_i; ξ*, A⁻¹ΛA⁻¹) has infinite variance once h > λ);
 research/method/rbpf_mode_proposal.md "The mode proposal" has the derivation and what it costs.
 
-**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md). When the translation
-block of the scan's geometric information (robot frame) has eigenvalues λ_0 < τ λ_1 (:func:`degeneracy`: a corridor),
-u_0 is degenerate; for particle p, T_p = blockdiag(R(ψ_p) [u_0 u_1], 1). Every Gauss-Newton step then moves a particle
-in the kept directions only (ξ = ξ₀ + T_p c, c_0 = 0), so along the corridor the mode stays where it starts (the guess
-ĝ_i, or the motion draw x_i of the mode proposal), and the K points are placed with the Laplace covariance without the
-scan's information along u_0, ``A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + T_pᵀ Σ_u⁻¹ T_p)⁻¹ T_pᵀ`` (K = diag(0, 1, 1)): the
-motion model's spread along it. The weights η_i are the target's integral as before.
+**Degeneracy** (``RBPFParams.degeneracy_threshold`` τ > 0; research/method/laser_degeneracy.md, rbpf.md). When the
+translation block of the scan's geometric information (robot frame) has eigenvalues λ_0 < τ λ_1 (:func:`degeneracy`: a
+corridor), u_0 is degenerate; for particle p, T_p = blockdiag(R(ψ_p) [u_0 u_1], 1) (3, 3) and c = T_pᵀ (ξ − ξ₀) its
+coordinates, c_0 along the corridor. The scan is taken to say nothing about c_0 (its apparent information there is
+the map's frontier pulling the scan back onto the mapped walls), so along c_0 the particle keeps its guess:
+
+* every Gauss-Newton step moves in the kept directions only (ξ = ξ₀ + T_p c, c_0 = 0), and the mode proposal's motion
+  draw has no component along t_0 (the first column of T_p): x_p = ĝ_p + (I − t_0 t_0ᵀ) L_u ε (L_u L_uᵀ = Σ_u);
+* the weight integrates the motion model out along c_0 with the likelihood held at the guess's c_0,
+  ``η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĉ_p, S_p) dc_1 dc_2`` (ĉ_p the guess's kept
+  coordinates, S_p their motion covariance; 9 points of the same rule in 2-D, :func:`_kept_quadrature`), so no
+  particle is weighted by where along the corridor it is.
+
+Drawing along c_0 from Σ_u instead (its σ_t ≥ 0.1 m is a search width, ten times a wheel odometry's noise per step) is
+a random walk the scan never corrects: research/notebook/2026-11-28-rbpf-scale.md.
 
 The per-particle loops over end points are numba kernels over all particles at once.
 """
@@ -74,13 +82,16 @@ from slamarena.datasets.geometry import wrap_angle, wrap_scalar
 from ..scan_matching.gauss_newton import _solve3, accumulate_point, bilinear, scan_information, take_step
 from .tiled_grid import TiledPyramid
 
-__all__ = ["degeneracy", "gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
+__all__ = ["degeneracy", "degenerate_direction", "gauss_newton", "residuals", "quadrature", "NODES", "NODE_WEIGHTS"]
 
 _U1 = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])
 _W1 = np.array([1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0])
 #: the 27 Gauss–Hermite points u_j (27, 3) and weights w_j (27,) of the module docstring
 NODES = np.stack(np.meshgrid(_U1, _U1, _U1, indexing="ij"), axis=-1).reshape(-1, 3)
 NODE_WEIGHTS = np.prod(np.stack(np.meshgrid(_W1, _W1, _W1, indexing="ij"), axis=-1).reshape(-1, 3), axis=1)
+#: the 9 points (9, 2) and weights (9,) of the same rule in two dimensions (a degenerate scan's kept coordinates)
+NODES_2D = np.stack(np.meshgrid(_U1, _U1, indexing="ij"), axis=-1).reshape(-1, 2)
+NODE_WEIGHTS_2D = np.prod(np.stack(np.meshgrid(_W1, _W1, indexing="ij"), axis=-1).reshape(-1, 2), axis=1)
 
 
 @njit(cache=True, inline="always")
@@ -335,6 +346,12 @@ def _particle_bases(basis, poses) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(R @ T), keep
 
 
+def degenerate_direction(basis: tuple[np.ndarray, np.ndarray], poses) -> np.ndarray:
+    """The degenerate direction t_0 (P, 3) in the world frame at each of the poses (P, 3): the first column of T_p
+    (:func:`degeneracy`'s basis turned by the pose's heading; no rotation component)."""
+    return _particle_bases(basis, poses)[0][:, :, 0]
+
+
 def residuals(maps: TiledPyramid, pts, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """On the finest level: Σ r² (P, K) at poses X (P, K, 3); H (P, 3, 3) and observed end points (P,) at X[:, 0]."""
     grid = maps.finest
@@ -360,16 +377,11 @@ def log_gaussian(d, cov) -> np.ndarray:
 
 def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float, basis=None):
     """μ (P, 3), Σ (P, 3, 3), log η (P,) and the observed end points (P,) of the module docstring; with ``basis``
-    (:func:`degeneracy`) the Laplace covariance drops the scan's information in the degenerate directions,
-    A⁻¹ = T_p (K T_pᵀ H T_p K / σ_z² + I)⁻¹ T_pᵀ (K = diag(keep)), which there is the motion model's."""
+    (:func:`degeneracy`) the scan is taken to say nothing along the degenerate direction (:func:`_kept_quadrature`)."""
+    if basis is not None:
+        return _kept_quadrature(maps, pts, modes, guesses, motion_cov, sigma, basis)
     ssr0, H, known = residuals(maps, pts, modes[:, None, :])
-    if basis is None:
-        A_inv = np.linalg.inv(H / sigma**2 + np.linalg.inv(motion_cov))
-    else:
-        Ts, keep = _particle_bases(basis, modes)
-        Tt, K = np.swapaxes(Ts, 1, 2), np.diag(keep)
-        A_inv = Ts @ np.linalg.inv(K @ Tt @ H @ Ts @ K / sigma**2 + Tt @ np.linalg.inv(motion_cov) @ Ts) @ Tt
-        A_inv = 0.5 * (A_inv + np.swapaxes(A_inv, 1, 2))
+    A_inv = np.linalg.inv(H / sigma**2 + np.linalg.inv(motion_cov))
     L = np.linalg.cholesky(A_inv)  # (P, 3, 3)
     D = np.einsum("pij,kj->pki", L, NODES)  # ξ_ij − ξ*_i (P, K, 3)
     X = modes[:, None, :] + D
@@ -377,15 +389,60 @@ def quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float
     e = X - guesses[:, None, :]
     e[..., 2] = wrap_angle(e[..., 2])
     log_tau = -0.5 * ssr / sigma**2 + log_gaussian(e, motion_cov)
-    log_c = np.log(NODE_WEIGHTS) + log_tau + 0.5 * np.sum(NODES**2, axis=1) + 1.5 * np.log(2 * np.pi)
-    top = log_c.max(axis=1, keepdims=True)
-    c = np.exp(log_c - top)
-    total = c.sum(axis=1)
-    log_eta = np.log(np.abs(np.linalg.det(L))) + top[:, 0] + np.log(total)
-    w = c / total[:, None]
+    log_eta, w = _log_integral(log_tau, NODES, NODE_WEIGHTS, L)
     dm = np.einsum("pk,pki->pi", w, D)
     R = D - dm[:, None, :]
     cov = np.einsum("pk,pki,pkj->pij", w, R, R)
     mu = modes + dm
     mu[:, 2] = wrap_angle(mu[:, 2])
     return mu, cov, log_eta, known
+
+
+def _log_integral(log_tau, nodes, node_weights, L) -> tuple[np.ndarray, np.ndarray]:
+    """log η (P,) = log(|L| Σ_j c_j), c_j = w_j τ(ξ_j)/φ(u_j), from log τ (P, K) at the points of the d-dimensional rule
+    ``nodes`` (K, d), ``node_weights`` (K,) scaled by L (P, d, d); and the normalised c_j (P, K)."""
+    d = nodes.shape[1]
+    log_c = np.log(node_weights) + log_tau + 0.5 * np.sum(nodes**2, axis=1) + 0.5 * d * np.log(2 * np.pi)
+    top = log_c.max(axis=1, keepdims=True)
+    c = np.exp(log_c - top)
+    total = c.sum(axis=1)
+    return np.log(np.abs(np.linalg.det(L))) + top[:, 0] + np.log(total), c / total[:, None]
+
+
+def _kept_quadrature(maps: TiledPyramid, pts, modes, guesses, motion_cov, sigma: float, basis):
+    """The quadrature of a degenerate scan (module docstring, "Degeneracy"). In particle p's coordinates
+    c = T_pᵀ (ξ − ξ°_p) (T_p (P, 3, 3) of :func:`_particle_bases`, c_0 along the corridor) the scan likelihood is taken
+    to be constant along c_0 at the guess's c_0: the centre ξ°_p is the mode ξ*_p moved along u_0 to the guess ĝ_p,
+    ξ°_p = ξ*_p + t_0 t_0ᵀ (ĝ_p − ξ*_p) (t_0 the first column of T_p). Then (the motion Gaussian integrates out along c_0)
+
+        η_p = ∫ p(z | m_p, ξ°_p + T_p (0, c_1, c_2)) N((c_1, c_2); ĉ_p, S_p) dc_1 dc_2          S_p = (T_pᵀ Σ_u T_p)[1:, 1:]
+
+    (ĉ_p = [T_pᵀ (ĝ_p − ξ°_p)]_{1:}, the guess's kept coordinates) by the 9-point 2-D rule on the Laplace covariance
+    of the kept coordinates, (H_kk/σ_z² + S_p⁻¹)⁻¹ with H_kk = (T_pᵀ H T_p)[1:, 1:], H at ξ°_p: the weight does not
+    depend on where along the corridor the mode is. μ_p = ξ°_p + T_p (0, m_1, m_2) and Σ_p = T_p blockdiag(0, C) T_pᵀ
+    with m, C (2,), (2, 2) the points' moments: along the corridor the proposal is the guess."""
+    Ts, _ = _particle_bases(basis, guesses)  # as the Gauss-Newton steps: T_p at the guess
+    Tt = np.swapaxes(Ts, 1, 2)
+    t0 = Ts[:, :, 0]  # degenerate_direction
+    centre = modes + t0 * np.einsum("pi,pi->p", t0, guesses - modes)[:, None]
+    _, H, known = residuals(maps, pts, centre[:, None, :])
+    S = (Tt @ motion_cov @ Ts)[:, 1:, 1:]  # (P, 2, 2)
+    A_inv = np.linalg.inv((Tt @ H @ Ts)[:, 1:, 1:] / sigma**2 + np.linalg.inv(S))
+    L = np.linalg.cholesky(0.5 * (A_inv + np.swapaxes(A_inv, 1, 2)))  # (P, 2, 2)
+    D2 = np.einsum("pij,kj->pki", L, NODES_2D)  # kept coordinates of the points − the centre's (P, 9, 2)
+    D = np.einsum("pij,pkj->pki", Ts[:, :, 1:], D2)  # (P, 9, 3)
+    X = centre[:, None, :] + D
+    ssr, _, _ = residuals(maps, pts, X)
+    e = X - guesses[:, None, :]
+    e[..., 2] = wrap_angle(e[..., 2])
+    ek = np.einsum("pij,pkj->pki", Tt, e)[..., 1:]  # (P, 9, 2)
+    z = np.einsum("pij,pkj->pki", np.linalg.inv(np.linalg.cholesky(S)), ek)
+    log_motion = -0.5 * np.sum(z**2, axis=-1) - 0.5 * np.log(np.linalg.det(S))[:, None] - np.log(2 * np.pi)
+    log_eta, w = _log_integral(-0.5 * ssr / sigma**2 + log_motion, NODES_2D, NODE_WEIGHTS_2D, L)
+    dm = np.einsum("pk,pki->pi", w, D2)
+    R = D2 - dm[:, None, :]
+    cov_c = np.zeros((len(modes), 3, 3))  # no spread along c_0
+    cov_c[:, 1:, 1:] = np.einsum("pk,pki,pkj->pij", w, R, R)
+    mu = centre + np.einsum("pij,pj->pi", Ts[:, :, 1:], dm)
+    mu[:, 2] = wrap_angle(mu[:, 2])
+    return mu, Ts @ cov_c @ Tt, log_eta, known

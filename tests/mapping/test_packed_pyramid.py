@@ -58,3 +58,21 @@ def test_laser_slam_keeps_finished_submaps_packed_and_the_same_estimate():
     assert sum(s._maps is not None for s in finished) <= 2 and est.meta["loop_candidates"] > 0
     dense = LaserSLAM(**{**params, "loop": {**params["loop"], "cache_submaps": 1000}}).run(seq)
     assert np.array_equal(est.poses, dense.poses)
+
+
+def test_after_a_run_every_submap_is_held_packed_at_a_fraction_of_its_dense_form():
+    """At the end of a run (the final solve, the refinement and the map need no grid of the mapping loop) every submap,
+    the last active ones included, is held packed only and the loop search's cached grids are freed; the packed
+    storage is a fraction of the dense pyramids it unpacks to, and the rendered map keeps no tracing scratch."""
+    from slamarena.datasets.sim.laser import simulate
+    from slamarena.mapping.laser_slam import LaserSLAM
+
+    seq = simulate(laps=1, n_beams=181, seed=3)
+    slam = LaserSLAM(frontend={"max_usable_range": 6.0}, tracking="submap", submap_scans=15)
+    slam.run(seq)
+    assert len(slam.submaps) > 4
+    assert all(s.finished and s._maps is None for s in slam.submaps)
+    packed = sum(s.packed.nbytes() for s in slam.submaps)
+    dense = sum(g.log_odds.nbytes for s in slam.submaps for g in s.packed.unpack().levels)
+    assert packed < 0.2 * dense, (packed, dense)
+    assert getattr(slam.map, "_scratch_cells", None) is None
