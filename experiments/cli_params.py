@@ -31,15 +31,22 @@ def _unit(description: str) -> tuple[str, str]:
 
 def parameter_rows(params: Params, prefix: str = "") -> list[tuple[str, str, str, str]]:
     """(path, default, unit, description) of every parameter of ``params`` (an instance: its values are the
-    defaults shown), sub-models and dicts expanded after a row of their own."""
+    defaults shown), sub-models and dicts expanded after a row of their own; an optional sub-model that is off (None)
+    shows ``null`` and then the defaults its fields take when it is set."""
+    from slamarena.params import submodel
+
     rows = []
     canonical = params.canonical()
     for name, field in type(params).model_fields.items():
         path, value = prefix + name, getattr(params, name)
         unit, text = _unit(field.description or "")
+        off = submodel(field.annotation) if value is None else None
         if isinstance(value, Params):
             rows.append((path, "", "", text))
             rows += parameter_rows(value, f"{path}.")
+        elif off is not None:
+            rows.append((path, "null", "", text))
+            rows += parameter_rows(off(), f"{path}.")
         elif isinstance(value, dict) and value:
             rows.append((path, "", "", text))
             model = getattr(params, (field.json_schema_extra or {}).get("model", ""), None)

@@ -145,14 +145,14 @@ def _overlay(model: type[Params] | None, base: Mapping[str, Any], over: Mapping[
     out = dict(base)
     for key, value in over.items():
         field = model.model_fields.get(key) if model is not None else None
-        sub = _submodel(field.annotation) if field is not None else None
+        sub = submodel(field.annotation) if field is not None else None
         inner = out.get(key)
         nest = sub is not None and isinstance(value, Mapping) and isinstance(inner, Mapping)
         out[key] = _overlay(sub, inner, value) if nest else value
     return out
 
 
-def _submodel(annotation) -> type[Params] | None:
+def submodel(annotation) -> type[Params] | None:
     """The Params class a field holds (``X`` or ``X | None``), else None."""
     if isinstance(annotation, type) and issubclass(annotation, Params):
         return annotation
@@ -164,7 +164,7 @@ def parameter_paths(model: type[Params], prefix: str = "") -> Iterator[str]:
     """Every parameter of ``model`` as a dotted path, each sub-model followed by its own (``loop``, ``loop.level``)."""
     for name, field in model.model_fields.items():
         yield prefix + name
-        sub = _submodel(field.annotation)
+        sub = submodel(field.annotation)
         if sub is not None:
             yield from parameter_paths(sub, f"{prefix}{name}.")
 

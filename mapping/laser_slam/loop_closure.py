@@ -164,7 +164,11 @@ class LoopClosureParams(Params):
     consistency_confidence: float = Field(
         0.999, gt=0.0, lt=1.0, description="PCM: two loops are consistent within the χ²₃ quantile of this probability"
     )
-    cache_submaps: PositiveInt = Field(8, description="submaps whose likelihood pyramids are kept for the loop search")
+    cache_submaps: PositiveInt = Field(
+        3,
+        description="submaps whose likelihood pyramids are kept for the loop search (a search reads a few; 3 bounds "
+        "the memory of a long log: research/notebook/2026-11-28-rbpf-scale.md)",
+    )
     false_loops: NonNegativeInt = Field(
         0,
         description="robustness study only: add this many deliberately false loop closures, spread evenly over the log",

@@ -113,10 +113,7 @@ class LaserSLAMParams(Params):
         RobustKernelParams(robust="cauchy", robust_k=1.0),
         description="m-estimator of the loop factors (and of the refinement's pairwise factors)",
     )
-    loop: LoopClosureParams = Field(
-        LoopClosureParams(cache_submaps=3),
-        description="the loop-closure search (3 submaps cached: a search reads at most a few; memory on a long log)",
-    )
+    loop: LoopClosureParams = Field(LoopClosureParams(), description="the loop-closure search")
     refine: RefineParams = Field(RefineParams(), description="the local refinement of the scans between the nodes")
 
 

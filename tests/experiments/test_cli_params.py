@@ -12,7 +12,7 @@ from slamarena.experiments.cli import app
 from slamarena.experiments.cli_map import parse_params
 from slamarena.experiments.cli_params import parameter_rows
 from slamarena.experiments.config import method_table
-from slamarena.params import parameter_paths, params_model
+from slamarena.params import parameter_paths, params_model, submodel
 from slamarena.targets import import_target
 
 
@@ -57,13 +57,19 @@ def test_every_method_parameter_is_printed_with_a_description_and_its_path_sets_
     canonical = model().canonical()
     for path in parameter_paths(model):
         assert rows[path][2], f"{method}: {path} has no description"
-        value = canonical
-        for part in path.split("."):
+        value, off = canonical, None
+        for depth, part in enumerate(path.split(".")):
+            if value is None:  # an optional sub-model that is off: its fields show the defaults they take when set
+                off = ".".join(path.split(".")[:depth])
+                value = submodel(model.model_fields[off].annotation)().canonical()
             value = value[part]
         if not isinstance(value, dict):
             assert json.loads(rows[path][0]) == value
-            # the path as --param takes it gives the same parameters back
-            assert model.of(parse_params([f"{path}={rows[path][0]}"])) == model()
+            # the path as --param takes it gives the same parameters back (turning an optional sub-model on, with
+            # its defaults)
+            given = model.of(parse_params([f"{path}={rows[path][0]}"]))
+            expected = model() if off is None else model.of({off: {}})
+            assert given == expected
 
 
 def test_an_unknown_method_names_the_closest():
