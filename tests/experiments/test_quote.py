@@ -229,8 +229,8 @@ def test_the_shipped_reader_pages_are_every_page_with_a_marker():
 
 @pytest.mark.parametrize("page", [p.relative_to(ROOT).as_posix() for p in reader_pages(ROOT)])
 def test_the_pages_quote_only_tables_of_shipped_configs(page):
-    """Every marker of every page a reader opens names a shipped config and a table (or the Monte Carlo table) it
-    writes, and every column it asks for is one of that table's."""
+    """Every marker of every page a reader opens names a shipped config and a table (the Monte Carlo table, or the
+    protocol's held-out table) it writes, and every column it asks for is one of that table's."""
     text = (ROOT / page).read_text()
     found = markers(text)
     assert found and len(found) == text.count("<!-- table: ") + text.count("<!-- value: ")
@@ -241,6 +241,10 @@ def test_the_pages_quote_only_tables_of_shipped_configs(page):
         assert experiment in configs, spec
         config = load_config(experiment)
         written = {t.name: t.columns for t in config.tables}
+        if config.protocol is not None:  # the leave-one-log-out protocol writes tables/heldout.*
+            from slamarena.experiments.protocol import HELDOUT_COLUMNS
+
+            written["heldout"] = list(HELDOUT_COLUMNS)
         if table == "monte_carlo":
             from slamarena.experiments.tables import MONTE_CARLO_COLUMNS
 
