@@ -344,9 +344,8 @@ def update_particles(
                 if not known:
                     taken[best] = True
                 log_w[m] += best_ll
-                if (
-                    version == 2
-                ):  # condition the proposal on this observation (an outlier's noise inflated by Huber's 1 / w)
+                # condition the proposal on this observation (an outlier's noise inflated by Huber's 1 / w)
+                if version == 2:
                     c = huber_scale(best_d2, huber_k)
                     if c > 1.0:
                         best_Q = best_Q * c

@@ -43,8 +43,6 @@ robust-kernel and covariance settings (its motion and observations are a pose gr
 
 from __future__ import annotations
 
-import gzip
-import shutil
 import tempfile
 import time
 from contextlib import contextmanager
@@ -57,6 +55,7 @@ from pydantic import PositiveFloat
 
 from slamarena.datasets.estimate import Estimate
 from slamarena.datasets.formats import g2o
+from slamarena.datasets.formats._text import read_bytes
 from slamarena.datasets.geometry import transform_points, wrap_angle
 from slamarena.datasets.posegraph import PoseGraph
 from slamarena.datasets.sequence import Sequence
@@ -180,14 +179,14 @@ _SAME_INITIAL = 1e-9
 
 @contextmanager
 def plain_text(path: Path):
-    """``path`` as a plain-text file (GTSAM's reader reads no gzip: a ``.gz`` is decompressed into a temporary file)."""
+    """``path`` as a plain-text file (GTSAM's reader reads no gzip: a ``.gz`` is written to a temporary file as the
+    project's readers read it, :func:`~slamarena.datasets.formats._text.read_bytes`)."""
     if path.suffix != ".gz":
         yield path
         return
     with tempfile.TemporaryDirectory() as tmp:
         plain = Path(tmp) / path.stem
-        with gzip.open(path, "rb") as src, open(plain, "wb") as dst:
-            shutil.copyfileobj(src, dst)
+        plain.write_bytes(read_bytes(path))
         yield plain
 
 
