@@ -345,6 +345,10 @@ class LoopCloser:
         out.sort(key=lambda t: t[0])
         return [(s, c, P) for _, s, c, P in out[: p.max_candidates]]
 
+    def release(self) -> None:
+        """Drop the cached likelihood grids of the loop search (no loop is searched again: memory at a log's end)."""
+        self._cache.clear()
+
     def _precomputed(self, submap) -> dict:
         if submap.index in self._cache:
             self._cache.move_to_end(submap.index)

@@ -252,7 +252,7 @@ class LaserSLAM:
             submap.finish()  # end of a long log)
         for submap in self.submaps:
             submap.release()
-        run.loops._cache.clear()
+        run.loops.release()
         with run.timed("optimisation"):
             G, report = run.backend.finish(gnc=p.loop.verify == "gnc")
         for key, weight in report.pop("loop_weights", {}).items():
