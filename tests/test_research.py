@@ -49,6 +49,8 @@ def test_the_scripts_that_take_their_sizes_as_arguments_have_a_quick_run():
         "ekf_slam_cost_benchmark_K",
         "ekf_slam_cost_benchmark_KR",
         "fastslam_consistency_1",
+        "input_validation_fastslam_cpu",
+        "stereo_accuracy",
     }
 
 
@@ -56,13 +58,16 @@ def test_the_scripts_that_take_their_sizes_as_arguments_have_a_quick_run():
 @pytest.mark.parametrize("script", QUICK, ids=lambda p: p.stem)
 def test_a_quick_run_finishes(script):
     """``python SCRIPT --quick`` runs the script through at its smallest size (slow: a simulation each, minutes on a
-    loaded machine); it catches what an import cannot, a private attribute or a changed signature the body uses."""
+    loaded machine); it catches what an import cannot, a private attribute or a changed signature the body uses. A
+    script that reads staged data skips when the data is absent."""
     import os
     import subprocess
     import sys
 
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     done = subprocess.run([sys.executable, str(script), "--quick"], cwd=ROOT, env=env, capture_output=True, text=True)
+    if done.returncode and "DatasetNotFoundError" in done.stderr:
+        pytest.skip(f"{script.name} reads a dataset that is not staged: {done.stderr.strip().splitlines()[-1]}")
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip(), "printed nothing"
 
@@ -87,3 +92,63 @@ def test_a_method_page_stays_short():
         p.name: n for p in (ROOT / "research" / "method").glob("*.md") if (n := len(p.read_text().splitlines())) > 220
     }
     assert not long, long
+
+
+#: Pages with an inline script that are not this test's to fix (other branches edit them; the lead moves their
+#: scripts into research/scripts/ at merge): 2026-11-28-tum-stamps.md line 77 and 2026-11-28-ros-bags.md line 9,
+#: each a ``python -c`` program of several lines.
+INLINE_SCRIPT_PENDING = {
+    "research/notebook/2026-11-28-tum-stamps.md",
+    "research/notebook/2026-11-28-ros-bags.md",
+}
+
+#: A heredoc fed to Python: ``python … <<EOF`` (or ``<<<``) on one line, or ``<<EOF … | python``.
+_HEREDOC = re.compile(r"python[\w.]*(?:\s[^\n]*)?<<|<<-?\s*['\"]?\w+['\"]?[^\n]*\|[^\n]*python")
+_DASH_C = re.compile(r"python[\w.]*\s+(?:-\S+\s+)*-c\s+(['\"])")
+
+
+def inline_scripts(text: str) -> list[tuple[int, str]]:
+    """The inline scripts of a research page as (line, what): a heredoc fed to Python, or a ``python -c`` whose
+    program runs over more than one line. A one-line ``python -c`` is a command, not a script, and stays; a program
+    continued by a backslash, or one wrapped inside a Markdown code span (where a line break is a space), is one
+    line."""
+    found = [(text.count("\n", 0, m.start()) + 1, "a heredoc fed to python") for m in _HEREDOC.finditer(text)]
+    for m in _DASH_C.finditer(text):
+        quote, start = m.group(1), m.end()
+        end = start
+        while (end := text.find(quote, end)) != -1 and quote == '"' and text[end - 1] == "\\":
+            end += 1
+        program = text[start : end if end != -1 else len(text)].replace("\\\n", " ")
+        line_start = text.rfind("\n", 0, m.start()) + 1
+        if text[line_start : m.start()].count("`") % 2:  # inside a code span: Markdown wrapping, not a line break
+            program = program.replace("\n", " ")
+        if "\n" in program.strip():
+            found.append((text.count("\n", 0, m.start()) + 1, "a python -c program of more than one line"))
+    return sorted(found)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("```bash\n.venv/bin/python - 3 <<'EOF'\nprint(1)\nEOF\n```\n", [(2, "a heredoc fed to python")]),
+        ("x\ncat <<EOF | python3 -\nprint(1)\nEOF\n", [(2, "a heredoc fed to python")]),
+        ('```\npython -c "import a\nprint(a)"\n```\n', [(2, "a python -c program of more than one line")]),
+        ("`python -c 'import a; print(a)'` and `python -c \"import a;\nprint(a)\"`\n", []),
+        ('python -c "import a; \\\n  print(a)"\n', []),
+        ("python research/scripts/x.py --quick\n", []),
+    ],
+)
+def test_inline_scripts_are_found(text, expected):
+    assert inline_scripts(text) == expected
+
+
+def test_no_research_page_holds_an_inline_script():
+    """A script on a research page goes to research/scripts/ (imported here, named by its page) and the page gives
+    the command that runs it (issue 34): an inline script escapes the import check and goes stale unseen."""
+    found = [
+        f"{rel}:{line}: {what}"
+        for p, text in PAGES.items()
+        if (rel := p.relative_to(ROOT).as_posix()) not in INLINE_SCRIPT_PENDING
+        for line, what in inline_scripts(text)
+    ]
+    assert not found, "inline scripts (move each to research/scripts/ and give its command):\n" + "\n".join(found)
