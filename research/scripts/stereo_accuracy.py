@@ -18,12 +18,16 @@ in its camera i, less the reference's in the reference's camera i; ESTIMATE is a
 3000 ORB features, left images only) over frames i → i + 10 for i in ``range(FIRST, LAST, STEP)``; medians for
 i < 90 and i ≥ 100.
 
-``two-frame FIRST LAST STEP`` (§3): per k in ``range(FIRST, LAST, STEP)``, the step k → k + 2 over the reference's
-from PnP on frame k's stereo points and from a two-keyframe stereo BA; medians per 10 frames and on frames < 57
-and ≥ 57 (the halves' medians were added when the heredoc became this script).
+``two-frame FIRST LAST STEP [stereo|features]`` (§3): per k in ``range(FIRST, LAST, STEP)``, the step k → k + 2 over
+the reference's from PnP on frame k's stereo points (to frame k + 2's stereo points, or with ``features`` to all of its
+features, the table's "every k" row with STEP 1) and from a two-keyframe stereo BA (``stereo`` only); medians per 10
+frames and on frames < 57 and ≥ 57 (the halves' medians, and the options of this and of ``sgbm``, were added when the
+page's heredocs became this script: the page described those variants as edits).
 
-``sgbm FIRST LAST STEP`` (§3): the same step from PnP on points with OpenCV's SGBM depth at frame k's features;
-medians on frames < 57 and ≥ 57.
+``sgbm FIRST LAST STEP [features|stereo|stereo-ours]`` (§3): the same step from PnP (to all of frame k + 2's features)
+on points with OpenCV's SGBM depth at frame k's features, or with ``stereo`` at our stereo points' left pixels, or
+with ``stereo-ours`` at the same points (those with an SGBM disparity ≥ 2 px) but with our own disparities; medians
+on frames < 57 and ≥ 57.
 
 Each number of the page is a notebook figure (measured at the commit the page states). ``--quick`` runs every
 subcommand but ``direction`` (which reads a shipped run's output) at its smallest size (``QUICK``); all of them read
@@ -117,20 +121,27 @@ def five_point(first: str, last: str, step: str) -> None:
     )  # fmt: skip
 
 
-def two_frame(first: str, last: str, step: str) -> None:
+def two_frame(first: str, last: str, step: str, targets: str = "stereo") -> None:
     ks = range(int(first), int(last), int(step))
     cam, params, rows = _camera(0, max(100, ks[-1] + 3)), StereoVOParams(), []
     Q = cam.ground_truth
     for k in ks:
-        (ul, ur, X, d), (vl, vr, _, e) = stereo_points(cam, k, params), stereo_points(cam, k + 2, params)
+        ul, ur, X, d = stereo_points(cam, k, params)
+        if targets == "stereo":
+            vl, vr, _, e = stereo_points(cam, k + 2, params)
+        else:  # "features": all of frame k + 2's features; PnP only (the BA needs their right-image columns)
+            (vl, e), vr = detect(cam.image(k + 2), params.features), None
         i, j = match(d, e, 0.8, True, 64)
         r = pnp_ransac(cam.K, X[i], vl[j], 1.0, seed=k)
         T, n = pose_matrix(r.R, r.t), np.flatnonzero(r.inliers)
-        obs = [Observation(0, a, *ul[i[m]], ur[i[m]]) for a, m in enumerate(n)]
-        obs += [Observation(1, a, *vl[j[m]], vr[j[m]]) for a, m in enumerate(n)]
-        ba = bundle_adjust(cam.K, cam.baseline, {0: np.eye(4), 1: T}, X[i][n], obs, (0,), max_iterations=50)[0][1]
         truth = np.linalg.norm(_step(Q, k, k + 2))
-        rows.append((k, np.linalg.norm(T[:3, 3]) / truth, np.linalg.norm(ba[:3, 3]) / truth))
+        ba_ratio = np.nan
+        if vr is not None:
+            obs = [Observation(0, a, *ul[i[m]], ur[i[m]]) for a, m in enumerate(n)]
+            obs += [Observation(1, a, *vl[j[m]], vr[j[m]]) for a, m in enumerate(n)]
+            ba = bundle_adjust(cam.K, cam.baseline, {0: np.eye(4), 1: T}, X[i][n], obs, (0,), max_iterations=50)
+            ba_ratio = np.linalg.norm(ba[0][1][:3, 3]) / truth
+        rows.append((k, np.linalg.norm(T[:3, 3]) / truth, ba_ratio))
     rows = np.array(rows)
     print("bin, PnP / two-frame BA step over the reference's (median)")
     for a in range(ks[0], ks[-1] + 1, 10):
@@ -143,7 +154,7 @@ def two_frame(first: str, last: str, step: str) -> None:
     )
 
 
-def sgbm(first: str, last: str, step: str) -> None:
+def sgbm(first: str, last: str, step: str, points: str = "features") -> None:
     ks = range(int(first), int(last), int(step))
     cam, params, rows = _camera(0, max(100, ks[-1] + 3)), StereoVOParams(), []
     Q, K = cam.ground_truth, cam.K
@@ -151,10 +162,16 @@ def sgbm(first: str, last: str, step: str) -> None:
     matcher = cv2.StereoSGBM_create(0, 128, 5, P1=200, P2=800, uniquenessRatio=10, mode=cv2.STEREO_SGBM_MODE_HH)
     for k in ks:
         D = matcher.compute(cam.image(k), cam.image(k, "right")).astype(float) / 16
-        u, d = detect(cam.image(k), params.features)
+        if points == "features":  # every left feature
+            u, d = detect(cam.image(k), params.features)
+        else:  # "stereo", "stereo-ours": our stereo points' left pixels
+            u, _, ours, d = stereo_points(cam, k, params)
         disp = D[np.rint(u[:, 1]).astype(int), np.rint(u[:, 0]).astype(int)]
-        u, d, disp = u[disp >= 2], d[disp >= 2], disp[disp >= 2]
+        keep = disp >= 2
+        u, d, disp = u[keep], d[keep], disp[keep]
         X = np.column_stack([(u - K[:2, 2]) / np.diag(K)[:2] * (fb / disp)[:, None], fb / disp])
+        if points == "stereo-ours":  # the same points with our own disparities (our triangulation)
+            X = ours[keep]
         u2, d2 = detect(cam.image(k + 2), params.features)
         i, j = match(d, d2, 0.8, True, 64)
         r = pnp_ransac(K, X[i], u2[j], 1.0, seed=k)
@@ -177,20 +194,23 @@ def main(argv: list[str]) -> None:
     COMMANDS[argv[0]](*argv[1:])
 
 
-#: ``--quick``: every subcommand but ``direction`` through every line at its smallest size (one short segment, one or
-#: two frame pairs per half; the page's sizes are in its commands).
-QUICK = {
-    "segments": ["[[57,12]]", '[{"window":5}]'],
-    "speed": [],
-    "five-point": ["15", "110", "90"],
-    "two-frame": ["55", "60", "2"],
-    "sgbm": ["55", "60", "2"],
-}
+#: ``--quick``: every subcommand but ``direction`` and each option through every line at its smallest size (one short
+#: segment, one frame pair per half; the page's sizes are in its commands).
+QUICK = [
+    ["segments", "[[57,12]]", '[{"window":5}]'],
+    ["speed"],
+    ["five-point", "15", "110", "90"],
+    ["two-frame", "55", "59", "2"],
+    ["two-frame", "55", "59", "2", "features"],
+    ["sgbm", "55", "59", "2"],
+    ["sgbm", "55", "59", "2", "stereo"],
+    ["sgbm", "55", "59", "2", "stereo-ours"],
+]
 
 if __name__ == "__main__":
     if sys.argv[1:] == ["--quick"]:
-        for name, args in QUICK.items():
-            print(name, flush=True)
-            main([name, *args])
+        for argv in QUICK:
+            print(*argv, flush=True)
+            main(argv)
     else:
         main(sys.argv[1:])
