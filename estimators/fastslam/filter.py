@@ -103,8 +103,8 @@ from slamarena.params import Covariance2, Covariance3, Field, Params, Probabilit
 from ..inputs import CovarianceError, first_indefinite, next_stamp, valid_rows
 from ..models import (
     DEFAULT_RANGE_BEARING_COV,
-    DEFAULT_TWIST_COV,
     MOTION_MODELS,
+    UNSTATED_TWIST_COV,
     RangeBearingNoise,
     chi2_gate,
     compose_chain,
@@ -131,7 +131,8 @@ class FastSLAMParams(Params):
     motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models)")
     twist_cov: Covariance2 | None = Field(
         None,
-        description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default",
+        description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else UNSTATED_TWIST_COV "
+        "(estimators.models: MRCLAM's identified twist noise, as EKF-SLAM)",
     )
     increment_cov: Covariance3 | None = Field(
         None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's"
@@ -227,7 +228,7 @@ class FastSLAM:
     def reset(self, sequence=None) -> None:
         """Start over: every particle at the start pose (of ``sequence``, else the origin), noise resolved."""
         p = self.params
-        self.M_twist = noise_in_force(p.twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.M_twist = noise_in_force(p.twist_cov, sequence, "twist_cov", UNSTATED_TWIST_COV)
         self.R = noise_in_force(p.range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
         self.increment_cov = noise_in_force(p.increment_cov, sequence, "increment_cov")
         self.rng = np.random.default_rng(p.seed)
