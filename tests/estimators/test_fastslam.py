@@ -655,6 +655,7 @@ def _huber_filter(version, k, known):
         use_ids=known,
         resample_threshold=1e-9,  # no resampling: the particles' weights are compared
         range_bearing_cov=[0.01, 1e-4],
+        twist_cov=[0.1**2, 0.05**2],  # stated: the rows below must stay inside every particle's gate
         initial_cov=[1e-4, 1e-4, 1e-5],
     )
     ids = (7, 8) if known else (-1, -1)
