@@ -153,8 +153,8 @@ from ..kernels import twist_motion
 from ..models import (
     ARC,
     DEFAULT_RANGE_BEARING_COV,
-    DEFAULT_TWIST_COV,
     MOTION_MODELS,
+    UNSTATED_TWIST_COV,
     RangeBearingNoise,
     chi2_gate,
     inverse_observation_jacobians,
@@ -182,7 +182,6 @@ __all__ = [
     "AssociationMethod",
     "Linearisation",
     "OnIndefinite",
-    "DEFAULT_TWIST_COV",
     "UNSTATED_TWIST_COV",
     "DEFAULT_RANGE_BEARING_COV",
     "NEW_ID_BASE",
@@ -190,12 +189,6 @@ __all__ = [
 
 #: ids given to landmarks created from unlabelled rows while labelled ids are in use
 NEW_ID_BASE = 1_000_000
-
-#: M, the twist noise when neither the parameters nor the sequence state one: MRCLAM's, identified against Vicon
-#: (experiments/configs/mrclam.yaml; σ_v 0.108 m/s, σ_ω 0.417 rad/s per row) — chosen there, never on the data it is
-#: scored on (the car park: research/notebook/2026-11-28-ekf-defaults.md). DEFAULT_TWIST_COV (σ_v 0.1, σ_ω 0.05), the
-#: other methods' fallback, locks EKF-SLAM without ids out where the car park returns to its start.
-UNSTATED_TWIST_COV = np.diag([0.0117624, 0.174])
 
 
 class MotionNoise(StrEnum):

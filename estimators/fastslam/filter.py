@@ -20,7 +20,9 @@ State layout (M particles, n_m landmarks of particle m)
 Prediction (between samplings)
 ------------------------------
 A control u = (v, ω) held for dt gives the body-frame increment δ = δ(u, dt) with covariance
-C = V M Vᵀ (V = ∂δ/∂u (3, 2), M the twist covariance (2, 2), the EKF-SLAM "control" noise model);
+C = V M Vᵀ (V = ∂δ/∂u (3, 2), M the twist covariance (2, 2), the EKF-SLAM "control" noise model), or with a stated row
+period T (``twist_period``) C = (T / dt) V M Vᵀ: white velocity noise of density M T, so that rows of irregular length
+(MRCLAM: 0.01–1 s) carry the stated error per second and not M per row (for rows of period T the two are the same);
 an odometry increment δ comes with its own C (3, 3). The chain is composed once for all particles:
 
     Δ ← Δ ⊕ δ,   Σ_Δ ← J_Δ Σ_Δ J_Δᵀ + J_δ C J_δᵀ      (J_Δ, J_δ = ∂(Δ ⊕ δ)/∂Δ, ∂/∂δ, (3, 3) each)
@@ -103,8 +105,8 @@ from slamarena.params import Covariance2, Covariance3, Field, Params, Probabilit
 from ..inputs import CovarianceError, first_indefinite, next_stamp, valid_rows
 from ..models import (
     DEFAULT_RANGE_BEARING_COV,
-    DEFAULT_TWIST_COV,
     MOTION_MODELS,
+    UNSTATED_TWIST_COV,
     RangeBearingNoise,
     chi2_gate,
     compose_chain,
@@ -131,7 +133,14 @@ class FastSLAMParams(Params):
     motion_model: Literal["arc", "euler"] = Field("arc", description="motion model of Twist input (estimators.models)")
     twist_cov: Covariance2 | None = Field(
         None,
-        description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else the EKF-SLAM default",
+        description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else UNSTATED_TWIST_COV "
+        "(estimators.models: MRCLAM's identified twist noise, as EKF-SLAM)",
+    )
+    twist_period: PositiveFloat | None = Field(
+        None,
+        description="the row period T [s] the twist covariance M is stated for: a row held for dt is applied with M·T/dt (a "
+        "white velocity error of density M·T), so a stretch's pose error depends on its duration, not on how its rows are "
+        "cut; None: M for every row whatever its dt (the simulators' convention, the same for rows of period T)",
     )
     increment_cov: Covariance3 | None = Field(
         None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's"
@@ -227,7 +236,7 @@ class FastSLAM:
     def reset(self, sequence=None) -> None:
         """Start over: every particle at the start pose (of ``sequence``, else the origin), noise resolved."""
         p = self.params
-        self.M_twist = noise_in_force(p.twist_cov, sequence, "twist_cov", DEFAULT_TWIST_COV)
+        self.M_twist = noise_in_force(p.twist_cov, sequence, "twist_cov", UNSTATED_TWIST_COV)
         self.R = noise_in_force(p.range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
         self.increment_cov = noise_in_force(p.increment_cov, sequence, "increment_cov")
         self.rng = np.random.default_rng(p.seed)
@@ -304,7 +313,9 @@ class FastSLAM:
         with np.errstate(over="ignore", invalid="ignore"):  # an absurd control overflows; _chain checks the result
             delta = self.model.increment(v, omega, dt)
             V = self.model.jacobians(np.zeros(3), v, omega, dt)[1]
-            C = V @ self.M_twist @ np.swapaxes(V, 1, 2)
+            T = self.params.twist_period
+            scale = np.ones_like(dt) if T is None else T / dt  # (K,): M·T/dt per row
+            C = scale[:, None, None] * (V @ self.M_twist @ np.swapaxes(V, 1, 2))
         return self._chain(delta, C)
 
     def predict_increments(self, delta, cov=None) -> tuple[np.ndarray, np.ndarray]:

@@ -11,7 +11,8 @@ from checks import load_staged
 import slamarena
 from slamarena.datasets.sequence import Noise, Sequence
 from slamarena.estimators.ekf_slam import EKFSLAM
-from slamarena.estimators.ekf_slam.filter import UNSTATED_TWIST_COV
+from slamarena.estimators.fastslam import FastSLAM
+from slamarena.estimators.models import UNSTATED_TWIST_COV
 
 
 def test_the_twist_noise_nothing_states_is_mrclams_identified_one():
@@ -26,6 +27,23 @@ def test_the_twist_noise_nothing_states_is_mrclams_identified_one():
     given = EKFSLAM(twist_cov=[0.5, 0.6])
     given.reset(Sequence(name="stated", noise=Noise(twist_cov=np.diag([0.2, 0.3]))))
     np.testing.assert_array_equal(given.M, np.diag([0.5, 0.6]))
+
+
+def test_fastslam_falls_back_to_the_same_twist_noise_as_ekf_slam():
+    """One fallback for the landmark filters (estimators.models.UNSTATED_TWIST_COV): FastSLAM on a sequence that states no
+    twist noise takes MRCLAM's identified one, as EKF-SLAM does (it took σ_v 0.1, σ_ω 0.05 before); stated noise and a
+    parameter win as for EKF-SLAM."""
+    bare = Sequence(name="bare", noise=Noise())
+    fs, ekf = FastSLAM(particles=3), EKFSLAM()
+    fs.reset(bare)
+    ekf.reset(bare)
+    np.testing.assert_array_equal(fs.M_twist, np.diag([0.0117624, 0.174]))
+    np.testing.assert_array_equal(fs.M_twist, ekf.M)
+    fs.reset(Sequence(name="stated", noise=Noise(twist_cov=np.diag([0.2, 0.3]))))
+    np.testing.assert_array_equal(fs.M_twist, np.diag([0.2, 0.3]))
+    given = FastSLAM(particles=3, twist_cov=[[0.5, 0.0], [0.0, 0.6]])
+    given.reset(bare)
+    np.testing.assert_array_equal(given.M_twist, np.diag([0.5, 0.6]))
 
 
 def test_the_defaults_map_every_car_park_beacon():

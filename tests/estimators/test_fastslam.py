@@ -113,6 +113,33 @@ def small_world():
     return datasets.load("sim:landmarks", n_landmarks=25, laps=1, seed=2)
 
 
+def test_a_stated_twist_period_makes_the_motion_noise_a_density_of_time():
+    """With ``twist_period`` T, a row held for dt carries M·T/dt: a second of motion has the covariance of a second
+    whatever its rows (one row of 1 s, 100 of 0.01 s, or 7 rows of unequal length), and rows of period T are applied as
+    without it. Without T every row carries M, so one row of 1 s has 100× the heading variance of 100 rows of 0.01 s (the
+    irregular MRCLAM odometry: rows of 0.01-1 s)."""
+    M, T = np.diag([0.01, 0.04]), 0.02
+    cuts = {
+        "one": np.array([1.0]),
+        "hundred": np.full(100, 0.01),
+        "uneven": np.array([0.3, 0.01, 0.19, 0.2, 0.05, 0.05, 0.2]),
+    }
+    heading = {}
+    for per_row in (False, True):
+        for name, dt in cuts.items():
+            f = FastSLAM(particles=2, twist_cov=M, twist_period=None if per_row else T)
+            f.predict_twists(np.zeros(len(dt)), np.zeros(len(dt)), dt)
+            heading[per_row, name] = f.Sigma_delta
+    for name in cuts:  # the heading variance of 1 s of standing still: density M_ωω T times 1 s
+        np.testing.assert_allclose(heading[False, name][2, 2], M[1, 1] * T * 1.0, rtol=1e-12)
+    np.testing.assert_allclose(heading[True, "one"][2, 2], 100 * heading[True, "hundred"][2, 2], rtol=1e-12)
+    regular = np.full(50, T)
+    a, b = FastSLAM(particles=2, twist_cov=M, twist_period=T), FastSLAM(particles=2, twist_cov=M)
+    for f in (a, b):
+        f.predict_twists(np.full(50, 0.5), np.full(50, 0.2), regular)
+    np.testing.assert_allclose(a.Sigma_delta, b.Sigma_delta, rtol=1e-12, atol=1e-18)
+
+
 @pytest.mark.parametrize("version", [1, 2])
 def test_known_ids_approach_the_ekf(small_world, version):
     seq = small_world
@@ -655,6 +682,7 @@ def _huber_filter(version, k, known):
         use_ids=known,
         resample_threshold=1e-9,  # no resampling: the particles' weights are compared
         range_bearing_cov=[0.01, 1e-4],
+        twist_cov=[0.1**2, 0.05**2],  # stated: the rows below must stay inside every particle's gate
         initial_cov=[1e-4, 1e-4, 1e-5],
     )
     ids = (7, 8) if known else (-1, -1)

@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import chi2
 
 from slamarena.datasets.sequence import Noise, Sequence
-from slamarena.estimators.models import DEFAULT_TWIST_COV, chi2_gate, noise_in_force
+from slamarena.estimators.models import UNSTATED_TWIST_COV, chi2_gate, noise_in_force
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -20,9 +20,9 @@ def test_the_parameter_else_the_stated_noise_else_the_default():
     stated = Sequence(name="s", noise=Noise(twist_cov=np.diag([4.0, 9.0])))
     bare = Sequence(name="bare")
     param = [[1.0, 0.0], [0.0, 2.0]]
-    np.testing.assert_array_equal(noise_in_force(param, stated, "twist_cov", DEFAULT_TWIST_COV), np.diag([1.0, 2.0]))
-    np.testing.assert_array_equal(noise_in_force(None, stated, "twist_cov", DEFAULT_TWIST_COV), np.diag([4.0, 9.0]))
-    np.testing.assert_array_equal(noise_in_force(None, bare, "twist_cov", DEFAULT_TWIST_COV), DEFAULT_TWIST_COV)
+    np.testing.assert_array_equal(noise_in_force(param, stated, "twist_cov", UNSTATED_TWIST_COV), np.diag([1.0, 2.0]))
+    np.testing.assert_array_equal(noise_in_force(None, stated, "twist_cov", UNSTATED_TWIST_COV), np.diag([4.0, 9.0]))
+    np.testing.assert_array_equal(noise_in_force(None, bare, "twist_cov", UNSTATED_TWIST_COV), UNSTATED_TWIST_COV)
     assert noise_in_force(None, None, "twist_cov") is None  # no sequence (a filter reset without one)
     assert noise_in_force(None, bare, "increment_cov") is None
     with pytest.raises(ValueError, match="bare: no gps_cov stated; pass gps_cov="):
