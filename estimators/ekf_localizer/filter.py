@@ -285,9 +285,8 @@ class EKFLocalizerParams(Params):
     )
     max_rejections: NonNegativeInt = Field(
         5,
-        description="consecutive gated-out measurements of one sensor (of landmarks and beacons: of two or more different, "
-        "unsuspected ones) "
-        "after which the filter inflates P and applies the next; 0: never",
+        description="consecutive gated-out measurements of one sensor (of landmarks and beacons: of two or more "
+        "different, unsuspected ones) after which the filter inflates P and applies the next; 0: never",
     )
     initial_cov: Covariance3 = Field(
         (1e-4, 1e-4, 1e-4), description="covariance of the start pose (x [m²], y [m²], θ [rad²])"
@@ -355,8 +354,8 @@ class EKFLocalizer:
         self._history = History(self.params.history_length)
         self._final = Diagnostics()  # records of the steps that left the history and of calls outside a timed step
         self._log = self._final  # where records go: the timed step in progress, else the final record
-        # per sensor: (the sources of its consecutive gate rejections, the suspect sources): "Gating" above
-        self._streak = dict.fromkeys(SENSORS, ((), frozenset()))
+        # per sensor: (its consecutive gate rejections, their sources, the suspect sources): "Gating" above
+        self._streak = dict.fromkeys(SENSORS, (0, frozenset(), frozenset()))
         if t is not None:
             self._push(self._t, "start", None, Diagnostics())
 
@@ -466,11 +465,11 @@ class EKFLocalizer:
         nis = float(kf.y @ kf.SI @ kf.y)  # filterpy's innovation y and S⁻¹ of this update
         gate = self.gate[sensor]
         accepted = nis <= gate
-        refused, suspects = self._streak[sensor]  # the sources refused in a row (oldest first), the suspect ones
+        streak, refused, suspects = self._streak[sensor]  # refusals in a row, their sources, the suspect sources
         diverged = (
             not accepted
-            and 0 < self.params.max_rejections <= len(refused)
-            and (source is None or (source not in suspects and len({*refused, source} - suspects) >= 2))
+            and 0 < self.params.max_rejections <= streak
+            and (source is None or (source not in suspects and len((refused | {source}) - suspects) >= 2))
         )
         self._log.gated(sensor, np.nan if self._t is None else self._t, nis, accepted or diverged)
         if diverged:  # the sensor has been refused too often in a row: the filter, not the sensor, is off
@@ -479,10 +478,10 @@ class EKFLocalizer:
             self._log.recover(sensor)
         elif not accepted:
             kf.x, kf.P = prior
-            self._streak[sensor] = ((*refused, source), suspects)
+            self._streak[sensor] = (streak + 1, refused | {source} - {None}, suspects)
             self._log.reject(sensor, "gate")
             return False
-        self._streak[sensor] = ((), (suspects | {r for r in refused if r is not None}) - {source})
+        self._streak[sensor] = (0, frozenset(), (suspects | refused) - {source})
         kf.x[2] = wrap_angle(kf.x[2])
         return True
 
