@@ -61,7 +61,16 @@ prediction has drifted beyond its own covariance (wheel slip, a wrong noise mode
 outlier". After ``max_rejections`` consecutive gated-out measurements of one sensor (default 5; 0
 disables) the filter treats itself, not the sensor, as wrong: it scales P by α = NIS/χ²-threshold
 (> 1: the inflation that makes S as large as the innovation says it is) and applies the measurement
-(a recovery). Motion input that is not finite, or whose prediction is not (a control so large that
+(a recovery). Landmarks and beacons are many references, not one sensor: their refusals in a row must
+also come from at least two different ones (positions) that are not suspect, and the row taken must not
+be suspect, before the filter blames itself. A reference is suspect once it was refused and another one
+of the sensor was then accepted (the filter agreed with the map elsewhere), until it is accepted itself.
+One landmark refused alone, however often, is evidence against that landmark (a surveyed position that
+is wrong, a misread id: MRCLAM Dataset 1 has two landmarks' surveyed positions swapped), not against the
+filter; forcing it in would move the filter by the map's error
+(research/notebook/2026-11-28-mrclam-withheld.md). Suspects are still gated as usual: only the guard
+ignores them.
+Motion input that is not finite, or whose prediction is not (a control so large that
 x⁻ or P⁻ overflows), is rejected and counted (``motion``/``nonfinite``) with the prior kept; an
 increment covariance that is not symmetric positive semi-definite is rejected (``motion``/
 ``bad_covariance``); Δt ≤ 0 raises ``ValueError``.
@@ -276,7 +285,8 @@ class EKFLocalizerParams(Params):
     )
     max_rejections: NonNegativeInt = Field(
         5,
-        description="consecutive gated-out measurements of one sensor after which the filter inflates P and applies the next; 0: never",
+        description="consecutive gated-out measurements of one sensor (of landmarks and beacons: of two or more "
+        "different, unsuspected ones) after which the filter inflates P and applies the next; 0: never",
     )
     initial_cov: Covariance3 = Field(
         (1e-4, 1e-4, 1e-4), description="covariance of the start pose (x [m²], y [m²], θ [rad²])"
@@ -344,7 +354,8 @@ class EKFLocalizer:
         self._history = History(self.params.history_length)
         self._final = Diagnostics()  # records of the steps that left the history and of calls outside a timed step
         self._log = self._final  # where records go: the timed step in progress, else the final record
-        self._streak = dict.fromkeys(SENSORS, 0)  # consecutive gate rejections per sensor
+        # per sensor: (its consecutive gate rejections, their sources, the suspect sources): "Gating" above
+        self._streak = dict.fromkeys(SENSORS, (0, frozenset(), frozenset()))
         if t is not None:
             self._push(self._t, "start", None, Diagnostics())
 
@@ -432,15 +443,19 @@ class EKFLocalizer:
         """Range [m] and bearing [rad, relative to the heading] of the known landmark at ``landmark_xy``."""
         m = _finite_positions(landmark_xy, "update_landmark")[0]
         z = np.array([range, bearing], dtype=float)
-        return self._update("landmark", z, _h_landmark, _H_landmark, _residual_range_bearing, (m,))
+        return self._update("landmark", z, _h_landmark, _H_landmark, _residual_range_bearing, (m,), tuple(m))
 
     def update_beacon(self, range, beacon_xy) -> bool:
         """Range [m] to the known beacon at ``beacon_xy`` (range-only; ``beacon_bias`` is added to h)."""
         b = _finite_positions(beacon_xy, "update_beacon")[0]
         z = np.array([range], dtype=float)
-        return self._update("beacon", z, _h_beacon, _H_beacon, _residual_difference, (b, self.params.beacon_bias))
+        return self._update(
+            "beacon", z, _h_beacon, _H_beacon, _residual_difference, (b, self.params.beacon_bias), tuple(b)
+        )
 
-    def _update(self, sensor, z, hx, HJ, residual, args=()) -> bool:
+    def _update(self, sensor, z, hx, HJ, residual, args=(), source=None) -> bool:
+        """Apply z of ``sensor`` unless gated out; ``source`` names the reference measured (a landmark's or beacon's
+        position; None for GPS and IMU), so that a lock-out is told from one bad reference (module docstring)."""
         if not np.all(np.isfinite(z)):
             self._log.reject(sensor, "nonfinite")
             return False
@@ -450,7 +465,12 @@ class EKFLocalizer:
         nis = float(kf.y @ kf.SI @ kf.y)  # filterpy's innovation y and S⁻¹ of this update
         gate = self.gate[sensor]
         accepted = nis <= gate
-        diverged = not accepted and 0 < self.params.max_rejections <= self._streak[sensor]
+        streak, refused, suspects = self._streak[sensor]  # refusals in a row, their sources, the suspect sources
+        diverged = (
+            not accepted
+            and 0 < self.params.max_rejections <= streak
+            and (source is None or (source not in suspects and len((refused | {source}) - suspects) >= 2))
+        )
         self._log.gated(sensor, np.nan if self._t is None else self._t, nis, accepted or diverged)
         if diverged:  # the sensor has been refused too often in a row: the filter, not the sensor, is off
             kf.x, kf.P = prior[0], prior[1] * (nis / gate)
@@ -458,10 +478,10 @@ class EKFLocalizer:
             self._log.recover(sensor)
         elif not accepted:
             kf.x, kf.P = prior
-            self._streak[sensor] += 1
+            self._streak[sensor] = (streak + 1, refused | {source} - {None}, suspects)
             self._log.reject(sensor, "gate")
             return False
-        self._streak[sensor] = 0
+        self._streak[sensor] = (0, frozenset(), (suspects | refused) - {source})
         kf.x[2] = wrap_angle(kf.x[2])
         return True
 

@@ -36,7 +36,7 @@ class Snapshot:
     value: object
     x: np.ndarray
     P: np.ndarray
-    streak: dict[str, int]
+    streak: dict[str, tuple]  # per sensor: its consecutive gate rejections, their sources, the suspect sources
     diagnostics: Diagnostics
 
 

@@ -1,7 +1,9 @@
 """``EKFLocalizer.run(sequence) -> Estimate``: walk ``Sequence.events()`` through the localizer's timed steps.
 
-The filter starts at ``sequence.start_pose`` with ``initial_cov`` at ``sequence.t0``, with the noise in
-force for the sequence (``use_sequence_noise``: the noise it states). Used streams: the motion stream
+The filter starts at ``sequence.t0`` with the noise in force for the sequence (``use_sequence_noise``: the noise it
+states), at the start pose the sequence states (its ``initial_pose`` or ground truth) with ``initial_cov``; a sequence
+that states none (MRCLAM Dataset 1) starts at the pose fitted to its first range-bearing rows to known landmarks, with
+the fit's covariance (:mod:`.start`), else at the origin with ``initial_cov``; ``meta["start"]`` says which. Used streams: the motion stream
 (a Twist is followed row by row, :meth:`EKFLocalizer.follow`; Increments rows are applied at their
 stamps with the row's, the sequence's or ``increment_cov`` covariance), GPS, heading, and the
 range-bearing and beacon-range rows whose id is in ``sequence.landmarks`` (the others are counted as
@@ -29,6 +31,7 @@ from slamarena.datasets.sequence import Event, Increments, Sequence, Twist
 
 from ..stepping import blocks, last_per_stamp
 from .filter import SEQUENCE_NOISE
+from .start import StartSearch
 
 if TYPE_CHECKING:
     from .filter import EKFLocalizer
@@ -42,7 +45,8 @@ _OBSERVED = ("range_bearing", "beacon_ranges", "gps", "heading")
 def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
     """``EKFLocalizer.run(sequence) -> Estimate`` (bound by the package): one timed step per event (module docstring)."""
     localizer.use_noise_of(sequence)
-    localizer.reset(sequence.start_pose, t=sequence.t0)
+    pose, cov, start = _start(localizer, sequence)
+    localizer.reset(pose, cov, t=sequence.t0)
     if isinstance(sequence.motion, Twist):
         localizer.follow(sequence.motion)
     n = sequence.event_table()[0].size
@@ -71,8 +75,35 @@ def run_sequence(localizer: EKFLocalizer, sequence: Sequence) -> Estimate:
             "noise": {name: getattr(localizer.noise, name) for name in SEQUENCE_NOISE},
             "rejected": record.rejected,
             "recoveries": record.recoveries,
+            "start": start,
         },
     )
+
+
+def _start(localizer: EKFLocalizer, sequence: Sequence) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """The start pose, its covariance (None: ``initial_cov``) and how it was found (module docstring)."""
+    if sequence.initial_pose is not None or (sequence.ground_truth is not None and len(sequence.ground_truth)):
+        return sequence.start_pose, None, {"from": "sequence"}
+    if sequence.range_bearing is not None and sequence.landmarks is not None:
+        search = StartSearch(sequence.landmarks, localizer.R["landmark"], localizer.gate["landmark"])
+        dead_reckoning = type(localizer)(localizer.noise)  # the localizer's own prediction, never updated
+        dead_reckoning.reset(np.zeros(3), np.zeros((3, 3)), t=sequence.t0)
+        if isinstance(sequence.motion, Twist):
+            dead_reckoning.follow(sequence.motion)
+        rb = sequence.range_bearing
+        for block in blocks(sequence, observe=("range_bearing",)):
+            for event in block.chain:
+                dead_reckoning._step(event.t, *_input(dead_reckoning, sequence, event))
+            if block.observation is None:
+                continue
+            event = block.observation
+            dead_reckoning._advance(event.t)
+            z = np.column_stack([rb.range[event.start : event.stop], rb.bearing[event.start : event.stop]])
+            found = search.add(dead_reckoning.x, dead_reckoning.P, rb.landmark_id[event.start : event.stop], z)
+            if found is not None:
+                info = {"from": "landmarks", "rows": len(search.ids), "until": event.t, "dropped": search.dropped}
+                return found[0], found[1], info
+    return np.zeros(3), None, {"from": "origin (the sequence states no start pose and no landmark fixed one)"}
 
 
 def _input(localizer: EKFLocalizer, sequence: Sequence, event: Event) -> tuple[str, object]:
