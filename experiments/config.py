@@ -524,9 +524,27 @@ def _duplicate_keys(node, path: tuple[str, ...] = ()):
             yield from _duplicate_keys(item, (*path, str(k)))
 
 
-def load_config(path: str | Path | None = None) -> ExperimentConfig:
+def _estimators_from(raw: dict, where: str, via: tuple[str, ...]) -> list[EstimatorSpec]:
+    """``estimators_from: NAME`` runs another shipped config's estimator rows unchanged (the same methods on other data,
+    e.g. a withheld dataset); it replaces ``estimators``. ``via``: the configs that led here (a cycle is an error)."""
+    source = raw.pop("estimators_from")
+    if "estimators" in raw:
+        raise ConfigError(f"{where}: estimators_from: give the estimator rows or estimators_from, not both")
+    if not isinstance(source, str) or Path(source).name != source or Path(source).suffix:
+        raise ConfigError(f"{where}: estimators_from: the name of a shipped config (e.g. mrclam), not {source!r}")
+    if source in via:
+        raise ConfigError(f"{where}: estimators_from: {source} leads back to itself ({' → '.join((*via, source))})")
+    try:
+        estimators = load_config(source, _via=(*via, source)).estimators
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: estimators_from: {exc}") from None
+    return estimators
+
+
+def load_config(path: str | Path | None = None, _via: tuple[str, ...] = ()) -> ExperimentConfig:
     """Read and validate an experiment YAML: a path, or the name of a shipped config
-    (``experiments/configs/<name>.yaml``); ``None`` → the shipped ``default``."""
+    (``experiments/configs/<name>.yaml``); ``None`` → the shipped ``default``. ``estimators_from: NAME`` takes the
+    named shipped config's estimator rows."""
     from importlib.resources import files
 
     import yaml
@@ -565,6 +583,8 @@ def load_config(path: str | Path | None = None) -> ExperimentConfig:
         )
     if not isinstance(raw, dict):
         raise ConfigError(f"{where}: an experiment config is a mapping (name, datasets, estimators, …)")
+    if "estimators_from" in raw:
+        raw["estimators"] = _estimators_from(raw, where, _via or ((name,) if where.endswith("(shipped)") else ()))
     try:
         return ExperimentConfig.model_validate(raw)
     except ValidationError as exc:

@@ -60,8 +60,8 @@ def test_the_mrclam_sensor_model_is_the_identified_one_and_every_method_reads_it
 
 
 def test_the_withheld_mrclam_config_runs_mrclams_methods_unchanged_on_dataset_1():
-    """mrclam_withheld repeats mrclam's estimator rows (YAML aliases cannot reach across files): they must stay equal,
-    so that Dataset 1 scores exactly what the shipped config runs."""
+    """mrclam_withheld takes mrclam's estimator rows (``estimators_from``), so Dataset 1 scores exactly what the shipped
+    config runs."""
     shipped, withheld = load_config("mrclam"), load_config("mrclam_withheld")
     assert [(e.name, e.label, e.resolved_params()) for e in withheld.estimators] == [
         (e.name, e.label, e.resolved_params()) for e in shipped.estimators

@@ -231,11 +231,7 @@ def test_every_shipped_config_is_valid():
     shipped = [p for p in files("experiments").joinpath("configs").iterdir() if p.name.endswith(".yaml")]
     assert {"default.yaml", "scaling.yaml"} <= {p.name for p in shipped}
     for p in shipped:
-        import yaml
-
-        from slamarena.experiments.config import ExperimentConfig
-
-        ExperimentConfig.model_validate(yaml.safe_load(p.read_text()))
+        assert load_config(p.name.removesuffix(".yaml")).name == p.name.removesuffix(".yaml")
 
 
 def test_published_rows_are_checked_and_printed_beside_ours_never_best(tmp_path):
@@ -327,3 +323,23 @@ def test_a_config_that_is_not_utf8_is_one_line_naming_file_and_line(tmp_path):
         load_config(path)
     path.write_bytes(b"\xef\xbb\xbf" + textwrap.dedent(GOOD).encode())  # a byte order mark is fine
     assert load_config(path).name == "tiny"
+
+
+def test_estimators_from_takes_a_shipped_configs_rows_unchanged(tmp_path):
+    """The same methods on other data: ``estimators_from: NAME`` in place of ``estimators``."""
+    shipped = load_config("mrclam").estimators
+    text = GOOD.replace(
+        "estimators:\n  - name: dead_reckoning\n    params: {motion_model: euler}", "estimators_from: mrclam"
+    )
+    path = _write(tmp_path, text.replace("tables:\n  - name: acc\n    columns: [ate.rmse, cost.wall]\n", ""))
+    assert [(e.name, e.label, e.resolved_params()) for e in load_config(path).estimators] == [
+        (e.name, e.label, e.resolved_params()) for e in shipped
+    ]
+    with pytest.raises(ConfigError, match="exp.yaml: estimators_from: give the estimator rows or estimators_from"):
+        load_config(_write(tmp_path, GOOD + "estimators_from: mrclam\n"))
+    with pytest.raises(ConfigError, match="estimators_from: the name of a shipped config"):
+        load_config(_write(tmp_path, text.replace("estimators_from: mrclam", "estimators_from: dir/mrclam.yaml")))
+    with pytest.raises(ConfigError, match="estimators_from: nosuch: no such config file"):
+        load_config(_write(tmp_path, text.replace("estimators_from: mrclam", "estimators_from: nosuch")))
+    with pytest.raises(ConfigError, match="estimators_from: mrclam leads back to itself"):
+        load_config("mrclam_withheld", _via=("mrclam",))
