@@ -11,12 +11,10 @@ the χ² ellipsoid of P_cn projects onto each axis within ± κσ, so the branch
 when its node c nearest to node n (in the estimate) could be within ``overlap`` of it: the part of the distance
 beyond ``overlap`` is inside the window (‖Δ‖ − overlap ≤ linear half-width); the nearest ``max_candidates`` are
 tried. The window thus widens with the path travelled since the last closure and collapses once a loop closes —
-down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window). On the simulated corridor loop
-the marginal windows lose the drive (ATE 0.64 → 1.87 m over 20 drives): not because the sequential factors'
-covariance is overconfident (the chain's ± κσ holds the front end's true drift over ≥ 30 nodes), but because a false
-loop accepted online (an alias 6 m along the corridor, its true place outside the submap) collapses the marginal
-around the wrong place, inside which every later match is an alias (research/method/loop_verification.md). While the
-floors reach the caps (:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
+down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window): on the simulated corridor loop
+the windows missed the true place (ATE 0.64 → 1.87 m over 20 drives), and still do with the interval covariance
+(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md). While the floors reach the caps
+(:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound
@@ -39,10 +37,7 @@ Its covariance is the spread of
 the exhaustive correlative response (Olson 2009) within ± ``covariance_window`` and ± ``covariance_angle``
 of the found pose — wide enough that a corridor, where a scan fits anywhere along the walls, shows up as a long
 axis the graph then hardly trusts — rotated into the frame of the matched pose M (z's end, where GTSAM's
-BetweenFactorPose2 measures its error), plus the floors ``sigma_*``² on its diagonal. With ``region_covariance`` the
-second moment of the unique region of the uniqueness test below (the window's translations scoring within
-``ambiguity`` of the match, cells as uniform squares: along a corridor metres long) is added to its translation part
-(off by default: on the simulated corridor loop it changes ATE 0.632 → 0.618 m over 20 drives, within the spread).
+BetweenFactorPose2 measures its error), plus the floors ``sigma_*``² on its diagonal.
 
 Uniqueness: a place that repeats (identical rooms along a corridor) matches as well 4 m along as at its own place,
 and the branch-and-bound search returns whichever scores a little higher. The exhaustive response S(x, y, θ) (the
@@ -159,11 +154,6 @@ class LoopClosureParams(Params):
         1.0, description="half-width of the response whose spread is a loop's covariance, translation [m]"
     )
     covariance_angle: PositiveFloat = Field(0.05, description="… and rotation [rad]")
-    region_covariance: bool = Field(
-        False,
-        description="add to a loop's translation covariance the second moment of the window's translations that score "
-        "within `ambiguity` of the match (its unique region: metres long along a corridor)",
-    )
     sigma_translation: PositiveFloat = Field(0.05, description="added to a loop factor's translation σ [m]")
     sigma_rotation: PositiveFloat = Field(0.01, description="added to a loop factor's rotation σ [rad]")
     verify: Literal["pcm", "gnc", "none"] = Field(
@@ -374,10 +364,9 @@ class LoopCloser:
             self._cache.popitem(last=False)
         return cache
 
-    def _regions(self, submap, points: np.ndarray, pose: np.ndarray, linear: float) -> tuple[int, np.ndarray]:
+    def _regions(self, submap, points: np.ndarray, pose: np.ndarray, linear: float) -> int:
         """How many separate regions of the translation window ± ``linear`` score within ``ambiguity`` per point of the
-        best (module docstring, "Uniqueness"), and the second moment (2, 2, the submap's frame) of the best's region
-        about its mean (cells as uniform squares); ``points``: the thinned end points, ``pose``: the found pose."""
+        best (module docstring, "Uniqueness"); ``points``: the thinned end points, ``pose``: the found pose."""
         m = self.modes
         m.params = m.params.model_copy(update={"linear_window": linear})
         grid = submap.maps.levels[min(self.p.level, len(submap.maps.levels) - 1)]
@@ -387,13 +376,8 @@ class LoopCloser:
         ix, iy = m._cells(grid, cache["pad"] - cache["corner"], points, pose, pose[2] + offsets)
         slack = self.p.ambiguity * len(points)
         pyramid = cache["pyramid"]
-        w = m._w(grid)
-        best = _best_over_angles(pyramid, min(_TILE_DEPTH, len(pyramid) - 1), ix, iy, w, slack)
-        regions, count = label(best >= best.max() - slack, structure=np.ones((3, 3)))
-        b, a = np.nonzero(regions == regions.flat[np.argmax(best)])
-        xy = np.stack([a, b], axis=1) * grid.params.resolution
-        spread = np.cov(xy.T, bias=True).reshape(2, 2) + np.eye(2) * grid.params.resolution**2 / 12
-        return int(count), spread
+        best = _best_over_angles(pyramid, min(_TILE_DEPTH, len(pyramid) - 1), ix, iy, m._w(grid), slack)
+        return int(label(best >= best.max() - slack, structure=np.ones((3, 3)))[1])
 
     def try_close(
         self,
@@ -431,18 +415,13 @@ class LoopCloser:
         c = int(nodes[np.argmin(np.hypot(*(L[nodes, :2] - fine.pose[:2]).T))])  # whose part of the submap it matched
         z = between(L[c], fine.pose)
         spread = self.response.match(submap.maps, near, coarse.pose).cov if scored else np.full((3, 3), np.nan)
-        regions = 0
-        if scored:
-            regions, region = self._regions(submap, near, coarse.pose, linear)
-            if self.p.region_covariance:
-                spread[:2, :2] += region
         cos, sin = np.cos(fine.pose[2]), np.sin(fine.pose[2])
         # world-aligned (the submap's frame) → node n's frame, z's end, where GTSAM's BetweenFactorPose2 measures its error
         R = np.array([[cos, sin, 0.0], [-sin, cos, 0.0], [0.0, 0.0, 1.0]])
         cov = R @ spread @ R.T + np.diag(
             np.square([self.p.sigma_translation, self.p.sigma_translation, self.p.sigma_rotation])
         )
-        test = "score" if not scored else "" if regions == 1 else "ambiguous"
+        test = "score" if not scored else "" if self._regions(submap, near, coarse.pose, linear) == 1 else "ambiguous"
         values = (n, submap.index, c, float(coarse.score), int(coarse.iterations), float(fine.score), linear, test)
         index = self.record.add(*values, time.process_time() - tic, z=z, cov=cov)
         return (index, c, z, cov) if test == "" else None

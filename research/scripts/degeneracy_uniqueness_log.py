@@ -24,9 +24,7 @@ def _exhaustive_regions(self, submap, points, pose, linear):
     ix, iy = m._cells(grid, cache["pad"] - cache["corner"], points, pose, pose[2] + offsets)
     S, _, _ = m._response(cache["pyramid"][0], ix, iy, range(offsets.size), m._w(grid), m._w(grid))
     best = S.max(axis=0)
-    return int(label(best >= best.max() - self.p.ambiguity * len(points), structure=np.ones((3, 3)))[1]), np.zeros(
-        (2, 2)
-    )
+    return int(label(best >= best.max() - self.p.ambiguity * len(points), structure=np.ones((3, 3)))[1])
 
 
 def main(argv: list[str]) -> None:
