@@ -11,10 +11,12 @@ the χ² ellipsoid of P_cn projects onto each axis within ± κσ, so the branch
 when its node c nearest to node n (in the estimate) could be within ``overlap`` of it: the part of the distance
 beyond ``overlap`` is inside the window (‖Δ‖ − overlap ≤ linear half-width); the nearest ``max_candidates`` are
 tried. The window thus widens with the path travelled since the last closure and collapses once a loop closes —
-down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window): on the simulated corridor loop
-the windows missed the true place (ATE 0.64 → 1.87 m over 20 drives), and still do with the interval covariance
-(:mod:`.interval`) and degeneracy on (research/method/loop_verification.md). While the floors reach the caps
-(:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
+down to its floors, which are shipped at the caps (a fixed ± 5 m, ± 0.5 rad window). On the simulated corridor loop
+the marginal windows lose the drive (ATE 0.64 → 1.87 m over 20 drives): not because the sequential factors'
+covariance is overconfident (the chain's ± κσ holds the front end's true drift over ≥ 30 nodes), but because a false
+loop accepted online (an alias 6 m along the corridor, its true place outside the submap) collapses the marginal
+around the wrong place, inside which every later match is an alias (research/method/loop_verification.md). While the
+floors reach the caps (:attr:`LoopCloser.fixed`) no marginal is computed: every window is the caps.
 
 Match. With c the submap's node nearest to node n in the current estimate, the guess of node n in the submap's
 (front-end) frame is M̂ = L_c ⊕ (G_c⁻¹ ⊕ G_n). Branch and bound
