@@ -96,14 +96,6 @@ def test_a_method_page_stays_short():
     assert not long, long
 
 
-#: Pages with an inline script that are not this test's to fix (other branches edit them; the lead moves their
-#: scripts into research/scripts/ at merge): 2026-11-28-tum-stamps.md line 77 and 2026-11-28-ros-bags.md line 9,
-#: each a ``python -c`` program of several lines.
-INLINE_SCRIPT_PENDING = {
-    "research/notebook/2026-11-28-tum-stamps.md",
-    "research/notebook/2026-11-28-ros-bags.md",
-}
-
 #: A heredoc fed to Python: ``python … <<EOF`` (or ``<<<``) on one line, or ``<<EOF … | python``.
 _HEREDOC = re.compile(r"python[\w.]*(?:\s[^\n]*)?<<|<<-?\s*['\"]?\w+['\"]?[^\n]*\|[^\n]*python")
 _DASH_C = re.compile(r"python[\w.]*\s+(?:-\S+\s+)*-c\s+(['\"])")
@@ -148,11 +140,8 @@ def test_no_research_page_holds_an_inline_script():
     """A script on a research page goes to research/scripts/ (imported here, named by its page) and the page gives
     the command that runs it (issue 34): an inline script escapes the import check and goes stale unseen."""
     found = [
-        f"{rel}:{line}: {what}"
+        f"{p.relative_to(ROOT).as_posix()}:{line}: {what}"
         for p, text in PAGES.items()
-        if (rel := p.relative_to(ROOT).as_posix()) not in INLINE_SCRIPT_PENDING
         for line, what in inline_scripts(text)
     ]
     assert not found, "inline scripts (move each to research/scripts/ and give its command):\n" + "\n".join(found)
-    moved = sorted(rel for rel in INLINE_SCRIPT_PENDING if not inline_scripts((ROOT / rel).read_text()))
-    assert not moved, f"no inline script left on {moved}: remove them from INLINE_SCRIPT_PENDING"
