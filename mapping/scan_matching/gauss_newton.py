@@ -73,7 +73,8 @@ odometry turns 0.70 rad in 0.21 s) ends in a local minimum whose score is that o
 below. When the score is below s_min, an exhaustive correlative search (:mod:`.correlative`, ``search_window``, by
 default Cartographer's real-time correlative matcher's 0.1 m and 20°) around the guess gives a second start, its
 best lattice pose, which is also the second match's prior; the higher-scoring of the two matches is the result
-(as Cartographer's online correlative scan matching seeds its Ceres matcher, here only after a poor match).
+(as Cartographer's online correlative scan matching seeds its Ceres matcher, here only after a poor match), its
+``info["searched"]`` 1 and ``info["from_search"]`` whether it is the second.
 
 Prior and covariance. The objective has ``½ eᵀWe``, ``e = ξ̂ − ξ`` towards the guess, W = diag(w_t, w_t, w_r)
 (``prior_*_weight``, as Cartographer's Ceres matcher); in information form Σ r_i²/σ̂² + eᵀΛe with the odometry's
@@ -517,8 +518,10 @@ class GaussNewtonMatcher:
         linear, angular = self.params.search_window
         seed = CorrelativeMatcher(linear_window=linear, angular_window=angular).match(maps, every, guess)
         again = self._match(maps, every, seed.pose, odometry)
-        again.info["searched"] = 1
-        return again if again.score > result.score else result
+        better = again.score > result.score
+        chosen = again if better else result
+        chosen.info.update(searched=1, from_search=int(better))
+        return chosen
 
     def _match(self, maps, every: np.ndarray, guess: np.ndarray, odometry: bool) -> MatchResult:
         p = self.params
@@ -558,7 +561,9 @@ class GaussNewtonMatcher:
         score = msum / n if n else 0.0
         if p.skip_unobserved:  # the score over every end point, as without the option
             fine = maps.levels[0]
-            _, _, _, m_all, n_all = _normal_equations(fine.log_odds, *fine.origin, res, every, *pose, p.kind)
+            _, _, _, m_all, n_all = _normal_equations(
+                fine.log_odds, *fine.origin, fine.params.resolution, every, *pose, p.kind
+            )
             score = m_all / n_all if n_all else 0.0
         info = {"points_on_map": n, "information": match_information(H, ssr, n, fusion)}
         if fusion is None:

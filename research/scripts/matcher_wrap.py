@@ -197,7 +197,7 @@ def _raycast(pose, angles, walls, max_range):
 
 def staged(method: str, log: str, mp: dict) -> None:
     """``method`` on ``carmen:LOG`` scored by its relations (as research/scripts/degeneracy_2.py), with the number of
-    matches that ran the correlative search (``search_below_score``)."""
+    matches whose result came from the correlative search (``search_below_score``)."""
     from slamarena import datasets
     from slamarena.experiments.metrics.relations import RelationsParams, relation_error_from_file
     from slamarena.mapping.grid_slam import GridSLAM
@@ -208,7 +208,7 @@ def staged(method: str, log: str, mp: dict) -> None:
 
     def counted(self, *args, **kwargs):
         result = match(self, *args, **kwargs)
-        searched[0] += result.info.get("searched", 0)
+        searched[0] += result.info.get("from_search", 0)
         return result
 
     GaussNewtonMatcher.match = counted
@@ -222,7 +222,7 @@ def staged(method: str, log: str, mp: dict) -> None:
     scores, _ = relation_error_from_file(est, seq, relations)
     print(
         f"{method} {log} {json.dumps(mp)}: trans_mean {scores['trans_mean']:.4f} ± {scores['trans_std']:.4f}, "
-        f"local {scores['local_trans_mean']:.4f}, searched {searched[0]}, cpu {time.process_time() - cpu:.0f} s"
+        f"local {scores['local_trans_mean']:.4f}, from the search {searched[0]}, cpu {time.process_time() - cpu:.0f} s"
     )
 
 

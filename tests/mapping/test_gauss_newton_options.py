@@ -76,7 +76,7 @@ def test_a_poor_match_is_matched_again_from_a_correlative_search(room_map, k):
         guess = truth + [0.03, -0.02, offset]
         a, b = plain.match(room_map, pts, guess), searching.match(room_map, pts, guess)
         if a.score < 0.5:
-            assert b.info["searched"] == 1 and b.score > 0.7, (offset, b.score)
+            assert b.info["searched"] == b.info["from_search"] == 1 and b.score > 0.7, (offset, b.score)
             assert np.hypot(*(b.pose[:2] - truth[:2])) < 0.005 and abs(b.pose[2] - truth[2]) < 0.002, (offset, b.pose)
         else:
             assert "searched" not in b.info and np.array_equal(a.pose, b.pose) and a.score == b.score
