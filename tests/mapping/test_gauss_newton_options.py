@@ -39,9 +39,9 @@ def test_observed_is_the_cell_of_each_point_at_the_pose(room_map):
 def test_skipping_unobserved_end_points_halves_the_frontier_pull():
     """A featureless corridor mapped from behind (scans at x ≤ 0, 4 m reach): a scan from x = 0.4 reaches past the
     map's frontier, and its end points there, on unobserved cells beside the mapped walls, pull the converged match
-    back along the corridor (−6 cm measured, bicubic line search); left out, −3.3 to −3.7 cm (what remains: the last
-    mapped wall cells, seen at grazing angles only, are less occupied than the rest). Across the corridor and in
-    heading the match is the same."""
+    back along the corridor (−6 cm measured, bicubic line search); left out, −3.3 to −3.7 cm (what remains is likely
+    the last mapped wall cells, seen at grazing angles only and less occupied than the rest; not checked). Across the
+    corridor and in heading the match is the same."""
     maps = MapPyramid(resolution=0.05, levels=3, size=24.0)
     for x in np.arange(-4.0, 0.01, 0.5):
         pose = np.array([x, 0.0, 0.0])
