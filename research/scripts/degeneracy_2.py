@@ -25,6 +25,11 @@ def main(argv: list[str]) -> None:
     old_wrap = "--old-wrap" in argv
     argv = [a for a in argv if a != "--old-wrap"]
     if old_wrap:
+        if not hasattr(gauss_newton, "wrap_angle"):
+            sys.exit(
+                "--old-wrap: the matcher wraps with (a + π) mod 2π − π itself again (research/method/laser_degeneracy.md, "
+                "'The branch cut'); the flag applies to the notebook's intermediate commit only"
+            )
         gauss_newton.wrap_angle = lambda a: (a + np.pi) % (2 * np.pi) - np.pi
     method, log = argv[0], argv[1]
     overrides = json.loads(argv[2]) if len(argv) > 2 else {}
