@@ -1,0 +1,80 @@
+"""EKF-SLAM's self-identification of its noise scales without ids (``self_identify``,
+:mod:`slamarena.estimators.ekf_slam.self_identification`; research/method/ekf_slam_adaptive_noise.md): the median test
+holds its level and sees a wrong model, a simulator's exact model is kept bitwise, a wrong stated R or Q is found."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from slamarena import datasets
+from slamarena.estimators.ekf_slam import EKFSLAM
+from slamarena.estimators.ekf_slam.self_identification import median_test
+
+GATE = chi2.ppf(0.95, 2)
+
+
+def _truncated_chi2(rng, n: int, scale: float = 1.0) -> np.ndarray:
+    """n NIS values of 2-dof innovations whose covariance is ``scale`` × the one they are normalised by, kept below GATE."""
+    d2 = scale * rng.chisquare(2, size=4 * n)
+    return d2[d2 < GATE][:n]
+
+
+def test_the_median_test_holds_its_level_and_sees_a_scaled_innovation_covariance(rng):
+    """Right model: rejected at confidence 0.99 in about 1 % of 2000 draws of 500 rows; innovations 4× smaller or 4×
+    larger (truncated to the gate) than the model says: rejected every time; no rows: not rejected."""
+    rejected = [median_test(_truncated_chi2(rng, 500), GATE, 0.99)[0] for _ in range(2000)]
+    assert 0.003 < np.mean(rejected) < 0.02
+    assert all(median_test(_truncated_chi2(rng, 500, 0.25), GATE, 0.99999)[0] for _ in range(20))
+    assert all(median_test(_truncated_chi2(rng, 500, 4.0), GATE, 0.99999)[0] for _ in range(20))
+    assert median_test(np.zeros(0), GATE, 0.99) == (False, 0.0)
+
+
+def _world(seed: int):
+    return datasets.load("sim:landmarks", n_landmarks=25, layout="grid", density=0.03, seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_exact_model_is_kept_bitwise(seed):
+    """The simulator's own noise, ids withheld: the test does not reject it, the scales stay 1 and the estimate is
+    bitwise the one without self-identification (an adaptation must not inflate the noise of a correct model)."""
+    seq = _world(seed)
+    ekf = EKFSLAM(use_ids=False)
+    est = ekf.run(seq)
+    plain = EKFSLAM(use_ids=False, self_identify=False).run(seq)
+    found = est.meta["noise_identification"]
+    assert not found["rejected"] and (found["q_scale"], found["r_scale"]) == (1.0, 1.0)
+    assert (ekf.q_scale, ekf.r_scale) == (1.0, 1.0) and len(found["runs"]) == 1
+    np.testing.assert_array_equal(est.poses, plain.poses)
+    np.testing.assert_array_equal(est.landmarks, plain.landmarks)
+
+
+@pytest.mark.parametrize(
+    ("stated", "scales"),
+    [
+        (dict(range_bearing_cov="16R"), (1.0, 1 / 16)),  # the sensor's noise stated 16× too large
+        (dict(twist_cov="M/16"), (16.0, 1.0)),  # the odometry's stated 16× too small
+    ],
+)
+def test_a_wrong_stated_noise_is_found_and_the_filter_ends_in_its_run(stated, scales):
+    """The simulator's noise stated wrong by 16 (ids withheld): the median test rejects it, the search returns the true
+    scales (one grid step of 4 is 16), and the filter is left in the chosen run's state."""
+    seq = _world(0)
+    R, M = seq.noise.range_bearing_cov, seq.noise.twist_cov
+    params = {"range_bearing_cov": 16 * R} if "range_bearing_cov" in stated else {"twist_cov": M / 16}
+    ekf = EKFSLAM(use_ids=False, **params)
+    est = ekf.run(seq)
+    found = est.meta["noise_identification"]
+    assert found["rejected"]
+    assert (found["q_scale"], found["r_scale"]) == scales == (ekf.q_scale, ekf.r_scale)
+    assert est.meta["noise_scale"] == {"q": scales[0], "r": scales[1]}
+    np.testing.assert_array_equal(est.poses[-1], ekf.x[:3])
+    exact = EKFSLAM(use_ids=False, self_identify=False).run(seq)
+    np.testing.assert_allclose(est.poses, exact.poses, atol=1e-9)  # the true scales: the exact model's run
+
+
+def test_labelled_runs_are_not_identified():
+    """With the ids trusted (use_ids=True) the stated noise is used as it is (no test, no search)."""
+    est = EKFSLAM(range_bearing_cov=16 * _world(0).noise.range_bearing_cov).run(_world(0))
+    assert "noise_identification" not in est.meta and est.meta["noise_scale"] == {"q": 1.0, "r": 1.0}
