@@ -38,7 +38,7 @@ by running a copy of the filter per hypothesis through this set and the next ``w
 keeping the hypothesis with the largest log-likelihood; the set is then applied with those decisions. ``meta`` counts
 the rows so decided (``looked_ahead``) and how many of them were matched (``looked_ahead_matched``; the rest are new).
 
-Self-identification (``self_identify``, rows without trusted ids only; :mod:`.self_identification`): when the matched
+Self-identification (``self_identify``, off by default; rows without trusted ids only; :mod:`.self_identification`): when the matched
 rows' NIS reject the stated noise, the sequence is walked again with the process and measurement noise scaled on a grid
 and the most likely walk is returned (the filter left in its state); ``meta["noise_scale"]`` holds the scales of the
 walk returned, ``meta["noise_identification"]`` the test and every walk's log-likelihood.

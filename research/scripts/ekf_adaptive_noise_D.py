@@ -1,4 +1,4 @@
-"""EKF-SLAM's defaults without ids on Victoria Park (self-identification included): landmarks, final position from
+"""EKF-SLAM's defaults without ids and with self_identify=True on Victoria Park: landmarks, final position from
 iSAM2's with ids, the scales chosen and every walk's log-likelihood (research/notebook/2026-11-28-ekf-adaptive-noise.md,
 script D).
 
@@ -19,7 +19,7 @@ def main() -> None:
     params = json.loads(sys.argv[1]) if len(sys.argv) > 1 else {}
     seq = datasets.load("victoria_park")
     tic = time.process_time()
-    est = create("ekf_slam", **{"use_ids": False, **params}).run(seq)
+    est = create("ekf_slam", **{"use_ids": False, "self_identify": True, **params}).run(seq)
     ni = est.meta.get("noise_identification")
     print(
         params,

@@ -40,7 +40,7 @@ def test_the_exact_model_is_kept_bitwise(seed):
     """The simulator's own noise, ids withheld: the test does not reject it, the scales stay 1 and the estimate is
     bitwise the one without self-identification (an adaptation must not inflate the noise of a correct model)."""
     seq = _world(seed)
-    ekf = EKFSLAM(use_ids=False)
+    ekf = EKFSLAM(use_ids=False, self_identify=True)
     est = ekf.run(seq)
     plain = EKFSLAM(use_ids=False, self_identify=False).run(seq)
     found = est.meta["noise_identification"]
@@ -57,7 +57,7 @@ def test_a_sensor_noise_stated_4x_too_large_is_found_and_the_filter_ends_in_its_
     true R; research/notebook/2026-11-28-ekf-adaptive-noise.md): the scales are the run's most likely, not the truth."""
     seq = _world(0)
     R, M = seq.noise.range_bearing_cov, seq.noise.twist_cov
-    ekf = EKFSLAM(use_ids=False, noise_steps=1, range_bearing_cov=4 * R)
+    ekf = EKFSLAM(use_ids=False, self_identify=True, noise_steps=1, range_bearing_cov=4 * R)
     est = ekf.run(seq)
     found = est.meta["noise_identification"]
     assert found["rejected"] and found["r_scale"] == 0.25
@@ -69,7 +69,9 @@ def test_a_sensor_noise_stated_4x_too_large_is_found_and_the_filter_ends_in_its_
     np.testing.assert_array_equal(est.landmarks, plain.landmarks)
 
 
-def test_labelled_runs_are_not_identified():
-    """With the ids trusted (use_ids=True) the stated noise is used as it is (no test, no search)."""
-    est = EKFSLAM(range_bearing_cov=16 * _world(0).noise.range_bearing_cov).run(_world(0))
+def test_labelled_runs_and_the_default_are_not_identified():
+    """With the ids trusted (use_ids=True), or by default (self_identify=False), the stated noise is used as it is."""
+    est = EKFSLAM(self_identify=True, range_bearing_cov=16 * _world(0).noise.range_bearing_cov).run(_world(0))
+    assert "noise_identification" not in est.meta and est.meta["noise_scale"] == {"q": 1.0, "r": 1.0}
+    est = EKFSLAM(use_ids=False, range_bearing_cov=16 * _world(0).noise.range_bearing_cov).run(_world(0))
     assert "noise_identification" not in est.meta and est.meta["noise_scale"] == {"q": 1.0, "r": 1.0}
