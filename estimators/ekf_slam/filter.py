@@ -41,6 +41,10 @@ Update with one observation of landmark i (state indices ``idx = [0, 1, 2, s, s+
     P  ← (I − KH) P = P − K (PHᵀ)ᵀ = P − W Wᵀ ,  W = PHᵀ L⁻ᵀ, S = L Lᵀ      standard, O(N²)
     P  ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + K S Kᵀ       Joseph, O(N²)
 
+Noise scales: every Q above is multiplied by ``q_scale`` and every R_j below by ``r_scale`` (both 1 unless ``run()``
+without trusted ids, asked to (``self_identify``, off by default), finds that the innovations reject the stated noise:
+:mod:`.self_identification`, which runs the sequence again with scaled noise and keeps the most likely run).
+
 R is each row's own: the parameter's (``range_bearing_noise`` polar, or Cartesian ``diag(σ², σ²/r_j²)``), or the
 ``R`` given to :meth:`EKFSLAM.update` per row (``run`` passes the sequence's per-observation covariances). With
 ``robust_update`` ("huber", "student_t") a matched row is applied with ``R_j / w_j``, w_j the IRLS weight of its
@@ -377,6 +381,23 @@ class EKFSLAMParams(Params):
         "lies inside it is applied as by the Gaussian update",
     )
     robust_dof: PositiveFloat = Field(5.0, description="degrees of freedom ν of the Student-t measurement noise")
+    self_identify: bool = Field(
+        False,
+        description="run() without trusted ids (use_ids=False): when the matched rows' NIS reject the stated noise (a median "
+        "test at noise_confidence), the scales q of the process noise Q and r of the measurement noise R are searched on "
+        "the grid noise_factor^{−noise_steps … noise_steps} by the run's own log-likelihood (coordinate line search), and "
+        "the best is kept if it beats the stated model by the χ²₂(noise_confidence) likelihood-ratio test "
+        "(self_identification; research/method/ekf_slam_adaptive_noise.md); False (default: on the car park the most likely "
+        "scales map 81 landmarks for 15 beacons, research/notebook/2026-11-28-ekf-adaptive-noise.md): the stated noise as it is",
+    )
+    noise_factor: float = Field(4.0, gt=1.0, allow_inf_nan=False, description="step of the noise-scale grid")
+    noise_steps: int = Field(
+        3, ge=0, description="the grid's steps each way from the stated noise (q, r in factor^±steps)"
+    )
+    noise_confidence: Confidence = Field(
+        0.99999,
+        description="confidence of self_identify's tests: the stated noise is rejected, and a scaled one taken, only at it",
+    )
     per_observation_cov: bool = Field(
         True,
         description="run(): when range_bearing_cov is not given and the sequence states a covariance per observation "
@@ -467,6 +488,7 @@ class EKFSLAM:
     # ------------------------------------------------------------------ state
     def reset(self, sequence=None) -> None:
         """Start over at the initial pose (of the parameters, else of ``sequence``), noise resolved."""
+        self.q_scale = self.r_scale = 1.0  # Q → q_scale · Q, R → r_scale · R (self_identification sets them per run)
         self.M = noise_in_force(self._twist_cov, sequence, "twist_cov", UNSTATED_TWIST_COV)
         self.R = noise_in_force(self._range_bearing_cov, sequence, "range_bearing_cov", DEFAULT_RANGE_BEARING_COV)
         self.increment_cov = noise_in_force(self._increment_cov, sequence, "increment_cov")
@@ -596,7 +618,7 @@ class EKFSLAM:
         Every motion here is "compose with a body increment", so ``G_k = I + [[0, 0, −D_y], [0, 0, D_x], 0]``
         with D_k the world-frame displacement at the linearisation point, and the product of
         the chain is ``Φ = I + [[0, 0, −ΣD_y], [0, 0, ΣD_x], 0]`` (the correction terms commute).
-        Noise: ``Q_k = Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``Q_world,k``.
+        Noise: ``Q_k = q_scale · Rot(θ_k) Q_body,k Rot(θ_k)ᵀ`` (Rot = blockdiag(R(θ), 1)) or ``q_scale · Q_world,k``.
 
         With ``jacobians="fej"`` or ``"oc"`` the first piece starts at the robot's linearisation point
         (``D_0 = x̂_1 − x̆``, x̆ = ``_robot_prior``), so that the points are continuous along the chain;
@@ -627,8 +649,8 @@ class EKFSLAM:
             self._s.predict_chain(  # the robot rows and columns, all it reads and writes, are current
                 np.ascontiguousarray(delta, dtype=float),
                 np.ascontiguousarray(lin, dtype=float),
-                np.array(Q_body, dtype=float) if Q_world is None else _NONE_33,
-                _NONE_33 if Q_world is None else np.ascontiguousarray(Q_world, dtype=float),
+                self.q_scale * np.array(Q_body, dtype=float) if Q_world is None else _NONE_33,
+                _NONE_33 if Q_world is None else self.q_scale * np.ascontiguousarray(Q_world, dtype=float),
                 self._robot_prior[:2].copy() if anchored else _NONE,
                 _NONE if anchor_shift is None else np.asarray(anchor_shift, dtype=float),
                 record,
@@ -751,7 +773,7 @@ class EKFSLAM:
         self.rejected["nonfinite"] += int((~finite).sum())
         self.rejected["negative_range"] += int(negative.sum())
         if R is None:
-            return rows, self.observation_cov(rows)
+            return rows, self.r_scale * self.observation_cov(rows)
         R = np.asarray(R, dtype=float)
         if R.shape != (len(finite), 2, 2):
             raise ValueError(f"R must hold one 2 × 2 covariance per row of z ({len(finite)}, 2, 2), got {R.shape}")
@@ -766,7 +788,7 @@ class EKFSLAM:
             )
         R = 0.5 * (R + R.transpose(0, 2, 1))
         self.rejected["covariance"] += int((~ok).sum())
-        return rows[ok], R[ok]
+        return rows[ok], self.r_scale * R[ok]
 
     def _robust_weights(self, z: np.ndarray, Rz: np.ndarray, decision: np.ndarray, slot: np.ndarray) -> np.ndarray:
         """The weight w_j (M,) each row's R_j is divided by: 1, and with ``robust_update`` the matched rows' IRLS weights

@@ -38,6 +38,11 @@ by running a copy of the filter per hypothesis through this set and the next ``w
 keeping the hypothesis with the largest log-likelihood; the set is then applied with those decisions. ``meta`` counts
 the rows so decided (``looked_ahead``) and how many of them were matched (``looked_ahead_matched``; the rest are new).
 
+Self-identification (``self_identify``, off by default; rows without trusted ids only; :mod:`.self_identification`): when the matched
+rows' NIS reject the stated noise, the sequence is walked again with the process and measurement noise scaled on a grid
+and the most likely walk is returned (the filter left in its state); ``meta["noise_scale"]`` holds the scales of the
+walk returned, ``meta["noise_identification"]`` the test and every walk's log-likelihood.
+
 Diagnostics (arrays):
     nis, nis_dof, nis_t         NIS of every update (per observation, or per batch) and its dof
     assoc_t, assoc_decision     every observation's decision (association.Decision): 0 matched, 1 new, 2 rejected
@@ -69,6 +74,7 @@ from slamarena.datasets.geometry import interpolate_poses
 from slamarena.datasets.sequence import Sequence
 
 from ..stepping import CLOCKS, Block, blocks, last_per_stamp, observation_rows
+from . import self_identification
 from .association import Decision
 from .checks import CovarianceError
 from .filter import Linearisation
@@ -80,8 +86,20 @@ Truth = Callable[[np.ndarray], np.ndarray | None]
 
 
 def run_sequence(ekf, sequence: Sequence) -> Estimate:
-    """``EKFSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring)."""
+    """``EKFSLAM.run(sequence) -> Estimate`` (bound by the package): the events walked block by block (module docstring);
+    without trusted ids and with ``self_identify``, again with scaled noise if the run's innovations reject the stated
+    noise (:mod:`.self_identification`)."""
+    estimate = _walk(ekf, sequence)
+    if ekf.params.self_identify and not ekf.params.use_ids:
+        return self_identification.identify(ekf, sequence, estimate, _walk)
+    return estimate
+
+
+def _walk(ekf, sequence: Sequence, q_scale: float = 1.0, r_scale: float = 1.0) -> Estimate:
+    """One pass over the sequence from the filter's reset, with the process and measurement noise scaled by q_scale and
+    r_scale."""
     ekf.reset(sequence)
+    ekf.q_scale, ekf.r_scale = q_scale, r_scale
     truth = _truth(ekf, sequence)
     z_all = sequence.range_bearing.z if sequence.range_bearing is not None else np.zeros((0, 3))
     R_all = _row_covariances(ekf, sequence, len(z_all))
@@ -266,6 +284,7 @@ def _estimate(ekf, sequence: Sequence, record: _Record, looked_ahead: list, reje
         "removed_quality": ekf.book.removed["quality"],
         **{d.name.lower(): int((decisions == d).sum()) for d in Decision},  # "matched", "new", "rejected"
         "noise": {"twist_cov": ekf.M.tolist(), "range_bearing_cov": ekf.R.tolist()},
+        "noise_scale": {"q": ekf.q_scale, "r": ekf.r_scale},
     }
     return Estimate(
         method="ekf_slam" if ekf.params.jacobians == Linearisation.STANDARD else f"ekf_slam_{ekf.params.jacobians}",
