@@ -5,25 +5,19 @@ position, and the run's log-likelihood at several times (research/notebook/2026-
 """
 
 import json
+import runpy
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from slamarena import datasets
 from slamarena.estimators.ekf_slam import EKFSLAM
 
 
 def main() -> None:
     name = sys.argv[1]
     params = json.loads(sys.argv[2]) if len(sys.argv) > 2 else {}
-    if name == "carpark":
-        from slamarena.mapping.landmark_extraction import landmark_sequence
-
-        seq = landmark_sequence(datasets.load("carpark"))
-    elif name.startswith("sim"):
-        seq = datasets.load("sim:landmarks", n_landmarks=50, laps=2, seed=int(name[3:] or 0))
-    else:
-        seq = datasets.load(name)
+    seq = runpy.run_path(str(Path(__file__).with_name("ekf_adaptive_noise_W.py")))["sequence"](name)  # script W's
 
     class A(EKFSLAM):
         def _chain(self, delta, Q_body, Q_world, true_poses, anchor_shift=None):

@@ -6,12 +6,13 @@ WQ sets, each only when its window rejects the model at conf.
 """
 
 import json
+import runpy
 import sys
+from pathlib import Path
 
 import numpy as np
 from scipy.stats import chi2
 
-from slamarena import datasets
 from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators.ekf_slam import EKFSLAM
 from slamarena.estimators.ekf_slam import association as assoc
@@ -22,14 +23,7 @@ def main() -> None:
     cfg = json.loads(sys.argv[2])
     params = json.loads(sys.argv[3]) if len(sys.argv) > 3 else {}
     WQ, KR, conf = cfg.get("WQ", 20), cfg.get("KR", 50), cfg.get("conf", 0.999)
-    if name == "carpark":
-        from slamarena.mapping.landmark_extraction import landmark_sequence
-
-        seq = landmark_sequence(datasets.load("carpark"))
-    elif name.startswith("sim"):
-        seq = datasets.load("sim:landmarks", n_landmarks=50, laps=2, seed=int(name[3:] or 0))
-    else:
-        seq = datasets.load(name)
+    seq = runpy.run_path(str(Path(__file__).with_name("ekf_adaptive_noise_W.py")))["sequence"](name)  # script W's
 
     class A(EKFSLAM):
         def reset(self, sequence=None):

@@ -15,17 +15,22 @@ from slamarena.datasets.geometry import wrap_angle
 from slamarena.estimators import create
 
 
-def main() -> None:
-    name = sys.argv[1]
-    params = json.loads(sys.argv[2]) if len(sys.argv) > 2 else {}
+def sequence(name: str):
+    """The landmark sequence a name stands for (shared by scripts G and O): ``carpark`` (beacons extracted from the raw
+    scans), ``simK`` (the 50-landmark world, two laps, seed K) or a dataset name."""
     if name == "carpark":
         from slamarena.mapping.landmark_extraction import landmark_sequence
 
-        seq = landmark_sequence(datasets.load("carpark"))
-    elif name.startswith("sim"):
-        seq = datasets.load("sim:landmarks", n_landmarks=50, laps=2, seed=int(name[3:] or 0))
-    else:
-        seq = datasets.load(name)
+        return landmark_sequence(datasets.load("carpark"))
+    if name.startswith("sim"):
+        return datasets.load("sim:landmarks", n_landmarks=50, laps=2, seed=int(name[3:] or 0))
+    return datasets.load(name)
+
+
+def main() -> None:
+    name = sys.argv[1]
+    params = json.loads(sys.argv[2]) if len(sys.argv) > 2 else {}
+    seq = sequence(name)
     ekf = create("ekf_slam", **{"use_ids": False, "window": 0, **params})
     rec = []
     orig = ekf.update

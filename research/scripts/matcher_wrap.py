@@ -21,21 +21,13 @@ import time
 
 import numpy as np
 
+from slamarena.experiments.config import load_config
+
 #: the hard loop of tests/mapping/test_laser_slam.py (its HARD and FRONT)
 HARD = dict(laps=2, k_r=0.1, k_rt=0.03, n_beams=181)
 FRONT = dict(frontend={"max_usable_range": 6.0}, loop={"search_every": 2}, tracking="submap")
-#: the dataset of experiments/configs/loop_closure.yaml
-LONG_LOOP = dict(
-    world="long_loop",
-    max_range=4.0,
-    n_beams=91,
-    sigma_range=0.02,
-    k_r=0.06,
-    k_rt=0.03,
-    k_t=0.085,
-    scan_rate=2.5,
-    laps=2,
-)
+#: the dataset of experiments/configs/loop_closure.yaml, read from the shipped config
+LONG_LOOP = load_config("loop_closure").datasets[0].resolved_params()
 
 
 def _ate(est, seq, poses=None) -> float:
@@ -87,7 +79,7 @@ def drive(mp: dict, seed: int) -> None:
     from slamarena.datasets.sim.laser import simulate
     from slamarena.mapping.laser_slam import LaserSLAM
 
-    seq = simulate(**LONG_LOOP, seed=seed)
+    seq = simulate(**{**LONG_LOOP, "seed": seed})
     cpu = time.process_time()
     est = LaserSLAM(frontend={"matcher_params": mp}).run(seq)
     F = est.diagnostics["front_end_poses"]
