@@ -30,6 +30,8 @@ from collections.abc import Callable
 import numpy as np
 from scipy.stats import chi2, norm
 
+from ..models import chi2_gate
+
 __all__ = ["median_test", "identify"]
 
 
@@ -80,7 +82,7 @@ def identify(ekf, sequence, estimate, walk: Callable) -> object:
         best = (max(steps, key=lambda i: score(i, best[1])), best[1])  # the q line at the best r
         if best == before:
             break
-    if 2 * (runs[best][0] - runs[(0, 0)][0]) <= chi2.ppf(p.noise_confidence, 2):
+    if 2 * (runs[best][0] - runs[(0, 0)][0]) <= chi2_gate(p.noise_confidence, 2):
         best = (0, 0)
     _, chosen, chosen_estimate = runs[best]
     record.update(q_scale=p.noise_factor ** best[0], r_scale=p.noise_factor ** best[1])
