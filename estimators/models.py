@@ -116,6 +116,21 @@ def noise_in_force(parameter, sequence, name: str, default=None, required: bool 
     return np.asarray(value, dtype=float)
 
 
+def twist_increment_cov(row_cov: np.ndarray, dt: np.ndarray, period: float | None) -> np.ndarray:
+    """The covariance of the increments of twist rows (v_k, ω_k) held for dt_k (K,), from ``row_cov`` = V_k M V_kᵀ
+    (K, 3, 3) (V_k = ∂δ/∂u (3, 2), M the twist covariance (2, 2)), under the twist-noise convention ``period``:
+
+        C_k = V_k M V_kᵀ              period None: M is the covariance of every row, whatever its dt
+        C_k = (T / dt_k) V_k M V_kᵀ   period T: M is stated for rows of period T, i.e. a white velocity error of
+                                      density M T, so a stretch's pose error depends on its duration, not its cut
+
+    (for rows of period T the two agree; V ≈ dt ∂δ/∂(u dt), so C_k ≈ dt_k T (∂δ/∂(u dt)) M (·)ᵀ grows with dt_k
+    linearly, as a random walk). The one convention of EKF-SLAM and FastSLAM; ``row_cov`` itself for period None."""
+    if period is None:
+        return row_cov
+    return (period / np.asarray(dt, dtype=float))[:, None, None] * row_cov
+
+
 def chi2_gate(confidence: float | None, dof: int) -> float:
     """The χ² quantile P(χ²_dof < gate) = confidence: the gate of a d² (NIS, Mahalanobis) of dimension ``dof``;
     ∞ (no gate) for ``confidence`` None or 1."""

@@ -19,7 +19,9 @@ Prediction (touches the robot block and the robot-landmark cross-covariances: O(
     x_r ← f(x_r, u, dt)
     P_rr ← G P_rr Gᵀ + Q          G = ∂f/∂x_r (3×3)
     P_rm ← G P_rm ,  P_mr = P_rmᵀ  (3×2n)
-    Q = V M Vᵀ  (control-space noise, V = ∂f/∂u 3×2, M = twist covariance 2×2)   or
+    Q = V M Vᵀ  (control-space noise, V = ∂f/∂u 3×2, M = twist covariance 2×2),
+    Q = (T / dt) V M Vᵀ with a stated row period T (``twist_period``: white velocity noise of density M T,
+        estimators.models.twist_increment_cov, the convention FastSLAM shares)   or
     Q = Cx · dt (additive robot-block noise, Cx a 3×3 covariance per second)
 
 This equals the dense ``P ← G_N P G_Nᵀ + F_xᵀ Q F_x`` with ``G_N = I_N + F_xᵀ (G − I₃) F_x``.
@@ -166,6 +168,7 @@ from ..models import (
     noise_in_force,
     observation_covariances,
     observe,
+    twist_increment_cov,
 )
 from ..stepping import StepClock
 from . import association as assoc
@@ -265,6 +268,12 @@ class EKFSLAMParams(Params):
         None,
         description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else UNSTATED_TWIST_COV "
         "(MRCLAM's identified noise)",
+    )
+    twist_period: PositiveFloat | None = Field(
+        None,
+        description="the row period T [s] the twist covariance M is stated for: a row held for dt is applied with M·T/dt (a "
+        "white velocity error of density M·T), so a stretch's pose error depends on its duration, not on how its rows are "
+        "cut; None: M for every row whatever its dt (the simulators' convention, the same for rows of period T)",
     )
     Cx: Covariance3 | None = Field(
         None,
@@ -589,7 +598,7 @@ class EKFSLAM:
         delta, Q_body = twist_motion(v, omega, dt, self.model is ARC, self.M)  # δ (K, 3), V M Vᵀ (K, 3, 3)
         if self.params.motion_noise == MotionNoise.ADDITIVE:
             return self._chain(delta, None, self._Cx[None] * dt[:, None, None], true_poses)
-        return self._chain(delta, Q_body, None, true_poses)
+        return self._chain(delta, twist_increment_cov(Q_body, dt, self.params.twist_period), None, true_poses)
 
     def predict_increment(self, delta, cov=None) -> None:
         """Propagate with a body-frame odometry increment δ = (dx, dy, dθ) of covariance cov (3×3)."""

@@ -115,6 +115,7 @@ from ..models import (
     inverse_observe,
     noise_in_force,
     observation_covariances,
+    twist_increment_cov,
 )
 from ..stepping import StepClock
 from .kernels import huber_rho, predictive_d2, sqrt_psd, update_particles
@@ -313,9 +314,7 @@ class FastSLAM:
         with np.errstate(over="ignore", invalid="ignore"):  # an absurd control overflows; _chain checks the result
             delta = self.model.increment(v, omega, dt)
             V = self.model.jacobians(np.zeros(3), v, omega, dt)[1]
-            T = self.params.twist_period
-            scale = np.ones_like(dt) if T is None else T / dt  # (K,): M·T/dt per row
-            C = scale[:, None, None] * (V @ self.M_twist @ np.swapaxes(V, 1, 2))
+            C = twist_increment_cov(V @ self.M_twist @ np.swapaxes(V, 1, 2), dt, self.params.twist_period)
         return self._chain(delta, C)
 
     def predict_increments(self, delta, cov=None) -> tuple[np.ndarray, np.ndarray]:
