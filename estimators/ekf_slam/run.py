@@ -60,6 +60,11 @@ Diagnostics (arrays):
                                 (a gated filter whose covariance no longer admits its observations: it has stopped
                                 correcting and drifts), its duration [s] (first to last rejected row) and start; 0, 0, NaN if
                                 none was rejected.
+    landmark_lockout_id, landmark_lockout_rows, landmark_lockout_s
+                                the same per landmark (rows grouped by their given id, other landmarks' rows between them
+                                not ending a run): the landmark whose re-observations were rejected longest, the rows and
+                                seconds of that run; −1, 0, 0 if none. A landmark the filter refuses while it keeps
+                                correcting on the others shows here and not in ``lockout_rows``.
 """
 
 from __future__ import annotations
@@ -269,8 +274,16 @@ def _estimate(ekf, sequence: Sequence, record: _Record, looked_ahead: list, reje
     decisions = log[:, 0]
     diagnostics["looked_ahead_t"] = np.array([t for t, _ in looked_ahead], dtype=float)
     lockout = _longest_lockout(diagnostics["assoc_t"], diagnostics["assoc_decision"])
+    landmark_lockout = _longest_landmark_lockout(
+        diagnostics["assoc_t"], diagnostics["assoc_decision"], diagnostics["assoc_given_id"]
+    )
     diagnostics.update(
-        lockout_rows=np.array(lockout[0]), lockout_s=np.array(lockout[1]), lockout_t0=np.array(lockout[2])
+        lockout_rows=np.array(lockout[0]),
+        lockout_s=np.array(lockout[1]),
+        lockout_t0=np.array(lockout[2]),
+        landmark_lockout_id=np.array(landmark_lockout[0]),
+        landmark_lockout_rows=np.array(landmark_lockout[1]),
+        landmark_lockout_s=np.array(landmark_lockout[2]),
     )
     meta = {
         "params": ekf.params.canonical(),
@@ -309,3 +322,21 @@ def _longest_lockout(t: np.ndarray, decision: np.ndarray) -> tuple[int, float, f
     starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # runs [start, stop)
     k = int(np.argmax(stops - starts))
     return int(stops[k] - starts[k]), float(t[stops[k] - 1] - t[starts[k]]), float(t[starts[k]])
+
+
+def _longest_landmark_lockout(t: np.ndarray, decision: np.ndarray, given_id: np.ndarray) -> tuple[int, int, float]:
+    """(id, rows, duration [s]) of the longest run of one landmark's consecutive non-new observations that were all
+    rejected, its rows taken in time order with every other landmark's rows left out; (−1, 0, 0.0) if none."""
+    keep = decision != Decision.NEW
+    t, ids, rejected = t[keep], given_id[keep], decision[keep] == Decision.REJECTED
+    if not rejected.any():
+        return -1, 0, 0.0
+    order = np.lexsort((np.arange(len(ids)), ids))  # by landmark, then in time
+    t, ids, rejected = t[order], ids[order], rejected[order]
+    same = np.r_[False, ids[1:] == ids[:-1]]
+    starts = rejected & ~(same & np.r_[False, rejected[:-1]])  # a rejected row whose predecessor does not continue it
+    run = np.cumsum(starts) * rejected  # run number of each rejected row (1, 2, …), 0 elsewhere
+    rows = np.bincount(run)[1:]
+    k = int(np.argmax(rows)) + 1
+    members = np.flatnonzero(run == k)
+    return int(ids[members[0]]), int(rows[k - 1]), float(t[members[-1]] - t[members[0]])

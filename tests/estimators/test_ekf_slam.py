@@ -665,6 +665,28 @@ def test_a_lockout_is_reported_in_the_diagnostics():
     assert float(est.diagnostics["lockout_t0"]) == t_rejected[0]
 
 
+def test_a_landmark_refused_while_the_others_correct_is_reported():
+    """Landmark 5's re-observations all rejected between accepted rows of landmark 7: no global lock-out run longer than
+    one row, but landmark 5's run is its four rows."""
+    from slamarena.estimators.ekf_slam.run import _longest_landmark_lockout, _longest_lockout
+
+    N, M, R = Decision.NEW, Decision.MATCHED, Decision.REJECTED
+    d = np.array([N, N, R, M, R, M, R, M, M, R, M, R])
+    ids = np.array([5, 7, 5, 7, 5, 7, 5, 7, 5, 5, 7, 7])
+    t = np.arange(12.0)
+    assert _longest_lockout(t, d)[0] == 1
+    # landmark 5: rows 2, 4, 6 rejected (3 rows, 4 s), row 8 matched ends the run, row 9 starts one of 1;
+    # landmark 7: row 11 alone
+    assert _longest_landmark_lockout(t, d, ids) == (5, 3, 4.0)
+    assert _longest_landmark_lockout(t, np.where(d == R, M, d), ids) == (-1, 0, 0.0)
+    seq = datasets.load("sim:landmarks", n_landmarks=20, seed=1)
+    est = EKFSLAM(known_confidence=1e-9).run(seq)  # every re-observation rejected: the most-seen landmark's run
+    dec, given = est.diagnostics["assoc_decision"], est.diagnostics["assoc_given_id"]
+    counts = np.bincount(given[dec == R])
+    assert int(est.diagnostics["landmark_lockout_rows"]) == counts.max()
+    assert int(est.diagnostics["landmark_lockout_id"]) == int(np.argmax(counts))
+
+
 def _stale_first_estimate(jacobians: str, anchor_confidence: float | None) -> tuple[np.ndarray, int, EKFSLAM]:
     """A constructed case of a stale linearisation point (research/notebook/2026-11-28-landmark-real-data.md): landmark B is
     first seen from a pose whose heading the odometry got wrong by 0.5 rad (inside its stated σ), the loop is closed on
