@@ -144,7 +144,7 @@ def test_victoria_park_runs_every_method_with_and_without_ids_on_one_tree_model(
 
 
 @pytest.mark.realdata
-@pytest.mark.parametrize("name,cells", [("mrclam", 40), ("mrclam_withheld", 40), ("victoria_park", 16)])
+@pytest.mark.parametrize("name,cells", [("mrclam", 40), ("mrclam_withheld", 40), ("victoria_park", 17)])
 def test_the_benchmarks_plan_on_the_staged_data(name, cells, tmp_path, capsys):
     from slamarena.datasets import DatasetNotFoundError
     from slamarena.experiments.cli_run import run_from_cli
