@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slamarena.datasets.geometry import wrap_angle
+from slamarena.datasets.geometry import rotation, wrap_angle
 from slamarena.datasets.sequence import LandmarkMap
 from slamarena.estimators.models import inverse_observation_jacobians, inverse_observe
 
@@ -39,11 +39,6 @@ MIN_LANDMARKS = 3
 _GAUSS_NEWTON = 10
 
 
-def _rotation(theta: float) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
 def fit_start(p: np.ndarray, C: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pose s (3,) with s ⊕ p_i ≈ m_i weighted by C_i (module docstring), its covariance (3, 3) and d²_i (N,).
 
@@ -51,9 +46,9 @@ def fit_start(p: np.ndarray, C: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, 
     pc, mc = p - p.mean(axis=0), m - m.mean(axis=0)
     H = pc.T @ mc
     theta = np.arctan2(H[0, 1] - H[1, 0], H[0, 0] + H[1, 1])
-    s = np.r_[m.mean(axis=0) - _rotation(theta) @ p.mean(axis=0), theta]
+    s = np.r_[m.mean(axis=0) - rotation(theta) @ p.mean(axis=0), theta]
     for _ in range(_GAUSS_NEWTON):
-        Rot = _rotation(s[2])
+        Rot = rotation(s[2])
         q = p @ Rot.T  # R p_i
         e = m - (s[:2] + q)
         W = np.linalg.inv(Rot @ C @ Rot.T)  # (N, 2, 2)
@@ -66,7 +61,7 @@ def fit_start(p: np.ndarray, C: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, 
         s[2] = wrap_angle(s[2])
         if np.abs(step).max() < 1e-10:
             break
-    Rot = _rotation(s[2])
+    Rot = rotation(s[2])
     e = m - (s[:2] + p @ Rot.T)
     d2 = np.einsum("ni,nij,nj->n", e, np.linalg.inv(Rot @ C @ Rot.T), e)
     return s, np.linalg.inv(info), d2
