@@ -45,10 +45,11 @@ SPEED_AIM = 3.0
 #: rows the speed aim does not cover (DLS is benched beside EPnP and P3P; the issue sets no speed for it)
 UNAIMED = ("DLS", "P3P RANSAC+DLS")
 
-__all__ = ["main", "measure"]
+__all__ = ["main", "measure", "best_cpu"]
 
 
-def _timed(call, repeats: int):
+def best_cpu(call, repeats: int):
+    """(the last result of ``call()``, the least CPU time [s] of ``repeats`` calls)."""
     best, result = np.inf, None
     for _ in range(repeats):
         start = time.process_time()
@@ -87,20 +88,20 @@ def two_view_rows(camera, pairs, repeats: int) -> list[dict]:
         a, b = match(d1, d2)
         x1, x2 = normalise(camera.K, u1[a]), normalise(camera.K, u2[b])
         R_true, t_true = _relative(camera.ground_truth, i, j)
-        ours, t_ours = _timed(lambda: essential_ransac(x1, x2, threshold, 0.999, 1000, seed=i), repeats)
+        ours, t_ours = best_cpu(lambda: essential_ransac(x1, x2, threshold, 0.999, 1000, seed=i), repeats)
 
         def opencv():
             E, mask = cv2.findEssentialMat(x1, x2, np.eye(3), cv2.RANSAC, 0.999, threshold)
             _, R, t, _ = cv2.recoverPose(E[:3], x1, x2, np.eye(3), mask=mask.copy())
             return R, t.ravel(), mask.ravel().astype(bool)
 
-        (R_cv, t_cv, inliers_cv), t_opencv = _timed(opencv, repeats)
+        (R_cv, t_cv, inliers_cv), t_opencv = best_cpu(opencv, repeats)
         inl = ours.inliers
         E8 = eight_point(x1[inl], x2[inl])
         R8, t8, _ = relative_pose(E8, x1[inl], x2[inl])
         five = np.flatnonzero(inl)[:5]
-        _, t_five = _timed(lambda: five_point(x1[five], x2[five]), repeats * 20)
-        _, t_five_cv = _timed(
+        _, t_five = best_cpu(lambda: five_point(x1[five], x2[five]), repeats * 20)
+        _, t_five_cv = best_cpu(
             lambda: cv2.findEssentialMat(x1[five], x2[five], np.eye(3), cv2.RANSAC, 0.999, threshold), repeats * 20
         )
         rows.append(
@@ -142,8 +143,8 @@ def pnp_rows(camera, frames, repeats: int) -> list[dict]:
         a, b = match(d, e)
         X, u = X[a], u[b]
         R_true, t_true = _relative(camera.ground_truth, i, j)
-        ours, t_ours = _timed(lambda: pnp_ransac(camera.K, X, u, 2.0, "p3p", 0.999, 1000, seed=i), repeats)
-        ours_dls, t_ours_dls = _timed(
+        ours, t_ours = best_cpu(lambda: pnp_ransac(camera.K, X, u, 2.0, "p3p", 0.999, 1000, seed=i), repeats)
+        ours_dls, t_ours_dls = best_cpu(
             lambda: pnp_ransac(camera.K, X, u, 2.0, "p3p", 0.999, 1000, seed=i, nonminimal="dls"), repeats
         )
 
@@ -156,17 +157,19 @@ def pnp_rows(camera, frames, repeats: int) -> list[dict]:
             _, r, t = cv2.solvePnP(X[inl], u[inl], camera.K, None, r, t, True, cv2.SOLVEPNP_ITERATIVE)
             return cv2.Rodrigues(r)[0], t.ravel(), inl
 
-        (R_cv, t_cv, inl_cv), t_opencv = _timed(opencv, repeats)
+        (R_cv, t_cv, inl_cv), t_opencv = best_cpu(opencv, repeats)
         clean = ours.inliers.copy()
         clean[np.setdiff1d(np.arange(len(X)), inl_cv)] = False  # inliers of both RANSACs
         Xc, uc = X[clean], u[clean]
-        (R_e, t_e), t_epnp = _timed(lambda: epnp(Xc, normalise(camera.K, uc)), repeats)
-        (_, rv, tv), t_epnp_cv = _timed(lambda: cv2.solvePnP(Xc, uc, camera.K, None, flags=cv2.SOLVEPNP_EPNP), repeats)
-        (R_d, t_d), t_dls = _timed(lambda: dls(Xc, normalise(camera.K, uc)), repeats)
-        (_, rs, ts), t_sqpnp = _timed(lambda: cv2.solvePnP(Xc, uc, camera.K, None, flags=cv2.SOLVEPNP_SQPNP), repeats)
+        (R_e, t_e), t_epnp = best_cpu(lambda: epnp(Xc, normalise(camera.K, uc)), repeats)
+        (_, rv, tv), t_epnp_cv = best_cpu(
+            lambda: cv2.solvePnP(Xc, uc, camera.K, None, flags=cv2.SOLVEPNP_EPNP), repeats
+        )
+        (R_d, t_d), t_dls = best_cpu(lambda: dls(Xc, normalise(camera.K, uc)), repeats)
+        (_, rs, ts), t_sqpnp = best_cpu(lambda: cv2.solvePnP(Xc, uc, camera.K, None, flags=cv2.SOLVEPNP_SQPNP), repeats)
         x3, u3 = normalise(camera.K, uc[:3]), uc[:3]
-        _, t_p3p = _timed(lambda: p3p(Xc[:3], x3), repeats * 20)
-        _, t_p3p_cv = _timed(lambda: cv2.solveP3P(Xc[:3], u3, camera.K, None, flags=cv2.SOLVEPNP_P3P), repeats * 20)
+        _, t_p3p = best_cpu(lambda: p3p(Xc[:3], x3), repeats * 20)
+        _, t_p3p_cv = best_cpu(lambda: cv2.solveP3P(Xc[:3], u3, camera.K, None, flags=cv2.SOLVEPNP_P3P), repeats * 20)
         rows.append(
             {
                 "frames": f"{i}-{j}",

@@ -7,18 +7,8 @@ Run from the repository root: ``python research/scripts/vision_geometry_profile.
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
-
-
-def _timed(call, repeats=5):
-    best, out = np.inf, None
-    for _ in range(repeats):
-        start = time.process_time()
-        out = call()
-        best = min(best, time.process_time() - start)
-    return out, best
 
 
 def main() -> None:
@@ -32,6 +22,7 @@ def main() -> None:
     from slamarena.estimators.vision.pnp import epnp, p3p, pnp_ransac
     from slamarena.estimators.vision.projection import normalise
     from slamarena.estimators.vision.stereo_vo import StereoVOParams, stereo_points
+    from slamarena.experiments.benchmarks.vision import best_cpu
 
     cv2.setNumThreads(1)
     camera = load("kitti:00").camera.select(slice(0, 100))
@@ -42,7 +33,7 @@ def main() -> None:
         u, e = orb(camera.image(i + 3))
         a, b = match(d, e)
         X, u = X[a], u[b]
-        result, t = _timed(lambda: pnp_ransac(K, X, u, 2.0, "p3p", 0.999, 1000, seed=i))
+        result, t = best_cpu(lambda: pnp_ransac(K, X, u, 2.0, "p3p", 0.999, 1000, seed=i), 5)
 
         def opencv():
             _, r, tv, inl = cv2.solvePnPRansac(
@@ -51,13 +42,13 @@ def main() -> None:
             inl = inl.ravel()
             return cv2.solvePnP(X[inl], u[inl], K, None, r, tv, True, cv2.SOLVEPNP_ITERATIVE)
 
-        _, t_cv = _timed(opencv)
+        _, t_cv = best_cpu(opencv, 5)
         Xc, uc = X[result.inliers], u[result.inliers]
         xc = normalise(K, uc)
-        _, t_e = _timed(lambda: epnp(Xc, xc))
-        _, t_e_cv = _timed(lambda: cv2.solvePnP(Xc, uc, K, None, flags=cv2.SOLVEPNP_EPNP))
-        _, t_p = _timed(lambda: p3p(Xc[:3], xc[:3]), 50)
-        _, t_p_cv = _timed(lambda: cv2.solveP3P(Xc[:3], xc[:3], np.eye(3), None, flags=cv2.SOLVEPNP_P3P), 50)
+        _, t_e = best_cpu(lambda: epnp(Xc, xc), 5)
+        _, t_e_cv = best_cpu(lambda: cv2.solvePnP(Xc, uc, K, None, flags=cv2.SOLVEPNP_EPNP), 5)
+        _, t_p = best_cpu(lambda: p3p(Xc[:3], xc[:3]), 50)
+        _, t_p_cv = best_cpu(lambda: cv2.solveP3P(Xc[:3], xc[:3], np.eye(3), None, flags=cv2.SOLVEPNP_P3P), 50)
         for key, value in zip(total, (t, t_cv, t_e, t_e_cv, t_p, t_p_cv)):
             total[key] += value
         print(f"frames {i}-{i + 3}: {len(X)} matches, {result.inliers.sum()} inliers, {result.iterations} samples")

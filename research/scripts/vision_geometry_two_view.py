@@ -7,18 +7,8 @@ Run from the repository root: ``python research/scripts/vision_geometry_two_view
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
-
-
-def _timed(call, repeats=5):
-    best, out = np.inf, None
-    for _ in range(repeats):
-        start = time.process_time()
-        out = call()
-        best = min(best, time.process_time() - start)
-    return out, best
 
 
 def main() -> None:
@@ -27,6 +17,7 @@ def main() -> None:
 
     from slamarena.estimators.vision.lie import so3_exp
     from slamarena.estimators.vision.two_view import essential_ransac
+    from slamarena.experiments.benchmarks.vision import best_cpu
 
     cv2.setNumThreads(1)
     rng = np.random.default_rng(0)
@@ -39,13 +30,13 @@ def main() -> None:
     x2 = X2[:, :2] / X2[:, 2:] + rng.normal(size=(n, 2)) * 0.5 / f
     x2[:200] += rng.uniform(-0.1, 0.1, (200, 2))
     essential_ransac(x1, x2, 1 / f)  # compile / warm up
-    result, ours = _timed(lambda: essential_ransac(x1, x2, 1 / f))
+    result, ours = best_cpu(lambda: essential_ransac(x1, x2, 1 / f), 5)
 
     def opencv():
         E, mask = cv2.findEssentialMat(x1, x2, np.eye(3), cv2.RANSAC, 0.999, 1 / f)
         return cv2.recoverPose(E[:3], x1, x2, np.eye(3), mask=mask.copy())
 
-    _, theirs = _timed(opencv)
+    _, theirs = best_cpu(opencv, 5)
     print(f"ours {ours * 1e3:.1f} ms ({result.iterations} samples), OpenCV {theirs * 1e3:.1f} ms")
 
 
