@@ -39,19 +39,22 @@ def grid_of(maps):
 
 
 # --------------------------------------------------------------------------- gradients
+def _fd_gradient(L, ox, oy, res, xy, bicubic=False, h=1e-6):
+    """∇M at ``xy`` (N, 2) by central differences of the interpolated value M (N, 2)."""
+
+    def value(at):
+        return interpolate(L, ox, oy, res, at, False, bicubic)[:, 0]
+
+    return np.column_stack([(value(xy + d) - value(xy - d)) / (2 * h) for d in ([h, 0], [0, h])])
+
+
 def test_interpolation_gradient_matches_finite_differences_and_the_hector_bug_does_not(room_map):
     L, ox, oy, res = grid_of(room_map)
     rng = np.random.default_rng(0)
     # points near walls (where the map has gradients), off the cell lattice
     pts, _ = scan_points(ROOM_POSES[1])
     xy = transform_points(ROOM_POSES[1], pts)[::7] + rng.uniform(-0.03, 0.03, (len(pts[::7]), 2))
-    h = 1e-6
-    fd = np.column_stack(
-        [
-            (interpolate(L, ox, oy, res, xy + [h, 0]) - interpolate(L, ox, oy, res, xy - [h, 0]))[:, 0] / (2 * h),
-            (interpolate(L, ox, oy, res, xy + [0, h]) - interpolate(L, ox, oy, res, xy - [0, h]))[:, 0] / (2 * h),
-        ]
-    )
+    fd = _fd_gradient(L, ox, oy, res, xy)
     good = interpolate(L, ox, oy, res, xy, False)[:, 1:]
     bug = interpolate(L, ox, oy, res, xy, True)[:, 1:]
     assert np.allclose(good, fd, atol=1e-4 * np.abs(fd).max())
@@ -75,14 +78,7 @@ def test_bicubic_passes_through_the_cells_and_is_c1_with_the_finite_difference_g
     rng = np.random.default_rng(1)
     pts, _ = scan_points(ROOM_POSES[1])
     xy = transform_points(ROOM_POSES[1], pts)[::5] + rng.uniform(-0.04, 0.04, (len(pts[::5]), 2))
-    h = 1e-6
-    fd = np.column_stack(
-        [
-            (interpolate(L, ox, oy, res, xy + d, False, True) - interpolate(L, ox, oy, res, xy - d, False, True))[:, 0]
-            / (2 * h)
-            for d in ([h, 0], [0, h])
-        ]
-    )
+    fd = _fd_gradient(L, ox, oy, res, xy, bicubic=True)
     assert np.allclose(interpolate(L, ox, oy, res, xy, False, True)[:, 1:], fd, atol=1e-4 * np.abs(fd).max())
     cells = np.floor((xy - [ox, oy]) / res).astype(int)  # the points' cells (column, row)
     centres = [ox, oy] + (cells + 0.5) * res
