@@ -117,6 +117,7 @@ from slamarena.datasets.geometry import transform_points
 from slamarena.params import Field, Params
 
 from . import MatchResult
+from .correlative import CorrelativeMatcher
 
 __all__ = [
     "Fusion",
@@ -513,8 +514,6 @@ class GaussNewtonMatcher:
         result = self._match(maps, every, guess, odometry)
         if not result.score < self.params.search_below_score:
             return result
-        from .correlative import CorrelativeMatcher
-
         linear, angular = self.params.search_window
         seed = CorrelativeMatcher(linear_window=linear, angular_window=angular).match(maps, every, guess)
         again = self._match(maps, every, seed.pose, odometry)
