@@ -65,8 +65,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Annotated
 
 import numpy as np
+from pydantic import Field, PositiveFloat
 from scipy.special import gammaincinv
 
 from slamarena.datasets import kinematics
@@ -86,6 +88,8 @@ __all__ = [
     "propagate_covariance",
     "compose_chain",
     "UNSTATED_TWIST_COV",
+    "TwistPeriod",
+    "twist_increment_cov",
     "DEFAULT_RANGE_BEARING_COV",
     "RangeBearingNoise",
     "observation_covariances",
@@ -114,6 +118,17 @@ def noise_in_force(parameter, sequence, name: str, default=None, required: bool 
             raise ValueError(f"{getattr(sequence, 'name', 'the sequence')}: no {name} stated; pass {name}=...")
         return None
     return np.asarray(value, dtype=float)
+
+
+#: the ``twist_period`` parameter of the landmark filters (EKF-SLAM, FastSLAM): T of :func:`twist_increment_cov`
+TwistPeriod = Annotated[
+    PositiveFloat | None,
+    Field(
+        description="the row period T [s] the twist covariance M is stated for: a row held for dt is applied with M·T/dt "
+        "(a white velocity error of density M·T), so a stretch's pose error depends on its duration, not on how its rows "
+        "are cut; None: M for every row whatever its dt (the simulators' convention, the same for rows of period T)"
+    ),
+]
 
 
 def twist_increment_cov(row_cov: np.ndarray, dt: np.ndarray, period: float | None) -> np.ndarray:

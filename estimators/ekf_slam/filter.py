@@ -162,6 +162,7 @@ from ..models import (
     MOTION_MODELS,
     UNSTATED_TWIST_COV,
     RangeBearingNoise,
+    TwistPeriod,
     chi2_gate,
     inverse_observation_jacobians,
     inverse_observe,
@@ -269,12 +270,7 @@ class EKFSLAMParams(Params):
         description="M, covariance of the control (v, ω) [(m/s)², (rad/s)²]; None: the sequence's Noise.twist_cov, else UNSTATED_TWIST_COV "
         "(MRCLAM's identified noise)",
     )
-    twist_period: PositiveFloat | None = Field(
-        None,
-        description="the row period T [s] the twist covariance M is stated for: a row held for dt is applied with M·T/dt (a "
-        "white velocity error of density M·T), so a stretch's pose error depends on its duration, not on how its rows are "
-        "cut; None: M for every row whatever its dt (the simulators' convention, the same for rows of period T)",
-    )
+    twist_period: TwistPeriod = None
     Cx: Covariance3 | None = Field(
         None,
         description="additive robot-block noise per second of (x, y, θ) [m²/s, m²/s, rad²/s]; required with motion_noise='additive'",

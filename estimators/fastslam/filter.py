@@ -108,6 +108,7 @@ from ..models import (
     MOTION_MODELS,
     UNSTATED_TWIST_COV,
     RangeBearingNoise,
+    TwistPeriod,
     chi2_gate,
     compose_chain,
     compose_jacobians,
@@ -137,12 +138,7 @@ class FastSLAMParams(Params):
         description="covariance M of one (v, ω) row [(m/s)², (rad/s)²]; None: the sequence's noise, else UNSTATED_TWIST_COV "
         "(estimators.models: MRCLAM's identified twist noise, as EKF-SLAM)",
     )
-    twist_period: PositiveFloat | None = Field(
-        None,
-        description="the row period T [s] the twist covariance M is stated for: a row held for dt is applied with M·T/dt (a "
-        "white velocity error of density M·T), so a stretch's pose error depends on its duration, not on how its rows are "
-        "cut; None: M for every row whatever its dt (the simulators' convention, the same for rows of period T)",
-    )
+    twist_period: TwistPeriod = None
     increment_cov: Covariance3 | None = Field(
         None, description="covariance of an odometry increment [m², m², rad²]; None: the row's, else the sequence's"
     )
